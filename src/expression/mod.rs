@@ -1,0 +1,1 @@
+//! Expressions (owned by the expression work in progress).

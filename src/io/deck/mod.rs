@@ -1,0 +1,1 @@
+//! Input decks (owned by the deck work in progress).

@@ -1,0 +1,1 @@
+//! Exodus II files (owned by the exodus work in progress).

@@ -1,0 +1,1 @@
+//! CSV history of global variables (owned by the exodus work in progress).

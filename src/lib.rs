@@ -1,0 +1,10 @@
+//! # peridyn
+//!
+//! Peridynamics in Rust, compatible with Peridigm's input decks.
+#![warn(missing_docs)]
+
+pub mod discretization;
+pub mod expression;
+pub mod io;
+pub mod model;
+pub mod neighbors;

@@ -1,0 +1,13 @@
+//! What is simulated: the immutable description of the body after setup.
+//!
+//! A [`PointCloud`] holds the material points (structure of arrays), [`BlockInfo`] names the
+//! blocks the points belong to, [`NodeSets`] maps deck/mesh node-set names to point indices,
+//! and [`BondList`] holds every point's family in compressed-sparse-row form.
+
+mod bonds;
+mod node_sets;
+mod points;
+
+pub use bonds::BondList;
+pub use node_sets::NodeSets;
+pub use points::{BlockInfo, PointCloud};

@@ -1,0 +1,1 @@
+//! Neighbour search (owned by the neighbour work in progress).
