@@ -65,7 +65,9 @@ impl PointCloud {
         self.position = (0..order.len()).map(|k| self.position[gather(k)]).collect();
         self.volume = (0..order.len()).map(|k| self.volume[gather(k)]).collect();
         self.block = (0..order.len()).map(|k| self.block[gather(k)]).collect();
-        self.original_id = (0..order.len()).map(|k| self.original_id[gather(k)]).collect();
+        self.original_id = (0..order.len())
+            .map(|k| self.original_id[gather(k)])
+            .collect();
     }
 
     /// Radius of the sphere with the point's volume, `(3V/4π)^(1/3)` (Peridigm's element radius).
