@@ -6,5 +6,6 @@
 pub mod discretization;
 pub mod expression;
 pub mod io;
+pub mod material;
 pub mod model;
 pub mod neighbors;
