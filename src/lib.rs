@@ -3,9 +3,11 @@
 //! Peridynamics in Rust, compatible with Peridigm's input decks.
 #![warn(missing_docs)]
 
+pub mod boundary;
 pub mod discretization;
 pub mod expression;
 pub mod io;
 pub mod material;
 pub mod model;
 pub mod neighbors;
+pub mod plan;

@@ -54,7 +54,11 @@ pub fn read_exodus_mesh(path: &Path) -> Result<ExodusMesh, MeshError> {
                     .iter()
                     .map(|&node| {
                         file.coordinates.get(node as usize).copied().ok_or_else(|| {
-                            fail(format!("block {}: node {} does not exist", block.id, node + 1))
+                            fail(format!(
+                                "block {}: node {} does not exist",
+                                block.id,
+                                node + 1
+                            ))
                         })
                     })
                     .collect()
@@ -105,7 +109,13 @@ pub fn read_exodus_mesh(path: &Path) -> Result<ExodusMesh, MeshError> {
         let mut points: Vec<u32> = set
             .nodes
             .iter()
-            .flat_map(|&node| elements_of_node.get(node as usize).into_iter().flatten().copied())
+            .flat_map(|&node| {
+                elements_of_node
+                    .get(node as usize)
+                    .into_iter()
+                    .flatten()
+                    .copied()
+            })
             .collect();
         points.sort_unstable();
         points.dedup();
@@ -190,7 +200,10 @@ mod tests {
         assert!((hexahedron_volume(&cube) - 1.0).abs() < 1e-14);
         // A shear x += 0.5 z keeps the volume (det of the shear map is 1); a stretch of 2 in
         // y doubles it.
-        let sheared: Vec<[f64; 3]> = cube.iter().map(|p| [p[0] + 0.5 * p[2], 2.0 * p[1], p[2]]).collect();
+        let sheared: Vec<[f64; 3]> = cube
+            .iter()
+            .map(|p| [p[0] + 0.5 * p[2], 2.0 * p[1], p[2]])
+            .collect();
         assert!((hexahedron_volume(&sheared) - 2.0).abs() < 1e-14);
         // Tetrahedron (0,0,0),(1,0,0),(0,1,0),(0,0,1): V = 1/6.
         let tet = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];

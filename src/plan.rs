@@ -1,0 +1,311 @@
+//! The run plan: what a deck asks for, what will exist, and what it costs.
+//!
+//! `peridyn check` prints it; `peridyn run` builds exactly what it lists (DESIGN §1.3: no
+//! contact search, damage array, tangent, halo or output field unless the deck needs it).
+
+use serde::Serialize;
+use std::fmt;
+
+/// Everything `peridyn check` reports about a deck. Serialised as the `--json` object.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct RunPlan {
+    /// The deck file.
+    pub deck: String,
+    /// Discretization type as written (`PdQuickGrid`, `Text File`, `Exodus`).
+    pub discretization: String,
+    /// Total number of points.
+    pub points: usize,
+    /// Total number of directed bonds (each pair counts twice, as Peridigm stores them).
+    pub bonds: usize,
+    /// Per-block summary.
+    pub blocks: Vec<BlockPlan>,
+    /// Node sets with their sizes (deck and mesh sets).
+    pub node_sets: Vec<NodeSetPlan>,
+    /// Physics that will run.
+    pub physics: PhysicsPlan,
+    /// Fields that will be allocated, with their memory.
+    pub fields: Vec<FieldPlan>,
+    /// Estimated memory per part, bytes.
+    pub memory: Vec<MemoryPlan>,
+    /// Total estimated memory, bytes.
+    pub memory_total: u64,
+    /// Explicit time-step estimate (Peridigm's formula), when an explicit solver is present.
+    pub time_step: Option<TimeStepPlan>,
+    /// Solvers in the order they run.
+    pub solvers: Vec<SolverPlan>,
+    /// Output files.
+    pub outputs: Vec<OutputPlan>,
+    /// Features in the deck that this build cannot run yet (empty when the deck runs).
+    pub unsupported: Vec<String>,
+    /// Deck keys that are accepted but have no effect, and other notes.
+    pub warnings: Vec<String>,
+}
+
+/// One block of points.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct BlockPlan {
+    /// `block_<id>`.
+    pub name: String,
+    /// Mesh block id.
+    pub id: i64,
+    /// Material name from the deck and its model.
+    pub material: String,
+    /// `Material Model` string.
+    pub material_model: String,
+    /// Damage model name, if any.
+    pub damage_model: Option<String>,
+    /// Number of points.
+    pub points: usize,
+    /// Directed bonds starting in this block.
+    pub bonds: usize,
+    /// Smallest family size.
+    pub family_min: usize,
+    /// Largest family size.
+    pub family_max: usize,
+    /// Mean family size.
+    pub family_mean: f64,
+    /// Smallest horizon of the block's points.
+    pub horizon_min: f64,
+    /// Largest horizon of the block's points.
+    pub horizon_max: f64,
+}
+
+/// One node set.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct NodeSetPlan {
+    /// Name as written.
+    pub name: String,
+    /// Number of points.
+    pub points: usize,
+    /// `deck` or `mesh`.
+    pub source: String,
+}
+
+/// Which physics run.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct PhysicsPlan {
+    /// Any state-based material (needs a dilatation pass).
+    pub state_based: bool,
+    /// Any block with a damage model (allocates bond damage).
+    pub damage: bool,
+    /// A `Contact` section exists (proximity search).
+    pub contact: bool,
+    /// An explicit (Verlet) solver is present.
+    pub explicit: bool,
+    /// An implicit solver is present (tangent needed).
+    pub implicit: bool,
+    /// Tangent sparsity pattern when implicit: `one-hop` (bond-based) or `two-hop` (state-based).
+    pub tangent_pattern: Option<String>,
+}
+
+/// One allocated field.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct FieldPlan {
+    /// Field name (Peridigm's output name where one exists).
+    pub name: String,
+    /// `point` or `bond`.
+    pub per: String,
+    /// Bytes.
+    pub bytes: u64,
+}
+
+/// Memory of one part of the run.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct MemoryPlan {
+    /// Part name.
+    pub part: String,
+    /// Bytes.
+    pub bytes: u64,
+}
+
+/// The explicit stable time step.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct TimeStepPlan {
+    /// Δt = min_i sqrt(2ρ / Σ_j V_j c/ζ_ij), c = 18K/(πδ⁴) (Peridigm's estimate), seconds.
+    pub estimate: f64,
+    /// `Safety Factor` of the first Verlet solver (default 1).
+    pub safety_factor: f64,
+    /// `Fixed dt` if given.
+    pub fixed: Option<f64>,
+    /// The Δt the first Verlet solver will use.
+    pub used: f64,
+    /// Steps of the first Verlet solver: floor((t_final − t_initial)/Δt).
+    pub steps: u64,
+}
+
+/// One solver list.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct SolverPlan {
+    /// List name in the deck (`Solver`, `Solver1`, …).
+    pub name: String,
+    /// Integrator (`Verlet`, `QuasiStatic`, `NOXQuasiStatic`, `Implicit`, `ImplicitDiffusion`).
+    pub kind: String,
+    /// `Initial Time`.
+    pub initial_time: f64,
+    /// `Final Time`.
+    pub final_time: f64,
+}
+
+/// One output file.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct OutputPlan {
+    /// Output list name in the deck.
+    pub name: String,
+    /// File name written (`<Output Filename>.e`).
+    pub file: String,
+    /// `Output Frequency`.
+    pub frequency: i64,
+    /// Requested variables, in deck order.
+    pub variables: Vec<String>,
+}
+
+/// Human-readable byte count.
+pub fn format_bytes(bytes: u64) -> String {
+    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut value = bytes as f64;
+    let mut unit = 0;
+    while value >= 1024.0 && unit + 1 < UNITS.len() {
+        value /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 {
+        format!("{bytes} B")
+    } else {
+        format!("{value:.1} {}", UNITS[unit])
+    }
+}
+
+impl fmt::Display for RunPlan {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "deck            {}", self.deck)
+            .and_then(|_| writeln!(f, "discretization  {}", self.discretization))?;
+        writeln!(f, "points          {}", self.points)?;
+        writeln!(f, "bonds           {} (directed)", self.bonds)?;
+        writeln!(f, "\nblocks")?;
+        for b in &self.blocks {
+            writeln!(
+                f,
+                "  {:<12} id {:<4} {:>9} points {:>11} bonds  family min/max/mean {}/{}/{:.2}  horizon {}",
+                b.name,
+                b.id,
+                b.points,
+                b.bonds,
+                b.family_min,
+                b.family_max,
+                b.family_mean,
+                if b.horizon_min == b.horizon_max {
+                    format!("{}", b.horizon_min)
+                } else {
+                    format!("{}..{}", b.horizon_min, b.horizon_max)
+                }
+            )?;
+            writeln!(
+                f,
+                "  {:<12} material \"{}\" ({}){}",
+                "",
+                b.material,
+                b.material_model,
+                b.damage_model
+                    .as_ref()
+                    .map(|d| format!(", damage \"{d}\""))
+                    .unwrap_or_default()
+            )?;
+        }
+        if !self.node_sets.is_empty() {
+            writeln!(f, "\nnode sets")?;
+            for s in &self.node_sets {
+                writeln!(f, "  {:<32} {:>9} points  ({})", s.name, s.points, s.source)?;
+            }
+        }
+        let p = &self.physics;
+        let yes = |b: bool| if b { "yes" } else { "no" };
+        writeln!(f, "\nphysics")?;
+        writeln!(f, "  state-based dilatation pass  {}", yes(p.state_based))?;
+        writeln!(f, "  bond damage                  {}", yes(p.damage))?;
+        writeln!(f, "  contact search               {}", yes(p.contact))?;
+        writeln!(f, "  explicit dynamics            {}", yes(p.explicit))?;
+        writeln!(
+            f,
+            "  implicit (tangent)           {}",
+            p.tangent_pattern
+                .as_ref()
+                .map(|t| format!("yes, {t} pattern"))
+                .unwrap_or_else(|| "no".into())
+        )?;
+        writeln!(f, "\nfields")?;
+        for field in &self.fields {
+            writeln!(
+                f,
+                "  {:<28} per {:<5} {:>10}",
+                field.name,
+                field.per,
+                format_bytes(field.bytes)
+            )?;
+        }
+        writeln!(f, "\nmemory (estimate)")?;
+        for m in &self.memory {
+            writeln!(f, "  {:<28} {:>10}", m.part, format_bytes(m.bytes))?;
+        }
+        writeln!(
+            f,
+            "  {:<28} {:>10}",
+            "total",
+            format_bytes(self.memory_total)
+        )?;
+        if let Some(dt) = &self.time_step {
+            writeln!(f, "\nexplicit time step")?;
+            writeln!(f, "  stable estimate   {:e} s", dt.estimate)?;
+            writeln!(f, "  safety factor     {}", dt.safety_factor)?;
+            if let Some(fixed) = dt.fixed {
+                writeln!(f, "  fixed dt          {fixed:e} s")?;
+            }
+            writeln!(
+                f,
+                "  time step used    {:e} s ({} steps)",
+                dt.used, dt.steps
+            )?;
+        }
+        writeln!(f, "\nsolvers")?;
+        for s in &self.solvers {
+            writeln!(
+                f,
+                "  {:<12} {:<16} t = {} → {}",
+                s.name, s.kind, s.initial_time, s.final_time
+            )?;
+        }
+        if !self.outputs.is_empty() {
+            writeln!(f, "\noutputs")?;
+            for o in &self.outputs {
+                writeln!(
+                    f,
+                    "  {:<24} every {} step(s): {}",
+                    o.file,
+                    o.frequency,
+                    o.variables.join(", ")
+                )?;
+            }
+        }
+        for w in &self.warnings {
+            writeln!(f, "\nwarning: {w}")?;
+        }
+        if !self.unsupported.is_empty() {
+            writeln!(f, "\nnot supported by this build yet:")?;
+            for u in &self.unsupported {
+                writeln!(f, "  - {u}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bytes_are_formatted_in_binary_units() {
+        assert_eq!(format_bytes(512), "512 B");
+        assert_eq!(format_bytes(1536), "1.5 KiB");
+        assert_eq!(format_bytes(3 * 1024 * 1024), "3.0 MiB");
+    }
+}
