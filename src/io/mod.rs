@@ -3,3 +3,4 @@
 pub mod deck;
 pub mod exodus;
 pub mod history;
+pub mod output;
