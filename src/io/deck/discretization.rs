@@ -1,0 +1,451 @@
+//! `Discretization` list: where the points come from, influence function, bond filters.
+
+use std::path::PathBuf;
+
+use super::error::DeckError;
+use super::reader::{Ctx, Field, ListReader};
+
+/// The `Discretization` list.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Discretization {
+    /// How the points are generated or read (`Type` plus its keys).
+    pub source: PointSource,
+    /// `Influence Function` — weight ω(ζ, δ) of a bond; default `"One"`.
+    pub influence_function: InfluenceFunction,
+    /// `Omit Bonds Between Blocks` — `"All"` removes every bond between different blocks;
+    /// default `"None"`.
+    pub omit_bonds_between_blocks: OmitBonds,
+    /// `Bond Filters` — planes, disks or shell meshes that no bond may cross (file order).
+    pub bond_filters: Vec<BondFilter>,
+    /// `Verbose` — extra discretization output; default false.
+    pub verbose: bool,
+}
+
+/// `Discretization → Type` and the keys that belong to it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PointSource {
+    /// `Type: "Exodus"` — one point per element of an Exodus II mesh.
+    Exodus {
+        /// `Input Mesh File` (required), resolved relative to the deck's directory.
+        input_mesh_file: PathBuf,
+        /// `Store Exodus Mesh` — keep element connectivity (`Exodus_Node_*` fields); default false.
+        store_exodus_mesh: bool,
+        /// `Construct Interfaces` — build interface elements between blocks; default false.
+        construct_interfaces: bool,
+        /// `Construct Neighborhood Lists` — default true.
+        construct_neighborhood_lists: bool,
+        /// `Compute Element-Horizon Intersections` (partial-volume builds only) and its
+        /// settings; `None` when absent or false.
+        element_horizon_intersections: Option<ElementHorizonIntersections>,
+    },
+    /// `Type: "Text File"` — one point per line: `x y z block_id volume`.
+    TextFile {
+        /// `Input Mesh File` (required), resolved relative to the deck's directory.
+        input_mesh_file: PathBuf,
+    },
+    /// `Type: "PdQuickGrid"` — a generated lattice of points (single block `block_1`).
+    PdQuickGrid {
+        /// `TensorProduct3DMeshGenerator` or `TensorProductCylinderMeshGenerator`.
+        generator: QuickGridGenerator,
+        /// `NeighborhoodType` — `"Spherical"` filters the box neighbourhood to a sphere;
+        /// default (absent) is the box neighbourhood.
+        spherical_neighborhood: bool,
+    },
+}
+
+/// `Compute Element-Horizon Intersections` settings (only meaningful in Peridigm's `USE_PV`
+/// builds).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ElementHorizonIntersections {
+    /// `Element-Horizon Intersection Partial Volume Scheme` — `PV`, `FV`, `PDLAMMPS` or `HHB`.
+    pub scheme: Option<String>,
+    /// `Element-Horizon Intersection Recursion Level` — default 2.
+    pub recursion_level: i64,
+    /// `Element-Horizon Intersection Number Of Samples` — default 2.
+    pub number_of_samples: i64,
+    /// `Element-Horizon Intersection Characteristic Element Length` — default 0.
+    pub characteristic_element_length: f64,
+    /// `Element-Horizon Intersection Use Lookup Table` — default true.
+    pub use_lookup_table: bool,
+}
+
+/// A QuickGrid point generator.
+#[derive(Debug, Clone, PartialEq)]
+pub enum QuickGridGenerator {
+    /// `TensorProduct3DMeshGenerator`: a box of `n_x × n_y × n_z` cells, a point at each cell
+    /// centre `origin + (i + ½)·length/n`.
+    TensorProduct3D {
+        /// `X Origin`, `Y Origin`, `Z Origin` (required).
+        origin: [f64; 3],
+        /// `X Length`, `Y Length`, `Z Length` (required, > 0).
+        length: [f64; 3],
+        /// `Number Points X`, `Number Points Y`, `Number Points Z` (required, ≥ 1).
+        number_of_points: [u64; 3],
+    },
+    /// `TensorProductCylinderMeshGenerator`: rings of points around the z axis.
+    TensorProductCylinder {
+        /// `Inner Radius` (required, ≥ 0).
+        inner_radius: f64,
+        /// `Outer Radius` (required, > inner radius).
+        outer_radius: f64,
+        /// `Cylinder Length` (required, > 0).
+        cylinder_length: f64,
+        /// `Number Points Radius` (required, ≥ 1).
+        number_of_points_radius: u64,
+        /// `Ring Center x`, `Ring Center y` (required).
+        ring_center: [f64; 2],
+        /// `Z Origin` (required).
+        z_origin: f64,
+    },
+}
+
+/// `Influence Function` — ω as a function of bond length ζ and horizon δ.
+#[derive(Debug, Clone, PartialEq)]
+pub enum InfluenceFunction {
+    /// `"One"`: ω = 1 (the default).
+    One,
+    /// `"Parabolic Decay"`: ω = 1 for ζ/δ < ½, else −4(ζ/δ)² + 4(ζ/δ).
+    ParabolicDecay,
+    /// `"Gaussian"`: ω = exp(−ζ² / (0.4 δ)²).
+    Gaussian,
+    /// Any other string: an expression in `zeta` and `horizon` (validated after loading).
+    Expression(String),
+}
+
+/// `Omit Bonds Between Blocks`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OmitBonds {
+    /// `"None"` (default): bonds may connect points of different blocks.
+    None,
+    /// `"All"`: no bond connects points of different blocks.
+    All,
+}
+
+/// One entry of `Bond Filters` (also used by the `Initial Damage` damage model).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BondFilter {
+    /// The name of the filter's list.
+    pub name: String,
+    /// The filter's geometry.
+    pub shape: BondFilterShape,
+}
+
+/// Geometry of a bond filter.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BondFilterShape {
+    /// `Type: "Rectangular_Plane"`: the rectangle with corner `Lower_Left_Corner_X/Y/Z`, edge
+    /// `Bottom_Unit_Vector_X/Y/Z` × `Bottom_Length`, and the edge `normal × bottom` ×
+    /// `Side_Length`.
+    RectangularPlane {
+        /// `Normal_X/Y/Z` (required, non-zero).
+        normal: [f64; 3],
+        /// `Lower_Left_Corner_X/Y/Z` (required).
+        lower_left_corner: [f64; 3],
+        /// `Bottom_Unit_Vector_X/Y/Z` (required, non-zero).
+        bottom_unit_vector: [f64; 3],
+        /// `Bottom_Length` (required, > 0).
+        bottom_length: f64,
+        /// `Side_Length` (required, > 0).
+        side_length: f64,
+    },
+    /// `Type: "Disk"`: the disk with centre `Center_X/Y/Z`, normal `Normal_X/Y/Z`, `Radius`.
+    Disk {
+        /// `Center_X/Y/Z` (required).
+        center: [f64; 3],
+        /// `Normal_X/Y/Z` (required, non-zero).
+        normal: [f64; 3],
+        /// `Radius` (required, > 0).
+        radius: f64,
+    },
+    /// `Type: "Exodus Mesh"`: every face (TRI3/QUAD4) of a shell mesh.
+    ExodusMesh {
+        /// `File Name` (required), resolved relative to the deck's directory.
+        file_name: PathBuf,
+    },
+}
+
+fn vector3(
+    ctx: &Ctx,
+    list: &mut ListReader,
+    keys: [&'static str; 3],
+    nonzero: bool,
+) -> Result<[f64; 3], DeckError> {
+    let v = [
+        list.f64_req(ctx, keys[0])?,
+        list.f64_req(ctx, keys[1])?,
+        list.f64_req(ctx, keys[2])?,
+    ];
+    if nonzero && v.iter().all(|c| *c == 0.0) {
+        let field = list.get(keys[0]).expect("just read");
+        return Err(field.err(
+            ctx,
+            format!("`{}/{}/{}` must not all be zero", keys[0], keys[1], keys[2]),
+        ));
+    }
+    Ok(v)
+}
+
+/// Reads one bond-filter list (`field` is the named entry under `Bond Filters`).
+pub(crate) fn read_bond_filter(
+    ctx: &mut Ctx,
+    field: &Field,
+    allowed: &[&'static str],
+) -> Result<BondFilter, DeckError> {
+    let mut list = field.list(ctx)?;
+    let kind = list
+        .require(ctx, "Type", "the filter type")?
+        .choice(ctx, allowed)?;
+    let rectangle_keys: &[&str] = &[
+        "Lower_Left_Corner_X",
+        "Lower_Left_Corner_Y",
+        "Lower_Left_Corner_Z",
+        "Bottom_Unit_Vector_X",
+        "Bottom_Unit_Vector_Y",
+        "Bottom_Unit_Vector_Z",
+        "Bottom_Length",
+        "Side_Length",
+    ];
+    let shape = match kind {
+        "Rectangular_Plane" => BondFilterShape::RectangularPlane {
+            normal: vector3(ctx, &mut list, ["Normal_X", "Normal_Y", "Normal_Z"], true)?,
+            lower_left_corner: vector3(
+                ctx,
+                &mut list,
+                [
+                    "Lower_Left_Corner_X",
+                    "Lower_Left_Corner_Y",
+                    "Lower_Left_Corner_Z",
+                ],
+                false,
+            )?,
+            bottom_unit_vector: vector3(
+                ctx,
+                &mut list,
+                [
+                    "Bottom_Unit_Vector_X",
+                    "Bottom_Unit_Vector_Y",
+                    "Bottom_Unit_Vector_Z",
+                ],
+                true,
+            )?,
+            bottom_length: list.positive_req(ctx, "Bottom_Length")?,
+            side_length: list.positive_req(ctx, "Side_Length")?,
+        },
+        "Disk" => BondFilterShape::Disk {
+            center: vector3(ctx, &mut list, ["Center_X", "Center_Y", "Center_Z"], false)?,
+            normal: vector3(ctx, &mut list, ["Normal_X", "Normal_Y", "Normal_Z"], true)?,
+            radius: list.positive_req(ctx, "Radius")?,
+        },
+        "Exodus Mesh" => {
+            let name = list.name_req(ctx, "File Name")?;
+            BondFilterShape::ExodusMesh {
+                file_name: ctx.resolve(&name),
+            }
+        }
+        _ => unreachable!("choice() returns one of the allowed values"),
+    };
+    // Peridigm's own DiskFilter deck carries the rectangle keys on a Disk filter; the disk
+    // filter never reads them.
+    let ignored: Vec<(&str, &str)> = if kind == "Disk" {
+        rectangle_keys
+            .iter()
+            .map(|k| (*k, "a Disk bond filter does not use rectangle parameters"))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    list.finish(ctx, &ignored)?;
+    Ok(BondFilter {
+        name: field.key().to_string(),
+        shape,
+    })
+}
+
+pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Discretization, DeckError> {
+    let mut list = field.list(ctx)?;
+    let type_field = list.require(ctx, "Type", "\"Exodus\", \"Text File\" or \"PdQuickGrid\"")?;
+    if type_field.string(ctx)?.trim() == "Albany" {
+        return Err(type_field.err(
+            ctx,
+            "the Albany discretization exists only when Peridigm is coupled to Albany; use Exodus, Text File or PdQuickGrid",
+        ));
+    }
+    let kind = type_field.choice(ctx, &["Exodus", "Text File", "PdQuickGrid"])?;
+    if let Some(h) = list.peek("Horizon") {
+        return Err(h.err(
+            ctx,
+            "the horizon is not set here; put `Horizon` in each list under `Blocks`",
+        ));
+    }
+    let source = match kind {
+        "Exodus" => {
+            let mesh = list.name_req(ctx, "Input Mesh File")?;
+            let intersections =
+                if list.bool_or(ctx, "Compute Element-Horizon Intersections", false)? {
+                    Some(ElementHorizonIntersections {
+                        scheme: list
+                            .get("Element-Horizon Intersection Partial Volume Scheme")
+                            .map(|f| {
+                                f.choice(ctx, &["PV", "FV", "PDLAMMPS", "HHB"])
+                                    .map(str::to_string)
+                            })
+                            .transpose()?,
+                        recursion_level: list
+                            .int_opt(ctx, "Element-Horizon Intersection Recursion Level", 0)?
+                            .unwrap_or(2),
+                        number_of_samples: list
+                            .int_opt(ctx, "Element-Horizon Intersection Number Of Samples", 1)?
+                            .unwrap_or(2),
+                        characteristic_element_length: list
+                            .non_negative_opt(
+                                ctx,
+                                "Element-Horizon Intersection Characteristic Element Length",
+                            )?
+                            .unwrap_or(0.0),
+                        use_lookup_table: list.bool_or(
+                            ctx,
+                            "Element-Horizon Intersection Use Lookup Table",
+                            true,
+                        )?,
+                    })
+                } else {
+                    None
+                };
+            PointSource::Exodus {
+                input_mesh_file: ctx.resolve(&mesh),
+                store_exodus_mesh: list.bool_or(ctx, "Store Exodus Mesh", false)?,
+                construct_interfaces: list.bool_or(ctx, "Construct Interfaces", false)?,
+                construct_neighborhood_lists: list.bool_or(
+                    ctx,
+                    "Construct Neighborhood Lists",
+                    true,
+                )?,
+                element_horizon_intersections: intersections,
+            }
+        }
+        "Text File" => {
+            let mesh = list.name_req(ctx, "Input Mesh File")?;
+            PointSource::TextFile {
+                input_mesh_file: ctx.resolve(&mesh),
+            }
+        }
+        "PdQuickGrid" => {
+            let spherical = match list.get("NeighborhoodType") {
+                Some(f) => f.choice(ctx, &["Spherical"])? == "Spherical",
+                None => false,
+            };
+            let generator = read_quick_grid(ctx, &mut list)?;
+            PointSource::PdQuickGrid {
+                generator,
+                spherical_neighborhood: spherical,
+            }
+        }
+        _ => unreachable!("choice() returns one of the listed types"),
+    };
+    let influence_function = match list.get("Influence Function") {
+        None => InfluenceFunction::One,
+        Some(f) => {
+            let s = f.name(ctx)?;
+            match s.as_str() {
+                "One" => InfluenceFunction::One,
+                "Parabolic Decay" => InfluenceFunction::ParabolicDecay,
+                "Gaussian" => InfluenceFunction::Gaussian,
+                _ => InfluenceFunction::Expression(s),
+            }
+        }
+    };
+    let omit_bonds_between_blocks = match list.get("Omit Bonds Between Blocks") {
+        None => OmitBonds::None,
+        Some(f) => match f.choice(ctx, &["None", "All"])? {
+            "All" => OmitBonds::All,
+            _ => OmitBonds::None,
+        },
+    };
+    let mut bond_filters = Vec::new();
+    if let Some(mut filters) = list.list_opt(ctx, "Bond Filters")? {
+        if matches!(kind, "PdQuickGrid") {
+            return Err(ctx.error(
+                Some(filters.line),
+                &filters.path,
+                "bond filters are not supported with PdQuickGrid; use an Exodus or Text File discretization",
+            ));
+        }
+        for f in filters.all() {
+            bond_filters.push(read_bond_filter(
+                ctx,
+                &f,
+                &["Rectangular_Plane", "Disk", "Exodus Mesh"],
+            )?);
+        }
+    }
+    let verbose = list.bool_or(ctx, "Verbose", false)?;
+    list.finish(ctx, &[])?;
+    Ok(Discretization {
+        source,
+        influence_function,
+        omit_bonds_between_blocks,
+        bond_filters,
+        verbose,
+    })
+}
+
+fn read_quick_grid(ctx: &mut Ctx, list: &mut ListReader) -> Result<QuickGridGenerator, DeckError> {
+    let cube = list.get("TensorProduct3DMeshGenerator");
+    let cylinder = list.get("TensorProductCylinderMeshGenerator");
+    let count = |ctx: &Ctx, g: &mut ListReader, key: &'static str| -> Result<u64, DeckError> {
+        Ok(g.int_req(ctx, key, 1)? as u64)
+    };
+    let generator = match (cube, cylinder) {
+        (Some(_), Some(c)) => {
+            return Err(c.err(
+                ctx,
+                "give either TensorProduct3DMeshGenerator or TensorProductCylinderMeshGenerator, not both",
+            ))
+        }
+        (None, None) => {
+            return Err(list.missing(
+                ctx,
+                "TensorProduct3DMeshGenerator",
+                "a list with X/Y/Z Origin, X/Y/Z Length, Number Points X/Y/Z; or TensorProductCylinderMeshGenerator",
+            ))
+        }
+        (Some(f), None) => {
+            let mut g = f.list(ctx)?;
+            let generator = QuickGridGenerator::TensorProduct3D {
+                origin: [g.f64_req(ctx, "X Origin")?, g.f64_req(ctx, "Y Origin")?, g.f64_req(ctx, "Z Origin")?],
+                length: [
+                    g.positive_req(ctx, "X Length")?,
+                    g.positive_req(ctx, "Y Length")?,
+                    g.positive_req(ctx, "Z Length")?,
+                ],
+                number_of_points: [
+                    count(ctx, &mut g, "Number Points X")?,
+                    count(ctx, &mut g, "Number Points Y")?,
+                    count(ctx, &mut g, "Number Points Z")?,
+                ],
+            };
+            g.finish(ctx, &[("Type", "the generator's type is given by its list name")])?;
+            generator
+        }
+        (None, Some(f)) => {
+            let mut g = f.list(ctx)?;
+            let inner_radius = g.require(ctx, "Inner Radius", "a number ≥ 0")?.non_negative(ctx)?;
+            let outer = g.require(ctx, "Outer Radius", "a positive number")?;
+            let outer_radius = outer.positive(ctx)?;
+            if outer_radius <= inner_radius {
+                return Err(outer.err(ctx, format!("must be larger than Inner Radius ({inner_radius})")));
+            }
+            let generator = QuickGridGenerator::TensorProductCylinder {
+                inner_radius,
+                outer_radius,
+                cylinder_length: g.positive_req(ctx, "Cylinder Length")?,
+                number_of_points_radius: count(ctx, &mut g, "Number Points Radius")?,
+                ring_center: [g.f64_req(ctx, "Ring Center x")?, g.f64_req(ctx, "Ring Center y")?],
+                z_origin: g.f64_req(ctx, "Z Origin")?,
+            };
+            g.finish(ctx, &[("Type", "the generator's type is given by its list name")])?;
+            generator
+        }
+    };
+    Ok(generator)
+}

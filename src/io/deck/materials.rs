@@ -1,0 +1,790 @@
+//! `Materials` list: one entry per named material, each with a `Material Model` and its keys.
+
+use super::error::DeckError;
+use super::reader::{Ctx, Field, ListReader};
+
+/// One named material (an entry of `Materials`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    /// The name of the material's list; blocks refer to it with `Material`.
+    pub name: String,
+    /// `Material Model` and the model's own parameters.
+    pub model: MaterialModel,
+    /// `Density` ρ (mass per volume, > 0); required by every mechanical model, absent for
+    /// `Diffusion` and `Vector Poisson`.
+    pub density: Option<f64>,
+    /// Exactly two of `Bulk Modulus`, `Shear Modulus`, `Young's Modulus`, `Poisson's Ratio`;
+    /// required by every mechanical model except `Elastic Bond Based` (which has its own).
+    pub elastic: Option<ElasticConstants>,
+    /// `Thermal Expansion Coefficient` α (per degree); thermal strain `α ΔT` when present.
+    /// Only for models that support it (Elastic, Elastic Correspondence, Multiphysics Elastic).
+    pub thermal_expansion_coefficient: Option<f64>,
+    /// `Finite Difference Probe Length` ε for finite-difference tangents (> 0); default
+    /// `1e-6 × min element radius`, computed at setup.
+    pub finite_difference_probe_length: Option<f64>,
+}
+
+/// The elastic constants as given in the deck (exactly two of four), with Peridigm's
+/// conversions to bulk modulus K and shear modulus μ (`Material::calculateBulkModulus`,
+/// `calculateShearModulus`; 3D formulas).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ElasticConstants {
+    /// `Bulk Modulus` K (> 0).
+    pub bulk_modulus: Option<f64>,
+    /// `Shear Modulus` μ (> 0).
+    pub shear_modulus: Option<f64>,
+    /// `Young's Modulus` E (> 0).
+    pub youngs_modulus: Option<f64>,
+    /// `Poisson's Ratio` ν, in (−1, ½).
+    pub poissons_ratio: Option<f64>,
+}
+
+impl ElasticConstants {
+    /// Bulk modulus K: given K; or E μ/(3(3μ − E)); E/(3(1 − 2ν)); 2μ(1 + ν)/(3(1 − 2ν)).
+    ///
+    /// # Panics
+    /// If not exactly two constants are set (never the case for a value from [`load`](super::load)).
+    pub fn bulk_modulus(&self) -> f64 {
+        match (
+            self.bulk_modulus,
+            self.shear_modulus,
+            self.youngs_modulus,
+            self.poissons_ratio,
+        ) {
+            (Some(k), _, _, _) => k,
+            (None, Some(mu), Some(e), None) => e * mu / (3.0 * (3.0 * mu - e)),
+            (None, None, Some(e), Some(nu)) => e / (3.0 * (1.0 - 2.0 * nu)),
+            (None, Some(mu), None, Some(nu)) => 2.0 * mu * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu)),
+            _ => unreachable!("validated at load: exactly two elastic constants"),
+        }
+    }
+
+    /// Shear modulus μ: given μ; or E/(2(1 + ν)); 3KE/(9K − E); 3K(1 − 2ν)/(2(1 + ν)).
+    ///
+    /// # Panics
+    /// If not exactly two constants are set (never the case for a value from [`load`](super::load)).
+    pub fn shear_modulus(&self) -> f64 {
+        match (
+            self.bulk_modulus,
+            self.shear_modulus,
+            self.youngs_modulus,
+            self.poissons_ratio,
+        ) {
+            (_, Some(mu), _, _) => mu,
+            (None, None, Some(e), Some(nu)) => e / (2.0 * (1.0 + nu)),
+            (Some(k), None, Some(e), None) => 3.0 * k * e / (9.0 * k - e),
+            (Some(k), None, None, Some(nu)) => 3.0 * k * (1.0 - 2.0 * nu) / (2.0 * (1.0 + nu)),
+            _ => unreachable!("validated at load: exactly two elastic constants"),
+        }
+    }
+}
+
+/// `Material Model` and the model-specific parameters (Peridigm 1.5 material factory).
+#[derive(Debug, Clone, PartialEq)]
+pub enum MaterialModel {
+    /// `"Elastic"` — linear peridynamic solid (LPS), ordinary state-based.
+    Elastic {
+        /// `Apply Automatic Differentiation Jacobian` — AD tangent; default true.
+        automatic_differentiation: bool,
+        /// `Compute Partial Stress` — also compute `Partial_Stress`; default false.
+        compute_partial_stress: bool,
+    },
+    /// `"Elastic Plastic"` — Mitchell's ordinary state-based plasticity (ω ≡ 1).
+    ElasticPlastic {
+        /// `Yield Stress` σ_y (required, > 0).
+        yield_stress: f64,
+        /// `Disable Plasticity` — treat σ_y as infinite; default false.
+        disable_plasticity: bool,
+        /// `Apply Automatic Differentiation Jacobian` — default true.
+        automatic_differentiation: bool,
+        /// `Planar Problem: true` with `Thickness` h (> 0): 2D yield surface; default off.
+        planar_thickness: Option<f64>,
+    },
+    /// `"Elastic Plastic Hardening"` — as Elastic Plastic with linear isotropic hardening.
+    ElasticPlasticHardening {
+        /// `Yield Stress` σ_y (required, > 0).
+        yield_stress: f64,
+        /// `Hardening Modulus` H (required, ≥ 0).
+        hardening_modulus: f64,
+        /// `Disable Plasticity` — default false.
+        disable_plasticity: bool,
+        /// `Apply Automatic Differentiation Jacobian` — default **false** for this model.
+        automatic_differentiation: bool,
+        /// `Apply Shear Correction Factor` — default **true** for this model.
+        shear_correction: bool,
+    },
+    /// `"Viscoelastic"` — standard linear solid on the deviatoric part (ω ≡ 1).
+    Viscoelastic {
+        /// `lambda_i` λ_i (required, in [0, 1]): fraction of the deviatoric response that relaxes.
+        lambda_i: f64,
+        /// `tau b` τ_b (required, > 0): relaxation time.
+        tau_b: f64,
+    },
+    /// `"Elastic Bond Based"` — prototype microelastic brittle (PMB) bond-based model; ν is
+    /// fixed (¼ in 3D and plane strain, ⅓ in plane stress).
+    ElasticBondBased {
+        /// Exactly one of `Bulk Modulus` / `Young's Modulus`.
+        modulus: BondBasedModulus,
+        /// `Plane Strain: true` / `Plane Stress: true` with `Height` h (> 0); default 3D.
+        planar: Option<(PlanarKind, f64)>,
+    },
+    /// `"Pals"` — position-aware linear solid.
+    Pals {
+        /// `Dilatation Influence Function` — default `One`.
+        dilatation_influence: PalsInfluence,
+        /// `Deviatoric Influence Function` — default `One`.
+        deviatoric_influence: PalsInfluence,
+    },
+    /// `"Linear LPS Partial Volume"` — small-displacement LPS.
+    LinearLpsPartialVolume {
+        /// `Use Partial Volume` — default false.
+        use_partial_volume: bool,
+        /// `Use Improved Quadrature` — default false.
+        use_improved_quadrature: bool,
+        /// `Use Analytic Weighted Volume: true` with `Analytic Weighted Volume` (> 0); default off.
+        analytic_weighted_volume: Option<f64>,
+        /// `Verbose` — default false.
+        verbose: bool,
+    },
+    /// `"Elastic Correspondence"` — hypoelastic Cauchy update, Flanagan–Taylor rotation.
+    ElasticCorrespondence {
+        /// `Hourglass Coefficient` C_hg (required, ≥ 0).
+        hourglass_coefficient: f64,
+    },
+    /// `"Elastic Plastic Correspondence"` — J2 perfect plasticity, radial return.
+    ElasticPlasticCorrespondence {
+        /// `Hourglass Coefficient` (required, ≥ 0).
+        hourglass_coefficient: f64,
+        /// `Yield Stress` (required, > 0).
+        yield_stress: f64,
+    },
+    /// `"Isotropic Hardening Correspondence"` — J2 plasticity with linear isotropic hardening.
+    IsotropicHardeningCorrespondence {
+        /// `Hourglass Coefficient` (required, ≥ 0).
+        hourglass_coefficient: f64,
+        /// `Yield Stress` (required, > 0).
+        yield_stress: f64,
+        /// `Hardening Modulus` (required, ≥ 0).
+        hardening_modulus: f64,
+        /// `Enable Flaw: true` with the flaw parameters; default off.
+        flaw: Option<Flaw>,
+    },
+    /// `"Viscoplastic Needleman Correspondence"` — rate-dependent J2 plasticity.
+    ViscoplasticNeedlemanCorrespondence {
+        /// `Hourglass Coefficient` (required, ≥ 0).
+        hourglass_coefficient: f64,
+        /// `Yield Stress` (required, > 0).
+        yield_stress: f64,
+        /// `Strain Hardening Exponent` (required).
+        strain_hardening_exponent: f64,
+        /// `Rate Hardening Exponent` (required).
+        rate_hardening_exponent: f64,
+        /// `Reference Strain Rate` (required, > 0).
+        reference_strain_rate: f64,
+        /// `Reference Strain 0` (required, > 0).
+        reference_strain_0: f64,
+        /// `Reference Strain 1` (required, > 0).
+        reference_strain_1: f64,
+        /// `Enable Flaw: true` with the flaw parameters; default off.
+        flaw: Option<Flaw>,
+    },
+    /// `"Elastic Hypoelastic Correspondence"` and its plastic variants (semi-Lagrangian).
+    HypoelasticCorrespondence {
+        /// Which of the three hypoelastic models.
+        plasticity: CorrespondencePlasticity,
+        /// `Actual Horizon` (required, > 0): horizon used by the physics.
+        actual_horizon: f64,
+        /// `Gradient Order Of Accuracy` — default 1.
+        gradient_order_of_accuracy: i64,
+    },
+    /// `"Elastic Bond Associated Correspondence"` and its plastic variants.
+    BondAssociatedCorrespondence {
+        /// Which of the three bond-associated models.
+        plasticity: BondAssociatedPlasticity,
+        /// `Gradient Order Of Accuracy` — default 1.
+        gradient_order_of_accuracy: i64,
+    },
+    /// `"Multiphysics Elastic"` — Elastic plus a fluid-pressure unknown (needs `Multiphysics: 1`).
+    MultiphysicsElastic {
+        /// `Fluid density` (required, > 0).
+        fluid_density: f64,
+        /// `Fluid compressibility` (required, > 0).
+        fluid_compressibility: f64,
+        /// `Fluid dynamic viscosity` (required, > 0).
+        fluid_dynamic_viscosity: f64,
+        /// `Permeability` (required, > 0).
+        permeability: f64,
+        /// `Max permeability` (required, > 0).
+        max_permeability: f64,
+        /// `Permeability alpha` (required).
+        permeability_alpha: f64,
+        /// `Permeability curve inflection damage` (required).
+        permeability_curve_inflection_damage: f64,
+        /// `Fluid Reynolds viscosity temperature effect` (required).
+        fluid_reynolds_viscosity_temperature_effect: f64,
+        /// `Fluid linear thermal expansion` (required).
+        fluid_linear_thermal_expansion: f64,
+        /// `Apply Automatic Differentiation Jacobian` — default true.
+        automatic_differentiation: bool,
+        /// `Apply Shear Correction Factor` — default false.
+        shear_correction: bool,
+    },
+    /// `"Vector Poisson"` — test operator without parameters.
+    VectorPoisson,
+    /// `"Diffusion"` — nonlocal diffusion of a scalar (temperature).
+    Diffusion {
+        /// `Coefficient` (required, > 0).
+        coefficient: f64,
+        /// `Use Improved Quadrature` — default false.
+        use_improved_quadrature: bool,
+    },
+}
+
+/// The modulus of `Elastic Bond Based`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BondBasedModulus {
+    /// `Bulk Modulus` K.
+    Bulk(f64),
+    /// `Young's Modulus` E (K follows from the fixed ν).
+    Young(f64),
+}
+
+/// `Plane Strain` or `Plane Stress` for `Elastic Bond Based`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlanarKind {
+    /// `Plane Strain: true`.
+    PlaneStrain,
+    /// `Plane Stress: true`.
+    PlaneStress,
+}
+
+/// Influence-function choice of the Pals model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PalsInfluence {
+    /// `"One"`.
+    One,
+    /// `"Parabolic Decay"`.
+    ParabolicDecay,
+    /// `"Gaussian"`.
+    Gaussian,
+}
+
+/// Gaussian flaw that lowers the yield stress: σ_y·(1 − A·exp(−|X − X_f|²/s²)).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Flaw {
+    /// `Flaw Location X/Y/Z` X_f (required with `Enable Flaw`).
+    pub location: [f64; 3],
+    /// `Flaw Size` s (required, > 0).
+    pub size: f64,
+    /// `Flaw Magnitude` A (required).
+    pub magnitude: f64,
+}
+
+/// Plasticity of the hypoelastic correspondence family.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CorrespondencePlasticity {
+    /// `"Elastic Hypoelastic Correspondence"`.
+    Elastic,
+    /// `"Elastic Plastic Hypoelastic Correspondence"` with `Yield Stress`.
+    PerfectlyPlastic {
+        /// `Yield Stress` (required, > 0).
+        yield_stress: f64,
+    },
+    /// `"Isotropic Hardening Hypoelastic Correspondence"`.
+    IsotropicHardening {
+        /// `Yield Stress` (required, > 0).
+        yield_stress: f64,
+        /// `Hardening Modulus` (required, ≥ 0).
+        hardening_modulus: f64,
+    },
+}
+
+/// Plasticity of the bond-associated correspondence family.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BondAssociatedPlasticity {
+    /// `"Elastic Bond Associated Correspondence"`.
+    Elastic,
+    /// `"Elastic Plastic Bond Associated Correspondence"` with `Yield Stress`.
+    PerfectlyPlastic {
+        /// `Yield Stress` (required, > 0).
+        yield_stress: f64,
+    },
+    /// `"Isotropic Hardening Bond Associated Correspondence"`, `Hardening Rule: "Power-law"`,
+    /// parameters in the sublist `Hardening Parameters`.
+    PowerLaw {
+        /// `Yield Stress` (required, > 0).
+        yield_stress: f64,
+        /// `Hardening Characteristic Strain` (required, > 0).
+        hardening_characteristic_strain: f64,
+        /// `Hardening Exponent` (required).
+        hardening_exponent: f64,
+    },
+    /// `Hardening Rule: "Saturation type exponential"`, parameters in `Hardening Parameters`.
+    SaturationExponential {
+        /// `Initial Yield Stress` (required, > 0).
+        initial_yield_stress: f64,
+        /// `Saturated Yield Stress` (required, > 0).
+        saturated_yield_stress: f64,
+        /// `Exponential Constant` (required).
+        exponential_constant: f64,
+        /// `Linear Constant` (required).
+        linear_constant: f64,
+    },
+}
+
+/// Every `Material Model` string we accept.
+const MODELS: &[&str] = &[
+    "Elastic",
+    "Elastic Plastic",
+    "Elastic Plastic Hardening",
+    "Viscoelastic",
+    "Elastic Bond Based",
+    "Pals",
+    "Linear LPS Partial Volume",
+    "Elastic Correspondence",
+    "Elastic Plastic Correspondence",
+    "Isotropic Hardening Correspondence",
+    "Viscoplastic Needleman Correspondence",
+    "Elastic Hypoelastic Correspondence",
+    "Elastic Plastic Hypoelastic Correspondence",
+    "Isotropic Hardening Hypoelastic Correspondence",
+    "Elastic Bond Associated Correspondence",
+    "Elastic Plastic Bond Associated Correspondence",
+    "Isotropic Hardening Bond Associated Correspondence",
+    "Multiphysics Elastic",
+    "Vector Poisson",
+    "Diffusion",
+];
+
+/// Models Peridigm knows only in special builds (or not at all in the public repository).
+const UNAVAILABLE: &[(&str, &str)] = &[
+    (
+        "Elastic Partial Volume",
+        "exists only in Peridigm builds with -DUSE_PV",
+    ),
+    (
+        "LCM",
+        "exists only in Peridigm builds coupled to Albany (USE_LCM)",
+    ),
+    (
+        "Elastic Correspondence Partial Stress",
+        "is not part of the public Peridigm code",
+    ),
+    (
+        "Pressure Dependent Elastic Plastic",
+        "is not part of the public Peridigm code",
+    ),
+];
+
+const ELASTIC_KEYS: [&str; 4] = [
+    "Bulk Modulus",
+    "Shear Modulus",
+    "Young's Modulus",
+    "Poisson's Ratio",
+];
+
+/// Keys that some model accepts: used to explain an unknown key that belongs to another model.
+const MODEL_KEYS: &[&str] = &[
+    "Yield Stress",
+    "Hardening Modulus",
+    "Disable Plasticity",
+    "Planar Problem",
+    "Thickness",
+    "Apply Shear Correction Factor",
+    "lambda_i",
+    "tau b",
+    "Plane Strain",
+    "Plane Stress",
+    "Height",
+    "Hourglass Coefficient",
+    "Actual Horizon",
+    "Gradient Order Of Accuracy",
+    "Thermal Expansion Coefficient",
+    "Compute Partial Stress",
+    "Apply Automatic Differentiation Jacobian",
+];
+
+fn read_elastic(ctx: &Ctx, list: &mut ListReader) -> Result<ElasticConstants, DeckError> {
+    let mut given = Vec::new();
+    let mut values = [None; 4];
+    for (i, key) in ELASTIC_KEYS.iter().enumerate() {
+        if let Some(f) = list.get(key) {
+            let v = if i == 3 {
+                let nu = f.f64(ctx)?;
+                if !(nu > -1.0 && nu < 0.5) {
+                    return Err(f.err(
+                        ctx,
+                        format!("Poisson's ratio must lie strictly between -1 and 0.5, found {nu}"),
+                    ));
+                }
+                nu
+            } else {
+                f.positive(ctx)?
+            };
+            values[i] = Some(v);
+            given.push(f);
+        }
+    }
+    if given.len() != 2 {
+        let names = given
+            .iter()
+            .map(|f| format!("\"{}\"", f.key()))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let message = format!(
+            "exactly two of \"Bulk Modulus\", \"Shear Modulus\", \"Young's Modulus\", \"Poisson's Ratio\" must be given, found {}{}",
+            given.len(),
+            if given.is_empty() { String::new() } else { format!(" ({names})") }
+        );
+        return Err(match given.get(2) {
+            Some(third) => third.err(ctx, message),
+            None => ctx.error(Some(list.line), &list.path, message),
+        });
+    }
+    let constants = ElasticConstants {
+        bulk_modulus: values[0],
+        shear_modulus: values[1],
+        youngs_modulus: values[2],
+        poissons_ratio: values[3],
+    };
+    let (k, mu) = (constants.bulk_modulus(), constants.shear_modulus());
+    if !(k > 0.0 && mu > 0.0 && k.is_finite() && mu.is_finite()) {
+        return Err(given[1].err(
+            ctx,
+            format!(
+                "these elastic constants give a bulk modulus {k} and shear modulus {mu}; both must be positive \
+                 (with Young's and shear modulus, E < 3μ; with Young's and bulk modulus, E < 9K)"
+            ),
+        ));
+    }
+    Ok(constants)
+}
+
+fn read_flaw(ctx: &Ctx, list: &mut ListReader) -> Result<Option<Flaw>, DeckError> {
+    if !list.bool_or(ctx, "Enable Flaw", false)? {
+        return Ok(None);
+    }
+    Ok(Some(Flaw {
+        location: [
+            list.f64_req(ctx, "Flaw Location X")?,
+            list.f64_req(ctx, "Flaw Location Y")?,
+            list.f64_req(ctx, "Flaw Location Z")?,
+        ],
+        size: list.positive_req(ctx, "Flaw Size")?,
+        magnitude: list.f64_req(ctx, "Flaw Magnitude")?,
+    }))
+}
+
+fn non_negative_req(ctx: &Ctx, list: &mut ListReader, key: &'static str) -> Result<f64, DeckError> {
+    list.require(ctx, key, "a number ≥ 0")?.non_negative(ctx)
+}
+
+pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Material, DeckError> {
+    let mut list = field.list(ctx)?;
+    let model_field = list.require(ctx, "Material Model", "the name of the constitutive model")?;
+    let model_name = model_field.name(ctx)?;
+    if let Some((_, why)) = UNAVAILABLE.iter().find(|(m, _)| *m == model_name) {
+        return Err(model_field.err(
+            ctx,
+            format!("material model \"{model_name}\" {why}; choose another model"),
+        ));
+    }
+    let model_name = model_field.choice(ctx, MODELS)?;
+    if let Some(h) = list.peek("Horizon") {
+        return Err(h.err(ctx, "the horizon is not a material parameter; set `Horizon` in the block that uses this material"));
+    }
+    let mechanical = !matches!(model_name, "Diffusion" | "Vector Poisson");
+    let density = if mechanical {
+        Some(list.positive_req(ctx, "Density")?)
+    } else {
+        None
+    };
+    let elastic = if mechanical && model_name != "Elastic Bond Based" {
+        Some(read_elastic(ctx, &mut list)?)
+    } else {
+        None
+    };
+    let supports_thermal = matches!(
+        model_name,
+        "Elastic" | "Elastic Correspondence" | "Multiphysics Elastic"
+    );
+    let thermal_expansion_coefficient = if supports_thermal {
+        list.f64_opt(ctx, "Thermal Expansion Coefficient")?
+    } else {
+        None
+    };
+    let finite_difference_probe_length =
+        list.positive_opt(ctx, "Finite Difference Probe Length")?;
+    let mut ignored: Vec<(&str, &str)> = Vec::new();
+
+    let model = match model_name {
+        "Elastic" => {
+            ignored.push((
+                "Apply Shear Correction Factor",
+                "the Elastic model never applies a shear correction",
+            ));
+            ignored.push((
+                "Hourglass Coefficient",
+                "only correspondence models have hourglass control",
+            ));
+            MaterialModel::Elastic {
+                automatic_differentiation: list.bool_or(
+                    ctx,
+                    "Apply Automatic Differentiation Jacobian",
+                    true,
+                )?,
+                compute_partial_stress: list.bool_or(ctx, "Compute Partial Stress", false)?,
+            }
+        }
+        "Elastic Plastic" => {
+            ignored.push((
+                "Apply Shear Correction Factor",
+                "the Elastic Plastic model never applies a shear correction",
+            ));
+            let yield_stress = list.positive_req(ctx, "Yield Stress")?;
+            let planar = list.bool_or(ctx, "Planar Problem", false)?;
+            MaterialModel::ElasticPlastic {
+                yield_stress,
+                disable_plasticity: list.bool_or(ctx, "Disable Plasticity", false)?,
+                automatic_differentiation: list.bool_or(
+                    ctx,
+                    "Apply Automatic Differentiation Jacobian",
+                    true,
+                )?,
+                planar_thickness: if planar {
+                    Some(list.positive_req(ctx, "Thickness")?)
+                } else {
+                    None
+                },
+            }
+        }
+        "Elastic Plastic Hardening" => MaterialModel::ElasticPlasticHardening {
+            yield_stress: list.positive_req(ctx, "Yield Stress")?,
+            hardening_modulus: non_negative_req(ctx, &mut list, "Hardening Modulus")?,
+            disable_plasticity: list.bool_or(ctx, "Disable Plasticity", false)?,
+            automatic_differentiation: list.bool_or(
+                ctx,
+                "Apply Automatic Differentiation Jacobian",
+                false,
+            )?,
+            shear_correction: list.bool_or(ctx, "Apply Shear Correction Factor", true)?,
+        },
+        "Viscoelastic" => {
+            let f = list.require(ctx, "lambda_i", "a number in [0, 1]")?;
+            let lambda_i = f.f64(ctx)?;
+            if !(0.0..=1.0).contains(&lambda_i) {
+                return Err(f.err(ctx, format!("must lie in [0, 1], found {lambda_i}")));
+            }
+            MaterialModel::Viscoelastic {
+                lambda_i,
+                tau_b: list.positive_req(ctx, "tau b")?,
+            }
+        }
+        "Elastic Bond Based" => {
+            let k = list.get("Bulk Modulus");
+            let e = list.get("Young's Modulus");
+            let modulus = match (k, e) {
+                (Some(k), None) => BondBasedModulus::Bulk(k.positive(ctx)?),
+                (None, Some(e)) => BondBasedModulus::Young(e.positive(ctx)?),
+                (Some(_), Some(e)) => {
+                    return Err(e.err(ctx, "Elastic Bond Based takes exactly one of \"Bulk Modulus\" and \"Young's Modulus\" (Poisson's ratio is fixed by the model); remove one"))
+                }
+                (None, None) => return Err(list.missing(ctx, "Bulk Modulus", "or \"Young's Modulus\"; exactly one of them")),
+            };
+            for key in ["Shear Modulus", "Poisson's Ratio"] {
+                if let Some(f) = list.get(key) {
+                    return Err(f.err(ctx, format!("\"{key}\" cannot be set for Elastic Bond Based: Poisson's ratio is fixed (1/4 in 3D and plane strain, 1/3 in plane stress); give only \"Bulk Modulus\" or \"Young's Modulus\"")));
+                }
+            }
+            let strain = list.bool_or(ctx, "Plane Strain", false)?;
+            let stress = list.bool_or(ctx, "Plane Stress", false)?;
+            let planar = match (strain, stress) {
+                (true, true) => {
+                    let f = list.get("Plane Stress").expect("just read");
+                    return Err(f.err(ctx, "Plane Strain and Plane Stress cannot both be true"));
+                }
+                (true, false) => Some((PlanarKind::PlaneStrain, list.positive_req(ctx, "Height")?)),
+                (false, true) => Some((PlanarKind::PlaneStress, list.positive_req(ctx, "Height")?)),
+                (false, false) => None,
+            };
+            MaterialModel::ElasticBondBased { modulus, planar }
+        }
+        "Pals" => {
+            let influence = |ctx: &Ctx,
+                             list: &mut ListReader,
+                             key: &'static str|
+             -> Result<PalsInfluence, DeckError> {
+                Ok(match list.get(key) {
+                    None => PalsInfluence::One,
+                    Some(f) => match f.choice(ctx, &["One", "Parabolic Decay", "Gaussian"])? {
+                        "Parabolic Decay" => PalsInfluence::ParabolicDecay,
+                        "Gaussian" => PalsInfluence::Gaussian,
+                        _ => PalsInfluence::One,
+                    },
+                })
+            };
+            MaterialModel::Pals {
+                dilatation_influence: influence(ctx, &mut list, "Dilatation Influence Function")?,
+                deviatoric_influence: influence(ctx, &mut list, "Deviatoric Influence Function")?,
+            }
+        }
+        "Linear LPS Partial Volume" => {
+            let analytic = list.bool_or(ctx, "Use Analytic Weighted Volume", false)?;
+            MaterialModel::LinearLpsPartialVolume {
+                use_partial_volume: list.bool_or(ctx, "Use Partial Volume", false)?,
+                use_improved_quadrature: list.bool_or(ctx, "Use Improved Quadrature", false)?,
+                analytic_weighted_volume: if analytic {
+                    Some(list.positive_req(ctx, "Analytic Weighted Volume")?)
+                } else {
+                    None
+                },
+                verbose: list.bool_or(ctx, "Verbose", false)?,
+            }
+        }
+        "Elastic Correspondence" => MaterialModel::ElasticCorrespondence {
+            hourglass_coefficient: non_negative_req(ctx, &mut list, "Hourglass Coefficient")?,
+        },
+        "Elastic Plastic Correspondence" => MaterialModel::ElasticPlasticCorrespondence {
+            hourglass_coefficient: non_negative_req(ctx, &mut list, "Hourglass Coefficient")?,
+            yield_stress: list.positive_req(ctx, "Yield Stress")?,
+        },
+        "Isotropic Hardening Correspondence" => MaterialModel::IsotropicHardeningCorrespondence {
+            hourglass_coefficient: non_negative_req(ctx, &mut list, "Hourglass Coefficient")?,
+            yield_stress: list.positive_req(ctx, "Yield Stress")?,
+            hardening_modulus: non_negative_req(ctx, &mut list, "Hardening Modulus")?,
+            flaw: read_flaw(ctx, &mut list)?,
+        },
+        "Viscoplastic Needleman Correspondence" => {
+            MaterialModel::ViscoplasticNeedlemanCorrespondence {
+                hourglass_coefficient: non_negative_req(ctx, &mut list, "Hourglass Coefficient")?,
+                yield_stress: list.positive_req(ctx, "Yield Stress")?,
+                strain_hardening_exponent: list.f64_req(ctx, "Strain Hardening Exponent")?,
+                rate_hardening_exponent: list.f64_req(ctx, "Rate Hardening Exponent")?,
+                reference_strain_rate: list.positive_req(ctx, "Reference Strain Rate")?,
+                reference_strain_0: list.positive_req(ctx, "Reference Strain 0")?,
+                reference_strain_1: list.positive_req(ctx, "Reference Strain 1")?,
+                flaw: read_flaw(ctx, &mut list)?,
+            }
+        }
+        "Elastic Hypoelastic Correspondence"
+        | "Elastic Plastic Hypoelastic Correspondence"
+        | "Isotropic Hardening Hypoelastic Correspondence" => {
+            let plasticity = match model_name {
+                "Elastic Hypoelastic Correspondence" => CorrespondencePlasticity::Elastic,
+                "Elastic Plastic Hypoelastic Correspondence" => {
+                    CorrespondencePlasticity::PerfectlyPlastic {
+                        yield_stress: list.positive_req(ctx, "Yield Stress")?,
+                    }
+                }
+                _ => CorrespondencePlasticity::IsotropicHardening {
+                    yield_stress: list.positive_req(ctx, "Yield Stress")?,
+                    hardening_modulus: non_negative_req(ctx, &mut list, "Hardening Modulus")?,
+                },
+            };
+            MaterialModel::HypoelasticCorrespondence {
+                plasticity,
+                actual_horizon: list.positive_req(ctx, "Actual Horizon")?,
+                gradient_order_of_accuracy: list
+                    .int_opt(ctx, "Gradient Order Of Accuracy", 1)?
+                    .unwrap_or(1),
+            }
+        }
+        "Elastic Bond Associated Correspondence"
+        | "Elastic Plastic Bond Associated Correspondence"
+        | "Isotropic Hardening Bond Associated Correspondence" => {
+            let plasticity = match model_name {
+                "Elastic Bond Associated Correspondence" => BondAssociatedPlasticity::Elastic,
+                "Elastic Plastic Bond Associated Correspondence" => {
+                    BondAssociatedPlasticity::PerfectlyPlastic {
+                        yield_stress: list.positive_req(ctx, "Yield Stress")?,
+                    }
+                }
+                _ => {
+                    let rule = list
+                        .require(
+                            ctx,
+                            "Hardening Rule",
+                            "\"Power-law\" or \"Saturation type exponential\"",
+                        )?
+                        .choice(ctx, &["Power-law", "Saturation type exponential"])?;
+                    let mut params = list.list_req(ctx, "Hardening Parameters")?;
+                    let plasticity = if rule == "Power-law" {
+                        BondAssociatedPlasticity::PowerLaw {
+                            yield_stress: params.positive_req(ctx, "Yield Stress")?,
+                            hardening_characteristic_strain: params
+                                .positive_req(ctx, "Hardening Characteristic Strain")?,
+                            hardening_exponent: params.f64_req(ctx, "Hardening Exponent")?,
+                        }
+                    } else {
+                        BondAssociatedPlasticity::SaturationExponential {
+                            initial_yield_stress: params
+                                .positive_req(ctx, "Initial Yield Stress")?,
+                            saturated_yield_stress: params
+                                .positive_req(ctx, "Saturated Yield Stress")?,
+                            exponential_constant: params.f64_req(ctx, "Exponential Constant")?,
+                            linear_constant: params.f64_req(ctx, "Linear Constant")?,
+                        }
+                    };
+                    params.finish(ctx, &[])?;
+                    plasticity
+                }
+            };
+            MaterialModel::BondAssociatedCorrespondence {
+                plasticity,
+                gradient_order_of_accuracy: list
+                    .int_opt(ctx, "Gradient Order Of Accuracy", 1)?
+                    .unwrap_or(1),
+            }
+        }
+        "Multiphysics Elastic" => {
+            ignored.push((
+                "Multiphysics",
+                "the multiphysics switch is the top-level `Multiphysics: 1`",
+            ));
+            MaterialModel::MultiphysicsElastic {
+                fluid_density: list.positive_req(ctx, "Fluid density")?,
+                fluid_compressibility: list.positive_req(ctx, "Fluid compressibility")?,
+                fluid_dynamic_viscosity: list.positive_req(ctx, "Fluid dynamic viscosity")?,
+                permeability: list.positive_req(ctx, "Permeability")?,
+                max_permeability: list.positive_req(ctx, "Max permeability")?,
+                permeability_alpha: list.f64_req(ctx, "Permeability alpha")?,
+                permeability_curve_inflection_damage: list
+                    .f64_req(ctx, "Permeability curve inflection damage")?,
+                fluid_reynolds_viscosity_temperature_effect: list
+                    .f64_req(ctx, "Fluid Reynolds viscosity temperature effect")?,
+                fluid_linear_thermal_expansion: list
+                    .f64_req(ctx, "Fluid linear thermal expansion")?,
+                automatic_differentiation: list.bool_or(
+                    ctx,
+                    "Apply Automatic Differentiation Jacobian",
+                    true,
+                )?,
+                shear_correction: list.bool_or(ctx, "Apply Shear Correction Factor", false)?,
+            }
+        }
+        "Vector Poisson" => MaterialModel::VectorPoisson,
+        "Diffusion" => MaterialModel::Diffusion {
+            coefficient: list.positive_req(ctx, "Coefficient")?,
+            use_improved_quadrature: list.bool_or(ctx, "Use Improved Quadrature", false)?,
+        },
+        _ => unreachable!("choice() returns one of MODELS"),
+    };
+    let model_label = model_name.to_string();
+    list.finish_with(ctx, &ignored, |key| {
+        if MODEL_KEYS.contains(&key) || ELASTIC_KEYS.contains(&key) || key == "Density" {
+            Some(format!(
+                "\"{key}\" is not a parameter of the \"{model_label}\" material model"
+            ))
+        } else {
+            None
+        }
+    })?;
+    Ok(Material {
+        name: field.key().to_string(),
+        model,
+        density,
+        elastic,
+        thermal_expansion_coefficient,
+        finite_difference_probe_length,
+    })
+}

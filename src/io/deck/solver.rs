@@ -1,0 +1,636 @@
+//! Top-level lists whose name contains `Solver`: time span, common switches, one integrator.
+
+use super::error::DeckError;
+use super::reader::{Ctx, Field, ListReader};
+use super::tree::{Entry, NodeKind, ScalarKind};
+
+/// One `Solver*` list. Several run one after the other in file order, state carried over.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Solver {
+    /// The list's name (`Solver`, `Solver1`, ...).
+    pub name: String,
+    /// `Initial Time` — default 0.0.
+    pub initial_time: f64,
+    /// `Final Time` (> `Initial Time`) — default 1.0 for Verlet; required for Implicit and for
+    /// load-step counts; with a `Time Steps` list it defaults to the last listed time.
+    pub final_time: f64,
+    /// `Verbose` — extra norms per iteration; default false.
+    pub verbose: bool,
+    /// `Disable Heuristics` — no predictor, no damping, line-search α = 1; default false.
+    pub disable_heuristics: bool,
+    /// `Initialize Predictor From Previous Solver` — default false.
+    pub initialize_predictor_from_previous_solver: bool,
+    /// `Jacobian Diagnostics` — print asymmetry and conditioning estimates; default false.
+    pub jacobian_diagnostics: bool,
+    /// `Peridigm Preconditioner` — default `Full Tangent`.
+    pub peridigm_preconditioner: PeridigmPreconditioner,
+    /// `Solve For Displacement/Temperature/Concentration/Pressure` — which unknowns exist
+    /// (Peridigm reads them from the first solver only).
+    pub solve_for: SolveFor,
+    /// The integrator sublist (exactly one).
+    pub integrator: Integrator,
+}
+
+/// Which fields are unknowns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SolveFor {
+    /// `Solve For Displacement` — default true.
+    pub displacement: bool,
+    /// `Solve For Temperature` — default false.
+    pub temperature: bool,
+    /// `Solve For Concentration` — default false.
+    pub concentration: bool,
+    /// `Solve For Pressure` — default false.
+    pub pressure: bool,
+}
+
+/// `Peridigm Preconditioner`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PeridigmPreconditioner {
+    /// `"Full Tangent"` (default): the assembled tangent.
+    FullTangent,
+    /// `"Block 3x3"`: inverted 3×3 diagonal blocks of the tangent.
+    Block3x3,
+    /// `"None"`.
+    None,
+}
+
+/// The integrator sublist of a solver.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Integrator {
+    /// `Verlet` — explicit velocity Verlet.
+    Verlet(Verlet),
+    /// `QuasiStatic` — Peridigm's own Newton–Raphson with line search.
+    QuasiStatic(QuasiStatic),
+    /// `NOXQuasiStatic` — Newton through NOX.
+    NoxQuasiStatic(NoxQuasiStatic),
+    /// `Implicit` — Newmark-β dynamics.
+    Implicit(Implicit),
+    /// `ImplicitDiffusion` — Newton on temperature.
+    ImplicitDiffusion(ImplicitDiffusion),
+}
+
+/// `Verlet` sublist.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Verlet {
+    /// `Fixed dt` (> 0) — overrides the computed stable time step; default none.
+    pub fixed_dt: Option<f64>,
+    /// `Safety Factor` (> 0) — multiplies the time step (also a fixed one); default 1.0.
+    pub safety_factor: f64,
+}
+
+/// How a quasi-static run is divided into load steps.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LoadSteps {
+    /// `Number of Load Steps` (≥ 1): equal increments from initial to final time.
+    Count(u64),
+    /// `Time Steps`: an increasing list of times (whitespace-separated in the deck).
+    Times(Vec<f64>),
+}
+
+/// `Belos *` settings of Peridigm's linear solves.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BelosSettings {
+    /// `Belos Linear Solver` — `BlockCG` (default) or `BlockGMRES`.
+    pub linear_solver: BelosSolver,
+    /// `Belos Maximum Iterations` — default: the number of global rows.
+    pub maximum_iterations: Option<u64>,
+    /// `Belos Relative Tolerance` — default 1e-4.
+    pub relative_tolerance: f64,
+    /// `Belos Print Status` — default false.
+    pub print_status: bool,
+}
+
+/// `Belos Linear Solver`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BelosSolver {
+    /// `"BlockCG"`.
+    BlockCg,
+    /// `"BlockGMRES"`.
+    BlockGmres,
+}
+
+/// `QuasiStatic` sublist.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QuasiStatic {
+    /// `Number of Load Steps` or `Time Steps` (exactly one, required).
+    pub load_steps: LoadSteps,
+    /// `Maximum Solver Iterations` — Newton iterations per load step; default 10.
+    pub maximum_solver_iterations: u64,
+    /// `Relative Tolerance` — criterion `tol·‖reaction‖₂`; default 1e-6.
+    pub relative_tolerance: f64,
+    /// `Absolute Tolerance` — if present, used instead of the relative one.
+    pub absolute_tolerance: Option<f64>,
+    /// `Damped Newton Diagonal Scale Factor` — default 1.0001.
+    pub damped_newton_diagonal_scale_factor: f64,
+    /// `Damped Newton Diagonal Shift Factor` — default 1e-5.
+    pub damped_newton_diagonal_shift_factor: f64,
+    /// `Belos *` keys.
+    pub belos: BelosSettings,
+    /// `Adaptive Load-Stepping` — cut load steps that do not converge; default off.
+    pub adaptive_load_stepping: Option<AdaptiveLoadStepping>,
+}
+
+/// `QuasiStatic → Adaptive Load-Stepping`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdaptiveLoadStepping {
+    /// `Maximum load step reductions in one step` (≥ 0).
+    pub max_reductions_in_one_step: Option<u64>,
+    /// `Maximum total load step reductions` (≥ 0).
+    pub max_total_reductions: Option<u64>,
+    /// `Reduce all remaining load steps` — default false.
+    pub reduce_all_remaining_load_steps: bool,
+    /// `Adaptive output frequency` — default false.
+    pub adaptive_output_frequency: bool,
+    /// `Switch to Verlet` — continue explicitly when cutting fails.
+    pub switch_to_verlet: Option<SwitchToVerlet>,
+}
+
+/// `Adaptive Load-Stepping → Switch to Verlet`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SwitchToVerlet {
+    /// `Fixed dt` (> 0); default: computed stable step.
+    pub fixed_dt: Option<f64>,
+    /// `Safety Factor` (> 0); default 1.0.
+    pub safety_factor: f64,
+    /// `Output Frequency` (≥ 1); default none.
+    pub output_frequency: Option<u64>,
+}
+
+/// `NOXQuasiStatic` sublist. Peridigm's own keys are typed; every other key is handed to NOX.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoxQuasiStatic {
+    /// `Number of Load Steps` or `Time Steps` (exactly one, required).
+    pub load_steps: LoadSteps,
+    /// `Max Solver Iterations` — default 50 (note the spelling differs from QuasiStatic).
+    pub max_solver_iterations: u64,
+    /// `Relative Tolerance` — default 1e-6.
+    pub relative_tolerance: f64,
+    /// `Absolute Tolerance` — default none.
+    pub absolute_tolerance: Option<f64>,
+    /// `Verbose` — default false.
+    pub verbose: bool,
+    /// `Max Age Of Prec` — preconditioner reuse count; default 200.
+    pub max_age_of_prec: u64,
+    /// `Preconditioner Reuse Policy` — default none.
+    pub preconditioner_reuse_policy: Option<String>,
+    /// `Direction → Method` — `Newton` or `NonlinearCG` (required; also left in `nox`).
+    pub direction_method: String,
+    /// Every other key of the list (NOX parameters: `Nonlinear Solver`, `Direction`,
+    /// `Line Search`, `Printing`, ...), in file order.
+    pub nox: Vec<(String, ParameterValue)>,
+}
+
+/// A generic parameter tree (for lists handed on unchanged, such as NOX's).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ParameterValue {
+    /// A nested list, in file order.
+    List(Vec<(String, ParameterValue)>),
+    /// A string (an empty YAML value is an empty string).
+    String(String),
+    /// An integer.
+    Int(i64),
+    /// A double.
+    Double(f64),
+    /// A boolean.
+    Bool(bool),
+}
+
+/// `Implicit` sublist (Newmark-β).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Implicit {
+    /// `Fixed dt` (required, > 0).
+    pub fixed_dt: f64,
+    /// `Beta` β — default 0.25.
+    pub beta: f64,
+    /// `Gamma` γ — default 0.5.
+    pub gamma: f64,
+    /// `Absolute Tolerance` — default 1e-6.
+    pub absolute_tolerance: f64,
+    /// `Maximum Solver Iterations` — default 10.
+    pub maximum_solver_iterations: u64,
+}
+
+/// `ImplicitDiffusion` sublist.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImplicitDiffusion {
+    /// `Number of Load Steps` or `Time Steps` (exactly one, required).
+    pub load_steps: LoadSteps,
+    /// `Maximum Solver Iterations` — default 10.
+    pub maximum_solver_iterations: u64,
+    /// `Relative Tolerance` — default 1e-6.
+    pub relative_tolerance: f64,
+    /// `Absolute Tolerance` — default none.
+    pub absolute_tolerance: Option<f64>,
+    /// `Belos *` keys.
+    pub belos: BelosSettings,
+}
+
+/// Top-level NOX parameter names (never reported as typos).
+const NOX_TOP_LEVEL: &[&str] = &[
+    "Nonlinear Solver",
+    "Direction",
+    "Line Search",
+    "Printing",
+    "Solver Options",
+    "Trust Region",
+    "Status Tests",
+    "Tensor",
+    "Thyra Group Options",
+    "Inexact Trust Region",
+];
+
+/// Peridigm's own keys in `NOXQuasiStatic`.
+const NOX_PERIDIGM_KEYS: &[&str] = &[
+    "Number of Load Steps",
+    "Time Steps",
+    "Max Solver Iterations",
+    "Relative Tolerance",
+    "Absolute Tolerance",
+    "Verbose",
+    "Max Age Of Prec",
+    "Preconditioner Reuse Policy",
+];
+
+const INTEGRATORS: [&str; 5] = [
+    "Verlet",
+    "QuasiStatic",
+    "NOXQuasiStatic",
+    "Implicit",
+    "ImplicitDiffusion",
+];
+
+pub(crate) fn to_parameter_value(entry: &Entry) -> ParameterValue {
+    match &entry.value.kind {
+        NodeKind::List(children) => ParameterValue::List(
+            children
+                .iter()
+                .map(|c| (c.key.clone(), to_parameter_value(c)))
+                .collect(),
+        ),
+        NodeKind::Scalar(s) => match s.kind {
+            ScalarKind::String => ParameterValue::String(s.text.clone()),
+            ScalarKind::Null => ParameterValue::String(String::new()),
+            ScalarKind::Int(i) => ParameterValue::Int(i),
+            ScalarKind::Double(d) => ParameterValue::Double(d),
+            ScalarKind::Bool(b) => ParameterValue::Bool(b),
+        },
+    }
+}
+
+/// Reads `Number of Load Steps` / `Time Steps`; returns the steps and the last listed time.
+fn read_load_steps(
+    ctx: &Ctx,
+    list: &mut ListReader,
+) -> Result<(LoadSteps, Option<f64>), DeckError> {
+    let count = list.get("Number of Load Steps");
+    let times = list.get("Time Steps");
+    match (count, times) {
+        (Some(_), Some(t)) => Err(t.err(
+            ctx,
+            "give either \"Number of Load Steps\" or \"Time Steps\", not both",
+        )),
+        (None, None) => Err(list.missing(
+            ctx,
+            "Number of Load Steps",
+            "an integer ≥ 1; or a \"Time Steps\" list",
+        )),
+        (Some(c), None) => Ok((LoadSteps::Count(c.int_at_least(ctx, 1)? as u64), None)),
+        (None, Some(t)) => {
+            let text = t.string(ctx)?;
+            let mut values = Vec::new();
+            for token in text.split_whitespace() {
+                let ok =
+                    super::tree::is_float_literal(token) || super::tree::is_integer_literal(token);
+                match token.parse::<f64>() {
+                    Ok(v) if ok => values.push(v),
+                    _ => {
+                        return Err(t.err(
+                            ctx,
+                            format!(
+                            "\"{token}\" is not a number; Time Steps is a list of increasing times"
+                        ),
+                        ))
+                    }
+                }
+            }
+            if values.len() < 2 {
+                return Err(t.err(
+                    ctx,
+                    "Time Steps needs at least two times (the start and one step)",
+                ));
+            }
+            if let Some(w) = values.windows(2).find(|w| w[1] <= w[0]) {
+                return Err(t.err(
+                    ctx,
+                    format!(
+                        "Time Steps must increase strictly; {} is followed by {}",
+                        w[0], w[1]
+                    ),
+                ));
+            }
+            let last = values.last().copied();
+            Ok((LoadSteps::Times(values), last))
+        }
+    }
+}
+
+fn read_belos(ctx: &Ctx, list: &mut ListReader) -> Result<BelosSettings, DeckError> {
+    Ok(BelosSettings {
+        linear_solver: match list.get("Belos Linear Solver") {
+            None => BelosSolver::BlockCg,
+            Some(f) => match f.choice(ctx, &["BlockCG", "BlockGMRES"])? {
+                "BlockGMRES" => BelosSolver::BlockGmres,
+                _ => BelosSolver::BlockCg,
+            },
+        },
+        maximum_iterations: list
+            .int_opt(ctx, "Belos Maximum Iterations", 1)?
+            .map(|v| v as u64),
+        relative_tolerance: list
+            .positive_opt(ctx, "Belos Relative Tolerance")?
+            .unwrap_or(1e-4),
+        print_status: list.bool_or(ctx, "Belos Print Status", false)?,
+    })
+}
+
+fn read_adaptive(ctx: &mut Ctx, field: &Field) -> Result<AdaptiveLoadStepping, DeckError> {
+    let mut list = field.list(ctx)?;
+    let switch_to_verlet = match list.list_opt(ctx, "Switch to Verlet")? {
+        None => None,
+        Some(mut s) => {
+            let v = SwitchToVerlet {
+                fixed_dt: s.positive_opt(ctx, "Fixed dt")?,
+                safety_factor: s.positive_opt(ctx, "Safety Factor")?.unwrap_or(1.0),
+                output_frequency: s.int_opt(ctx, "Output Frequency", 1)?.map(|v| v as u64),
+            };
+            s.finish(ctx, &[])?;
+            Some(v)
+        }
+    };
+    let out = AdaptiveLoadStepping {
+        max_reductions_in_one_step: list
+            .int_opt(ctx, "Maximum load step reductions in one step", 0)?
+            .map(|v| v as u64),
+        max_total_reductions: list
+            .int_opt(ctx, "Maximum total load step reductions", 0)?
+            .map(|v| v as u64),
+        reduce_all_remaining_load_steps: list.bool_or(
+            ctx,
+            "Reduce all remaining load steps",
+            false,
+        )?,
+        adaptive_output_frequency: list.bool_or(ctx, "Adaptive output frequency", false)?,
+        switch_to_verlet,
+    };
+    list.finish(ctx, &[])?;
+    Ok(out)
+}
+
+/// Reads one `Solver*` list; `first` tells whether it is the first one (which alone decides the
+/// `Solve For *` switches in Peridigm).
+pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, DeckError> {
+    let mut list = field.list(ctx)?;
+    let present: Vec<Field> = INTEGRATORS.iter().filter_map(|k| list.get(k)).collect();
+    let integrator_field = match present.as_slice() {
+        [] => {
+            return Err(ctx.error(
+                Some(list.line),
+                &list.path,
+                "no time integrator; add exactly one of the sublists Verlet, QuasiStatic, NOXQuasiStatic, Implicit, ImplicitDiffusion",
+            ))
+        }
+        [one] => one,
+        [_, second, ..] => {
+            let names = present.iter().map(|f| f.key()).collect::<Vec<_>>().join(", ");
+            return Err(second.err(ctx, format!("a solver list holds exactly one integrator, found {names}; put each in its own Solver list (they run in file order)")));
+        }
+    };
+    let initial_time = list.f64_opt(ctx, "Initial Time")?.unwrap_or(0.0);
+    let final_field = list.get("Final Time");
+    let final_given = final_field.as_ref().map(|f| f.f64(ctx)).transpose()?;
+    let mut integ = integrator_field.list(ctx)?;
+    let (integrator, final_time) = match integrator_field.key() {
+        "Verlet" => {
+            let v = Verlet {
+                fixed_dt: integ.positive_opt(ctx, "Fixed dt")?,
+                safety_factor: integ.positive_opt(ctx, "Safety Factor")?.unwrap_or(1.0),
+            };
+            integ.finish(ctx, &[])?;
+            (Integrator::Verlet(v), final_given.unwrap_or(1.0))
+        }
+        "QuasiStatic" => {
+            let (load_steps, last) = read_load_steps(ctx, &mut integ)?;
+            let adaptive = integ.get("Adaptive Load-Stepping");
+            let q = QuasiStatic {
+                load_steps,
+                maximum_solver_iterations: integ
+                    .int_opt(ctx, "Maximum Solver Iterations", 1)?
+                    .unwrap_or(10) as u64,
+                relative_tolerance: integ
+                    .positive_opt(ctx, "Relative Tolerance")?
+                    .unwrap_or(1e-6),
+                absolute_tolerance: integ.positive_opt(ctx, "Absolute Tolerance")?,
+                damped_newton_diagonal_scale_factor: integ
+                    .positive_opt(ctx, "Damped Newton Diagonal Scale Factor")?
+                    .unwrap_or(1.0001),
+                damped_newton_diagonal_shift_factor: integ
+                    .non_negative_opt(ctx, "Damped Newton Diagonal Shift Factor")?
+                    .unwrap_or(1e-5),
+                belos: read_belos(ctx, &mut integ)?,
+                adaptive_load_stepping: adaptive.map(|f| read_adaptive(ctx, &f)).transpose()?,
+            };
+            integ.finish(ctx, &[])?;
+            let final_time = final_time_for_steps(ctx, &list, final_given, last)?;
+            (Integrator::QuasiStatic(q), final_time)
+        }
+        "NOXQuasiStatic" => {
+            let (load_steps, last) = read_load_steps(ctx, &mut integ)?;
+            let direction = integ.peek("Direction");
+            let method = direction
+                .as_ref()
+                .and_then(|d| d.node().as_list())
+                .and_then(|entries| {
+                    entries
+                        .iter()
+                        .find(|e| e.key == "Method")
+                        .map(|e| (e, e.value.clone()))
+                });
+            let direction_method = match (&direction, method) {
+                (None, _) => {
+                    return Err(integ.missing(
+                        ctx,
+                        "Direction",
+                        "a list with Method: \"Newton\" or \"NonlinearCG\"",
+                    ))
+                }
+                (Some(d), None) => {
+                    let d = d.list(ctx)?;
+                    return Err(d.missing(ctx, "Method", "\"Newton\" or \"NonlinearCG\""));
+                }
+                (Some(d), Some((entry, _))) => {
+                    let mut path = d.path.clone();
+                    path.push("Method".into());
+                    let f = Field { entry, path };
+                    f.choice(ctx, &["Newton", "NonlinearCG"])?.to_string()
+                }
+            };
+            if let Some(f) = integ.get("Maximum Solver Iterations") {
+                return Err(f.err(ctx, "NOXQuasiStatic spells this \"Max Solver Iterations\" (QuasiStatic uses \"Maximum Solver Iterations\")"));
+            }
+            let max_solver_iterations = integ
+                .int_opt(ctx, "Max Solver Iterations", 1)?
+                .unwrap_or(50) as u64;
+            let relative_tolerance = integ
+                .positive_opt(ctx, "Relative Tolerance")?
+                .unwrap_or(1e-6);
+            let absolute_tolerance = integ.positive_opt(ctx, "Absolute Tolerance")?;
+            let verbose = integ.bool_or(ctx, "Verbose", false)?;
+            let max_age_of_prec = integ.int_opt(ctx, "Max Age Of Prec", 1)?.unwrap_or(200) as u64;
+            let preconditioner_reuse_policy = integ.name_opt(ctx, "Preconditioner Reuse Policy")?;
+            // NOX accepts any parameter, so the rest is handed on; but a near miss of one of
+            // Peridigm's own keys is almost certainly a typo that would be silently ignored.
+            let rest = integ.take_rest();
+            for f in &rest {
+                if NOX_TOP_LEVEL.contains(&f.key()) {
+                    continue;
+                }
+                if let Some(s) = super::reader::suggest(f.key(), NOX_PERIDIGM_KEYS.iter().copied())
+                {
+                    return Err(f.err(ctx, format!("unknown key; did you mean \"{s}\"?")));
+                }
+            }
+            let n = NoxQuasiStatic {
+                load_steps,
+                max_solver_iterations,
+                relative_tolerance,
+                absolute_tolerance,
+                verbose,
+                max_age_of_prec,
+                preconditioner_reuse_policy,
+                direction_method,
+                nox: rest
+                    .into_iter()
+                    .map(|f| (f.key().to_string(), to_parameter_value(f.entry)))
+                    .collect(),
+            };
+            let final_time = final_time_for_steps(ctx, &list, final_given, last)?;
+            (Integrator::NoxQuasiStatic(n), final_time)
+        }
+        "Implicit" => {
+            let i = Implicit {
+                fixed_dt: integ.positive_req(ctx, "Fixed dt")?,
+                beta: integ.positive_opt(ctx, "Beta")?.unwrap_or(0.25),
+                gamma: integ.positive_opt(ctx, "Gamma")?.unwrap_or(0.5),
+                absolute_tolerance: integ
+                    .positive_opt(ctx, "Absolute Tolerance")?
+                    .unwrap_or(1e-6),
+                maximum_solver_iterations: integ
+                    .int_opt(ctx, "Maximum Solver Iterations", 1)?
+                    .unwrap_or(10) as u64,
+            };
+            integ.finish(ctx, &[])?;
+            let final_time = match final_given {
+                Some(t) => t,
+                None => {
+                    return Err(list.missing(
+                        ctx,
+                        "Final Time",
+                        "a number; the Implicit integrator needs it",
+                    ))
+                }
+            };
+            (Integrator::Implicit(i), final_time)
+        }
+        "ImplicitDiffusion" => {
+            let (load_steps, last) = read_load_steps(ctx, &mut integ)?;
+            let d = ImplicitDiffusion {
+                load_steps,
+                maximum_solver_iterations: integ
+                    .int_opt(ctx, "Maximum Solver Iterations", 1)?
+                    .unwrap_or(10) as u64,
+                relative_tolerance: integ
+                    .positive_opt(ctx, "Relative Tolerance")?
+                    .unwrap_or(1e-6),
+                absolute_tolerance: integ.positive_opt(ctx, "Absolute Tolerance")?,
+                belos: read_belos(ctx, &mut integ)?,
+            };
+            integ.finish(ctx, &[])?;
+            let final_time = final_time_for_steps(ctx, &list, final_given, last)?;
+            (Integrator::ImplicitDiffusion(d), final_time)
+        }
+        _ => unreachable!("only integrator names are looked up"),
+    };
+    if final_time <= initial_time {
+        let line = final_field.as_ref().map_or(list.line, |f| f.line());
+        let mut path = list.path.clone();
+        path.push("Final Time".into());
+        return Err(ctx.error(
+            Some(line),
+            &path,
+            format!("Final Time ({final_time}) must be larger than Initial Time ({initial_time})"),
+        ));
+    }
+    let peridigm_preconditioner = match list.get("Peridigm Preconditioner") {
+        None => PeridigmPreconditioner::FullTangent,
+        Some(f) => match f.choice(ctx, &["Full Tangent", "Block 3x3", "None"])? {
+            "Block 3x3" => PeridigmPreconditioner::Block3x3,
+            "None" => PeridigmPreconditioner::None,
+            _ => PeridigmPreconditioner::FullTangent,
+        },
+    };
+    let mut solve_for = SolveFor {
+        displacement: true,
+        temperature: false,
+        concentration: false,
+        pressure: false,
+    };
+    for (key, slot) in [
+        ("Solve For Displacement", &mut solve_for.displacement),
+        ("Solve For Temperature", &mut solve_for.temperature),
+        ("Solve For Concentration", &mut solve_for.concentration),
+        ("Solve For Pressure", &mut solve_for.pressure),
+    ] {
+        if let Some(f) = list.get(key) {
+            *slot = f.bool(ctx)?;
+            if !first {
+                ctx.warn(f.line(), &f.path, "only the first solver list decides which fields are solved for (as in Peridigm); this setting is ignored");
+            }
+        }
+    }
+    let solver = Solver {
+        name: field.key().to_string(),
+        initial_time,
+        final_time,
+        verbose: list.bool_or(ctx, "Verbose", false)?,
+        disable_heuristics: list.bool_or(ctx, "Disable Heuristics", false)?,
+        initialize_predictor_from_previous_solver: list.bool_or(
+            ctx,
+            "Initialize Predictor From Previous Solver",
+            false,
+        )?,
+        jacobian_diagnostics: list.bool_or(ctx, "Jacobian Diagnostics", false)?,
+        peridigm_preconditioner,
+        solve_for,
+        integrator,
+    };
+    list.finish(ctx, &[])?;
+    Ok(solver)
+}
+
+fn final_time_for_steps(
+    ctx: &Ctx,
+    list: &ListReader,
+    given: Option<f64>,
+    last_listed: Option<f64>,
+) -> Result<f64, DeckError> {
+    match (given, last_listed) {
+        (Some(t), _) => Ok(t),
+        (None, Some(t)) => Ok(t),
+        (None, None) => Err(list.missing(
+            ctx,
+            "Final Time",
+            "a number; load steps divide the time from Initial Time to Final Time",
+        )),
+    }
+}
