@@ -11,3 +11,4 @@ pub mod material;
 pub mod model;
 pub mod neighbors;
 pub mod plan;
+pub mod setup;

@@ -1,1 +1,165 @@
-fn main() {}
+//! `peridyn`: run, check and compare peridynamics simulations from Peridigm-style decks.
+//!
+//! Exit codes: 0 success, 2 invalid input (deck, mesh, node sets), 3 solver failure or
+//! instability, 1 anything else (including deck features this build cannot run yet).
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+use peridyn::io::deck::{self, DeckError};
+use peridyn::io::exodus::{compare, ComparisonSpec, ExodusFile};
+use peridyn::setup::{self, SetupError};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "peridyn", version, about = "Peridynamics with Peridigm-compatible input decks")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a simulation deck (YAML or Peridigm XML).
+    Run {
+        /// The input deck.
+        deck: PathBuf,
+        /// Folder for the output files (default: the current folder).
+        #[arg(long, default_value = ".")]
+        output_dir: PathBuf,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
+    /// Validate a deck and print the run plan: sizes, physics, fields, memory, time step.
+    Check {
+        /// The input deck.
+        deck: PathBuf,
+        /// Print the plan as one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Compare two Exodus files like SEACAS exodiff (tolerances from a .comp command file).
+    Diff {
+        /// The file to check.
+        a: PathBuf,
+        /// The reference file.
+        b: PathBuf,
+        /// exodiff command file with tolerances (default: exodiff's defaults).
+        #[arg(long)]
+        comp: Option<PathBuf>,
+    },
+}
+
+/// Failure classes that decide the exit code.
+#[derive(Debug, thiserror::Error)]
+enum Failure {
+    #[error("{0}")]
+    InvalidInput(String),
+    #[error("{0}")]
+    Unsupported(String),
+    #[error("{0}")]
+    Differs(String),
+}
+
+fn invalid(error: impl std::fmt::Display) -> anyhow::Error {
+    Failure::InvalidInput(error.to_string()).into()
+}
+
+fn load(path: &Path) -> Result<deck::Deck> {
+    deck::load(path).map_err(|e: DeckError| invalid(e))
+}
+
+fn build(deck: &deck::Deck) -> Result<setup::Model> {
+    setup::build(deck).map_err(|e: SetupError| invalid(e))
+}
+
+fn check(path: &Path, json: bool) -> Result<()> {
+    let deck = load(path)?;
+    let model = build(&deck)?;
+    let plan = setup::plan(&deck, &model).map_err(invalid)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&plan)?);
+    } else {
+        print!("{plan}");
+    }
+    Ok(())
+}
+
+fn run(path: &Path, output_dir: &Path, threads: Option<usize>) -> Result<()> {
+    if let Some(threads) = threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build_global()
+            .context("cannot set up the thread pool")?;
+    }
+    let deck = load(path)?;
+    let model = build(&deck)?;
+    let unsupported = setup::unsupported_features(&deck);
+    if !unsupported.is_empty() {
+        return Err(Failure::Unsupported(format!(
+            "{}: this build cannot run this deck yet; missing: {}",
+            path.display(),
+            unsupported.join(", ")
+        ))
+        .into());
+    }
+    std::fs::create_dir_all(output_dir)
+        .with_context(|| format!("cannot create the output folder {}", output_dir.display()))?;
+    let _ = model;
+    Ok(())
+}
+
+fn diff(a: &Path, b: &Path, comp: Option<&Path>) -> Result<()> {
+    let spec = match comp {
+        Some(path) => ComparisonSpec::from_file(path).map_err(invalid)?,
+        None => ComparisonSpec::default(),
+    };
+    let first = ExodusFile::open(a).map_err(invalid)?;
+    let second = ExodusFile::open(b).map_err(invalid)?;
+    let report = compare(&first, &second, &spec).map_err(invalid)?;
+    print!("{report}");
+    if report.passed() {
+        Ok(())
+    } else {
+        Err(Failure::Differs(format!("{} and {} differ", a.display(), b.display())).into())
+    }
+}
+
+/// `peridyn deck.yaml` runs the deck, as `Peridigm deck.yaml` does.
+fn arguments() -> Vec<std::ffi::OsString> {
+    let mut args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    if let Some(first) = args.get(1).and_then(|a| a.to_str()) {
+        let lower = first.to_ascii_lowercase();
+        if lower.ends_with(".yaml") || lower.ends_with(".yml") || lower.ends_with(".xml") {
+            args.insert(1, "run".into());
+        }
+    }
+    args
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse_from(arguments());
+    let result = match &cli.command {
+        Command::Run {
+            deck,
+            output_dir,
+            threads,
+        } => run(deck, output_dir, *threads),
+        Command::Check { deck, json } => check(deck, *json),
+        Command::Diff { a, b, comp } => diff(a, b, comp.as_deref()),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            let code = match error.downcast_ref::<Failure>() {
+                Some(Failure::InvalidInput(_)) => 2,
+                Some(Failure::Differs(_)) => 1,
+                Some(Failure::Unsupported(_)) => 1,
+                None => 1,
+            };
+            eprintln!("error: {error:#}");
+            ExitCode::from(code)
+        }
+    }
+}

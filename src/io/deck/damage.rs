@@ -189,3 +189,17 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<DamageModel, DeckErro
         kind,
     })
 }
+
+impl DamageKind {
+    /// The `Damage Model` string, as written in decks.
+    pub fn deck_name(&self) -> &'static str {
+        match self {
+            DamageKind::CriticalStretch { .. } => "Critical Stretch",
+            DamageKind::TimeDependentCriticalStretch { .. } => "Time Dependent Critical Stretch",
+            DamageKind::InterfaceAware { .. } => "Interface Aware",
+            DamageKind::InitialDamage { .. } => "Initial Damage",
+            DamageKind::JohnsonCook { .. } => "Johnson Cook",
+            DamageKind::VonMisesStress { .. } => "Von Mises Stress",
+        }
+    }
+}

@@ -788,3 +788,42 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Material, DeckError> 
         finite_difference_probe_length,
     })
 }
+
+impl MaterialModel {
+    /// The `Material Model` string of this model family, as written in decks.
+    pub fn deck_name(&self) -> &'static str {
+        match self {
+            MaterialModel::Elastic { .. } => "Elastic",
+            MaterialModel::ElasticPlastic { .. } => "Elastic Plastic",
+            MaterialModel::ElasticPlasticHardening { .. } => "Elastic Plastic Hardening",
+            MaterialModel::Viscoelastic { .. } => "Viscoelastic",
+            MaterialModel::ElasticBondBased { .. } => "Elastic Bond Based",
+            MaterialModel::Pals { .. } => "Pals",
+            MaterialModel::LinearLpsPartialVolume { .. } => "Linear LPS Partial Volume",
+            MaterialModel::ElasticCorrespondence { .. } => "Elastic Correspondence",
+            MaterialModel::ElasticPlasticCorrespondence { .. } => "Elastic Plastic Correspondence",
+            MaterialModel::IsotropicHardeningCorrespondence { .. } => {
+                "Isotropic Hardening Correspondence"
+            }
+            MaterialModel::ViscoplasticNeedlemanCorrespondence { .. } => {
+                "Viscoplastic Needleman Correspondence"
+            }
+            MaterialModel::HypoelasticCorrespondence { .. } => "Hypoelastic Correspondence",
+            MaterialModel::BondAssociatedCorrespondence { .. } => "Bond Associated Correspondence",
+            MaterialModel::MultiphysicsElastic { .. } => "Multiphysics Elastic",
+            MaterialModel::VectorPoisson => "Vector Poisson",
+            MaterialModel::Diffusion { .. } => "Diffusion",
+        }
+    }
+
+    /// True for ordinary and non-ordinary state-based models (a point's force depends on its
+    /// whole family's deformation), false for bond-based ones.
+    pub fn is_state_based(&self) -> bool {
+        !matches!(
+            self,
+            MaterialModel::ElasticBondBased { .. }
+                | MaterialModel::VectorPoisson
+                | MaterialModel::Diffusion { .. }
+        )
+    }
+}

@@ -634,3 +634,21 @@ fn final_time_for_steps(
         )),
     }
 }
+
+impl Integrator {
+    /// The integrator sublist name, as written in decks.
+    pub fn deck_name(&self) -> &'static str {
+        match self {
+            Integrator::Verlet(_) => "Verlet",
+            Integrator::QuasiStatic(_) => "QuasiStatic",
+            Integrator::NoxQuasiStatic(_) => "NOXQuasiStatic",
+            Integrator::Implicit(_) => "Implicit",
+            Integrator::ImplicitDiffusion(_) => "ImplicitDiffusion",
+        }
+    }
+
+    /// True for the solvers that need a tangent stiffness matrix.
+    pub fn is_implicit(&self) -> bool {
+        !matches!(self, Integrator::Verlet(_))
+    }
+}

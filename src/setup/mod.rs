@@ -1,0 +1,376 @@
+//! From a checked deck to a model ready to run: points, blocks, horizons, node sets, families.
+//!
+//! Every problem found here is reported against the deck key that caused it (file, key path,
+//! line), like load-time errors: a node id beyond the number of points, a node set no one
+//! defines, a block the mesh does not have, an expression that does not compile.
+
+mod families;
+mod node_sets;
+mod report;
+
+pub use report::{plan, unsupported_features};
+
+use crate::boundary::{BoundaryConditions, Condition, ConditionKind};
+use crate::discretization::{
+    read_exodus_mesh, read_text_mesh, CylinderGrid, Discretization, FamilyRule, MeshError,
+    TensorProductGrid,
+};
+use crate::expression::{Expression, INFLUENCE, SPACE, SPACE_TIME, TIME};
+use crate::io::deck::{
+    BoundaryConditionKind, DamageKind, Deck, DeckError, Horizon, InfluenceFunction, PointSource,
+    QuickGridGenerator,
+};
+use crate::model::{BlockInfo, BondList, NodeSets, PointCloud};
+use crate::neighbors::space_filling_curve_order;
+
+/// A problem setting up the run from a valid deck. All are invalid input (exit code 2).
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    /// A deck key whose value does not fit the mesh (named with file, key path and line).
+    #[error(transparent)]
+    Deck(#[from] DeckError),
+    /// The mesh or a node-set file could not be read.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+}
+
+/// One mesh block with the deck settings that apply to it.
+#[derive(Debug, Clone)]
+pub struct ModelBlock {
+    /// Mesh id and `block_<id>` name.
+    pub info: BlockInfo,
+    /// Index into `deck.blocks` of the entry that covers this block.
+    pub deck_block: usize,
+    /// Points of this block (run order, ascending).
+    pub points: Vec<u32>,
+}
+
+/// The immutable description of a run.
+#[derive(Debug, Clone)]
+pub struct Model {
+    /// Points in run order (sorted along a space-filling curve).
+    pub points: PointCloud,
+    /// Horizon δ of every point (run order).
+    pub horizon: Vec<f64>,
+    /// Mesh blocks; `points.block` indexes this list.
+    pub blocks: Vec<ModelBlock>,
+    /// Node sets from the deck and the mesh (run order).
+    pub node_sets: NodeSets,
+    /// Names of the node sets that came from the mesh (for reporting).
+    pub mesh_node_set_names: Vec<String>,
+    /// Families (directed bonds, run order).
+    pub bonds: BondList,
+    /// `run_index[k]` = run index of the point with original id k.
+    pub run_index: Vec<u32>,
+    /// Boundary and initial conditions with compiled expressions.
+    pub boundary: BoundaryConditions,
+    /// Smallest element radius (3V/4π)^(1/3).
+    pub min_element_radius: f64,
+}
+
+/// Reads or generates the discretization the deck describes.
+pub fn discretize(deck: &Deck) -> Result<Discretization, SetupError> {
+    let source = &deck.discretization.source;
+    let discretization = match source {
+        PointSource::PdQuickGrid {
+            generator,
+            spherical_neighborhood,
+        } => {
+            let spherical = *spherical_neighborhood;
+            match generator {
+                QuickGridGenerator::TensorProduct3D {
+                    origin,
+                    length,
+                    number_of_points,
+                } => {
+                    let grid = TensorProductGrid {
+                        origin: *origin,
+                        length: *length,
+                        points: number_of_points.map(|n| n as usize),
+                    };
+                    Discretization {
+                        points: grid.generate(),
+                        blocks: vec![BlockInfo::from_id(1)],
+                        node_sets: NodeSets::default(),
+                        family_rule: FamilyRule::Lattice {
+                            spacing: grid.spacing(),
+                            cells: grid.points,
+                            spherical,
+                        },
+                    }
+                }
+                QuickGridGenerator::TensorProductCylinder {
+                    inner_radius,
+                    outer_radius,
+                    cylinder_length,
+                    number_of_points_radius,
+                    ring_center,
+                    z_origin,
+                } => {
+                    let grid = CylinderGrid {
+                        inner_radius: *inner_radius,
+                        outer_radius: *outer_radius,
+                        length: *cylinder_length,
+                        rings: *number_of_points_radius as usize,
+                        center: *ring_center,
+                        z_origin: *z_origin,
+                    };
+                    Discretization {
+                        points: grid.generate(),
+                        blocks: vec![BlockInfo::from_id(1)],
+                        node_sets: NodeSets::default(),
+                        family_rule: FamilyRule::Cylinder { grid, spherical },
+                    }
+                }
+            }
+        }
+        PointSource::TextFile { input_mesh_file } => {
+            let mesh = read_text_mesh(input_mesh_file)?;
+            Discretization {
+                points: mesh.points,
+                blocks: mesh.blocks,
+                node_sets: NodeSets::default(),
+                family_rule: FamilyRule::Sphere,
+            }
+        }
+        PointSource::Exodus {
+            input_mesh_file, ..
+        } => {
+            let mesh = read_exodus_mesh(input_mesh_file)?;
+            Discretization {
+                points: mesh.points,
+                blocks: mesh.blocks,
+                node_sets: mesh.node_sets,
+                family_rule: FamilyRule::Sphere,
+            }
+        }
+    };
+    Ok(discretization)
+}
+
+/// For each mesh block, the deck `Blocks` entry that covers it (by name, or `Default`).
+/// Errors when the deck names a block the mesh lacks, or leaves a mesh block uncovered.
+fn assign_blocks(deck: &Deck, mesh_blocks: &[BlockInfo]) -> Result<Vec<usize>, DeckError> {
+    let mesh_names: Vec<&str> = mesh_blocks.iter().map(|b| b.name.as_str()).collect();
+    let mut assignment: Vec<Option<usize>> = vec![None; mesh_blocks.len()];
+    let mut default_entry = None;
+    for (k, block) in deck.blocks.iter().enumerate() {
+        for name in &block.block_names {
+            if name.eq_ignore_ascii_case("default") {
+                default_entry = Some(k);
+                continue;
+            }
+            match mesh_names.iter().position(|m| m == name) {
+                Some(index) => assignment[index] = Some(k),
+                None => {
+                    return Err(deck.error_at(
+                        &["Blocks", &block.name, "Block Names"],
+                        format!(
+                            "the mesh has no block \"{name}\"; its blocks are {}",
+                            mesh_names.join(", ")
+                        ),
+                    ))
+                }
+            }
+        }
+    }
+    assignment
+        .iter()
+        .enumerate()
+        .map(|(index, entry)| {
+            entry.or(default_entry).ok_or_else(|| {
+                deck.error_at(
+                    &["Blocks"],
+                    format!(
+                        "mesh block \"{}\" is not named in any Blocks entry; add it to a \"Block Names\" list or use \"Default\"",
+                        mesh_names[index]
+                    ),
+                )
+            })
+        })
+        .collect()
+}
+
+/// Compiles an expression, reporting failures against the deck key.
+pub(crate) fn compile(
+    deck: &Deck,
+    key_path: &[&str],
+    text: &str,
+    variables: &[&str],
+) -> Result<Expression, DeckError> {
+    Expression::parse(text, variables).map_err(|e| deck.error_at(key_path, e.to_string()))
+}
+
+/// Checks every expression in the deck that this build evaluates later (influence function,
+/// time-dependent critical stretch), so a typo fails before any work is done.
+fn check_expressions(deck: &Deck) -> Result<(), DeckError> {
+    if let InfluenceFunction::Expression(text) = &deck.discretization.influence_function {
+        compile(deck, &["Discretization", "Influence Function"], text, INFLUENCE)?;
+    }
+    for model in &deck.damage_models {
+        if let DamageKind::TimeDependentCriticalStretch {
+            critical_stretch, ..
+        } = &model.kind
+        {
+            compile(
+                deck,
+                &["Damage Models", &model.name, "Time Dependent Critical Stretch"],
+                critical_stretch,
+                TIME,
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// Horizon of every point (input order) from its block's `Horizon` (number or expression in
+/// x, y, z); every value must be positive and finite.
+fn point_horizons(
+    deck: &Deck,
+    points: &PointCloud,
+    block_entry: &[usize],
+) -> Result<Vec<f64>, DeckError> {
+    let mut compiled: Vec<Option<Expression>> = Vec::with_capacity(deck.blocks.len());
+    for block in &deck.blocks {
+        compiled.push(match &block.horizon {
+            Horizon::Constant(_) => None,
+            Horizon::Expression(text) => {
+                Some(compile(deck, &["Blocks", &block.name, "Horizon"], text, SPACE)?)
+            }
+        });
+    }
+    let mut horizons = Vec::with_capacity(points.len());
+    for (i, x) in points.position.iter().enumerate() {
+        let entry = block_entry[points.block[i] as usize];
+        let block = &deck.blocks[entry];
+        let value = match (&block.horizon, &compiled[entry]) {
+            (Horizon::Constant(value), _) => *value,
+            (_, Some(expression)) => expression
+                .eval(&[x[0], x[1], x[2]])
+                .map_err(|e| deck.error_at(&["Blocks", &block.name, "Horizon"], e.to_string()))?,
+            (Horizon::Expression(_), None) => unreachable!("expressions were compiled above"),
+        };
+        if !(value.is_finite() && value > 0.0) {
+            return Err(deck.error_at(
+                &["Blocks", &block.name, "Horizon"],
+                format!(
+                    "the horizon at point {} ({:?}) is {value}; it must be a positive number",
+                    points.original_id[i] + 1,
+                    x
+                ),
+            ));
+        }
+        horizons.push(value);
+    }
+    Ok(horizons)
+}
+
+/// Compiles the mechanical boundary conditions against the node sets (input order).
+fn boundary_conditions(
+    deck: &Deck,
+    node_sets: &NodeSets,
+) -> Result<BoundaryConditions, DeckError> {
+    let mut conditions = Vec::new();
+    for bc in &deck.boundary_conditions.conditions {
+        let kind = match bc.kind {
+            BoundaryConditionKind::PrescribedDisplacement => ConditionKind::PrescribedDisplacement,
+            BoundaryConditionKind::InitialDisplacement => ConditionKind::InitialDisplacement,
+            BoundaryConditionKind::InitialVelocity => ConditionKind::InitialVelocity,
+            BoundaryConditionKind::BodyForce => ConditionKind::BodyForce,
+            // Thermal and fluid conditions: reported as unsupported by the plan.
+            _ => continue,
+        };
+        let points = node_sets
+            .get(&bc.node_set)
+            .ok_or_else(|| {
+                deck.error_at(
+                    &["Boundary Conditions", &bc.name, "Node Set"],
+                    format!(
+                        "no node set \"{}\" in the deck or the mesh; defined sets: {}",
+                        bc.node_set,
+                        node_sets
+                            .iter()
+                            .map(|(name, _)| format!("\"{name}\""))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                )
+            })?
+            .to_vec();
+        let value = compile(
+            deck,
+            &["Boundary Conditions", &bc.name, "Value"],
+            &bc.value,
+            SPACE_TIME,
+        )?;
+        conditions.push(Condition {
+            name: bc.name.clone(),
+            kind,
+            points,
+            component: bc.coordinate as usize,
+            value,
+        });
+    }
+    Ok(BoundaryConditions { conditions })
+}
+
+/// Builds the model: discretize, assign blocks, horizons, node sets, conditions, reorder along
+/// a space-filling curve, and search families.
+pub fn build(deck: &Deck) -> Result<Model, SetupError> {
+    check_expressions(deck)?;
+    let discretization = discretize(deck)?;
+    let block_entry = assign_blocks(deck, &discretization.blocks)?;
+    let mut points = discretization.points.clone();
+    let horizons = point_horizons(deck, &points, &block_entry)?;
+    let (mut node_sets, mesh_node_set_names) =
+        node_sets::collect(deck, &discretization.node_sets, points.len())?;
+    let mut boundary = boundary_conditions(deck, &node_sets)?;
+
+    let order = space_filling_curve_order(&points.position);
+    let mut run_index = vec![0u32; order.len()];
+    for (new, &old) in order.iter().enumerate() {
+        run_index[old as usize] = new as u32;
+    }
+    points.permute(&order);
+    let horizon: Vec<f64> = order.iter().map(|&old| horizons[old as usize]).collect();
+    node_sets.renumber(&run_index);
+    for condition in &mut boundary.conditions {
+        for p in condition.points.iter_mut() {
+            *p = run_index[*p as usize];
+        }
+        condition.points.sort_unstable();
+    }
+
+    let bonds = families::build(
+        deck,
+        &discretization.family_rule,
+        &points,
+        &horizon,
+        &order,
+        &run_index,
+    )?;
+    let blocks = discretization
+        .blocks
+        .iter()
+        .enumerate()
+        .map(|(index, info)| ModelBlock {
+            info: info.clone(),
+            deck_block: block_entry[index],
+            points: (0..points.len() as u32)
+                .filter(|&p| points.block[p as usize] == index as u32)
+                .collect(),
+        })
+        .collect();
+    let min_element_radius = discretization.min_element_radius();
+    Ok(Model {
+        points,
+        horizon,
+        blocks,
+        node_sets,
+        mesh_node_set_names,
+        bonds,
+        run_index,
+        boundary,
+        min_element_radius,
+    })
+}

@@ -1,0 +1,47 @@
+//! Node sets from the deck (id lists or files) and from the mesh.
+
+use super::SetupError;
+use crate::discretization::read_node_set_file;
+use crate::io::deck::{Deck, NodeSetSource};
+use crate::model::NodeSets;
+
+/// All node sets in input order (0-based point indices), and the names that came from the mesh.
+/// Deck ids are 1-based; an id beyond the number of points is an error naming the deck key.
+/// Deck sets are added after mesh sets; a deck set with exactly a mesh set's name replaces it.
+pub(super) fn collect(
+    deck: &Deck,
+    mesh_sets: &NodeSets,
+    num_points: usize,
+) -> Result<(NodeSets, Vec<String>), SetupError> {
+    let mut sets = NodeSets::default();
+    let mut mesh_names = Vec::new();
+    for (name, points) in mesh_sets.iter() {
+        sets.insert(name, points.to_vec());
+        mesh_names.push(name.to_string());
+    }
+    for definition in &deck.boundary_conditions.node_sets {
+        let key = ["Boundary Conditions", definition.name.as_str()];
+        let ids = match &definition.source {
+            NodeSetSource::Ids(ids) => ids.clone(),
+            NodeSetSource::File(path) => read_node_set_file(path).map_err(|e| {
+                deck.error_at(&key, format!("cannot use the node-set file: {e}"))
+            })?,
+        };
+        let mut points = Vec::with_capacity(ids.len());
+        for id in ids {
+            if id == 0 || id as usize > num_points {
+                return Err(deck
+                    .error_at(
+                        &key,
+                        format!(
+                            "node id {id} is out of range: the discretization has {num_points} points, numbered 1 to {num_points}"
+                        ),
+                    )
+                    .into());
+            }
+            points.push((id - 1) as u32);
+        }
+        sets.insert(definition.name.clone(), points);
+    }
+    Ok((sets, mesh_names))
+}

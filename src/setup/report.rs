@@ -1,0 +1,401 @@
+//! The run plan `peridyn check` prints: sizes, physics, fields, memory, Δt, and what this
+//! build cannot run yet.
+
+use super::Model;
+use crate::io::deck::{
+    BondBasedModulus, BondFilterShape, BoundaryConditionKind, ComputeClassKind, Deck,
+    DeckError, Integrator, MaterialModel, PointSource,
+};
+use crate::io::output::{closest_name, kind_of, OutputFile, RequestedVariable, VariableKind};
+use crate::plan::{
+    BlockPlan, FieldPlan, MemoryPlan, NodeSetPlan, OutputPlan, PhysicsPlan, RunPlan, SolverPlan,
+    TimeStepPlan,
+};
+use std::f64::consts::PI;
+
+/// Integrators this build runs.
+const SUPPORTED_INTEGRATORS: &[&str] = &[];
+/// Material models this build runs.
+const SUPPORTED_MATERIALS: &[&str] = &[];
+/// Damage models this build runs.
+const SUPPORTED_DAMAGE: &[&str] = &[];
+/// Output variables this build can compute.
+const SUPPORTED_OUTPUTS: &[&str] = &[
+    "Volume",
+    "Radius",
+    "Horizon",
+    "Element_Id",
+    "Block_Id",
+    "Proc_Num",
+    "Number_Of_Neighbors",
+    "Model_Coordinates",
+    "Coordinates",
+    "Displacement",
+    "Velocity",
+];
+
+/// The requested variables of one output list, checked against Peridigm's catalogue and the
+/// deck's compute-class labels. Unknown names are errors with a suggestion.
+pub fn requested_variables(
+    deck: &Deck,
+    output: &crate::io::deck::Output,
+) -> Result<Vec<RequestedVariable>, DeckError> {
+    let labels: Vec<&str> = deck
+        .compute_classes
+        .iter()
+        .filter_map(|c| c.output_label())
+        .collect();
+    let mut variables = Vec::new();
+    for (name, enabled) in &output.variables {
+        if !enabled {
+            continue;
+        }
+        let kind = if let Some(kind) = kind_of(name) {
+            kind
+        } else if labels.contains(&name.as_str()) {
+            VariableKind::Global
+        } else {
+            let hint = closest_name(name)
+                .map(|n| format!("; did you mean \"{n}\"?"))
+                .unwrap_or_else(|| {
+                    "; see the README for the list of output variables, or define a compute class with this Output Label".into()
+                });
+            return Err(deck.error_at(
+                &[&output.name, "Output Variables", name],
+                format!("unknown output variable \"{name}\"{hint}"),
+            ));
+        };
+        variables.push(RequestedVariable {
+            name: name.clone(),
+            kind,
+        });
+    }
+    Ok(variables)
+}
+
+/// Bulk modulus and density of a material when it has them (mechanical models).
+fn bulk_modulus_and_density(model: &MaterialModel, material: &crate::io::deck::Material) -> Option<(f64, f64)> {
+    let density = material.density?;
+    let bulk = match model {
+        // PMB fixes ν = ¼: K = E/(3(1 − 2ν)) = E/1.5.
+        MaterialModel::ElasticBondBased { modulus, .. } => match modulus {
+            BondBasedModulus::Bulk(k) => *k,
+            BondBasedModulus::Young(e) => e / 1.5,
+        },
+        _ => material.elastic.as_ref()?.bulk_modulus(),
+    };
+    Some((bulk, density))
+}
+
+/// Everything in the deck that this build cannot run yet, each named exactly.
+pub fn unsupported_features(deck: &Deck) -> Vec<String> {
+    let mut missing = Vec::new();
+    let mut note = |item: String| {
+        if !missing.contains(&item) {
+            missing.push(item);
+        }
+    };
+    for solver in &deck.solvers {
+        let name = solver.integrator.deck_name();
+        if !SUPPORTED_INTEGRATORS.contains(&name) {
+            note(format!("solver {name}"));
+        }
+    }
+    for material in &deck.materials {
+        let name = material.model.deck_name();
+        if !SUPPORTED_MATERIALS.contains(&name) {
+            note(format!("material model {name}"));
+        }
+    }
+    for damage in &deck.damage_models {
+        let name = damage.kind.deck_name();
+        if !SUPPORTED_DAMAGE.contains(&name) {
+            note(format!("damage model {name}"));
+        }
+    }
+    if deck.contact.is_some() {
+        note("contact".into());
+    }
+    for bc in &deck.boundary_conditions.conditions {
+        if !matches!(
+            bc.kind,
+            BoundaryConditionKind::PrescribedDisplacement
+                | BoundaryConditionKind::InitialDisplacement
+                | BoundaryConditionKind::InitialVelocity
+                | BoundaryConditionKind::BodyForce
+        ) {
+            note(format!("boundary condition type {}", bc.kind.deck_name()));
+        }
+    }
+    for filter in &deck.discretization.bond_filters {
+        if matches!(filter.shape, BondFilterShape::ExodusMesh { .. }) {
+            note("bond filter Exodus Mesh".into());
+        }
+    }
+    if let PointSource::Exodus {
+        construct_interfaces: true,
+        ..
+    } = deck.discretization.source
+    {
+        note("Construct Interfaces".into());
+    }
+    if deck.multiphysics {
+        note("Multiphysics".into());
+    }
+    if deck.restart {
+        note("Restart".into());
+    }
+    if deck.data_loader.is_some() {
+        note("Data Loader".into());
+    }
+    for class in &deck.compute_classes {
+        if let ComputeClassKind::BondVisualization { .. } = class.kind {
+            note("compute class Bond_Visualization".into());
+        }
+    }
+    for output in &deck.outputs {
+        for (name, enabled) in &output.variables {
+            let is_label = deck
+                .compute_classes
+                .iter()
+                .any(|c| c.output_label() == Some(name.as_str()));
+            if *enabled && !is_label && kind_of(name).is_some() && !SUPPORTED_OUTPUTS.contains(&name.as_str()) {
+                note(format!("output variable {name}"));
+            }
+        }
+    }
+    missing
+}
+
+/// Peridigm's critical time step (`Peridigm_CriticalTimeStep.cpp`):
+/// Δt = min_i sqrt(2ρ_i / Σ_j V_j c_i / ζ_ij), c_i = 18 K_i / (π δ_i⁴), with each point's
+/// block material. Points without neighbours impose no bound; `None` if no point has one.
+pub fn critical_time_step(deck: &Deck, model: &Model) -> Option<f64> {
+    let per_block: Vec<Option<(f64, f64)>> = model
+        .blocks
+        .iter()
+        .map(|b| {
+            let material = deck.material(&deck.blocks[b.deck_block].material)?;
+            bulk_modulus_and_density(&material.model, material)
+        })
+        .collect();
+    let mut best: Option<f64> = None;
+    for i in 0..model.points.len() {
+        let Some((bulk, density)) = per_block[model.points.block[i] as usize] else {
+            continue;
+        };
+        let delta = model.horizon[i];
+        let micromodulus = 18.0 * bulk / (PI * delta.powi(4));
+        let range = model.bonds.range(i);
+        let stiffness: f64 = model.bonds.neighbor[range.clone()]
+            .iter()
+            .zip(&model.bonds.reference_length[range])
+            .map(|(&j, &zeta)| model.points.volume[j as usize] * micromodulus / zeta)
+            .sum();
+        if stiffness > 0.0 {
+            let dt = (2.0 * density / stiffness).sqrt();
+            best = Some(best.map_or(dt, |b: f64| b.min(dt)));
+        }
+    }
+    best
+}
+
+/// Number of distinct points reachable in two hops (the state-based tangent pattern), exact
+/// when cheap, otherwise extrapolated from a sample of points.
+fn two_hop_nonzero_blocks(model: &Model) -> u64 {
+    let n = model.points.len();
+    if n == 0 {
+        return 0;
+    }
+    let bonds = &model.bonds;
+    let stride = (n / 2000).max(1);
+    let mut mark = vec![usize::MAX; n];
+    let mut sampled = 0u64;
+    let mut count = 0u64;
+    for i in (0..n).step_by(stride) {
+        sampled += 1;
+        let mut reach = 0u64;
+        let mut visit = |j: usize| {
+            if mark[j] != i {
+                mark[j] = i;
+                reach += 1;
+            }
+        };
+        visit(i);
+        for &j in bonds.family(i) {
+            visit(j as usize);
+            for &k in bonds.family(j as usize) {
+                visit(k as usize);
+            }
+        }
+        count += reach;
+    }
+    count * n as u64 / sampled
+}
+
+/// Builds the plan for a model set up from `deck`.
+pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
+    let n = model.points.len() as u64;
+    let bonds = model.bonds.num_bonds() as u64;
+    let mut plan = RunPlan {
+        deck: deck.path.display().to_string(),
+        discretization: match &deck.discretization.source {
+            PointSource::Exodus { .. } => "Exodus",
+            PointSource::TextFile { .. } => "Text File",
+            PointSource::PdQuickGrid { .. } => "PdQuickGrid",
+        }
+        .into(),
+        points: n as usize,
+        bonds: bonds as usize,
+        warnings: deck.warnings.clone(),
+        unsupported: unsupported_features(deck),
+        ..RunPlan::default()
+    };
+    for block in &model.blocks {
+        let entry = &deck.blocks[block.deck_block];
+        let sizes: Vec<usize> = block.points.iter().map(|&p| model.bonds.family_size(p as usize)).collect();
+        let horizons = block.points.iter().map(|&p| model.horizon[p as usize]);
+        let material_model = deck
+            .material(&entry.material)
+            .map(|m| m.model.deck_name().to_string())
+            .unwrap_or_default();
+        plan.blocks.push(BlockPlan {
+            name: block.info.name.clone(),
+            id: block.info.id,
+            material: entry.material.clone(),
+            material_model,
+            damage_model: entry.damage_model.clone(),
+            points: block.points.len(),
+            bonds: sizes.iter().sum(),
+            family_min: sizes.iter().copied().min().unwrap_or(0),
+            family_max: sizes.iter().copied().max().unwrap_or(0),
+            family_mean: if sizes.is_empty() {
+                0.0
+            } else {
+                sizes.iter().sum::<usize>() as f64 / sizes.len() as f64
+            },
+            horizon_min: horizons.clone().fold(f64::INFINITY, f64::min),
+            horizon_max: horizons.fold(0.0, f64::max),
+        });
+    }
+    for (name, points) in model.node_sets.iter() {
+        plan.node_sets.push(NodeSetPlan {
+            name: name.to_string(),
+            points: points.len(),
+            source: if model.mesh_node_set_names.iter().any(|m| m == name) {
+                "mesh"
+            } else {
+                "deck"
+            }
+            .into(),
+        });
+    }
+
+    let used_models: Vec<&MaterialModel> = model
+        .blocks
+        .iter()
+        .filter_map(|b| deck.material(&deck.blocks[b.deck_block].material))
+        .map(|m| &m.model)
+        .collect();
+    let state_based = used_models.iter().any(|m| m.is_state_based());
+    let damage = model
+        .blocks
+        .iter()
+        .any(|b| deck.blocks[b.deck_block].damage_model.is_some());
+    let explicit = deck.solvers.iter().any(|s| !s.integrator.is_implicit());
+    let implicit = deck.solvers.iter().any(|s| s.integrator.is_implicit());
+    plan.physics = PhysicsPlan {
+        state_based,
+        damage,
+        contact: deck.contact.is_some(),
+        explicit,
+        implicit,
+        tangent_pattern: implicit.then(|| if state_based { "two-hop" } else { "one-hop" }.to_string()),
+    };
+
+    let vector = 24 * n;
+    let mut field = |name: &str, per: &str, bytes: u64| {
+        plan.fields.push(FieldPlan {
+            name: name.into(),
+            per: per.into(),
+            bytes,
+        })
+    };
+    field("Model_Coordinates", "point", vector);
+    field("Volume", "point", 8 * n);
+    field("Horizon", "point", 8 * n);
+    field("Block_Id, original id", "point", 8 * n);
+    field("Displacement", "point", vector);
+    field("Velocity", "point", vector);
+    field("Force_Density", "point", vector);
+    if model.boundary.has_body_force() {
+        field("External_Force_Density", "point", vector);
+    }
+    if state_based {
+        field("Weighted_Volume", "point", 8 * n);
+        field("Dilatation", "point", 8 * n);
+    }
+    field("bond neighbour + length", "bond", 12 * bonds + 8 * (n + 1));
+    if damage {
+        field("Bond_Damage", "bond", 4 * bonds);
+    }
+    if plan.physics.contact {
+        field("Contact_Force_Density", "point", vector);
+    }
+    let mut memory = vec![
+        ("points and state", plan.fields.iter().filter(|f| f.per == "point").map(|f| f.bytes).sum()),
+        ("bonds", plan.fields.iter().filter(|f| f.per == "bond").map(|f| f.bytes).sum()),
+    ];
+    if implicit {
+        let blocks = if state_based {
+            two_hop_nonzero_blocks(model)
+        } else {
+            bonds + n
+        };
+        // CSR of 3×3 blocks: 9 values (8 B) + 9 column indices (4 B) per block, plus row starts.
+        memory.push(("tangent matrix (CSR)", blocks * 9 * 12 + 8 * (3 * n + 1)));
+    }
+    plan.memory = memory
+        .into_iter()
+        .map(|(part, bytes)| MemoryPlan {
+            part: part.into(),
+            bytes,
+        })
+        .collect();
+    plan.memory_total = plan.memory.iter().map(|m| m.bytes).sum();
+
+    for solver in &deck.solvers {
+        plan.solvers.push(SolverPlan {
+            name: solver.name.clone(),
+            kind: solver.integrator.deck_name().into(),
+            initial_time: solver.initial_time,
+            final_time: solver.final_time,
+        });
+    }
+    let first_verlet = deck.solvers.iter().find_map(|s| match &s.integrator {
+        Integrator::Verlet(v) => Some((s, v)),
+        _ => None,
+    });
+    if let Some((solver, verlet)) = first_verlet {
+        if let Some(estimate) = critical_time_step(deck, model) {
+            let used = verlet.safety_factor * verlet.fixed_dt.unwrap_or(estimate);
+            plan.time_step = Some(TimeStepPlan {
+                estimate,
+                safety_factor: verlet.safety_factor,
+                fixed: verlet.fixed_dt,
+                used,
+                steps: ((solver.final_time - solver.initial_time) / used).floor() as u64,
+            });
+        }
+    }
+    for output in &deck.outputs {
+        let variables = requested_variables(deck, output)?;
+        plan.outputs.push(OutputPlan {
+            name: output.name.clone(),
+            file: OutputFile::file_name(&output.filename, &variables),
+            frequency: output.frequency,
+            variables: variables.into_iter().map(|v| v.name).collect(),
+        });
+    }
+    Ok(plan)
+}
