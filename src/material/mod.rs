@@ -1,5 +1,317 @@
 //! Physics of the bulk material: constitutive models and their shared helpers.
+//!
+//! # How a material is driven
+//! One [`Material`] instance serves one block. After [`Material::setup`] (which stores the
+//! block's points and evaluates everything that depends only on the reference configuration:
+//! influence weights ω per bond, LPS weighted volume m per point), every force evaluation is
+//!
+//! 1. damage update (the `damage` module);
+//! 2. [`Material::compute_point_coefficients`] of every block (LPS: dilatation θ), then the
+//!    per-point numbers are exchanged across ranks;
+//! 3. [`Material::add_force_density`] of every block.
+//!
+//! # Force convention (Peridigm's, reference §1.3)
+//! The unknown is force density. Peridigm visits each directed bond i→j with the scalar force
+//! state t_ij computed from i's state and adds `t_ij M_ij V_j` to F_i and `−t_ij M_ij V_i` to
+//! F_j, where `M_ij = (Y_j − Y_i)/|Y_j − Y_i|`. Collecting both visits of a pair at point i
+//! gives the gather form used here (each point sums its own row; no atomics):
+//!
+//! `F_i = Σ_j (t_ij + t_ji) V_j M_ij`.
+//!
+//! t_ji is evaluated from j's published [`PointCoefficients`], so bonds between blocks of the
+//! same model with different constants are exact. The bond list must be symmetric (j in i's
+//! family iff i in j's), with the same ω from both ends; bonds between a bond-based and a
+//! state-based block would need the two coefficient meanings mixed and are not supported yet.
 
+mod bond_based;
 mod elastic_constants;
+mod influence;
+mod linear_peridynamic_solid;
+pub(crate) mod point_chunks;
 
+pub use bond_based::{BondBased, BondBasedParameters};
 pub use elastic_constants::{ElasticConstants, ElasticInput, PlanarAssumption};
+pub use influence::{InfluenceFunction, UserInfluence};
+pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};
+
+use rayon::prelude::*;
+
+use crate::model::BondList;
+
+/// Invalid material parameters or reference data. Messages name the deck key; the deck layer
+/// adds the file and line.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MaterialError {
+    /// A parameter that must be a positive finite number is not.
+    #[error("material parameter `{key}` must be a positive finite number, got {value}")]
+    NotPositive {
+        /// Deck key, e.g. `Density`.
+        key: &'static str,
+        /// The offending value.
+        value: f64,
+    },
+    /// The influence function gave a negative or non-finite weight.
+    #[error(
+        "the `Influence Function` gives ω = {value} for bond length ζ = {zeta} with horizon \
+         {horizon}; it must be finite and ≥ 0 for every bond in the family"
+    )]
+    InvalidInfluence {
+        /// Reference bond length ζ.
+        zeta: f64,
+        /// Horizon δ.
+        horizon: f64,
+        /// ω(ζ, δ).
+        value: f64,
+    },
+}
+
+/// Checks that a deck parameter is positive and finite.
+pub(crate) fn positive(key: &'static str, value: f64) -> Result<f64, MaterialError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(MaterialError::NotPositive { key, value })
+    }
+}
+
+/// The reference configuration of all points (owned and ghost), read by every material.
+#[derive(Debug, Clone, Copy)]
+pub struct ReferenceView<'a> {
+    /// Families (symmetric, directed CSR).
+    pub bonds: &'a BondList,
+    /// Reference positions X (length).
+    pub position: &'a [[f64; 3]],
+    /// Cell volumes V (length³).
+    pub volume: &'a [f64],
+}
+
+/// The current configuration of all points.
+#[derive(Debug, Clone, Copy)]
+pub struct CurrentView<'a> {
+    /// Current positions Y = X + u (length).
+    pub position: &'a [[f64; 3]],
+    /// Bond damage d ∈ [0, 1] per directed bond (same indexing as the bond list), or `None`
+    /// when no damage model is active (all bonds intact).
+    pub bond_damage: Option<&'a [f32]>,
+}
+
+/// Numbers a material publishes for each of its points before the force pass, so that the
+/// force pass of the point's neighbours (in any block, on any rank) can evaluate the bond force
+/// from this point's side.
+///
+/// Scalar force state on a bond i→j with extension e = |Y| − ζ, damage d and weight ω:
+/// * state-based (LPS): `t_ij = (1−d)·ω·[isotropic_i·ζ + (1−d)·deviatoric_i·e]` with
+///   `isotropic = (3K − 5μ)θ/m`, `deviatoric = 15μ/m`;
+/// * bond-based (PMB): `t_ij = isotropic_i·(1−d)·e/ζ` with `isotropic = c/2`
+///   (half the micromodulus, because each pair is visited from both ends).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PointCoefficients {
+    /// Dilatation θ (dimensionless); 0 for bond-based materials.
+    pub dilatation: f64,
+    /// Coefficient of the isotropic part (see the type's docs).
+    pub isotropic: f64,
+    /// Coefficient of the deviatoric part (see the type's docs); 0 for bond-based materials.
+    pub deviatoric: f64,
+}
+
+/// A constitutive model for one block. Object-safe: the run holds `Box<dyn Material>` per
+/// block; the bond loops inside are monomorphized (no virtual call per bond).
+///
+/// Every per-point slice argument is indexed by global point index and every per-bond slice by
+/// global bond index; a material reads all points but writes only the entries of its own.
+pub trait Material: Send + Sync {
+    /// Peridigm's `Material Model` string, e.g. `"Elastic"`.
+    fn model_name(&self) -> &'static str;
+
+    /// Mass density ρ (`Density`).
+    fn density(&self) -> f64;
+
+    /// Bulk modulus K (used by the critical time step for every model, as in Peridigm).
+    fn bulk_modulus(&self) -> f64;
+
+    /// Horizon δ of the block.
+    fn horizon(&self) -> f64;
+
+    /// True when the published [`PointCoefficients`] depend on the deformation (LPS: the
+    /// dilatation pass), so [`Material::compute_point_coefficients`] must run (and be
+    /// exchanged across ranks) before every force evaluation. When false they are constant
+    /// and computing them once after setup is enough.
+    fn needs_dilatation(&self) -> bool;
+
+    /// Stores the block's points (strictly increasing global indices) and evaluates
+    /// everything that depends only on the reference configuration. Must be called before the
+    /// other methods; calling it again replaces the previous setup.
+    fn setup(
+        &mut self,
+        reference: &ReferenceView<'_>,
+        points: Vec<u32>,
+    ) -> Result<(), MaterialError>;
+
+    /// The block's points given to [`Material::setup`].
+    fn points(&self) -> &[u32];
+
+    /// Writes the [`PointCoefficients`] of the block's points into `coefficients`.
+    fn compute_point_coefficients(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &mut [PointCoefficients],
+    );
+
+    /// Adds the internal force density F_i (force/length³) of every block point to
+    /// `force_density`, reading the neighbours' `coefficients` (all points, filled by their
+    /// blocks' [`Material::compute_point_coefficients`]).
+    fn add_force_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &[PointCoefficients],
+        force_density: &mut [[f64; 3]],
+    );
+
+    /// Writes the stored elastic energy density W_i (energy/length³) of every block point
+    /// (Peridigm's `Stored_Elastic_Energy_Density`; `Stored_Elastic_Energy` is W_i·V_i).
+    fn stored_energy_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &[PointCoefficients],
+        energy_density: &mut [f64],
+    );
+
+    /// Peridigm's critical time step over the block's points, see [`critical_time_step`].
+    fn critical_time_step(&self, reference: &ReferenceView<'_>) -> Option<f64> {
+        critical_time_step(
+            reference,
+            self.points(),
+            self.density(),
+            self.bulk_modulus(),
+            self.horizon(),
+        )
+    }
+}
+
+/// Peridigm's stable time step estimate (`Peridigm_CriticalTimeStep.cpp`, reference §1.6), the
+/// Silling–Askari bond-based bound applied to every material:
+///
+/// `Δt_i = sqrt(2ρ / Σ_j V_j c/ζ_ij)` with `c = 18K/(πδ⁴)`, and `Δt = min_i Δt_i`.
+///
+/// Peridigm gives points without neighbours Δt_i = 1e50 ("no bound"); here they are skipped,
+/// and `None` means that no point of the set has a neighbour (no bound at all). The caller
+/// takes the minimum over blocks (and ranks) and applies the `Safety Factor`.
+pub fn critical_time_step(
+    reference: &ReferenceView<'_>,
+    points: &[u32],
+    density: f64,
+    bulk_modulus: f64,
+    horizon: f64,
+) -> Option<f64> {
+    let micromodulus = 18.0 * bulk_modulus / (std::f64::consts::PI * horizon.powi(4));
+    let bonds = reference.bonds;
+    points
+        .par_iter()
+        .filter_map(|&i| {
+            let range = bonds.range(i as usize);
+            if range.is_empty() {
+                return None;
+            }
+            let stiffness: f64 = range
+                .map(|b| {
+                    reference.volume[bonds.neighbor[b] as usize] * micromodulus
+                        / bonds.reference_length[b]
+                })
+                .sum();
+            Some((2.0 * density / stiffness).sqrt())
+        })
+        .reduce_with(f64::min)
+}
+
+/// Per-bond ω inside the bond loops: either 1 (nothing stored) or a stored block-local array.
+pub(crate) trait BondWeights: Copy + Send + Sync {
+    /// ω of block-local bond `local`.
+    fn weight(self, local: usize) -> f64;
+}
+
+/// ω = 1 for every bond (`Influence Function: One`).
+#[derive(Clone, Copy)]
+pub(crate) struct UnitWeights;
+
+impl BondWeights for UnitWeights {
+    #[inline(always)]
+    fn weight(self, _local: usize) -> f64 {
+        1.0
+    }
+}
+
+/// ω stored per bond, block-local numbering.
+#[derive(Clone, Copy)]
+pub(crate) struct StoredWeights<'a>(pub &'a [f64]);
+
+impl BondWeights for StoredWeights<'_> {
+    #[inline(always)]
+    fn weight(self, local: usize) -> f64 {
+        self.0[local]
+    }
+}
+
+/// 1 − d of a bond inside the bond loops: all intact (no damage model) or read from the array.
+pub(crate) trait Integrity: Copy + Send + Sync {
+    /// 1 − d of global bond `bond`.
+    fn intact(self, bond: usize) -> f64;
+}
+
+/// No damage model: every bond intact.
+#[derive(Clone, Copy)]
+pub(crate) struct Undamaged;
+
+impl Integrity for Undamaged {
+    #[inline(always)]
+    fn intact(self, _bond: usize) -> f64 {
+        1.0
+    }
+}
+
+/// Bond damage array (global bond numbering).
+#[derive(Clone, Copy)]
+pub(crate) struct Damaged<'a>(pub &'a [f32]);
+
+impl Integrity for Damaged<'_> {
+    #[inline(always)]
+    fn intact(self, bond: usize) -> f64 {
+        1.0 - f64::from(self.0[bond])
+    }
+}
+
+/// Block-local bond offsets: `local[k]` is where point `points[k]`'s row starts in arrays
+/// that store only the block's bonds (length `points.len() + 1`).
+pub(crate) fn local_offsets(bonds: &BondList, points: &[u32]) -> Vec<usize> {
+    let mut offsets = Vec::with_capacity(points.len() + 1);
+    let mut total = 0;
+    offsets.push(0);
+    for &i in points {
+        total += bonds.family_size(i as usize);
+        offsets.push(total);
+    }
+    offsets
+}
+
+/// Panics unless `points` is a strictly increasing list of valid point indices (an internal
+/// invariant of the block set-up, not user input).
+pub(crate) fn assert_point_set(points: &[u32], num_points: usize) {
+    assert!(
+        points.windows(2).all(|w| w[0] < w[1]),
+        "a block's points must be strictly increasing"
+    );
+    if let Some(&last) = points.last() {
+        assert!(
+            (last as usize) < num_points,
+            "block point {last} is outside the {num_points} points"
+        );
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod test_support;
+
+#[cfg(test)]
+mod tests;

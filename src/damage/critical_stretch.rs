@@ -1,0 +1,234 @@
+//! Peridigm's `Critical Stretch` damage model (reference §1.4): a bond breaks for good
+//! (d = 1) once its stretch `s = (|Y_j − Y_i| − ζ)/ζ` exceeds the critical stretch s_c
+//! (tension only; compression never breaks a bond).
+//!
+//! # Both directions of a pair agree
+//! Each point updates its own row (a gather, no atomics), so the bonds i→j and j→i are
+//! decided by two different tasks. They agree bitwise because the stretch is computed by the
+//! same expression from the same two points: `ζ = |X_j − X_i|` and `|Y_j − Y_i|` are evaluated
+//! from coordinate differences, and IEEE subtraction is exactly antisymmetric
+//! (`a − b = −(b − a)`), so both ends square the same numbers, add them in the same order and
+//! take the same square root. (The stored `reference_length` is not used here: nothing forces
+//! the neighbour search to compute it identically for both directions.) Damage only ever goes
+//! from 0 to 1, and both ends start equal, so they stay equal.
+//!
+//! Not yet supported: `Thermal Expansion Coefficient` (s ← s − αΔT_i).
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use super::{DamageError, DamageModel};
+use crate::material::point_chunks::for_each_chunk;
+use crate::material::ReferenceView;
+
+/// Critical stretch from the critical energy release rate G₀ (Silling & Askari 2005, "A
+/// meshfree method based on the peridynamic model of solid mechanics", Computers & Structures
+/// 83, §3): the work to break every PMB bond crossing a unit crack area is
+/// `G₀ = π c s₀² δ⁵ / 10`; with `c = 18K/(πδ⁴)` this gives `s₀ = sqrt(5 G₀ / (9 K δ))`.
+///
+/// Units: G₀ energy/area, K pressure, δ length; s₀ dimensionless.
+pub fn critical_stretch_from_energy_release_rate(
+    energy_release_rate: f64,
+    bulk_modulus: f64,
+    horizon: f64,
+) -> f64 {
+    (5.0 * energy_release_rate / (9.0 * bulk_modulus * horizon)).sqrt()
+}
+
+/// The `Critical Stretch` damage model of one block.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CriticalStretch {
+    critical_stretch: f64,
+}
+
+impl CriticalStretch {
+    /// Model with critical stretch s_c (`Critical Stretch`, positive and finite).
+    pub fn new(critical_stretch: f64) -> Result<Self, DamageError> {
+        if critical_stretch.is_finite() && critical_stretch > 0.0 {
+            Ok(Self { critical_stretch })
+        } else {
+            Err(DamageError::NotPositive {
+                key: "Critical Stretch",
+                value: critical_stretch,
+            })
+        }
+    }
+
+    /// The critical stretch s_c.
+    pub fn critical_stretch(&self) -> f64 {
+        self.critical_stretch
+    }
+}
+
+/// `|b − a|`, evaluated identically for (a, b) and (b, a) (see the module docs).
+#[inline(always)]
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let (dx, dy, dz) = (b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+    (dx * dx + dy * dy + dz * dz).sqrt()
+}
+
+impl DamageModel for CriticalStretch {
+    fn model_name(&self) -> &'static str {
+        "Critical Stretch"
+    }
+
+    fn update(
+        &self,
+        reference: &ReferenceView<'_>,
+        current_position: &[[f64; 3]],
+        points: &[u32],
+        bond_damage: &mut [f32],
+    ) -> usize {
+        let bonds = reference.bonds;
+        let x = reference.position;
+        let y = current_position;
+        let s_c = self.critical_stretch;
+        let broken = AtomicUsize::new(0);
+        for_each_chunk(
+            points,
+            bond_damage,
+            &|i| bonds.offsets[i as usize],
+            &|chunk: &[u32], base: usize, rows: &mut [f32]| {
+                let mut newly = 0;
+                for &i in chunk {
+                    let i = i as usize;
+                    let range = bonds.range(i);
+                    let row = &mut rows[range.start - base..range.end - base];
+                    for (d, &j) in row.iter_mut().zip(&bonds.neighbor[range]) {
+                        if *d >= 1.0 {
+                            continue;
+                        }
+                        let j = j as usize;
+                        let zeta = distance(x[i], x[j]);
+                        let stretch = (distance(y[i], y[j]) - zeta) / zeta;
+                        if stretch > s_c {
+                            *d = 1.0;
+                            newly += 1;
+                        }
+                    }
+                }
+                broken.fetch_add(newly, Ordering::Relaxed);
+            },
+        );
+        broken.into_inner()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::damage::point_damage;
+    use crate::material::test_support::{brute_force_bonds, random_cloud, Rng};
+    use crate::model::BondList;
+
+    fn two_points() -> (Vec<[f64; 3]>, Vec<f64>, BondList) {
+        let x = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
+        let bonds = brute_force_bonds(&x, 1.5);
+        (x, vec![1.0, 1.0], bonds)
+    }
+
+    #[test]
+    fn breaks_only_above_critical_stretch_and_never_heals() {
+        // ζ = 1, s_c = ¼: Y_1 = (1.25, 0, 0) gives |Y| = 1.25 and s = 0.25/1 = s_c exactly (all
+        // values are binary fractions), which is not "> s_c": the bond stays intact.
+        let (x, v, bonds) = two_points();
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let model = CriticalStretch::new(0.25).unwrap();
+        let mut d = vec![0.0f32; bonds.num_bonds()];
+        let at = vec![[0.0, 0.0, 0.0], [1.25, 0.0, 0.0]];
+        assert_eq!(model.update(&reference, &at, &[0, 1], &mut d), 0);
+        assert_eq!(d, vec![0.0, 0.0]);
+        // Next representable length above 1.25: s exceeds s_c by one ulp → both ends break.
+        let above = vec![
+            [0.0, 0.0, 0.0],
+            [f64::from_bits(1.25f64.to_bits() + 1), 0.0, 0.0],
+        ];
+        assert_eq!(model.update(&reference, &above, &[0, 1], &mut d), 2);
+        assert_eq!(d, vec![1.0, 1.0]);
+        // Back to the reference configuration: broken bonds stay broken.
+        assert_eq!(model.update(&reference, &x, &[0, 1], &mut d), 0);
+        assert_eq!(d, vec![1.0, 1.0]);
+        // Point damage = broken/total = 1/1.
+        let mut damage = vec![0.0; 2];
+        point_damage(&bonds, &d, &[0, 1], &mut damage);
+        assert_eq!(damage, vec![1.0, 1.0]);
+    }
+
+    #[test]
+    fn compression_never_breaks() {
+        // s = (0.1 − 1)/1 = −0.9, far below any positive s_c.
+        let (x, v, bonds) = two_points();
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let mut d = vec![0.0f32; 2];
+        let squeezed = vec![[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]];
+        let model = CriticalStretch::new(1e-6).unwrap();
+        assert_eq!(model.update(&reference, &squeezed, &[0, 1], &mut d), 0);
+    }
+
+    #[test]
+    fn both_directions_of_every_pair_agree() {
+        // Random cloud, displacements of the order of s_c·ζ so that roughly half the bonds
+        // break; every pair must be broken from both ends or from neither.
+        let mut rng = Rng::new(7);
+        let (x, v) = random_cloud(&mut rng, 400, 4.0);
+        let bonds = brute_force_bonds(&x, 1.2);
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let y: Vec<[f64; 3]> = x
+            .iter()
+            .map(|p| [p[0] + 0.05 * rng.normal(), p[1] + 0.05 * rng.normal(), p[2]])
+            .collect();
+        let model = CriticalStretch::new(0.02).unwrap();
+        let mut d = vec![0.0f32; bonds.num_bonds()];
+        let points: Vec<u32> = (0..x.len() as u32).collect();
+        let broken = model.update(&reference, &y, &points, &mut d);
+        assert!(broken > 0 && broken < bonds.num_bonds(), "{broken}");
+        assert_eq!(broken % 2, 0, "pairs break together");
+        for i in 0..x.len() {
+            for b in bonds.range(i) {
+                let j = bonds.neighbor[b] as usize;
+                let back = bonds
+                    .range(j)
+                    .find(|&c| bonds.neighbor[c] as usize == i)
+                    .expect("symmetric families");
+                assert_eq!(d[b], d[back], "bond {i}→{j}");
+            }
+        }
+        // Point damage of point 0 = its broken fraction.
+        let mut damage = vec![0.0; x.len()];
+        point_damage(&bonds, &d, &points, &mut damage);
+        let row = &d[bonds.range(0)];
+        let expected = row.iter().filter(|&&b| b == 1.0).count() as f64 / row.len() as f64;
+        assert!((damage[0] - expected).abs() < 1e-15);
+    }
+
+    #[test]
+    fn energy_release_rate_conversion() {
+        // s₀ = sqrt(5·G₀/(9·K·δ)) with G₀ = 9, K = 5, δ = 1 → sqrt(45/45) = 1.
+        assert!((critical_stretch_from_energy_release_rate(9.0, 5.0, 1.0) - 1.0).abs() < 1e-15);
+        // Consistency with G₀ = π c s₀² δ⁵/10, c = 18K/(πδ⁴), for K = 2e9, δ = 3e-3, G₀ = 100.
+        let (g0, k, delta) = (100.0, 2e9, 3e-3);
+        let s0 = critical_stretch_from_energy_release_rate(g0, k, delta);
+        let c = 18.0 * k / (std::f64::consts::PI * delta.powi(4));
+        let g_back = std::f64::consts::PI * c * s0 * s0 * delta.powi(5) / 10.0;
+        assert!((g_back - g0).abs() < 1e-12 * g0);
+    }
+
+    #[test]
+    fn rejects_non_positive_critical_stretch() {
+        assert!(CriticalStretch::new(0.0).is_err());
+        assert!(CriticalStretch::new(f64::NAN).is_err());
+        let msg = CriticalStretch::new(-1.0).unwrap_err().to_string();
+        assert!(msg.contains("Critical Stretch"), "{msg}");
+    }
+}

@@ -1,0 +1,73 @@
+//! Bond damage: which bonds still carry force.
+//!
+//! Bond damage d ∈ [0, 1] is one `f32` per directed bond, indexed like the bond list, and
+//! exists only when a block has a damage model (`f32` rather than a bitset because Peridigm's
+//! other models — von Mises, Johnson–Cook — ramp d continuously; the benchmark
+//! `material_kernels` measures what reading it costs the force loops).
+//!
+//! Ordering (Peridigm, reference §1.4): the damage update runs **before** the force in every
+//! evaluation, so a bond that exceeds its limit carries no force in the same evaluation.
+//! Implicit solvers that let bonds broken in an unconverged iterate heal keep a copy of the
+//! array at the start of the step and restore it; the models themselves only ever increase d.
+
+mod critical_stretch;
+
+pub use critical_stretch::{critical_stretch_from_energy_release_rate, CriticalStretch};
+
+use crate::material::point_chunks::for_each_chunk;
+use crate::material::ReferenceView;
+use crate::model::BondList;
+
+/// Invalid damage-model parameters. Messages name the deck key; the deck layer adds the file
+/// and line.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DamageError {
+    /// A parameter that must be a positive finite number is not.
+    #[error("damage model parameter `{key}` must be a positive finite number, got {value}")]
+    NotPositive {
+        /// Deck key, e.g. `Critical Stretch`.
+        key: &'static str,
+        /// The offending value.
+        value: f64,
+    },
+}
+
+/// A damage model for one block. Object-safe; one instance per block.
+pub trait DamageModel: Send + Sync {
+    /// Peridigm's `Damage Model` string, e.g. `"Critical Stretch"`.
+    fn model_name(&self) -> &'static str;
+
+    /// Updates the damage of the bonds in the rows of `points` (strictly increasing global
+    /// indices) from the current positions `current_position` (all points). `bond_damage` is
+    /// the whole array (global bond numbering); only the rows of `points` are written.
+    /// Returns the number of bonds that broke in this call.
+    fn update(
+        &self,
+        reference: &ReferenceView<'_>,
+        current_position: &[[f64; 3]],
+        points: &[u32],
+        bond_damage: &mut [f32],
+    ) -> usize;
+}
+
+/// Peridigm's point `Damage` for stretch-based models: the mean bond damage of the point's
+/// family, Σ_j d_ij / n_i (= broken/total bonds for 0/1 damage); 0 for a point without
+/// bonds. Writes `damage[i]` for every `i` in `points` (global point numbering).
+pub fn point_damage(bonds: &BondList, bond_damage: &[f32], points: &[u32], damage: &mut [f64]) {
+    for_each_chunk(
+        points,
+        damage,
+        &|i| i as usize,
+        &|chunk: &[u32], base: usize, out: &mut [f64]| {
+            for &i in chunk {
+                let i = i as usize;
+                let row = &bond_damage[bonds.range(i)];
+                out[i - base] = if row.is_empty() {
+                    0.0
+                } else {
+                    row.iter().map(|&d| f64::from(d)).sum::<f64>() / row.len() as f64
+                };
+            }
+        },
+    );
+}

@@ -1,0 +1,394 @@
+//! Linear peridynamic solid (LPS, Silling et al. 2007), Peridigm's `Elastic` material
+//! (`elastic.cxx`, `material_utilities.cxx`; reference §0, §1.3), in its large-deformation
+//! form: extensions are measured along the current bond.
+//!
+//! * weighted volume `m_i = Σ_j ω ζ² V_j`, reference configuration, all bonds (damage
+//!   ignored), computed once at setup — Peridigm's rule;
+//! * dilatation `θ_i = (3/m_i) Σ_j ω (1−d) ζ e V_j`, `e = |Y_j − Y_i| − ζ`;
+//! * scalar force state, exactly as Peridigm codes it (note `(1−d)` squared on the deviatoric
+//!   part): `t_ij = (1−d)·[ (3K/m − 5μ/m)·ω·θ·ζ + (1−d)·(15μ/m)·ω·e ]`;
+//! * force density `F_i = Σ_j (t_ij + t_ji) V_j M_ij` (see the module docs of `material`),
+//!   with t_ji from j's own θ and m;
+//! * stored energy density (Peridigm's compute class), `α = 15μ/m`, `e^d = e − θζ/3`:
+//!   `W_i = K θ_i²/2 + (α_i/2) Σ_j (1−d) ω (e^d)² V_j`. For intact bonds the force is exactly
+//!   `−∂(Σ_k W_k V_k)/∂Y_i / V_i` (checked by a finite-difference test).
+//!
+//! A point whose weighted volume is 0 (no bonds, or ω = 0 on all of them) has no dilatation and
+//! carries no force (Peridigm would divide by zero).
+//!
+//! Not yet supported: `Thermal Expansion Coefficient` (e ← e − αΔTζ) and `Partial_Stress`.
+
+use super::influence::InfluenceFunction;
+use super::point_chunks::for_each_chunk;
+use super::{
+    assert_point_set, local_offsets, positive, BondWeights, CurrentView, Damaged, Integrity,
+    Material, MaterialError, PointCoefficients, ReferenceView, StoredWeights, Undamaged,
+    UnitWeights,
+};
+
+/// Deck parameters of `Elastic`.
+#[derive(Debug, Clone)]
+pub struct LinearPeridynamicSolidParameters {
+    /// `Density` ρ (mass/length³).
+    pub density: f64,
+    /// Bulk modulus K (pressure), e.g. from [`super::ElasticConstants::from_pair`].
+    pub bulk_modulus: f64,
+    /// Shear modulus μ (pressure).
+    pub shear_modulus: f64,
+    /// Horizon δ of the block (length).
+    pub horizon: f64,
+    /// `Discretization → Influence Function` (default `One`).
+    pub influence: InfluenceFunction,
+}
+
+/// The LPS material of one block (see the module docs for the formulas).
+#[derive(Debug, Clone)]
+pub struct LinearPeridynamicSolid {
+    parameters: LinearPeridynamicSolidParameters,
+    points: Vec<u32>,
+    /// Block-local row starts into `weights`.
+    local_offsets: Vec<usize>,
+    /// ω per block bond; `None` for `One` (nothing to store).
+    weights: Option<Vec<f64>>,
+    /// m per block point (same order as `points`).
+    weighted_volume: Vec<f64>,
+}
+
+impl LinearPeridynamicSolid {
+    /// Validates the parameters (ρ, K, μ, δ positive and finite).
+    pub fn new(parameters: LinearPeridynamicSolidParameters) -> Result<Self, MaterialError> {
+        positive("Density", parameters.density)?;
+        positive("Bulk Modulus", parameters.bulk_modulus)?;
+        positive("Shear Modulus", parameters.shear_modulus)?;
+        positive("Horizon", parameters.horizon)?;
+        Ok(Self {
+            parameters,
+            points: Vec::new(),
+            local_offsets: vec![0],
+            weights: None,
+            weighted_volume: Vec::new(),
+        })
+    }
+
+    /// Weighted volume m of each block point (Peridigm's `Weighted_Volume`), in the order of
+    /// [`Material::points`]; empty before setup.
+    pub fn weighted_volume(&self) -> &[f64] {
+        &self.weighted_volume
+    }
+}
+
+/// Runs `$body` with `$w` bound to the block's ω access and `$d` to the damage access, one
+/// match per call, so each of the four combinations gets its own monomorphized bond loop.
+macro_rules! with_bond_data {
+    ($weights:expr, $damage:expr, |$w:ident, $d:ident| $body:expr) => {
+        match ($weights, $damage) {
+            (None, None) => {
+                let ($w, $d) = (UnitWeights, Undamaged);
+                $body
+            }
+            (None, Some(damage)) => {
+                let ($w, $d) = (UnitWeights, Damaged(damage));
+                $body
+            }
+            (Some(weights), None) => {
+                let ($w, $d) = (StoredWeights(weights), Undamaged);
+                $body
+            }
+            (Some(weights), Some(damage)) => {
+                let ($w, $d) = (StoredWeights(weights), Damaged(damage));
+                $body
+            }
+        }
+    };
+}
+
+/// What the LPS loops read, bundled once per call.
+struct Rows<'a> {
+    reference: &'a ReferenceView<'a>,
+    current: &'a CurrentView<'a>,
+    points: &'a [u32],
+    local_offsets: &'a [usize],
+    weighted_volume: &'a [f64],
+    bulk: f64,
+    shear: f64,
+}
+
+impl Rows<'_> {
+    /// Block-local index of the chunk's first point (chunks are contiguous runs of `points`).
+    fn first_local(&self, chunk: &[u32]) -> usize {
+        self.points.partition_point(|&p| p < chunk[0])
+    }
+
+    /// θ_i and the published coefficients of the chunk's points.
+    fn dilatation<W: BondWeights, D: Integrity>(
+        &self,
+        chunk: &[u32],
+        base: usize,
+        out: &mut [PointCoefficients],
+        weights: W,
+        damage: D,
+    ) {
+        let bonds = self.reference.bonds;
+        let volume = self.reference.volume;
+        let y = self.current.position;
+        let k0 = self.first_local(chunk);
+        for (k, &i) in (k0..).zip(chunk) {
+            let i = i as usize;
+            let yi = y[i];
+            let range = bonds.range(i);
+            let local = self.local_offsets[k];
+            let mut sum = 0.0;
+            for (n, b) in range.enumerate() {
+                let j = bonds.neighbor[b] as usize;
+                let yj = y[j];
+                let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
+                let zeta = bonds.reference_length[b];
+                let extension = (dx * dx + dy * dy + dz * dz).sqrt() - zeta;
+                sum += weights.weight(local + n) * damage.intact(b) * zeta * extension * volume[j];
+            }
+            let m = self.weighted_volume[k];
+            out[i - base] = if m > 0.0 {
+                let theta = 3.0 * sum / m;
+                PointCoefficients {
+                    dilatation: theta,
+                    isotropic: (3.0 * self.bulk - 5.0 * self.shear) * theta / m,
+                    deviatoric: 15.0 * self.shear / m,
+                }
+            } else {
+                PointCoefficients::default()
+            };
+        }
+    }
+
+    /// `F_i += Σ_j (1−d) ω [(A_i + A_j) ζ + (1−d)(B_i + B_j) e] V_j M_ij` with A = isotropic,
+    /// B = deviatoric coefficients; coincident deformed points contribute nothing.
+    #[inline(always)]
+    fn add_force<W: BondWeights, D: Integrity>(
+        &self,
+        coefficients: &[PointCoefficients],
+        chunk: &[u32],
+        base: usize,
+        out: &mut [[f64; 3]],
+        weights: W,
+        damage: D,
+    ) {
+        let bonds = self.reference.bonds;
+        let volume = self.reference.volume;
+        let y = self.current.position;
+        let k0 = self.first_local(chunk);
+        for (k, &i) in (k0..).zip(chunk) {
+            let i = i as usize;
+            let yi = y[i];
+            let own = coefficients[i];
+            let range = bonds.range(i);
+            let local = self.local_offsets[k];
+            let neighbors = &bonds.neighbor[range.clone()];
+            let lengths = &bonds.reference_length[range.clone()];
+            let (mut fx, mut fy, mut fz) = (0.0, 0.0, 0.0);
+            for (n, (&j, &zeta)) in neighbors.iter().zip(lengths).enumerate() {
+                let j = j as usize;
+                let yj = y[j];
+                let other = coefficients[j];
+                let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
+                let length = (dx * dx + dy * dy + dz * dz).sqrt();
+                let extension = length - zeta;
+                let intact = damage.intact(range.start + n);
+                let t = intact
+                    * weights.weight(local + n)
+                    * ((own.isotropic + other.isotropic) * zeta
+                        + intact * (own.deviatoric + other.deviatoric) * extension);
+                let scale = if length > 0.0 {
+                    t * volume[j] / length
+                } else {
+                    0.0
+                };
+                fx += scale * dx;
+                fy += scale * dy;
+                fz += scale * dz;
+            }
+            let f = &mut out[i - base];
+            f[0] += fx;
+            f[1] += fy;
+            f[2] += fz;
+        }
+    }
+
+    /// `W_i = K θ²/2 + (α/2) Σ_j (1−d) ω (e − θζ/3)² V_j`, α = 15μ/m.
+    fn energy<W: BondWeights, D: Integrity>(
+        &self,
+        coefficients: &[PointCoefficients],
+        chunk: &[u32],
+        base: usize,
+        out: &mut [f64],
+        weights: W,
+        damage: D,
+    ) {
+        let bonds = self.reference.bonds;
+        let y = self.current.position;
+        let k0 = self.first_local(chunk);
+        for (k, &i) in (k0..).zip(chunk) {
+            let i = i as usize;
+            let yi = y[i];
+            let theta = coefficients[i].dilatation;
+            let alpha = coefficients[i].deviatoric;
+            let local = self.local_offsets[k];
+            let mut sum = 0.0;
+            for (n, b) in bonds.range(i).enumerate() {
+                let j = bonds.neighbor[b] as usize;
+                let yj = y[j];
+                let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
+                let zeta = bonds.reference_length[b];
+                let deviatoric = (dx * dx + dy * dy + dz * dz).sqrt() - zeta - theta * zeta / 3.0;
+                sum += damage.intact(b)
+                    * weights.weight(local + n)
+                    * deviatoric
+                    * deviatoric
+                    * self.reference.volume[j];
+            }
+            out[i - base] = 0.5 * self.bulk * theta * theta + 0.5 * alpha * sum;
+        }
+    }
+}
+
+impl LinearPeridynamicSolid {
+    fn rows<'a>(
+        &'a self,
+        reference: &'a ReferenceView<'a>,
+        current: &'a CurrentView<'a>,
+    ) -> Rows<'a> {
+        Rows {
+            reference,
+            current,
+            points: &self.points,
+            local_offsets: &self.local_offsets,
+            weighted_volume: &self.weighted_volume,
+            bulk: self.parameters.bulk_modulus,
+            shear: self.parameters.shear_modulus,
+        }
+    }
+}
+
+impl Material for LinearPeridynamicSolid {
+    fn model_name(&self) -> &'static str {
+        "Elastic"
+    }
+
+    fn density(&self) -> f64 {
+        self.parameters.density
+    }
+
+    fn bulk_modulus(&self) -> f64 {
+        self.parameters.bulk_modulus
+    }
+
+    fn horizon(&self) -> f64 {
+        self.parameters.horizon
+    }
+
+    fn needs_dilatation(&self) -> bool {
+        true
+    }
+
+    fn setup(
+        &mut self,
+        reference: &ReferenceView<'_>,
+        points: Vec<u32>,
+    ) -> Result<(), MaterialError> {
+        let bonds = reference.bonds;
+        assert_point_set(&points, bonds.num_points());
+        let horizon = self.parameters.horizon;
+        let weights = if self.parameters.influence.is_one() {
+            None
+        } else {
+            Some(
+                self.parameters
+                    .influence
+                    .per_bond(bonds, &points, horizon)?,
+            )
+        };
+        let local_offsets = local_offsets(bonds, &points);
+        let weighted_volume = points
+            .iter()
+            .zip(&local_offsets)
+            .map(|(&i, &local)| {
+                bonds
+                    .range(i as usize)
+                    .enumerate()
+                    .map(|(n, b)| {
+                        let omega = weights.as_ref().map_or(1.0, |w| w[local + n]);
+                        let zeta = bonds.reference_length[b];
+                        omega * zeta * zeta * reference.volume[bonds.neighbor[b] as usize]
+                    })
+                    .sum()
+            })
+            .collect();
+        self.points = points;
+        self.weights = weights;
+        self.local_offsets = local_offsets;
+        self.weighted_volume = weighted_volume;
+        Ok(())
+    }
+
+    fn points(&self) -> &[u32] {
+        &self.points
+    }
+
+    fn compute_point_coefficients(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &mut [PointCoefficients],
+    ) {
+        let rows = self.rows(reference, current);
+        with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
+            for_each_chunk(
+                &self.points,
+                coefficients,
+                &|i| i as usize,
+                &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
+                    rows.dilatation(chunk, base, out, w, d)
+                },
+            )
+        })
+    }
+
+    fn add_force_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &[PointCoefficients],
+        force_density: &mut [[f64; 3]],
+    ) {
+        let rows = self.rows(reference, current);
+        with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
+            for_each_chunk(
+                &self.points,
+                force_density,
+                &|i| i as usize,
+                &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
+                    rows.add_force(coefficients, chunk, base, out, w, d)
+                },
+            )
+        })
+    }
+
+    fn stored_energy_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &[PointCoefficients],
+        energy_density: &mut [f64],
+    ) {
+        let rows = self.rows(reference, current);
+        with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
+            for_each_chunk(
+                &self.points,
+                energy_density,
+                &|i| i as usize,
+                &|chunk: &[u32], base: usize, out: &mut [f64]| {
+                    rows.energy(coefficients, chunk, base, out, w, d)
+                },
+            )
+        })
+    }
+}
