@@ -285,6 +285,10 @@ impl Material for LinearPeridynamicSolid {
         self.parameters.horizon
     }
 
+    fn weighted_volume(&self) -> Option<&[f64]> {
+        Some(&self.weighted_volume)
+    }
+
     fn needs_dilatation(&self) -> bool {
         true
     }

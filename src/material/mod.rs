@@ -179,6 +179,12 @@ pub trait Material: Send + Sync {
         energy_density: &mut [f64],
     );
 
+    /// Weighted volume m of each block point in the order of [`Material::points`]
+    /// (Peridigm's `Weighted_Volume`), for state-based models; `None` otherwise.
+    fn weighted_volume(&self) -> Option<&[f64]> {
+        None
+    }
+
     /// Peridigm's critical time step over the block's points, see [`critical_time_step`].
     fn critical_time_step(&self, reference: &ReferenceView<'_>) -> Option<f64> {
         critical_time_step(

@@ -6,8 +6,10 @@
 
 mod families;
 mod node_sets;
-mod report;
+mod physics;
+pub mod report;
 
+pub use physics::build_physics;
 pub use report::{plan, unsupported_features};
 
 use crate::boundary::{BoundaryConditions, Condition, ConditionKind};

@@ -40,11 +40,6 @@ pub fn requested_variables(
     deck: &Deck,
     output: &crate::io::deck::Output,
 ) -> Result<Vec<RequestedVariable>, DeckError> {
-    let labels: Vec<&str> = deck
-        .compute_classes
-        .iter()
-        .filter_map(|c| c.output_label())
-        .collect();
     let mut variables = Vec::new();
     for (name, enabled) in &output.variables {
         if !enabled {
@@ -52,8 +47,12 @@ pub fn requested_variables(
         }
         let kind = if let Some(kind) = kind_of(name) {
             kind
-        } else if labels.contains(&name.as_str()) {
-            VariableKind::Global
+        } else if let Some(class) = deck
+            .compute_classes
+            .iter()
+            .find(|c| c.output_label() == Some(name.as_str()))
+        {
+            compute_class_kind(class)
         } else {
             let hint = closest_name(name)
                 .map(|n| format!("; did you mean \"{n}\"?"))
@@ -71,6 +70,21 @@ pub fn requested_variables(
         });
     }
     Ok(variables)
+}
+
+/// A compute class reports a global per frame: a vector when its variable is a vector field.
+pub fn compute_class_kind(class: &crate::io::deck::ComputeClass) -> VariableKind {
+    let variable = match &class.kind {
+        ComputeClassKind::BlockData { variable, .. }
+        | ComputeClassKind::NodeSetData { variable, .. }
+        | ComputeClassKind::NearestPointData { variable, .. } => variable.as_str(),
+        ComputeClassKind::BondVisualization { .. } => "",
+    };
+    if kind_of(variable) == Some(VariableKind::NodalVector) {
+        VariableKind::GlobalVector
+    } else {
+        VariableKind::Global
+    }
 }
 
 /// Bulk modulus and density of a material when it has them (mechanical models).

@@ -1,0 +1,164 @@
+//! The one internal-force path every solver calls (DESIGN §1.1): damage, then the per-point
+//! coefficient pass (LPS dilatation), then the force pass, block by block.
+
+use crate::damage::{point_damage, DamageModel};
+use crate::material::{CurrentView, Material, PointCoefficients, ReferenceView};
+use crate::model::{BondList, PointCloud};
+
+/// The physics of one block.
+pub struct BlockPhysics {
+    /// The block's material (set up with the block's points).
+    pub material: Box<dyn Material>,
+    /// The block's damage model, if any.
+    pub damage: Option<Box<dyn DamageModel>>,
+}
+
+/// Materials and damage of all blocks, with the scratch they share.
+pub struct Physics {
+    /// One entry per model block (same order as the model's blocks).
+    pub blocks: Vec<BlockPhysics>,
+    /// Published per-point coefficients (all points).
+    pub coefficients: Vec<PointCoefficients>,
+    /// Bond damage, only when some block has a damage model.
+    pub bond_damage: Option<Vec<f32>>,
+    /// Density of every point (from its block's material).
+    pub density: Vec<f64>,
+}
+
+impl Physics {
+    /// Assembles blocks (materials already set up) for `points`; allocates bond damage only
+    /// when a damage model exists, and computes the constant coefficients of materials that
+    /// have no dilatation pass.
+    pub fn new(blocks: Vec<BlockPhysics>, points: &PointCloud, bonds: &BondList) -> Self {
+        let density = points
+            .block
+            .iter()
+            .map(|&b| blocks[b as usize].material.density())
+            .collect();
+        let bond_damage = blocks
+            .iter()
+            .any(|b| b.damage.is_some())
+            .then(|| vec![0.0f32; bonds.num_bonds()]);
+        let mut physics = Self {
+            blocks,
+            coefficients: vec![PointCoefficients::default(); points.len()],
+            bond_damage,
+            density,
+        };
+        let reference = ReferenceView {
+            bonds,
+            position: &points.position,
+            volume: &points.volume,
+        };
+        let current = CurrentView {
+            position: &points.position,
+            bond_damage: None,
+        };
+        for block in &physics.blocks {
+            if !block.material.needs_dilatation() {
+                block.material.compute_point_coefficients(
+                    &reference,
+                    &current,
+                    &mut physics.coefficients,
+                );
+            }
+        }
+        physics
+    }
+
+    /// True when any material has a dilatation pass.
+    pub fn state_based(&self) -> bool {
+        self.blocks.iter().any(|b| b.material.needs_dilatation())
+    }
+
+    /// Internal force density at the current positions `current` (force/length³). Damage is
+    /// updated first, so a bond that exceeds its limit carries no force in this evaluation
+    /// (Peridigm's order). Returns the number of bonds that broke.
+    pub fn internal_force(
+        &mut self,
+        bonds: &BondList,
+        points: &PointCloud,
+        current: &[[f64; 3]],
+        force_density: &mut [[f64; 3]],
+    ) -> usize {
+        let reference = ReferenceView {
+            bonds,
+            position: &points.position,
+            volume: &points.volume,
+        };
+        let mut broken = 0;
+        if let Some(bond_damage) = &mut self.bond_damage {
+            for block in &self.blocks {
+                if let Some(damage) = &block.damage {
+                    broken += damage.update(&reference, current, block.material.points(), bond_damage);
+                }
+            }
+        }
+        let view = CurrentView {
+            position: current,
+            bond_damage: self.bond_damage.as_deref(),
+        };
+        for block in &self.blocks {
+            if block.material.needs_dilatation() {
+                block
+                    .material
+                    .compute_point_coefficients(&reference, &view, &mut self.coefficients);
+            }
+        }
+        force_density.iter_mut().for_each(|f| *f = [0.0; 3]);
+        for block in &self.blocks {
+            block
+                .material
+                .add_force_density(&reference, &view, &self.coefficients, force_density);
+        }
+        broken
+    }
+
+    /// Stored elastic energy density of every point at `current` (uses the coefficients of the
+    /// last force evaluation at the same positions).
+    pub fn stored_energy_density(
+        &self,
+        bonds: &BondList,
+        points: &PointCloud,
+        current: &[[f64; 3]],
+        energy_density: &mut [f64],
+    ) {
+        let reference = ReferenceView {
+            bonds,
+            position: &points.position,
+            volume: &points.volume,
+        };
+        let view = CurrentView {
+            position: current,
+            bond_damage: self.bond_damage.as_deref(),
+        };
+        for block in &self.blocks {
+            block
+                .material
+                .stored_energy_density(&reference, &view, &self.coefficients, energy_density);
+        }
+    }
+
+    /// Point damage (broken fraction of each family); zero without damage models.
+    pub fn point_damage(&self, bonds: &BondList, damage: &mut [f64]) {
+        damage.iter_mut().for_each(|d| *d = 0.0);
+        if let Some(bond_damage) = &self.bond_damage {
+            for block in &self.blocks {
+                point_damage(bonds, bond_damage, block.material.points(), damage);
+            }
+        }
+    }
+
+    /// Peridigm's critical time step over all blocks (`None` if no point has a neighbour).
+    pub fn critical_time_step(&self, bonds: &BondList, points: &PointCloud) -> Option<f64> {
+        let reference = ReferenceView {
+            bonds,
+            position: &points.position,
+            volume: &points.volume,
+        };
+        self.blocks
+            .iter()
+            .filter_map(|b| b.material.critical_time_step(&reference))
+            .reduce(f64::min)
+    }
+}

@@ -1,0 +1,145 @@
+//! Materials and damage models from the deck, one instance per block.
+
+use super::{compile, Model, SetupError};
+use crate::damage::CriticalStretch;
+use crate::expression::INFLUENCE;
+use crate::io::deck::{
+    BondBasedModulus, DamageKind, Deck, Horizon, InfluenceFunction as DeckInfluence, MaterialModel,
+    PlanarKind,
+};
+use crate::material::{
+    BondBased, BondBasedParameters, InfluenceFunction, LinearPeridynamicSolid,
+    LinearPeridynamicSolidParameters, Material, ReferenceView,
+};
+use crate::physics::{BlockPhysics, Physics};
+
+fn influence(deck: &Deck) -> Result<InfluenceFunction, SetupError> {
+    Ok(match &deck.discretization.influence_function {
+        DeckInfluence::One => InfluenceFunction::One,
+        DeckInfluence::ParabolicDecay => InfluenceFunction::ParabolicDecay,
+        DeckInfluence::Gaussian => InfluenceFunction::Gaussian,
+        DeckInfluence::Expression(text) => {
+            let expression = compile(deck, &["Discretization", "Influence Function"], text, INFLUENCE)?;
+            // A failing evaluation yields NaN, which the material rejects with the bond named.
+            InfluenceFunction::user(move |zeta, horizon| {
+                expression.eval(&[zeta, horizon]).unwrap_or(f64::NAN)
+            })
+        }
+    })
+}
+
+/// Builds and sets up the material (and damage model) of every block.
+pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> {
+    let reference = ReferenceView {
+        bonds: &model.bonds,
+        position: &model.points.position,
+        volume: &model.points.volume,
+    };
+    let influence = influence(deck)?;
+    let mut blocks = Vec::with_capacity(model.blocks.len());
+    for block in &model.blocks {
+        let entry = &deck.blocks[block.deck_block];
+        let key_material = ["Materials", entry.material.as_str()];
+        let Some(material) = deck.material(&entry.material) else {
+            return Err(deck
+                .error_at(&["Blocks", &entry.name, "Material"], "no such material")
+                .into());
+        };
+        let horizon = match entry.horizon {
+            Horizon::Constant(value) => value,
+            Horizon::Expression(_) => {
+                return Err(deck
+                    .error_at(
+                        &["Blocks", &entry.name, "Horizon"],
+                        "a horizon that varies in space is not supported by the force kernels yet; give a number",
+                    )
+                    .into())
+            }
+        };
+        let density = material.density.ok_or_else(|| {
+            deck.error_at(&key_material, "this material needs a Density")
+        })?;
+        let mut built: Box<dyn Material> = match &material.model {
+            MaterialModel::ElasticBondBased { modulus, planar } => {
+                let (bulk_modulus, planar_thickness) = match (modulus, planar) {
+                    (BondBasedModulus::Bulk(k), None) => (*k, None),
+                    // 3D and plane strain fix ν = ¼, plane stress ν = ⅓ (Peridigm).
+                    (BondBasedModulus::Young(e), None) => (e / (3.0 * (1.0 - 0.5)), None),
+                    (BondBasedModulus::Bulk(k), Some((_, h))) => (*k, Some(*h)),
+                    (BondBasedModulus::Young(e), Some((PlanarKind::PlaneStrain, h))) => {
+                        (e / (2.0 * (1.0 + 0.25) * (1.0 - 0.5)), Some(*h))
+                    }
+                    (BondBasedModulus::Young(e), Some((PlanarKind::PlaneStress, h))) => {
+                        (e / (2.0 * (1.0 - 1.0 / 3.0)), Some(*h))
+                    }
+                };
+                Box::new(
+                    BondBased::new(BondBasedParameters {
+                        density,
+                        bulk_modulus,
+                        horizon,
+                        planar_thickness,
+                    })
+                    .map_err(|e| deck.error_at(&key_material, e.to_string()))?,
+                )
+            }
+            MaterialModel::Elastic { .. } => {
+                let constants = material.elastic.ok_or_else(|| {
+                    deck.error_at(&key_material, "Elastic needs two elastic constants")
+                })?;
+                Box::new(
+                    LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
+                        density,
+                        bulk_modulus: constants.bulk_modulus(),
+                        shear_modulus: constants.shear_modulus(),
+                        horizon,
+                        influence: influence.clone(),
+                    })
+                    .map_err(|e| deck.error_at(&key_material, e.to_string()))?,
+                )
+            }
+            other => {
+                return Err(deck
+                    .error_at(
+                        &[&key_material[..], &["Material Model"]].concat(),
+                        format!("material model \"{}\" is not available in this build", other.deck_name()),
+                    )
+                    .into())
+            }
+        };
+        built
+            .setup(&reference, block.points.clone())
+            .map_err(|e| deck.error_at(&key_material, e.to_string()))?;
+        let damage: Option<Box<dyn crate::damage::DamageModel>> = match &entry.damage_model {
+            None => None,
+            Some(name) => {
+                let key = ["Damage Models", name.as_str()];
+                let model = deck
+                    .damage_model(name)
+                    .ok_or_else(|| deck.error_at(&["Blocks", &entry.name, "Damage Model"], "no such damage model"))?;
+                match &model.kind {
+                    DamageKind::CriticalStretch {
+                        critical_stretch,
+                        thermal_expansion_coefficient: None,
+                    } => Some(Box::new(
+                        CriticalStretch::new(*critical_stretch)
+                            .map_err(|e| deck.error_at(&key, e.to_string()))?,
+                    )),
+                    other => {
+                        return Err(deck
+                            .error_at(
+                                &key,
+                                format!("damage model \"{}\" (with these options) is not available in this build", other.deck_name()),
+                            )
+                            .into())
+                    }
+                }
+            }
+        };
+        blocks.push(BlockPhysics {
+            material: built,
+            damage,
+        });
+    }
+    Ok(Physics::new(blocks, &model.points, &model.bonds))
+}

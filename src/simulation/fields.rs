@@ -1,0 +1,266 @@
+//! What a running simulation can write: point fields, energies and compute-class globals.
+
+use crate::io::deck::{CalculationType, ComputeClass, ComputeClassKind};
+use crate::io::output::FieldSource;
+use crate::physics::Physics;
+use crate::setup::Model;
+use crate::state::State;
+use std::borrow::Cow;
+
+/// A compute class prepared for evaluation: which points it reduces over.
+#[derive(Debug, Clone)]
+pub struct PreparedComputeClass {
+    /// `Output Label`.
+    pub label: String,
+    /// `Variable`.
+    pub variable: String,
+    /// Points (run order) reduced over; one point for `Nearest_Point_Data`.
+    pub points: Vec<u32>,
+    /// Min/max/sum; `None` for `Nearest_Point_Data` (the value at the point).
+    pub calculation: Option<CalculationType>,
+}
+
+/// Resolves the deck's compute classes against the model (`None` entries are classes with no
+/// global output, e.g. `Bond_Visualization`). Errors name the missing block or node set.
+pub fn prepare_compute_classes(
+    classes: &[ComputeClass],
+    model: &Model,
+) -> Result<Vec<PreparedComputeClass>, String> {
+    let mut prepared = Vec::new();
+    for class in classes {
+        match &class.kind {
+            ComputeClassKind::BlockData {
+                block,
+                variable,
+                calculation_type,
+                output_label,
+            } => {
+                let found = model
+                    .blocks
+                    .iter()
+                    .find(|b| b.info.name == *block)
+                    .ok_or_else(|| format!("compute class \"{}\": no block \"{block}\" in the mesh", class.name))?;
+                prepared.push(PreparedComputeClass {
+                    label: output_label.clone(),
+                    variable: variable.clone(),
+                    points: found.points.clone(),
+                    calculation: Some(*calculation_type),
+                });
+            }
+            ComputeClassKind::NodeSetData {
+                node_set,
+                variable,
+                calculation_type,
+                output_label,
+            } => {
+                let points = model.node_sets.get(node_set).ok_or_else(|| {
+                    format!("compute class \"{}\": no node set \"{node_set}\"", class.name)
+                })?;
+                prepared.push(PreparedComputeClass {
+                    label: output_label.clone(),
+                    variable: variable.clone(),
+                    points: points.to_vec(),
+                    calculation: Some(*calculation_type),
+                });
+            }
+            ComputeClassKind::NearestPointData {
+                position,
+                variable,
+                output_label,
+                ..
+            } => {
+                // Nearest in the reference configuration; ties go to the smallest original id.
+                let mut best: Option<(f64, u32, u32)> = None;
+                for (i, x) in model.points.position.iter().enumerate() {
+                    let d2: f64 = (0..3).map(|k| (x[k] - position[k]).powi(2)).sum();
+                    let id = model.points.original_id[i];
+                    let better = match best {
+                        None => true,
+                        Some((bd, bid, _)) => d2 < bd || (d2 == bd && id < bid),
+                    };
+                    if better {
+                        best = Some((d2, id, i as u32));
+                    }
+                }
+                prepared.push(PreparedComputeClass {
+                    label: output_label.clone(),
+                    variable: variable.clone(),
+                    points: best.map(|b| vec![b.2]).unwrap_or_default(),
+                    calculation: None,
+                });
+            }
+            ComputeClassKind::BondVisualization { .. } => {}
+        }
+    }
+    Ok(prepared)
+}
+
+/// A read-only view of a simulation for the output writer.
+pub struct Fields<'a> {
+    /// The model.
+    pub model: &'a Model,
+    /// Materials and damage.
+    pub physics: &'a Physics,
+    /// Current state.
+    pub state: &'a State,
+    /// Prepared compute classes.
+    pub compute_classes: &'a [PreparedComputeClass],
+}
+
+impl Fields<'_> {
+    fn stored_energy_density(&self) -> Vec<f64> {
+        let mut w = vec![0.0; self.model.points.len()];
+        self.physics.stored_energy_density(
+            &self.model.bonds,
+            &self.model.points,
+            &self.state.current_position,
+            &mut w,
+        );
+        w
+    }
+
+    fn reduce(values: impl Iterator<Item = f64>, calculation: CalculationType) -> f64 {
+        match calculation {
+            CalculationType::Sum => values.sum(),
+            CalculationType::Minimum => values.fold(f64::INFINITY, f64::min),
+            CalculationType::Maximum => values.fold(f64::NEG_INFINITY, f64::max),
+        }
+    }
+
+    fn class(&self, label: &str) -> Option<&PreparedComputeClass> {
+        self.compute_classes.iter().find(|c| c.label == label)
+    }
+}
+
+impl FieldSource for Fields<'_> {
+    fn vector(&self, name: &str) -> Option<Cow<'_, [[f64; 3]]>> {
+        let points = &self.model.points;
+        let state = self.state;
+        Some(match name {
+            "Displacement" => Cow::Borrowed(&state.displacement),
+            "Velocity" => Cow::Borrowed(&state.velocity),
+            "Acceleration" => Cow::Borrowed(&state.acceleration),
+            "Force_Density" => Cow::Borrowed(&state.force_density),
+            "Coordinates" => Cow::Borrowed(&state.current_position),
+            "Model_Coordinates" => Cow::Borrowed(&points.position),
+            "External_Force_Density" => match &state.external_force_density {
+                Some(b) => Cow::Borrowed(b),
+                None => Cow::Owned(vec![[0.0; 3]; points.len()]),
+            },
+            "Force" => Cow::Owned(
+                state
+                    .force_density
+                    .iter()
+                    .zip(&points.volume)
+                    .map(|(f, v)| [f[0] * v, f[1] * v, f[2] * v])
+                    .collect(),
+            ),
+            "Linear_Momentum" => Cow::Owned(
+                (0..points.len())
+                    .map(|i| {
+                        let m = self.physics.density[i] * points.volume[i];
+                        let v = state.velocity[i];
+                        [m * v[0], m * v[1], m * v[2]]
+                    })
+                    .collect(),
+            ),
+            _ => return None,
+        })
+    }
+
+    fn scalar(&self, name: &str) -> Option<Cow<'_, [f64]>> {
+        let points = &self.model.points;
+        let n = points.len();
+        Some(Cow::Owned(match name {
+            "Volume" => return Some(Cow::Borrowed(&points.volume)),
+            "Horizon" => return Some(Cow::Borrowed(&self.model.horizon)),
+            "Radius" => (0..n).map(|i| points.radius(i)).collect(),
+            "Element_Id" => points.original_id.iter().map(|&id| id as f64 + 1.0).collect(),
+            "Block_Id" => points
+                .block
+                .iter()
+                .map(|&b| self.model.blocks[b as usize].info.id as f64)
+                .collect(),
+            "Proc_Num" => vec![0.0; n],
+            "Number_Of_Neighbors" => (0..n)
+                .map(|i| self.model.bonds.family_size(i) as f64)
+                .collect(),
+            "Dilatation" => self
+                .physics
+                .coefficients
+                .iter()
+                .map(|c| c.dilatation)
+                .collect(),
+            "Weighted_Volume" => {
+                let mut m = vec![0.0; n];
+                for block in &self.physics.blocks {
+                    if let Some(values) = block.material.weighted_volume() {
+                        for (&p, &value) in block.material.points().iter().zip(values) {
+                            m[p as usize] = value;
+                        }
+                    }
+                }
+                m
+            }
+            "Damage" => {
+                let mut d = vec![0.0; n];
+                self.physics.point_damage(&self.model.bonds, &mut d);
+                d
+            }
+            "Kinetic_Energy" => (0..n)
+                .map(|i| {
+                    let v = self.state.velocity[i];
+                    0.5 * self.physics.density[i]
+                        * points.volume[i]
+                        * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+                })
+                .collect(),
+            "Stored_Elastic_Energy_Density" => self.stored_energy_density(),
+            "Stored_Elastic_Energy" => self
+                .stored_energy_density()
+                .iter()
+                .zip(&points.volume)
+                .map(|(w, v)| w * v)
+                .collect(),
+            _ => return None,
+        }))
+    }
+
+    fn tensor(&self, _name: &str) -> Option<Cow<'_, [[f64; 9]]>> {
+        None
+    }
+
+    fn global(&self, name: &str) -> Option<f64> {
+        match name {
+            "Global_Kinetic_Energy" => Some(self.scalar("Kinetic_Energy")?.iter().sum()),
+            "Global_Stored_Elastic_Energy" => {
+                Some(self.scalar("Stored_Elastic_Energy")?.iter().sum())
+            }
+            _ => {
+                let class = self.class(name)?;
+                let values = self.scalar(&class.variable)?;
+                let selected = class.points.iter().map(|&p| values[p as usize]);
+                Some(match class.calculation {
+                    Some(calculation) => Self::reduce(selected, calculation),
+                    None => selected.into_iter().next().unwrap_or(0.0),
+                })
+            }
+        }
+    }
+
+    fn global_vector(&self, name: &str) -> Option<[f64; 3]> {
+        if name == "Global_Linear_Momentum" {
+            let momentum = self.vector("Linear_Momentum")?;
+            return Some([0, 1, 2].map(|k| momentum.iter().map(|m| m[k]).sum()));
+        }
+        let class = self.class(name)?;
+        let values = self.vector(&class.variable)?;
+        Some([0, 1, 2].map(|k| {
+            let selected = class.points.iter().map(|&p| values[p as usize][k]);
+            match class.calculation {
+                Some(calculation) => Self::reduce(selected, calculation),
+                None => selected.into_iter().next().unwrap_or(0.0),
+            }
+        }))
+    }
+}

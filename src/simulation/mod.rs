@@ -1,0 +1,321 @@
+//! A run from start to finish: initial conditions, the deck's solvers in order, outputs, the
+//! stability monitor and progress reporting.
+
+mod fields;
+
+pub use fields::{prepare_compute_classes, Fields, PreparedComputeClass};
+
+use crate::boundary::BoundaryError;
+use crate::io::deck::{Deck, Integrator};
+use crate::io::output::{OutputError, OutputFile, OutputGeometry, Schedule};
+use crate::physics::Physics;
+use crate::setup::{self, Model};
+use crate::solver::{EnergyMonitor, Instability, VelocityVerlet, VerletSettings};
+use crate::state::State;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Why a run stopped early.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Writing results failed.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// A boundary-condition expression failed during the run.
+    #[error(transparent)]
+    Boundary(#[from] BoundaryError),
+    /// A solver needs something this build does not have.
+    #[error("{0}")]
+    Unsupported(String),
+    /// The explicit run became unstable (exit code 3).
+    #[error(
+        "the run became unstable at step {} of solver \"{solver}\" (t = {:e} s): kinetic energy {:e} exceeds {}× the energy supplied to the body ({:e}). \
+         The time step was {time_step:e} s; Peridigm's stable estimate is {estimate}. \
+         Reduce \"Safety Factor\" (e.g. 0.5) or give a smaller \"Fixed dt\". \
+         Output written up to the last frame before the failure is valid.",
+        instability.step, instability.time, instability.kinetic_energy, EnergyMonitor::GROWTH_LIMIT, instability.budget,
+        estimate = .estimate.map(|e| format!("{e:e} s")).unwrap_or_else(|| "not available".into())
+    )]
+    Unstable {
+        /// Solver list name.
+        solver: String,
+        /// What the monitor saw.
+        instability: Instability,
+        /// Δt used.
+        time_step: f64,
+        /// The stable estimate.
+        estimate: Option<f64>,
+    },
+}
+
+impl RunError {
+    /// Process exit code: 3 for solver failures and instabilities, 1 otherwise.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            RunError::Unstable { .. } => 3,
+            _ => 1,
+        }
+    }
+}
+
+/// What a finished run reports.
+#[derive(Debug, Clone, Default)]
+pub struct RunSummary {
+    /// Explicit steps taken over all solvers.
+    pub steps: u64,
+    /// Wall-clock seconds in the solvers.
+    pub solve_seconds: f64,
+    /// Wall-clock seconds writing output.
+    pub output_seconds: f64,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+    /// Bonds broken during the run.
+    pub broken_bonds: usize,
+}
+
+/// Prints progress on a terminal as a bar, otherwise as plain lines every 10 %.
+struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    total: u64,
+    next_report: u64,
+}
+
+impl Progress {
+    fn new(label: &str, total: u64) -> Self {
+        let bar = std::io::stderr().is_terminal().then(|| {
+            let bar = indicatif::ProgressBar::new(total);
+            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                "{msg} [{bar:40}] {pos}/{len} steps, {elapsed_precise} elapsed, ETA {eta}",
+            ) {
+                bar.set_style(style.progress_chars("=> "));
+            }
+            bar.set_message(label.to_string());
+            bar
+        });
+        Self {
+            bar,
+            total,
+            next_report: 1,
+        }
+    }
+
+    fn update(&mut self, step: u64) {
+        if let Some(bar) = &self.bar {
+            bar.set_position(step);
+        } else if self.total > 0 && step * 10 >= self.next_report * self.total {
+            eprintln!("  step {step}/{} ({}%)", self.total, step * 100 / self.total);
+            self.next_report = step * 10 / self.total + 1;
+        }
+    }
+
+    fn finish(self) {
+        if let Some(bar) = self.bar {
+            bar.finish();
+        }
+    }
+}
+
+/// The outputs of a run, one file per deck `Output` list.
+struct Outputs {
+    files: Vec<OutputFile>,
+    seconds: f64,
+}
+
+impl Outputs {
+    fn create(deck: &Deck, model: &Model, dir: &Path) -> Result<Self, RunError> {
+        let n = model.points.len();
+        let mut coordinates = vec![[0.0; 3]; n];
+        for (k, &run) in model.run_index.iter().enumerate() {
+            coordinates[k] = model.points.position[run as usize];
+        }
+        let original = |points: &[u32]| -> Vec<u32> {
+            let mut ids: Vec<u32> = points.iter().map(|&p| model.points.original_id[p as usize]).collect();
+            ids.sort_unstable();
+            ids
+        };
+        let geometry = OutputGeometry {
+            coordinates,
+            run_index: model.run_index.clone(),
+            blocks: model
+                .blocks
+                .iter()
+                .map(|b| (b.info.id, b.info.name.clone(), original(&b.points)))
+                .collect(),
+            node_sets: model
+                .node_sets
+                .iter()
+                .map(|(name, points)| (name.to_string(), original(points)))
+                .collect(),
+        };
+        let mut files = Vec::new();
+        for output in &deck.outputs {
+            let variables = setup::report::requested_variables(deck, output)
+                .map_err(|e| RunError::Unsupported(e.to_string()))?;
+            let schedule = Schedule {
+                frequency: output.frequency,
+                initial_step: output.initial_output_step,
+                final_step: output.final_output_step,
+            };
+            files.push(OutputFile::create(
+                dir,
+                &output.filename,
+                "peridyn",
+                schedule,
+                variables,
+                &geometry,
+            )?);
+        }
+        Ok(Self {
+            files,
+            seconds: 0.0,
+        })
+    }
+
+    fn call(&mut self, time: f64, fields: &Fields) -> Result<(), RunError> {
+        let start = Instant::now();
+        for file in &mut self.files {
+            file.call(time, fields)?;
+        }
+        self.seconds += start.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    fn finish(self) -> Result<Vec<PathBuf>, RunError> {
+        let mut paths = Vec::new();
+        for file in self.files {
+            paths.push(file.path().to_path_buf());
+            file.finish()?;
+        }
+        Ok(paths)
+    }
+}
+
+/// Energy scale below which the monitor treats changes as round-off: the strain energy of the
+/// whole body at a uniform strain of 1e-6 (½ K ε² V summed).
+fn energy_floor(model: &Model, physics: &Physics) -> f64 {
+    physics
+        .blocks
+        .iter()
+        .map(|b| {
+            let volume: f64 = b
+                .material
+                .points()
+                .iter()
+                .map(|&p| model.points.volume[p as usize])
+                .sum();
+            0.5 * b.material.bulk_modulus() * 1e-12 * volume
+        })
+        .sum()
+}
+
+/// Runs every solver list of the deck in order on one state, writing outputs to `dir`.
+/// Output frames already written stay valid whatever happens later.
+pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunError> {
+    let mut physics = setup::build_physics(deck, model).map_err(|e| RunError::Unsupported(e.to_string()))?;
+    let compute_classes =
+        prepare_compute_classes(&deck.compute_classes, model).map_err(RunError::Unsupported)?;
+    let t0 = deck.solvers.first().map_or(0.0, |s| s.initial_time);
+    let mut state = State::at_rest(&model.points.position, t0, model.boundary.has_body_force());
+    model.boundary.apply_initial(
+        &model.points.position,
+        t0,
+        &mut state.displacement,
+        &mut state.velocity,
+    )?;
+    let mut outputs = Outputs::create(deck, model, dir)?;
+    let mut summary = RunSummary::default();
+    let estimate = physics.critical_time_step(&model.bonds, &model.points);
+    let mut first = true;
+
+    for solver in &deck.solvers {
+        let Integrator::Verlet(verlet) = &solver.integrator else {
+            return Err(RunError::Unsupported(format!(
+                "solver \"{}\": {} is not available in this build",
+                solver.name,
+                solver.integrator.deck_name()
+            )));
+        };
+        let base = match (verlet.fixed_dt, estimate) {
+            (Some(dt), _) | (None, Some(dt)) => dt,
+            (None, None) => {
+                return Err(RunError::Unsupported(format!(
+                    "solver \"{}\": no point has a neighbour, so there is no stable time step; give \"Fixed dt\"",
+                    solver.name
+                )))
+            }
+        };
+        let time_step = verlet.safety_factor * base;
+        let steps = ((solver.final_time - solver.initial_time) / time_step).floor().max(0.0) as u64;
+        eprintln!(
+            "{}: Verlet, Δt = {time_step:e} s (stable estimate {}, safety factor {}), {steps} steps",
+            solver.name,
+            estimate.map(|e| format!("{e:e} s")).unwrap_or_else(|| "n/a".into()),
+            verlet.safety_factor
+        );
+        let mut integrator = VelocityVerlet::new(
+            model,
+            VerletSettings {
+                time_step,
+                steps,
+                initial_time: solver.initial_time,
+            },
+        );
+        integrator.initialize(model, &mut physics, &mut state)?;
+        let fields = |physics: &Physics, state: &State| -> (f64, f64) {
+            let view = Fields {
+                model,
+                physics,
+                state,
+                compute_classes: &compute_classes,
+            };
+            let kinetic = crate::io::output::FieldSource::global(&view, "Global_Kinetic_Energy").unwrap_or(0.0);
+            let stored = crate::io::output::FieldSource::global(&view, "Global_Stored_Elastic_Energy").unwrap_or(0.0);
+            (kinetic, stored)
+        };
+        let (kinetic, stored) = fields(&physics, &state);
+        let mut monitor = EnergyMonitor::new(kinetic + stored, energy_floor(model, &physics));
+        if first {
+            let view = Fields {
+                model,
+                physics: &physics,
+                state: &state,
+                compute_classes: &compute_classes,
+            };
+            outputs.call(state.time, &view)?;
+            first = false;
+        }
+        let start = Instant::now();
+        let mut progress = Progress::new(&solver.name, steps);
+        for step in 1..=steps {
+            let report = integrator.step(model, &mut physics, &mut state, step)?;
+            summary.broken_bonds += report.broken_bonds;
+            monitor.add_work(report.supplied_work);
+            if let Err(instability) = monitor.check(step, state.time, report.free_kinetic_energy) {
+                progress.finish();
+                summary.files = outputs.finish()?;
+                return Err(RunError::Unstable {
+                    solver: solver.name.clone(),
+                    instability,
+                    time_step,
+                    estimate,
+                });
+            }
+            let view = Fields {
+                model,
+                physics: &physics,
+                state: &state,
+                compute_classes: &compute_classes,
+            };
+            outputs.call(state.time, &view)?;
+            progress.update(step);
+        }
+        progress.finish();
+        summary.steps += steps;
+        summary.solve_seconds += start.elapsed().as_secs_f64();
+    }
+    summary.output_seconds = outputs.seconds;
+    summary.solve_seconds -= summary.output_seconds.min(summary.solve_seconds);
+    summary.files = outputs.finish()?;
+    Ok(summary)
+}

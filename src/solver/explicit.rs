@@ -1,0 +1,198 @@
+//! Explicit velocity-Verlet time integration in Peridigm's step order (DESIGN §4).
+//!
+//! One step from t_n to t_{n+1} = t_n + Δt:
+//! 1. half kick `v += ½Δt a`;
+//! 2. kinematic conditions: at prescribed dofs `v = (g(t_{n+1}) − g(t_n))/Δt`;
+//! 3. drift `u += Δt v`;
+//! 4. body force at t_{n+1};
+//! 5. damage, then internal force at the new positions;
+//! 6. `a = (f_int + b)/ρ`, second half kick `v += ½Δt a` (at every dof, as Peridigm does, so
+//!    velocities written at prescribed dofs include half a kick).
+
+use crate::boundary::BoundaryError;
+use crate::physics::Physics;
+use crate::setup::Model;
+use crate::state::State;
+use rayon::prelude::*;
+
+/// Time-step settings of one `Verlet` solver list.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VerletSettings {
+    /// Time step Δt (s): `Safety Factor × (Fixed dt or the stable estimate)`.
+    pub time_step: f64,
+    /// Number of steps, `floor((t_final − t_initial)/Δt)` (Peridigm's count).
+    pub steps: u64,
+    /// `Initial Time`.
+    pub initial_time: f64,
+}
+
+/// What one step did, for the stability monitor and the log.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepReport {
+    /// Kinetic energy of the unconstrained dofs, Σ ½ ρ V v² (energy units).
+    pub free_kinetic_energy: f64,
+    /// Magnitude of the work supplied in the step by body forces and at prescribed dofs.
+    pub supplied_work: f64,
+    /// Bonds broken in the step.
+    pub broken_bonds: usize,
+}
+
+/// Velocity-Verlet integrator with its own scratch.
+#[derive(Debug, Clone)]
+pub struct VelocityVerlet {
+    settings: VerletSettings,
+    /// Bit k set when component k of the point is prescribed.
+    constrained: Vec<u8>,
+}
+
+impl VelocityVerlet {
+    /// An integrator for `model` with `settings`.
+    pub fn new(model: &Model, settings: VerletSettings) -> Self {
+        let mut constrained = vec![0u8; model.points.len()];
+        for dof in model.boundary.constrained_dofs() {
+            constrained[dof / 3] |= 1 << (dof % 3);
+        }
+        Self {
+            settings,
+            constrained,
+        }
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> VerletSettings {
+        self.settings
+    }
+
+    /// Time at the end of step `step` (1-based), `t_0 + step·Δt`.
+    pub fn time_after(&self, step: u64) -> f64 {
+        self.settings.initial_time + step as f64 * self.settings.time_step
+    }
+
+    /// Applies the prescribed displacements at the initial time (so that a constant
+    /// non-zero value holds from the start), evaluates the force and sets a₀ consistently.
+    pub fn initialize(
+        &self,
+        model: &Model,
+        physics: &mut Physics,
+        state: &mut State,
+    ) -> Result<(), BoundaryError> {
+        let t0 = self.settings.initial_time;
+        state.time = t0;
+        let positions = &model.points.position;
+        let displacement = state.displacement.clone();
+        model
+            .boundary
+            .prescribed_increments(positions, &displacement, t0, t0, |p, c, du| {
+                state.displacement[p][c] += du
+            })?;
+        if let Some(b) = &mut state.external_force_density {
+            model.boundary.body_force(positions, t0, b)?;
+        }
+        evaluate_acceleration(model, physics, state);
+        Ok(())
+    }
+
+    /// Advances the state by one step; `step` is the 1-based step number in this solver.
+    pub fn step(
+        &mut self,
+        model: &Model,
+        physics: &mut Physics,
+        state: &mut State,
+        step: u64,
+    ) -> Result<StepReport, BoundaryError> {
+        let dt = self.settings.time_step;
+        let t_from = state.time;
+        let t_to = self.time_after(step);
+        let positions = &model.points.position;
+
+        state
+            .velocity
+            .par_iter_mut()
+            .zip(state.acceleration.par_iter())
+            .for_each(|(v, a)| {
+                for k in 0..3 {
+                    v[k] += 0.5 * dt * a[k];
+                }
+            });
+        {
+            let (displacement, velocity) = (&state.displacement, &mut state.velocity);
+            model
+                .boundary
+                .prescribed_increments(positions, displacement, t_from, t_to, |p, c, du| {
+                    velocity[p][c] = du / dt
+                })?;
+        }
+        state
+            .displacement
+            .par_iter_mut()
+            .zip(state.velocity.par_iter())
+            .for_each(|(u, v)| {
+                for k in 0..3 {
+                    u[k] += dt * v[k];
+                }
+            });
+        state.time = t_to;
+        if let Some(b) = &mut state.external_force_density {
+            model.boundary.body_force(positions, t_to, b)?;
+        }
+        let broken_bonds = evaluate_acceleration(model, physics, state);
+
+        let volume = &model.points.volume;
+        let constrained = &self.constrained;
+        let external = state.external_force_density.as_deref();
+        let force = &state.force_density;
+        let (free_kinetic_energy, supplied_work) = state
+            .velocity
+            .par_iter_mut()
+            .zip(state.acceleration.par_iter())
+            .enumerate()
+            .map(|(i, (v, a))| {
+                let mut kinetic = 0.0;
+                let mut work = 0.0;
+                for k in 0..3 {
+                    let drift = dt * v[k];
+                    let b = external.map_or(0.0, |b| b[i][k]);
+                    work += (b * drift * volume[i]).abs();
+                    if constrained[i] & (1 << k) != 0 {
+                        work += ((force[i][k] + b) * drift * volume[i]).abs();
+                    }
+                    v[k] += 0.5 * dt * a[k];
+                    if constrained[i] & (1 << k) == 0 {
+                        kinetic += v[k] * v[k];
+                    }
+                }
+                (0.5 * physics.density[i] * volume[i] * kinetic, work)
+            })
+            .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
+        Ok(StepReport {
+            free_kinetic_energy,
+            supplied_work,
+            broken_bonds,
+        })
+    }
+}
+
+/// Internal force at the current displacement and `a = (f_int + b)/ρ`. Returns broken bonds.
+pub fn evaluate_acceleration(model: &Model, physics: &mut Physics, state: &mut State) -> usize {
+    state.update_current_position(&model.points.position);
+    let broken = physics.internal_force(
+        &model.bonds,
+        &model.points,
+        &state.current_position,
+        &mut state.force_density,
+    );
+    let external = state.external_force_density.as_deref();
+    let density = &physics.density;
+    state
+        .acceleration
+        .par_iter_mut()
+        .zip(state.force_density.par_iter())
+        .enumerate()
+        .for_each(|(i, (a, f))| {
+            for k in 0..3 {
+                let b = external.map_or(0.0, |b| b[i][k]);
+                a[k] = (f[k] + b) / density[i];
+            }
+        });
+    broken
+}
