@@ -5,7 +5,8 @@
 //! backends; then a uniform random cloud of 1e6 points (≈100 neighbours). Times include building
 //! the search structure and the CSR with reference lengths. Prints numbers only; no assertions.
 //! Environment: `NEIGHBOR_BENCH_N` lattice edge (default 100), `NEIGHBOR_BENCH_BACKEND`
-//! (`grid`/`kd`), `NEIGHBOR_BENCH_THREADS` (e.g. `1,2`), `NEIGHBOR_BENCH_SKIP_RANDOM`.
+//! (`grid`/`kd`), `NEIGHBOR_BENCH_THREADS` (e.g. `1,2`), `NEIGHBOR_BENCH_SKIP_RANDOM`,
+//! `NEIGHBOR_BENCH_VERBOSE` (print every run, not only the best of three).
 
 use std::time::Instant;
 
