@@ -8,11 +8,16 @@ use clap::{Parser, Subcommand};
 use peridyn::io::deck::{self, DeckError};
 use peridyn::io::exodus::{compare, ComparisonSpec, ExodusFile};
 use peridyn::setup::{self, SetupError};
+use peridyn::simulation;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "peridyn", version, about = "Peridynamics with Peridigm-compatible input decks")]
+#[command(
+    name = "peridyn",
+    version,
+    about = "Peridynamics with Peridigm-compatible input decks"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -60,6 +65,8 @@ enum Failure {
     Unsupported(String),
     #[error("{0}")]
     Differs(String),
+    #[error("{0}")]
+    Solver(String),
 }
 
 fn invalid(error: impl std::fmt::Display) -> anyhow::Error {
@@ -106,8 +113,26 @@ fn run(path: &Path, output_dir: &Path, threads: Option<usize>) -> Result<()> {
     }
     std::fs::create_dir_all(output_dir)
         .with_context(|| format!("cannot create the output folder {}", output_dir.display()))?;
-    let _ = model;
-    Ok(())
+    eprintln!(
+        "{}: {} points, {} bonds",
+        path.display(),
+        model.points.len(),
+        model.bonds.num_bonds()
+    );
+    match simulation::run(&deck, &model, output_dir) {
+        Ok(summary) => {
+            eprintln!(
+                "done: {} steps in {:.2} s (+ {:.2} s output), {} bonds broken",
+                summary.steps, summary.solve_seconds, summary.output_seconds, summary.broken_bonds
+            );
+            for file in &summary.files {
+                eprintln!("wrote {}", file.display());
+            }
+            Ok(())
+        }
+        Err(error) if error.exit_code() == 3 => Err(Failure::Solver(error.to_string()).into()),
+        Err(error) => Err(error.into()),
+    }
 }
 
 fn diff(a: &Path, b: &Path, comp: Option<&Path>) -> Result<()> {
@@ -156,6 +181,7 @@ fn main() -> ExitCode {
                 Some(Failure::InvalidInput(_)) => 2,
                 Some(Failure::Differs(_)) => 1,
                 Some(Failure::Unsupported(_)) => 1,
+                Some(Failure::Solver(_)) => 3,
                 None => 1,
             };
             eprintln!("error: {error:#}");

@@ -90,7 +90,8 @@ impl Physics {
         if let Some(bond_damage) = &mut self.bond_damage {
             for block in &self.blocks {
                 if let Some(damage) = &block.damage {
-                    broken += damage.update(&reference, current, block.material.points(), bond_damage);
+                    broken +=
+                        damage.update(&reference, current, block.material.points(), bond_damage);
                 }
             }
         }
@@ -100,9 +101,11 @@ impl Physics {
         };
         for block in &self.blocks {
             if block.material.needs_dilatation() {
-                block
-                    .material
-                    .compute_point_coefficients(&reference, &view, &mut self.coefficients);
+                block.material.compute_point_coefficients(
+                    &reference,
+                    &view,
+                    &mut self.coefficients,
+                );
             }
         }
         force_density.iter_mut().for_each(|f| *f = [0.0; 3]);
@@ -133,9 +136,12 @@ impl Physics {
             bond_damage: self.bond_damage.as_deref(),
         };
         for block in &self.blocks {
-            block
-                .material
-                .stored_energy_density(&reference, &view, &self.coefficients, energy_density);
+            block.material.stored_energy_density(
+                &reference,
+                &view,
+                &self.coefficients,
+                energy_density,
+            );
         }
     }
 

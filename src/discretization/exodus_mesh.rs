@@ -16,16 +16,13 @@ pub struct ExodusMesh {
     pub node_sets: NodeSets,
 }
 
-/// Reads an Exodus mesh the way Peridigm does: HEX8 (and the corner nodes of HEX20/27) and
-/// TETRA4 (corner nodes of TETRA10) elements become a point at the mean of their corner nodes
-/// with the element volume; SPHERE elements become a point at their node with the volume in
+/// Reads an Exodus mesh the way Peridigm does: HEX8 (and the corner nodes of HEX20/27)
+/// elements become a point at their volume centroid, TETRA4 (corner nodes of TETRA10) at the
+/// mean of their corners (the same thing for a tetrahedron), with the element volume; SPHERE elements become a point at their node with the volume in
 /// their second attribute. A node set becomes the set of every element that touches one of
 /// its nodes (named as in the file, or `nodelist_<id>`).
 pub fn read_exodus_mesh(path: &Path) -> Result<ExodusMesh, MeshError> {
-    let file = ExodusFile::open(path).map_err(|e| MeshError::Exodus {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    })?;
+    let file = ExodusFile::open(path)?;
     let fail = |message: String| MeshError::Exodus {
         path: path.to_path_buf(),
         message,
@@ -65,7 +62,8 @@ pub fn read_exodus_mesh(path: &Path) -> Result<ExodusMesh, MeshError> {
             };
             let (position, volume) = if kind.starts_with("HEX") {
                 let c = corners(8)?;
-                (mean(&c), hexahedron_volume(&c))
+                let (volume, centroid) = hexahedron_volume_and_centroid(&c);
+                (centroid, volume)
             } else if kind.starts_with("TET") {
                 let c = corners(4)?;
                 (mean(&c), tetrahedron_volume(&c).abs())
@@ -143,10 +141,12 @@ fn tetrahedron_volume(c: &[[f64; 3]]) -> f64 {
     triple(sub(c[1], c[0]), sub(c[2], c[0]), sub(c[3], c[0])) / 6.0
 }
 
-/// Exact volume of a trilinear 8-node hexahedron (Exodus node order): the Jacobian
-/// determinant integrated with 2×2×2 Gauss points, exact because det J of a trilinear map is
-/// at most quadratic in each reference coordinate.
-fn hexahedron_volume(c: &[[f64; 3]]) -> f64 {
+/// Exact volume and volume centroid of a trilinear 8-node hexahedron (Exodus node order):
+/// V = ∫ det J and x̄ = ∫ x det J / V over the reference cube with 2×2×2 Gauss points. Both are
+/// exact: det J is at most quadratic and x·det J at most cubic in each reference coordinate.
+/// The centroid (not the node average) is what Peridigm places the point at; they differ for
+/// non-parallelepiped elements (`Body_Force.g` has trapezoidal ones).
+fn hexahedron_volume_and_centroid(c: &[[f64; 3]]) -> (f64, [f64; 3]) {
     const SIGNS: [[f64; 3]; 8] = [
         [-1.0, -1.0, -1.0],
         [1.0, -1.0, -1.0],
@@ -159,11 +159,17 @@ fn hexahedron_volume(c: &[[f64; 3]]) -> f64 {
     ];
     let g = 1.0 / 3f64.sqrt();
     let mut volume = 0.0;
+    let mut moment = [0.0; 3];
     for gauss in SIGNS {
         let xi = gauss.map(|s| s * g);
         let mut jacobian = [[0.0; 3]; 3];
+        let mut x = [0.0; 3];
         for (node, s) in SIGNS.iter().enumerate() {
             let factors = [1.0 + s[0] * xi[0], 1.0 + s[1] * xi[1], 1.0 + s[2] * xi[2]];
+            let shape = factors[0] * factors[1] * factors[2] / 8.0;
+            for axis in 0..3 {
+                x[axis] += shape * c[node][axis];
+            }
             for d in 0..3 {
                 let mut derivative = s[d] / 8.0;
                 for (other, f) in factors.iter().enumerate() {
@@ -176,9 +182,13 @@ fn hexahedron_volume(c: &[[f64; 3]]) -> f64 {
                 }
             }
         }
-        volume += triple(jacobian[0], jacobian[1], jacobian[2]);
+        let det = triple(jacobian[0], jacobian[1], jacobian[2]);
+        volume += det;
+        for axis in 0..3 {
+            moment[axis] += x[axis] * det;
+        }
     }
-    volume
+    (volume, moment.map(|m| m / volume))
 }
 
 #[cfg(test)]
@@ -197,14 +207,32 @@ mod tests {
             [1.0, 1.0, 1.0],
             [0.0, 1.0, 1.0],
         ];
-        assert!((hexahedron_volume(&cube) - 1.0).abs() < 1e-14);
+        let (volume, centroid) = hexahedron_volume_and_centroid(&cube);
+        assert!((volume - 1.0).abs() < 1e-14);
+        assert!(centroid.iter().all(|x| (x - 0.5).abs() < 1e-15));
         // A shear x += 0.5 z keeps the volume (det of the shear map is 1); a stretch of 2 in
         // y doubles it.
         let sheared: Vec<[f64; 3]> = cube
             .iter()
             .map(|p| [p[0] + 0.5 * p[2], 2.0 * p[1], p[2]])
             .collect();
-        assert!((hexahedron_volume(&sheared) - 2.0).abs() < 1e-14);
+        assert!((hexahedron_volume_and_centroid(&sheared).0 - 2.0).abs() < 1e-14);
+        // Trapezoidal prism (Body_Force.g's shape): parallel faces at x = 0.125 (width
+        // a = 0.25) and x = 0.5 (width b = 1/3), height h = 0.375 → centroid x =
+        // 0.125 + h(a + 2b)/(3(a + b)) = 0.3214285714…; the node average would be 0.3125.
+        let trapezoid = [
+            [0.125, 0.125, 0.0],
+            [0.125, -0.125, 0.0],
+            [0.5, -1.0 / 6.0, 0.0],
+            [0.5, 1.0 / 6.0, 0.0],
+            [0.125, 0.125, 1.0],
+            [0.125, -0.125, 1.0],
+            [0.5, -1.0 / 6.0, 1.0],
+            [0.5, 1.0 / 6.0, 1.0],
+        ];
+        let (_, centroid) = hexahedron_volume_and_centroid(&trapezoid);
+        let expected = 0.125 + 0.375 * (0.25 + 2.0 / 3.0) / (3.0 * (0.25 + 1.0 / 3.0));
+        assert!((centroid[0] - expected).abs() < 1e-15, "{centroid:?}");
         // Tetrahedron (0,0,0),(1,0,0),(0,1,0),(0,0,1): V = 1/6.
         let tet = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
         assert!((tetrahedron_volume(&tet) - 1.0 / 6.0).abs() < 1e-15);

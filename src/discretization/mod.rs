@@ -93,6 +93,9 @@ pub enum MeshError {
         /// The file.
         path: PathBuf,
     },
+    /// An Exodus file could not be read (the message names the file).
+    #[error(transparent)]
+    ExodusFile(#[from] crate::io::exodus::ExodusError),
     /// An Exodus mesh could not be used.
     #[error("{}: {message}", path.display())]
     Exodus {

@@ -71,6 +71,74 @@ pub const CATALOG: &[(&str, VariableKind)] = &[
     ("Cauchy_Stress", VariableKind::ElementTensor),
     ("Unrotated_Cauchy_Stress", VariableKind::ElementTensor),
     ("Green_Lagrange_Strain", VariableKind::ElementTensor),
+    ("Neighborhood_Volume", VariableKind::ElementScalar),
+    ("Undamaged_Weighted_Volume", VariableKind::ElementScalar),
+    ("Normalized_Weighted_Volume", VariableKind::ElementScalar),
+    ("Dilatation_Normalization", VariableKind::ElementScalar),
+    ("Deviatoric_Normalization", VariableKind::ElementScalar),
+    (
+        "Lagrange_Multiplier_Dilatation_1",
+        VariableKind::ElementScalar,
+    ),
+    (
+        "Lagrange_Multiplier_Dilatation_2",
+        VariableKind::ElementScalar,
+    ),
+    (
+        "Lagrange_Multiplier_Dilatation_3",
+        VariableKind::ElementScalar,
+    ),
+    (
+        "Lagrange_Multiplier_Dilatation_4",
+        VariableKind::ElementScalar,
+    ),
+    (
+        "Lagrange_Multiplier_Dilatation_5",
+        VariableKind::ElementScalar,
+    ),
+    (
+        "Lagrange_Multiplier_Dilatation_6",
+        VariableKind::ElementScalar,
+    ),
+    (
+        "Lagrange_Multiplier_Deviatoric_1",
+        VariableKind::ElementScalar,
+    ),
+    (
+        "Lagrange_Multiplier_Deviatoric_2",
+        VariableKind::ElementScalar,
+    ),
+    (
+        "Lagrange_Multiplier_Deviatoric_3",
+        VariableKind::ElementScalar,
+    ),
+    (
+        "Lagrange_Multiplier_Deviatoric_4",
+        VariableKind::ElementScalar,
+    ),
+    (
+        "Lagrange_Multiplier_Deviatoric_5",
+        VariableKind::ElementScalar,
+    ),
+    (
+        "Lagrange_Multiplier_Deviatoric_6",
+        VariableKind::ElementScalar,
+    ),
+    ("Pals_Pressure", VariableKind::ElementScalar),
+    ("Jacobian_Determinant", VariableKind::ElementScalar),
+    ("Stress_Triaxiality", VariableKind::ElementScalar),
+    ("Broken_Bond_Volume_Averaged", VariableKind::ElementScalar),
+    ("Flying_Point_Flag", VariableKind::ElementScalar),
+    ("Concentration", VariableKind::ElementScalar),
+    ("Flux_Divergence", VariableKind::ElementScalar),
+    ("Flux_Density", VariableKind::ElementScalar),
+    ("Fluid_Pressure_U", VariableKind::ElementScalar),
+    ("Fluid_Pressure_Y", VariableKind::ElementScalar),
+    ("Fluid_Pressure_V", VariableKind::ElementScalar),
+    ("Left_Stretch_Tensor", VariableKind::ElementTensor),
+    ("Rotation_Tensor", VariableKind::ElementTensor),
+    ("Unrotated_Rate_Of_Deformation", VariableKind::ElementTensor),
+    ("Velocity_Gradient", VariableKind::ElementTensor),
     ("Global_Kinetic_Energy", VariableKind::Global),
     ("Global_Stored_Elastic_Energy", VariableKind::Global),
     ("Global_Linear_Momentum", VariableKind::GlobalVector),
@@ -227,32 +295,52 @@ impl OutputFile {
             }
         }
         let path = dir.join(Self::file_name(base, &variables));
-        let layout = OutputLayout {
-            title: title.to_string(),
-            coordinates: geometry.coordinates.clone(),
-            node_ids: (1..=geometry.coordinates.len() as i64).collect(),
-            blocks: geometry
-                .blocks
-                .iter()
-                .map(|(id, name, nodes)| OutputBlock {
-                    id: *id,
-                    name: name.clone(),
-                    nodes: nodes.clone(),
-                })
-                .collect(),
-            node_sets: geometry
-                .node_sets
-                .iter()
-                .enumerate()
-                .map(|(k, (name, nodes))| OutputNodeSet {
-                    id: k as i64 + 1,
-                    name: name.clone(),
-                    nodes: nodes.clone(),
-                })
-                .collect(),
-            nodal_variables: nodal,
-            element_variables: element,
-            global_variables: globals.clone(),
+        let layout = if nodal.is_empty() && element.is_empty() && !globals.is_empty() {
+            // A history file (`.h`): Peridigm writes globals over a one-point placeholder mesh
+            // (one node at the origin, one SPHERE element in block 1); so does peridyn, so that
+            // such files compare node for node with Peridigm's.
+            OutputLayout {
+                title: title.to_string(),
+                coordinates: vec![[0.0; 3]],
+                node_ids: vec![1],
+                blocks: vec![OutputBlock {
+                    id: 1,
+                    name: String::new(),
+                    nodes: vec![0],
+                }],
+                node_sets: Vec::new(),
+                nodal_variables: nodal,
+                element_variables: element,
+                global_variables: globals.clone(),
+            }
+        } else {
+            OutputLayout {
+                title: title.to_string(),
+                coordinates: geometry.coordinates.clone(),
+                node_ids: (1..=geometry.coordinates.len() as i64).collect(),
+                blocks: geometry
+                    .blocks
+                    .iter()
+                    .map(|(id, name, nodes)| OutputBlock {
+                        id: *id,
+                        name: name.clone(),
+                        nodes: nodes.clone(),
+                    })
+                    .collect(),
+                node_sets: geometry
+                    .node_sets
+                    .iter()
+                    .enumerate()
+                    .map(|(k, (name, nodes))| OutputNodeSet {
+                        id: k as i64 + 1,
+                        name: name.clone(),
+                        nodes: nodes.clone(),
+                    })
+                    .collect(),
+                nodal_variables: nodal,
+                element_variables: element,
+                global_variables: globals.clone(),
+            }
         };
         let exodus = ExodusWriter::create(&path, &layout)?;
         let history = if globals.is_empty() {

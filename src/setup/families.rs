@@ -64,7 +64,13 @@ pub(super) fn build(
         },
         FamilyRule::Cylinder { grid, spherical } => {
             let generated = grid.families(horizon[0], *spherical);
-            return Ok(renumber(&generated.offsets, &generated.neighbor, points, order, run_index));
+            return Ok(renumber(
+                &generated.offsets,
+                &generated.neighbor,
+                points,
+                order,
+                run_index,
+            ));
         }
     };
     let filters = bond_filters(deck)?;
@@ -76,8 +82,7 @@ pub(super) fn build(
         omit_bonds_between_blocks: deck.discretization.omit_bonds_between_blocks == OmitBonds::All,
         filters: &filters,
     };
-    try_find_families(&search)
-        .map_err(|e| deck.error_at(&["Discretization"], e.to_string()).into())
+    try_find_families(&search).map_err(|e| deck.error_at(&["Discretization"], e.to_string()).into())
 }
 
 /// Converts families given in generator order to run order, rows sorted.
@@ -97,14 +102,17 @@ fn renumber(
     for (new, &old) in order.iter().enumerate() {
         let start = bonds.neighbor.len();
         let old = old as usize;
-        bonds
-            .neighbor
-            .extend(neighbor[offsets[old]..offsets[old + 1]].iter().map(|&j| run_index[j as usize]));
+        bonds.neighbor.extend(
+            neighbor[offsets[old]..offsets[old + 1]]
+                .iter()
+                .map(|&j| run_index[j as usize]),
+        );
         bonds.neighbor[start..].sort_unstable();
         let x = points.position[new];
         for k in start..bonds.neighbor.len() {
             let y = points.position[bonds.neighbor[k] as usize];
-            let length = ((y[0] - x[0]).powi(2) + (y[1] - x[1]).powi(2) + (y[2] - x[2]).powi(2)).sqrt();
+            let length =
+                ((y[0] - x[0]).powi(2) + (y[1] - x[1]).powi(2) + (y[2] - x[2]).powi(2)).sqrt();
             bonds.reference_length.push(length);
         }
         bonds.offsets.push(bonds.neighbor.len());

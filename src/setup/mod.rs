@@ -207,7 +207,12 @@ pub(crate) fn compile(
 /// time-dependent critical stretch), so a typo fails before any work is done.
 fn check_expressions(deck: &Deck) -> Result<(), DeckError> {
     if let InfluenceFunction::Expression(text) = &deck.discretization.influence_function {
-        compile(deck, &["Discretization", "Influence Function"], text, INFLUENCE)?;
+        compile(
+            deck,
+            &["Discretization", "Influence Function"],
+            text,
+            INFLUENCE,
+        )?;
     }
     for model in &deck.damage_models {
         if let DamageKind::TimeDependentCriticalStretch {
@@ -216,7 +221,11 @@ fn check_expressions(deck: &Deck) -> Result<(), DeckError> {
         {
             compile(
                 deck,
-                &["Damage Models", &model.name, "Time Dependent Critical Stretch"],
+                &[
+                    "Damage Models",
+                    &model.name,
+                    "Time Dependent Critical Stretch",
+                ],
                 critical_stretch,
                 TIME,
             )?;
@@ -236,9 +245,12 @@ fn point_horizons(
     for block in &deck.blocks {
         compiled.push(match &block.horizon {
             Horizon::Constant(_) => None,
-            Horizon::Expression(text) => {
-                Some(compile(deck, &["Blocks", &block.name, "Horizon"], text, SPACE)?)
-            }
+            Horizon::Expression(text) => Some(compile(
+                deck,
+                &["Blocks", &block.name, "Horizon"],
+                text,
+                SPACE,
+            )?),
         });
     }
     let mut horizons = Vec::with_capacity(points.len());
@@ -268,10 +280,7 @@ fn point_horizons(
 }
 
 /// Compiles the mechanical boundary conditions against the node sets (input order).
-fn boundary_conditions(
-    deck: &Deck,
-    node_sets: &NodeSets,
-) -> Result<BoundaryConditions, DeckError> {
+fn boundary_conditions(deck: &Deck, node_sets: &NodeSets) -> Result<BoundaryConditions, DeckError> {
     let mut conditions = Vec::new();
     for bc in &deck.boundary_conditions.conditions {
         let kind = match bc.kind {
@@ -320,7 +329,13 @@ fn boundary_conditions(
 /// a space-filling curve, and search families.
 pub fn build(deck: &Deck) -> Result<Model, SetupError> {
     check_expressions(deck)?;
-    let discretization = discretize(deck)?;
+    let discretization = discretize(deck).map_err(|e| match e {
+        SetupError::Mesh(mesh) => SetupError::Deck(deck.error_at(
+            &["Discretization", "Input Mesh File"],
+            mesh.to_string(),
+        )),
+        other => other,
+    })?;
     let block_entry = assign_blocks(deck, &discretization.blocks)?;
     let mut points = discretization.points.clone();
     let horizons = point_horizons(deck, &points, &block_entry)?;

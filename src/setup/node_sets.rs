@@ -23,23 +23,24 @@ pub(super) fn collect(
         let key = ["Boundary Conditions", definition.name.as_str()];
         let ids = match &definition.source {
             NodeSetSource::Ids(ids) => ids.clone(),
-            NodeSetSource::File(path) => read_node_set_file(path).map_err(|e| {
-                deck.error_at(&key, format!("cannot use the node-set file: {e}"))
-            })?,
+            NodeSetSource::File(path) => read_node_set_file(path)
+                .map_err(|e| deck.error_at(&key, format!("cannot use the node-set file: {e}")))?,
         };
+        let first_id = u64::from(!deck.boundary_conditions.zero_based_ids);
+        let last_id = num_points as u64 + first_id - 1;
         let mut points = Vec::with_capacity(ids.len());
         for id in ids {
-            if id == 0 || id as usize > num_points {
+            if id < first_id || id > last_id {
                 return Err(deck
                     .error_at(
                         &key,
                         format!(
-                            "node id {id} is out of range: the discretization has {num_points} points, numbered 1 to {num_points}"
+                            "node id {id} is out of range: the discretization has {num_points} points, numbered {first_id} to {last_id}"
                         ),
                     )
                     .into());
             }
-            points.push((id - 1) as u32);
+            points.push((id - first_id) as u32);
         }
         sets.insert(definition.name.clone(), points);
     }

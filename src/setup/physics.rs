@@ -19,7 +19,12 @@ fn influence(deck: &Deck) -> Result<InfluenceFunction, SetupError> {
         DeckInfluence::ParabolicDecay => InfluenceFunction::ParabolicDecay,
         DeckInfluence::Gaussian => InfluenceFunction::Gaussian,
         DeckInfluence::Expression(text) => {
-            let expression = compile(deck, &["Discretization", "Influence Function"], text, INFLUENCE)?;
+            let expression = compile(
+                deck,
+                &["Discretization", "Influence Function"],
+                text,
+                INFLUENCE,
+            )?;
             // A failing evaluation yields NaN, which the material rejects with the bond named.
             InfluenceFunction::user(move |zeta, horizon| {
                 expression.eval(&[zeta, horizon]).unwrap_or(f64::NAN)
@@ -56,9 +61,9 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
                     .into())
             }
         };
-        let density = material.density.ok_or_else(|| {
-            deck.error_at(&key_material, "this material needs a Density")
-        })?;
+        let density = material
+            .density
+            .ok_or_else(|| deck.error_at(&key_material, "this material needs a Density"))?;
         let mut built: Box<dyn Material> = match &material.model {
             MaterialModel::ElasticBondBased { modulus, planar } => {
                 let (bulk_modulus, planar_thickness) = match (modulus, planar) {
@@ -102,7 +107,10 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
                 return Err(deck
                     .error_at(
                         &[&key_material[..], &["Material Model"]].concat(),
-                        format!("material model \"{}\" is not available in this build", other.deck_name()),
+                        format!(
+                            "material model \"{}\" is not available in this build",
+                            other.deck_name()
+                        ),
                     )
                     .into())
             }
@@ -114,9 +122,12 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
             None => None,
             Some(name) => {
                 let key = ["Damage Models", name.as_str()];
-                let model = deck
-                    .damage_model(name)
-                    .ok_or_else(|| deck.error_at(&["Blocks", &entry.name, "Damage Model"], "no such damage model"))?;
+                let model = deck.damage_model(name).ok_or_else(|| {
+                    deck.error_at(
+                        &["Blocks", &entry.name, "Damage Model"],
+                        "no such damage model",
+                    )
+                })?;
                 match &model.kind {
                     DamageKind::CriticalStretch {
                         critical_stretch,

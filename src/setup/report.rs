@@ -3,8 +3,8 @@
 
 use super::Model;
 use crate::io::deck::{
-    BondBasedModulus, BondFilterShape, BoundaryConditionKind, ComputeClassKind, Deck,
-    DeckError, Integrator, MaterialModel, PointSource,
+    BondBasedModulus, BondFilterShape, BoundaryConditionKind, ComputeClassKind, DamageKind, Deck,
+    DeckError, Horizon, Integrator, MaterialModel, PointSource,
 };
 use crate::io::output::{closest_name, kind_of, OutputFile, RequestedVariable, VariableKind};
 use crate::plan::{
@@ -14,11 +14,11 @@ use crate::plan::{
 use std::f64::consts::PI;
 
 /// Integrators this build runs.
-const SUPPORTED_INTEGRATORS: &[&str] = &[];
+const SUPPORTED_INTEGRATORS: &[&str] = &["Verlet"];
 /// Material models this build runs.
-const SUPPORTED_MATERIALS: &[&str] = &[];
+const SUPPORTED_MATERIALS: &[&str] = &["Elastic", "Elastic Bond Based"];
 /// Damage models this build runs.
-const SUPPORTED_DAMAGE: &[&str] = &[];
+const SUPPORTED_DAMAGE: &[&str] = &["Critical Stretch"];
 /// Output variables this build can compute.
 const SUPPORTED_OUTPUTS: &[&str] = &[
     "Volume",
@@ -32,6 +32,20 @@ const SUPPORTED_OUTPUTS: &[&str] = &[
     "Coordinates",
     "Displacement",
     "Velocity",
+    "Acceleration",
+    "Force",
+    "Force_Density",
+    "External_Force_Density",
+    "Linear_Momentum",
+    "Dilatation",
+    "Weighted_Volume",
+    "Damage",
+    "Kinetic_Energy",
+    "Stored_Elastic_Energy",
+    "Stored_Elastic_Energy_Density",
+    "Global_Kinetic_Energy",
+    "Global_Stored_Elastic_Energy",
+    "Global_Linear_Momentum",
 ];
 
 /// The requested variables of one output list, checked against Peridigm's catalogue and the
@@ -45,8 +59,14 @@ pub fn requested_variables(
         if !enabled {
             continue;
         }
+        let loaded_field = deck
+            .data_loader
+            .as_ref()
+            .is_some_and(|loader| loader.field_name == *name);
         let kind = if let Some(kind) = kind_of(name) {
             kind
+        } else if loaded_field {
+            VariableKind::ElementScalar
         } else if let Some(class) = deck
             .compute_classes
             .iter()
@@ -88,7 +108,10 @@ pub fn compute_class_kind(class: &crate::io::deck::ComputeClass) -> VariableKind
 }
 
 /// Bulk modulus and density of a material when it has them (mechanical models).
-fn bulk_modulus_and_density(model: &MaterialModel, material: &crate::io::deck::Material) -> Option<(f64, f64)> {
+fn bulk_modulus_and_density(
+    model: &MaterialModel,
+    material: &crate::io::deck::Material,
+) -> Option<(f64, f64)> {
     let density = material.density?;
     let bulk = match model {
         // PMB fixes ν = ¼: K = E/(3(1 − 2ν)) = E/1.5.
@@ -125,6 +148,18 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
         let name = damage.kind.deck_name();
         if !SUPPORTED_DAMAGE.contains(&name) {
             note(format!("damage model {name}"));
+        }
+        if let DamageKind::CriticalStretch {
+            thermal_expansion_coefficient: Some(_),
+            ..
+        } = damage.kind
+        {
+            note("Thermal Expansion Coefficient in damage models".into());
+        }
+    }
+    for block in &deck.blocks {
+        if let Horizon::Expression(_) = block.horizon {
+            note("Horizon varying in space (expression) for the force kernels".into());
         }
     }
     if deck.contact.is_some() {
@@ -173,7 +208,11 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
                 .compute_classes
                 .iter()
                 .any(|c| c.output_label() == Some(name.as_str()));
-            if *enabled && !is_label && kind_of(name).is_some() && !SUPPORTED_OUTPUTS.contains(&name.as_str()) {
+            if *enabled
+                && !is_label
+                && kind_of(name).is_some()
+                && !SUPPORTED_OUTPUTS.contains(&name.as_str())
+            {
                 note(format!("output variable {name}"));
             }
         }
@@ -267,7 +306,11 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
     };
     for block in &model.blocks {
         let entry = &deck.blocks[block.deck_block];
-        let sizes: Vec<usize> = block.points.iter().map(|&p| model.bonds.family_size(p as usize)).collect();
+        let sizes: Vec<usize> = block
+            .points
+            .iter()
+            .map(|&p| model.bonds.family_size(p as usize))
+            .collect();
         let horizons = block.points.iter().map(|&p| model.horizon[p as usize]);
         let material_model = deck
             .material(&entry.material)
@@ -324,7 +367,8 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
         contact: deck.contact.is_some(),
         explicit,
         implicit,
-        tangent_pattern: implicit.then(|| if state_based { "two-hop" } else { "one-hop" }.to_string()),
+        tangent_pattern: implicit
+            .then(|| if state_based { "two-hop" } else { "one-hop" }.to_string()),
     };
 
     let vector = 24 * n;
@@ -357,8 +401,22 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
         field("Contact_Force_Density", "point", vector);
     }
     let mut memory = vec![
-        ("points and state", plan.fields.iter().filter(|f| f.per == "point").map(|f| f.bytes).sum()),
-        ("bonds", plan.fields.iter().filter(|f| f.per == "bond").map(|f| f.bytes).sum()),
+        (
+            "points and state",
+            plan.fields
+                .iter()
+                .filter(|f| f.per == "point")
+                .map(|f| f.bytes)
+                .sum(),
+        ),
+        (
+            "bonds",
+            plan.fields
+                .iter()
+                .filter(|f| f.per == "bond")
+                .map(|f| f.bytes)
+                .sum(),
+        ),
     ];
     if implicit {
         let blocks = if state_based {

@@ -39,7 +39,12 @@ pub fn prepare_compute_classes(
                     .blocks
                     .iter()
                     .find(|b| b.info.name == *block)
-                    .ok_or_else(|| format!("compute class \"{}\": no block \"{block}\" in the mesh", class.name))?;
+                    .ok_or_else(|| {
+                        format!(
+                            "compute class \"{}\": no block \"{block}\" in the mesh",
+                            class.name
+                        )
+                    })?;
                 prepared.push(PreparedComputeClass {
                     label: output_label.clone(),
                     variable: variable.clone(),
@@ -54,7 +59,10 @@ pub fn prepare_compute_classes(
                 output_label,
             } => {
                 let points = model.node_sets.get(node_set).ok_or_else(|| {
-                    format!("compute class \"{}\": no node set \"{node_set}\"", class.name)
+                    format!(
+                        "compute class \"{}\": no node set \"{node_set}\"",
+                        class.name
+                    )
                 })?;
                 prepared.push(PreparedComputeClass {
                     label: output_label.clone(),
@@ -175,7 +183,11 @@ impl FieldSource for Fields<'_> {
             "Volume" => return Some(Cow::Borrowed(&points.volume)),
             "Horizon" => return Some(Cow::Borrowed(&self.model.horizon)),
             "Radius" => (0..n).map(|i| points.radius(i)).collect(),
-            "Element_Id" => points.original_id.iter().map(|&id| id as f64 + 1.0).collect(),
+            "Element_Id" => points
+                .original_id
+                .iter()
+                .map(|&id| id as f64 + 1.0)
+                .collect(),
             "Block_Id" => points
                 .block
                 .iter()

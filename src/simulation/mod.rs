@@ -104,7 +104,11 @@ impl Progress {
         if let Some(bar) = &self.bar {
             bar.set_position(step);
         } else if self.total > 0 && step * 10 >= self.next_report * self.total {
-            eprintln!("  step {step}/{} ({}%)", self.total, step * 100 / self.total);
+            eprintln!(
+                "  step {step}/{} ({}%)",
+                self.total,
+                step * 100 / self.total
+            );
             self.next_report = step * 10 / self.total + 1;
         }
     }
@@ -130,7 +134,10 @@ impl Outputs {
             coordinates[k] = model.points.position[run as usize];
         }
         let original = |points: &[u32]| -> Vec<u32> {
-            let mut ids: Vec<u32> = points.iter().map(|&p| model.points.original_id[p as usize]).collect();
+            let mut ids: Vec<u32> = points
+                .iter()
+                .map(|&p| model.points.original_id[p as usize])
+                .collect();
             ids.sort_unstable();
             ids
         };
@@ -212,7 +219,8 @@ fn energy_floor(model: &Model, physics: &Physics) -> f64 {
 /// Runs every solver list of the deck in order on one state, writing outputs to `dir`.
 /// Output frames already written stay valid whatever happens later.
 pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunError> {
-    let mut physics = setup::build_physics(deck, model).map_err(|e| RunError::Unsupported(e.to_string()))?;
+    let mut physics =
+        setup::build_physics(deck, model).map_err(|e| RunError::Unsupported(e.to_string()))?;
     let compute_classes =
         prepare_compute_classes(&deck.compute_classes, model).map_err(RunError::Unsupported)?;
     let t0 = deck.solvers.first().map_or(0.0, |s| s.initial_time);
@@ -246,7 +254,9 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
             }
         };
         let time_step = verlet.safety_factor * base;
-        let steps = ((solver.final_time - solver.initial_time) / time_step).floor().max(0.0) as u64;
+        let steps = ((solver.final_time - solver.initial_time) / time_step)
+            .floor()
+            .max(0.0) as u64;
         eprintln!(
             "{}: Verlet, Δt = {time_step:e} s (stable estimate {}, safety factor {}), {steps} steps",
             solver.name,
@@ -269,8 +279,11 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
                 state,
                 compute_classes: &compute_classes,
             };
-            let kinetic = crate::io::output::FieldSource::global(&view, "Global_Kinetic_Energy").unwrap_or(0.0);
-            let stored = crate::io::output::FieldSource::global(&view, "Global_Stored_Elastic_Energy").unwrap_or(0.0);
+            let kinetic = crate::io::output::FieldSource::global(&view, "Global_Kinetic_Energy")
+                .unwrap_or(0.0);
+            let stored =
+                crate::io::output::FieldSource::global(&view, "Global_Stored_Elastic_Energy")
+                    .unwrap_or(0.0);
             (kinetic, stored)
         };
         let (kinetic, stored) = fields(&physics, &state);

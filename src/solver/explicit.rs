@@ -88,6 +88,7 @@ impl VelocityVerlet {
         if let Some(b) = &mut state.external_force_density {
             model.boundary.body_force(positions, t0, b)?;
         }
+        state.update_current_position(positions);
         evaluate_acceleration(model, physics, state);
         Ok(())
     }
@@ -116,18 +117,25 @@ impl VelocityVerlet {
             });
         {
             let (displacement, velocity) = (&state.displacement, &mut state.velocity);
-            model
-                .boundary
-                .prescribed_increments(positions, displacement, t_from, t_to, |p, c, du| {
-                    velocity[p][c] = du / dt
-                })?;
+            model.boundary.prescribed_increments(
+                positions,
+                displacement,
+                t_from,
+                t_to,
+                |p, c, du| velocity[p][c] = du / dt,
+            )?;
         }
+        // Y = (X + u) + Δt v and u += Δt v, in this order of operations, as Peridigm does:
+        // the extension e = |Y| − ζ cancels most digits, so the rounding of Y shows in forces.
         state
             .displacement
             .par_iter_mut()
             .zip(state.velocity.par_iter())
-            .for_each(|(u, v)| {
+            .zip(state.current_position.par_iter_mut())
+            .zip(positions.par_iter())
+            .for_each(|(((u, v), y), x)| {
                 for k in 0..3 {
+                    y[k] = x[k] + u[k] + dt * v[k];
                     u[k] += dt * v[k];
                 }
             });
@@ -172,9 +180,9 @@ impl VelocityVerlet {
     }
 }
 
-/// Internal force at the current displacement and `a = (f_int + b)/ρ`. Returns broken bonds.
+/// Internal force at the current positions `state.current_position` and
+/// `a = (f_int + b)/ρ`. Returns broken bonds.
 pub fn evaluate_acceleration(model: &Model, physics: &mut Physics, state: &mut State) -> usize {
-    state.update_current_position(&model.points.position);
     let broken = physics.internal_force(
         &model.bonds,
         &model.points,

@@ -23,6 +23,11 @@ pub struct BoundaryConditions {
     /// `RANK_DEFICIENT_NODES` held fixed in x, y, z. `None` when absent (Peridigm then creates
     /// it for implicit solvers with damage).
     pub create_rank_deficient_node_set: Option<bool>,
+    /// True when some node-set list of the deck contains id 0: the deck was written for
+    /// Peridigm's early 0-based numbering (e.g. `ElementVariableOutput.xml`), and every id
+    /// list in it is read as 0-based. Peridigm 1.5 rejects such decks; peridyn reads them with
+    /// a warning. Default false (1-based, the Exodus convention).
+    pub zero_based_ids: bool,
 }
 
 /// A node set written in the deck, e.g. `Min X Node Set: "1 4 7 10"`.
@@ -39,7 +44,8 @@ pub struct NodeSetDefinition {
 /// Where a deck node set's ids come from.
 #[derive(Debug, Clone, PartialEq)]
 pub enum NodeSetSource {
-    /// A whitespace-separated list of **1-based** global point ids (all ≥ 1).
+    /// A whitespace-separated list of global point ids: 1-based, unless the deck is a legacy
+    /// 0-based one ([`BoundaryConditions::zero_based_ids`]).
     Ids(Vec<u64>),
     /// A single non-numeric token: a text file of ids (one or more per line, lines starting
     /// with `#`, `/` or `*` are comments), resolved relative to the deck's directory. Not read
@@ -174,7 +180,9 @@ fn read_node_set(ctx: &Ctx, field: &Field) -> Result<NodeSetDefinition, DeckErro
                     return Err(field.err(ctx, format!("node id \"{token}\" is not an integer; node sets list 1-based point ids")));
                 }
                 match token.parse::<i64>() {
-                    Ok(id) if id >= 1 => ids.push(id as u64),
+                    // 0 is accepted here: a deck that lists it was written for Peridigm's early
+                    // 0-based numbering, which the caller switches to for the whole deck.
+                    Ok(id) if id >= 0 => ids.push(id as u64),
                     _ => {
                         return Err(field.err(
                             ctx,
@@ -285,6 +293,16 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<BoundaryConditions, D
                     ctx,
                     format!("node set \"{}\" is defined twice (also as \"{}\"; names are compared in upper case with spaces as underscores)", set.name, previous.name),
                 ));
+            }
+            if matches!(&set.source, NodeSetSource::Ids(ids) if ids.contains(&0))
+                && !out.zero_based_ids
+            {
+                out.zero_based_ids = true;
+                ctx.warn(
+                    f.line(),
+                    &[field.key().to_string(), f.key().to_string()],
+                    "node id 0: this deck uses Peridigm's old 0-based node numbering, so every node-set id list in it is read as 0-based (Peridigm 1.5 rejects such decks)",
+                );
             }
             out.node_sets.push(set);
         } else if f.is_list() {
