@@ -386,15 +386,28 @@ fn node_set_ids_must_be_integers_from_one() {
         &["\"2.5\" is not an integer"],
     );
 
-    let text = base_with("Left Node Set: \"1\"", "Left Node Set: \"0 1\"");
+    let text = base_with("Left Node Set: \"1\"", "Left Node Set: \"-1 1\"");
     let message = error_message(yaml(&text));
     assert_error(
         &message,
         YAML_NAME,
         line,
         "Boundary Conditions → Left Node Set",
-        &["node id 0", "starts at 1"],
+        &["node id -1", "starts at 1"],
     );
+}
+
+#[test]
+fn node_id_zero_marks_a_legacy_zero_based_deck() {
+    // Peridigm's early decks numbered points from 0 (ElementVariableOutput.xml); a 0 in any
+    // list switches the whole deck to 0-based ids, with a warning naming the key.
+    let text = base_with("Left Node Set: \"1\"", "Left Node Set: \"0 1\"");
+    let deck = yaml(&text).expect("a 0-based deck loads");
+    assert!(deck.boundary_conditions.zero_based_ids);
+    assert!(deck
+        .warnings
+        .iter()
+        .any(|w| w.contains("Left Node Set") && w.contains("0-based")));
 }
 
 #[test]

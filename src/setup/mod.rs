@@ -330,10 +330,9 @@ fn boundary_conditions(deck: &Deck, node_sets: &NodeSets) -> Result<BoundaryCond
 pub fn build(deck: &Deck) -> Result<Model, SetupError> {
     check_expressions(deck)?;
     let discretization = discretize(deck).map_err(|e| match e {
-        SetupError::Mesh(mesh) => SetupError::Deck(deck.error_at(
-            &["Discretization", "Input Mesh File"],
-            mesh.to_string(),
-        )),
+        SetupError::Mesh(mesh) => SetupError::Deck(
+            deck.error_at(&["Discretization", "Input Mesh File"], mesh.to_string()),
+        ),
         other => other,
     })?;
     let block_entry = assign_blocks(deck, &discretization.blocks)?;
