@@ -1,6 +1,61 @@
 //! # peridyn
 //!
-//! Peridynamics in Rust, compatible with Peridigm's input decks.
+//! Peridynamics in Rust, reading Peridigm's input decks. A body is a cloud of material points;
+//! each point interacts with every point within its horizon δ through bonds, and the equation
+//! of motion is an integral over those bonds instead of a PDE, so cracks need no special
+//! treatment (Silling 2000).
+//!
+//! ## Glossary
+//! - **point**: a material point with reference position X, volume V, block and horizon δ.
+//! - **family**: the points within δ of a point; **bond**: one (point, neighbour) pair, stored
+//!   from both ends (directed), with reference length ζ = |X_j − X_i|.
+//! - **stretch** s = (|Y_j − Y_i| − ζ)/ζ, with Y = X + u the current position.
+//! - **force density**: force per unit volume, the unknown of Peridigm's equations; a point's
+//!   force is force density × V.
+//! - **weighted volume** m and **dilatation** θ: the per-point numbers of state-based models (LPS).
+//! - **block**: a group of points sharing a material and damage model (`block_<id>` in meshes).
+//! - **node set**: a named list of points that boundary conditions and compute classes refer to.
+//! - **run order / original id**: points are renumbered along a space-filling curve for speed;
+//!   the original id (input order, 1-based in decks and files) is what users see.
+//!
+//! ## Module map
+//! | module | question it answers |
+//! |---|---|
+//! | [`io::deck`] | what did the user ask for? (Peridigm YAML/XML decks, validated once) |
+//! | [`discretization`] | where are the points? (QuickGrid generators, text files, Exodus meshes) |
+//! | [`neighbors`] | who bonds with whom? (family search, bond filters, space-filling-curve order) |
+//! | [`setup`] | deck → [`setup::Model`]: blocks, horizons, node sets, conditions, families, run plan |
+//! | [`model`] | the immutable description: points, node sets, bond lists |
+//! | [`state`] | where is the body now? (displacement, velocity, forces) |
+//! | [`material`], [`damage`] | the physics of bonds (PMB, LPS, critical stretch) |
+//! | [`physics`] | the one internal-force path every solver calls |
+//! | [`boundary`] | prescribed displacements, initial conditions, body forces |
+//! | [`expression`] | Peridigm's C-like expressions in x, y, z, t |
+//! | [`solver`] | how time advances (velocity Verlet, stability monitor) |
+//! | [`simulation`] | a run from start to end: solvers in order, outputs, progress |
+//! | [`io::exodus`], [`io::output`], [`io::history`] | results in Exodus II and CSV, and exodiff-style comparison |
+//! | [`plan`] | what `peridyn check` reports |
+//!
+//! ## Life of an explicit step (velocity Verlet, Peridigm's order)
+//! 1. half kick `v += ½Δt a`;
+//! 2. prescribed displacements: at constrained dofs `v = (g(t_{n+1}) − g(t_n))/Δt`;
+//! 3. drift `u += Δt v`, `Y = X + u`;
+//! 4. body force at t_{n+1};
+//! 5. damage (bonds beyond their limit break before the force is computed);
+//! 6. internal force density (state-based models first compute their dilatation);
+//! 7. `a = (f + b)/ρ`, second half kick;
+//! 8. stability monitor and outputs.
+//!
+//! ## Example
+//! ```no_run
+//! use std::path::Path;
+//! let deck = peridyn::io::deck::load(Path::new("examples/wave_in_bar.yaml"))?;
+//! let model = peridyn::setup::build(&deck)?;
+//! println!("{} points, {} bonds", model.points.len(), model.bonds.num_bonds());
+//! let summary = peridyn::simulation::run(&deck, &model, Path::new("out"))?;
+//! println!("{} steps", summary.steps);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 #![warn(missing_docs)]
 
 pub mod boundary;

@@ -9,5 +9,5 @@ mod node_sets;
 mod points;
 
 pub use bonds::BondList;
-pub use node_sets::NodeSets;
+pub use node_sets::{normalize_name, NodeSets};
 pub use points::{BlockInfo, PointCloud};

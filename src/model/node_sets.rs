@@ -11,7 +11,8 @@ pub struct NodeSets {
     sets: BTreeMap<String, Vec<u32>>,
 }
 
-/// Peridigm's normalisation of node-set and BC type names: upper case, spaces → underscores.
+/// Peridigm's normalisation of node-set and BC type names (`tidy_string`): upper case, spaces
+/// replaced by underscores, so `"Node Set One"` and `"NODE_SET_ONE"` name the same set.
 pub fn normalize_name(name: &str) -> String {
     name.trim().to_uppercase().replace(' ', "_")
 }

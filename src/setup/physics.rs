@@ -4,8 +4,7 @@ use super::{compile, Model, SetupError};
 use crate::damage::CriticalStretch;
 use crate::expression::INFLUENCE;
 use crate::io::deck::{
-    BondBasedModulus, DamageKind, Deck, Horizon, InfluenceFunction as DeckInfluence, MaterialModel,
-    PlanarKind,
+    DamageKind, Deck, Horizon, InfluenceFunction as DeckInfluence, MaterialModel,
 };
 use crate::material::{
     BondBased, BondBasedParameters, InfluenceFunction, LinearPeridynamicSolid,
@@ -66,18 +65,8 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
             .ok_or_else(|| deck.error_at(&key_material, "this material needs a Density"))?;
         let mut built: Box<dyn Material> = match &material.model {
             MaterialModel::ElasticBondBased { modulus, planar } => {
-                let (bulk_modulus, planar_thickness) = match (modulus, planar) {
-                    (BondBasedModulus::Bulk(k), None) => (*k, None),
-                    // 3D and plane strain fix ν = ¼, plane stress ν = ⅓ (Peridigm).
-                    (BondBasedModulus::Young(e), None) => (e / (3.0 * (1.0 - 0.5)), None),
-                    (BondBasedModulus::Bulk(k), Some((_, h))) => (*k, Some(*h)),
-                    (BondBasedModulus::Young(e), Some((PlanarKind::PlaneStrain, h))) => {
-                        (e / (2.0 * (1.0 + 0.25) * (1.0 - 0.5)), Some(*h))
-                    }
-                    (BondBasedModulus::Young(e), Some((PlanarKind::PlaneStress, h))) => {
-                        (e / (2.0 * (1.0 - 1.0 / 3.0)), Some(*h))
-                    }
-                };
+                let bulk_modulus = modulus.bulk_modulus(planar.map(|(kind, _)| kind));
+                let planar_thickness = planar.map(|(_, height)| height);
                 Box::new(
                     BondBased::new(BondBasedParameters {
                         density,

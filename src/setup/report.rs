@@ -3,8 +3,8 @@
 
 use super::Model;
 use crate::io::deck::{
-    BondBasedModulus, BondFilterShape, BoundaryConditionKind, ComputeClassKind, DamageKind, Deck,
-    DeckError, Horizon, Integrator, MaterialModel, PointSource,
+    BondFilterShape, BoundaryConditionKind, ComputeClassKind, DamageKind, Deck, DeckError, Horizon,
+    Integrator, MaterialModel, PointSource,
 };
 use crate::io::output::{closest_name, kind_of, OutputFile, RequestedVariable, VariableKind};
 use crate::plan::{
@@ -114,11 +114,9 @@ fn bulk_modulus_and_density(
 ) -> Option<(f64, f64)> {
     let density = material.density?;
     let bulk = match model {
-        // PMB fixes ν = ¼: K = E/(3(1 − 2ν)) = E/1.5.
-        MaterialModel::ElasticBondBased { modulus, .. } => match modulus {
-            BondBasedModulus::Bulk(k) => *k,
-            BondBasedModulus::Young(e) => e / 1.5,
-        },
+        MaterialModel::ElasticBondBased { modulus, planar } => {
+            modulus.bulk_modulus(planar.map(|(kind, _)| kind))
+        }
         _ => material.elastic.as_ref()?.bulk_modulus(),
     };
     Some((bulk, density))

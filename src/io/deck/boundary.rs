@@ -6,11 +6,7 @@ use super::error::DeckError;
 use super::reader::{Ctx, Field};
 use super::tree::{is_float_literal, is_integer_literal};
 
-/// Peridigm's name normalisation for node sets and BC types (`tidy_string`): upper case, spaces
-/// replaced by underscores. `"Node Set One"` → `"NODE_SET_ONE"`.
-pub fn normalize_name(name: &str) -> String {
-    name.trim().to_uppercase().replace(' ', "_")
-}
+pub use crate::model::normalize_name;
 
 /// The `Boundary Conditions` list.
 #[derive(Debug, Clone, PartialEq, Default)]

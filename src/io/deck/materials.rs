@@ -40,42 +40,38 @@ pub struct ElasticConstants {
 }
 
 impl ElasticConstants {
-    /// Bulk modulus K: given K; or E μ/(3(3μ − E)); E/(3(1 − 2ν)); 2μ(1 + ν)/(3(1 − 2ν)).
-    ///
-    /// # Panics
-    /// If not exactly two constants are set (never the case for a value from [`load`](super::load)).
-    pub fn bulk_modulus(&self) -> f64 {
-        match (
-            self.bulk_modulus,
-            self.shear_modulus,
-            self.youngs_modulus,
-            self.poissons_ratio,
-        ) {
-            (Some(k), _, _, _) => k,
-            (None, Some(mu), Some(e), None) => e * mu / (3.0 * (3.0 * mu - e)),
-            (None, None, Some(e), Some(nu)) => e / (3.0 * (1.0 - 2.0 * nu)),
-            (None, Some(mu), None, Some(nu)) => 2.0 * mu * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu)),
-            _ => unreachable!("validated at load: exactly two elastic constants"),
+    fn input(&self) -> crate::material::ElasticInput {
+        crate::material::ElasticInput {
+            bulk_modulus: self.bulk_modulus,
+            shear_modulus: self.shear_modulus,
+            youngs_modulus: self.youngs_modulus,
+            poissons_ratio: self.poissons_ratio,
         }
     }
 
-    /// Shear modulus μ: given μ; or E/(2(1 + ν)); 3KE/(9K − E); 3K(1 − 2ν)/(2(1 + ν)).
+    fn resolved(&self) -> crate::material::ElasticConstants {
+        crate::material::ElasticConstants::from_pair(
+            self.input(),
+            crate::material::PlanarAssumption::None,
+        )
+        .unwrap_or_else(|e| unreachable!("validated at load: {e}"))
+    }
+
+    /// Bulk modulus K from the two given constants (Peridigm's 3D conversions, see
+    /// [`crate::material::ElasticConstants::from_pair`]).
     ///
     /// # Panics
-    /// If not exactly two constants are set (never the case for a value from [`load`](super::load)).
+    /// If the constants were not validated (never the case for a value from [`load`](super::load)).
+    pub fn bulk_modulus(&self) -> f64 {
+        self.resolved().bulk_modulus
+    }
+
+    /// Shear modulus μ from the two given constants (Peridigm's conversions).
+    ///
+    /// # Panics
+    /// If the constants were not validated (never the case for a value from [`load`](super::load)).
     pub fn shear_modulus(&self) -> f64 {
-        match (
-            self.bulk_modulus,
-            self.shear_modulus,
-            self.youngs_modulus,
-            self.poissons_ratio,
-        ) {
-            (_, Some(mu), _, _) => mu,
-            (None, None, Some(e), Some(nu)) => e / (2.0 * (1.0 + nu)),
-            (Some(k), None, Some(e), None) => 3.0 * k * e / (9.0 * k - e),
-            (Some(k), None, None, Some(nu)) => 3.0 * k * (1.0 - 2.0 * nu) / (2.0 * (1.0 + nu)),
-            _ => unreachable!("validated at load: exactly two elastic constants"),
-        }
+        self.resolved().shear_modulus
     }
 }
 
@@ -447,15 +443,11 @@ fn read_elastic(ctx: &Ctx, list: &mut ListReader) -> Result<ElasticConstants, De
         youngs_modulus: values[2],
         poissons_ratio: values[3],
     };
-    let (k, mu) = (constants.bulk_modulus(), constants.shear_modulus());
-    if !(k > 0.0 && mu > 0.0 && k.is_finite() && mu.is_finite()) {
-        return Err(given[1].err(
-            ctx,
-            format!(
-                "these elastic constants give a bulk modulus {k} and shear modulus {mu}; both must be positive \
-                 (with Young's and shear modulus, E < 3μ; with Young's and bulk modulus, E < 9K)"
-            ),
-        ));
+    if let Err(message) = crate::material::ElasticConstants::from_pair(
+        constants.input(),
+        crate::material::PlanarAssumption::None,
+    ) {
+        return Err(given[1].err(ctx, message));
     }
     Ok(constants)
 }
@@ -825,5 +817,35 @@ impl MaterialModel {
                 | MaterialModel::VectorPoisson
                 | MaterialModel::Diffusion { .. }
         )
+    }
+}
+
+impl BondBasedModulus {
+    /// Bulk modulus K of `Elastic Bond Based`: the given K, or K from E with Peridigm's fixed
+    /// Poisson's ratio (¼ in 3D and plane strain, ⅓ in plane stress) and the planar formulas of
+    /// [`crate::material::ElasticConstants::from_pair`].
+    pub fn bulk_modulus(&self, planar: Option<PlanarKind>) -> f64 {
+        match *self {
+            BondBasedModulus::Bulk(k) => k,
+            BondBasedModulus::Young(e) => {
+                let (nu, assumption) = match planar {
+                    None => (0.25, crate::material::PlanarAssumption::None),
+                    Some(PlanarKind::PlaneStrain) => {
+                        (0.25, crate::material::PlanarAssumption::PlaneStrain)
+                    }
+                    Some(PlanarKind::PlaneStress) => {
+                        (1.0 / 3.0, crate::material::PlanarAssumption::PlaneStress)
+                    }
+                };
+                let input = crate::material::ElasticInput {
+                    youngs_modulus: Some(e),
+                    poissons_ratio: Some(nu),
+                    ..Default::default()
+                };
+                crate::material::ElasticConstants::from_pair(input, assumption)
+                    .map(|c| c.bulk_modulus)
+                    .unwrap_or_else(|e| unreachable!("E > 0 was validated at load: {e}"))
+            }
+        }
     }
 }
