@@ -30,12 +30,12 @@ pub enum RunError {
     Unsupported(String),
     /// The explicit run became unstable (exit code 3).
     #[error(
-        "the run became unstable at step {} of solver \"{solver}\" (t = {:e} s): kinetic energy {:e} exceeds {}× the energy supplied to the body ({:e}). \
-         The time step was {time_step:e} s; Peridigm's stable estimate is {estimate}. \
+        "the run became unstable at step {} of solver \"{solver}\" (t = {:.4e} s): kinetic energy {:.4e} exceeds {}× the energy supplied to the body ({:.4e}). \
+         The time step was {time_step:.4e} s; Peridigm's stable estimate is {estimate}. \
          Reduce \"Safety Factor\" (e.g. 0.5) or give a smaller \"Fixed dt\". \
          Output written up to the last frame before the failure is valid.",
         instability.step, instability.time, instability.kinetic_energy, EnergyMonitor::GROWTH_LIMIT, instability.budget,
-        estimate = .estimate.map(|e| format!("{e:e} s")).unwrap_or_else(|| "not available".into())
+        estimate = .estimate.map(|e| format!("{e:.4e} s")).unwrap_or_else(|| "not available".into())
     )]
     Unstable {
         /// Solver list name.
