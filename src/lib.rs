@@ -29,6 +29,7 @@
 //! | [`state`] | where is the body now? (displacement, velocity, forces) |
 //! | [`material`], [`damage`] | the physics of bonds (PMB, LPS, critical stretch) |
 //! | [`physics`] | the one internal-force path every solver calls |
+//! | [`compute`] | derived outputs such as the deformation gradient |
 //! | [`boundary`] | prescribed displacements, initial conditions, body forces |
 //! | [`expression`] | Peridigm's C-like expressions in x, y, z, t |
 //! | [`solver`] | how time advances (velocity Verlet, stability monitor) |
@@ -59,6 +60,7 @@
 #![warn(missing_docs)]
 
 pub mod boundary;
+pub mod compute;
 pub mod damage;
 pub mod discretization;
 pub mod expression;

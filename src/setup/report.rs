@@ -46,6 +46,7 @@ const SUPPORTED_OUTPUTS: &[&str] = &[
     "Global_Kinetic_Energy",
     "Global_Stored_Elastic_Energy",
     "Global_Linear_Momentum",
+    "Deformation_Gradient",
 ];
 
 /// The requested variables of one output list, checked against Peridigm's catalogue and the

@@ -238,8 +238,17 @@ impl FieldSource for Fields<'_> {
         }))
     }
 
-    fn tensor(&self, _name: &str) -> Option<Cow<'_, [[f64; 9]]>> {
-        None
+    fn tensor(&self, name: &str) -> Option<Cow<'_, [[f64; 9]]>> {
+        match name {
+            "Deformation_Gradient" => Some(Cow::Owned(crate::compute::deformation_gradient(
+                &self.model.bonds,
+                &self.model.points.position,
+                &self.state.current_position,
+                &self.model.points.volume,
+                self.physics.bond_damage.as_deref(),
+            ))),
+            _ => None,
+        }
     }
 
     fn global(&self, name: &str) -> Option<f64> {

@@ -68,8 +68,9 @@ impl VelocityVerlet {
         self.settings.initial_time + step as f64 * self.settings.time_step
     }
 
-    /// Applies the prescribed displacements at the initial time (so that a constant
-    /// non-zero value holds from the start), evaluates the force and sets a₀ consistently.
+    /// Evaluates the body force and the internal force at the initial time and sets a₀
+    /// consistently. Prescribed displacements act through their increments over each step
+    /// (u = g(t) − g(t₀) for a time-varying g, as Peridigm does), so nothing is imposed here.
     pub fn initialize(
         &self,
         model: &Model,
@@ -79,12 +80,6 @@ impl VelocityVerlet {
         let t0 = self.settings.initial_time;
         state.time = t0;
         let positions = &model.points.position;
-        let displacement = state.displacement.clone();
-        model
-            .boundary
-            .prescribed_increments(positions, &displacement, t0, t0, |p, c, du| {
-                state.displacement[p][c] += du
-            })?;
         if let Some(b) = &mut state.external_force_density {
             model.boundary.body_force(positions, t0, b)?;
         }
