@@ -10,7 +10,7 @@ fn inverse(k: &Mat3) -> Option<Mat3> {
         - k[0][1] * (k[1][0] * k[2][2] - k[1][2] * k[2][0])
         + k[0][2] * (k[1][0] * k[2][1] - k[1][1] * k[2][0]);
     let scale = k.iter().flatten().map(|v| v.abs()).fold(0.0, f64::max);
-    if !(det.abs() > 1e-12 * scale.powi(3)) {
+    if det.is_nan() || det.abs() <= 1e-12 * scale.powi(3) {
         return None;
     }
     let c = |r: usize, s: usize| {
