@@ -4,6 +4,7 @@
 #![warn(missing_docs)]
 
 pub mod boundary;
+pub mod contact;
 pub mod damage;
 pub mod discretization;
 pub mod expression;
