@@ -28,6 +28,7 @@
 //! | [`model`] | the immutable description: points, node sets, bond lists |
 //! | [`state`] | where is the body now? (displacement, velocity, forces) |
 //! | [`material`], [`damage`] | the physics of bonds (PMB, LPS, critical stretch) |
+//! | [`contact`] | short-range forces between points that are not bonded |
 //! | [`physics`] | the one internal-force path every solver calls |
 //! | [`compute`] | derived outputs such as the deformation gradient |
 //! | [`boundary`] | prescribed displacements, initial conditions, body forces |
@@ -44,8 +45,9 @@
 //! 4. body force at t_{n+1};
 //! 5. damage (bonds beyond their limit break before the force is computed);
 //! 6. internal force density (state-based models first compute their dilatation);
-//! 7. `a = (f + b)/ρ`, second half kick;
-//! 8. stability monitor and outputs.
+//! 7. contact force (when the deck has a `Contact` section);
+//! 8. `a = (f + f_contact + b)/ρ`, second half kick;
+//! 9. stability monitor and outputs.
 //!
 //! ## Example
 //! ```no_run
@@ -61,6 +63,7 @@
 
 pub mod boundary;
 pub mod compute;
+pub mod contact;
 pub mod damage;
 pub mod discretization;
 pub mod expression;

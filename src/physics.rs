@@ -23,6 +23,8 @@ pub struct Physics {
     pub bond_damage: Option<Vec<f32>>,
     /// Density of every point (from its block's material).
     pub density: Vec<f64>,
+    /// Short-range contact, only when the deck has a `Contact` section.
+    pub contact: Option<crate::contact::Contact>,
 }
 
 impl Physics {
@@ -44,6 +46,7 @@ impl Physics {
             coefficients: vec![PointCoefficients::default(); points.len()],
             bond_damage,
             density,
+            contact: None,
         };
         let reference = ReferenceView {
             bonds,

@@ -141,5 +141,7 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
             damage,
         });
     }
-    Ok(Physics::new(blocks, &model.points, &model.bonds))
+    let mut physics = Physics::new(blocks, &model.points, &model.bonds);
+    physics.contact = crate::contact::Contact::from_deck(deck, model)?;
+    Ok(physics)
 }

@@ -36,6 +36,8 @@ const SUPPORTED_OUTPUTS: &[&str] = &[
     "Force",
     "Force_Density",
     "External_Force_Density",
+    "Contact_Force",
+    "Contact_Force_Density",
     "Linear_Momentum",
     "Dilatation",
     "Weighted_Volume",
@@ -161,8 +163,14 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
             note("Horizon varying in space (expression) for the force kernels".into());
         }
     }
-    if deck.contact.is_some() {
-        note("contact".into());
+    if let Some(contact) = &deck.contact {
+        if contact
+            .models
+            .iter()
+            .any(|m| matches!(m.friction, crate::io::deck::Friction::TimeDependent(_)))
+        {
+            note("contact model Time Dependent Short Range Force".into());
+        }
     }
     for bc in &deck.boundary_conditions.conditions {
         if !matches!(

@@ -163,6 +163,20 @@ impl FieldSource for Fields<'_> {
                     .map(|(f, v)| [f[0] * v, f[1] * v, f[2] * v])
                     .collect(),
             ),
+            // Zero without a Contact section (no contact acts).
+            "Contact_Force_Density" => match &self.physics.contact {
+                Some(contact) => Cow::Borrowed(contact.force_density()),
+                None => Cow::Owned(vec![[0.0; 3]; points.len()]),
+            },
+            "Contact_Force" => Cow::Owned(match &self.physics.contact {
+                Some(contact) => contact
+                    .force_density()
+                    .iter()
+                    .zip(&points.volume)
+                    .map(|(f, v)| [f[0] * v, f[1] * v, f[2] * v])
+                    .collect(),
+                None => vec![[0.0; 3]; points.len()],
+            }),
             "Linear_Momentum" => Cow::Owned(
                 (0..points.len())
                     .map(|i| {

@@ -271,6 +271,18 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
                 initial_time: solver.initial_time,
             },
         );
+        if let Some(contact) = &physics.contact {
+            for note in contact.notes() {
+                eprintln!("{}: contact: {note}", solver.name);
+            }
+            eprintln!(
+                "{}: contact: search radius {:e} (skin rule: search again when a point moves {:e}), {} contact points",
+                solver.name,
+                contact.search_radius(),
+                0.5 * (contact.search_radius() - contact.max_contact_radius()),
+                contact.points().len()
+            );
+        }
         integrator.initialize(model, &mut physics, &mut state)?;
         let fields = |physics: &Physics, state: &State| -> (f64, f64) {
             let view = Fields {
@@ -324,6 +336,9 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
             progress.update(step);
         }
         progress.finish();
+        if let Some(contact) = &physics.contact {
+            eprintln!("{}: contact: {}", solver.name, contact.statistics());
+        }
         summary.steps += steps;
         summary.solve_seconds += start.elapsed().as_secs_f64();
     }

@@ -5,9 +5,14 @@
 //! 2. kinematic conditions: at prescribed dofs `v = (g(t_{n+1}) − g(t_n))/Δt`;
 //! 3. drift `u += Δt v`;
 //! 4. body force at t_{n+1};
-//! 5. damage, then internal force at the new positions;
-//! 6. `a = (f_int + b)/ρ`, second half kick `v += ½Δt a` (at every dof, as Peridigm does, so
-//!    velocities written at prescribed dofs include half a kick).
+//! 5. damage, then internal force at the new positions, then contact (if any);
+//! 6. `a = (f_int + f_contact + b)/ρ`, second half kick `v += ½Δt a` (at every dof, as Peridigm
+//!    does, so velocities written at prescribed dofs include half a kick).
+//!
+//! With contact, a step whose number is a multiple of `Search Frequency` first runs the
+//! proximity search with the positions at the start of the step (Peridigm's
+//! `rebalance(step)`); the skin rule may add one before the contact force (see
+//! [`crate::contact`]).
 
 use crate::boundary::BoundaryError;
 use crate::physics::Physics;
@@ -100,6 +105,9 @@ impl VelocityVerlet {
         let t_from = state.time;
         let t_to = self.time_after(step);
         let positions = &model.points.position;
+        if let Some(contact) = &mut physics.contact {
+            contact.scheduled_search(step, model, &state.current_position);
+        }
 
         state
             .velocity
@@ -175,8 +183,8 @@ impl VelocityVerlet {
     }
 }
 
-/// Internal force at the current positions `state.current_position` and
-/// `a = (f_int + b)/ρ`. Returns broken bonds.
+/// Internal force at the current positions `state.current_position`, then the contact force
+/// (if any), and `a = (f_int + f_contact + b)/ρ`. Returns broken bonds.
 pub fn evaluate_acceleration(model: &Model, physics: &mut Physics, state: &mut State) -> usize {
     let broken = physics.internal_force(
         &model.bonds,
@@ -184,6 +192,10 @@ pub fn evaluate_acceleration(model: &Model, physics: &mut Physics, state: &mut S
         &state.current_position,
         &mut state.force_density,
     );
+    if let Some(contact) = &mut physics.contact {
+        contact.compute_force(model, &state.current_position, &state.velocity);
+    }
+    let contact = physics.contact.as_ref().map(|c| c.force_density());
     let external = state.external_force_density.as_deref();
     let density = &physics.density;
     state
@@ -194,7 +206,8 @@ pub fn evaluate_acceleration(model: &Model, physics: &mut Physics, state: &mut S
         .for_each(|(i, (a, f))| {
             for k in 0..3 {
                 let b = external.map_or(0.0, |b| b[i][k]);
-                a[k] = (f[k] + b) / density[i];
+                let c = contact.map_or(0.0, |c| c[i][k]);
+                a[k] = (f[k] + c + b) / density[i];
             }
         });
     broken

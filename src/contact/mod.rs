@@ -1,0 +1,427 @@
+//! Short-range contact for explicit dynamics (Peridigm's `Contact` list, reference §1.5).
+//!
+//! Built only when the deck has a `Contact` section; without one nothing here is allocated or
+//! run.
+//!
+//! # Who touches whom
+//!
+//! `Contact → Interactions` decides which pairs of blocks interact and with which model:
+//! `General Contact` pairs every two *different* blocks, `Self Contact` pairs each block with
+//! itself, and a named entry (`First Block`, `Second Block`, `Contact Model`) pairs two blocks
+//! (or one block with itself when both names agree). A named entry overrides `General` /
+//! `Self Contact` for its pair; when two named entries name the same pair, the later one in
+//! the file wins. Two points never interact when they are bonded in the reference
+//! configuration (in either one's family), and they stay excluded after the bond breaks.
+//!
+//! ## Differences from Peridigm (deliberate)
+//!
+//! * Peridigm reads `Interactions` but does not use them: every point is in contact with every
+//!   point it is not bonded to, including points of the same block (its issue #206), and
+//!   every pair uses the **first** entry of `Models` (comment "assume that there is only one
+//!   contact model"). Here each pair of blocks uses the model its interaction names, and pairs
+//!   without an interaction do not touch. A deck written for Peridigm that relies on contact
+//!   between fragments of one block needs `Self Contact` here.
+//! * Peridigm's contact neighbour list is only refreshed every `Search Frequency` steps, with
+//!   no regard to how far points move in between, so it misses pairs that close in from
+//!   beyond `Search Radius`. Here the skin rule below guarantees that no pair is missed.
+//! * Like Peridigm, broken bonds are not re-admitted as contact pairs, so fragments of one
+//!   block that were bonded never repel each other.
+//!
+//! # The force
+//!
+//! [`ShortRangeForce`]: for pairs closer than the contact radius r_c in the current
+//! configuration, a repulsive force along the line of centres, proportional to the gap
+//! r_c − r, with Peridigm's constants, plus Peridigm's friction.
+//! Contact forces enter the Verlet acceleration `a = (f_int + f_contact + b)/ρ` after damage
+//! and the internal force, as in Peridigm.
+//!
+//! # The proximity search and the skin rule
+//!
+//! Candidates are found in the current configuration with a search radius
+//! R = max(`Search Radius`, r_c,max + s), where r_c,max is the largest contact radius of the
+//! models in use and the skin is s = [`SKIN_FRACTION`] · r_c,max. The list holds every allowed
+//! pair within R of each other at the last search. The search runs
+//!
+//! * before the first force evaluation of the run,
+//! * at the start of every step whose number is a multiple of `Search Frequency` (Peridigm's
+//!   schedule, with the positions at the start of the step), and
+//! * early, just before a force evaluation, whenever 2·d_max > R − r_c,max, where d_max is the
+//!   largest displacement of any contact point since the last search.
+//!
+//! Why the last rule is enough: a pair missing from the list was more than R apart at the last
+//! search; each point has moved at most d_max since, so they are now more than R − 2·d_max ≥
+//! r_c,max apart and carry no force. The check costs one pass over the contact points per step.
+//! The log reports how many searches ran (scheduled and early) and the candidate-pair count.
+
+mod search;
+mod short_range_force;
+
+pub use search::{find_candidates, max_displacement, CandidateList};
+pub use short_range_force::{PairPoint, ShortRangeForce};
+
+use crate::io::deck::{ContactInteraction, Deck, DeckError, Friction};
+use crate::neighbors::SearchBackend;
+use crate::setup::Model;
+use rayon::prelude::*;
+use std::fmt;
+use std::time::Instant;
+
+/// Skin s as a fraction of the largest contact radius: the search radius is at least
+/// r_c,max·(1 + `SKIN_FRACTION`), so that a search stays valid until some point has moved a
+/// quarter of the contact radius, even when the deck's `Search Radius` equals the contact radius.
+pub const SKIN_FRACTION: f64 = 0.5;
+
+/// Search counts and list sizes, for the run log.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ContactStatistics {
+    /// Searches before the first force evaluation (one per run).
+    pub initial_searches: u64,
+    /// Searches on `Search Frequency`'s schedule.
+    pub scheduled_searches: u64,
+    /// Searches forced by the skin rule between scheduled ones.
+    pub early_searches: u64,
+    /// Candidate pairs found by the last search.
+    pub candidate_pairs: usize,
+    /// Largest candidate-pair count of any search.
+    pub max_candidate_pairs: usize,
+    /// Pairs closer than their contact radius at the last force evaluation.
+    pub pairs_in_contact: usize,
+    /// Wall-clock seconds spent searching.
+    pub search_seconds: f64,
+}
+
+impl ContactStatistics {
+    /// All searches.
+    pub fn searches(&self) -> u64 {
+        self.initial_searches + self.scheduled_searches + self.early_searches
+    }
+}
+
+/// The contact state of a run: settings, pair models, candidates and the contact force.
+#[derive(Debug, Clone)]
+pub struct Contact {
+    /// `Search Frequency` (steps, ≥ 1).
+    search_frequency: u64,
+    /// R = max(`Search Radius`, r_c,max·(1 + [`SKIN_FRACTION`])) (length).
+    search_radius: f64,
+    /// Largest contact radius of the models in use (length).
+    max_contact_radius: f64,
+    /// Models referenced by interactions.
+    models: Vec<ShortRangeForce>,
+    /// `pair_model[a·blocks + b]`: the model of blocks a and b (symmetric), if they interact.
+    pair_model: Vec<Option<u16>>,
+    blocks: usize,
+    /// Points of blocks with any interaction (ascending run order).
+    points: Vec<u32>,
+    /// Positions of `points` at the last search.
+    searched_at: Vec<[f64; 3]>,
+    candidates: Option<CandidateList>,
+    backend: SearchBackend,
+    /// Contact force density of every point (force/length³).
+    force_density: Vec<[f64; 3]>,
+    statistics: ContactStatistics,
+    notes: Vec<String>,
+}
+
+impl Contact {
+    /// The contact of `deck` for `model`, or `None` without a `Contact` section. Errors name
+    /// the deck key: an interaction naming a block the mesh lacks, or a time-dependent friction
+    /// model (not available in this build).
+    pub fn from_deck(deck: &Deck, model: &Model) -> Result<Option<Self>, DeckError> {
+        let Some(contact) = &deck.contact else {
+            return Ok(None);
+        };
+        let blocks = model.blocks.len();
+        let block_index = |entry: &str, key: &str, name: &str| -> Result<usize, DeckError> {
+            model
+                .blocks
+                .iter()
+                .position(|b| b.info.name == name)
+                .ok_or_else(|| {
+                    deck.error_at(
+                        &["Contact", "Interactions", entry, key],
+                        format!(
+                            "the mesh has no block \"{name}\"; its blocks are {}",
+                            model
+                                .blocks
+                                .iter()
+                                .map(|b| b.info.name.as_str())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    )
+                })
+        };
+        let mut models: Vec<ShortRangeForce> = Vec::new();
+        let mut used: Vec<&str> = Vec::new();
+        let mut model_index = |entry: &str, name: &str| -> Result<u16, DeckError> {
+            if let Some(k) = used.iter().position(|u| *u == name) {
+                return Ok(k as u16);
+            }
+            let definition = contact
+                .models
+                .iter()
+                .find(|m| m.name == name)
+                .ok_or_else(|| {
+                    deck.error_at(
+                        &["Contact", "Interactions", entry, "Contact Model"],
+                        format!("no contact model named \"{name}\""),
+                    )
+                })?;
+            let friction_coefficient = match &definition.friction {
+                Friction::Constant(mu) => *mu,
+                Friction::TimeDependent(_) => {
+                    return Err(deck.error_at(
+                        &["Contact", "Models", name, "Contact Model"],
+                        "\"Time Dependent Short Range Force\" is not available in this build; use \"Short Range Force\" with a constant Friction Coefficient",
+                    ))
+                }
+            };
+            models.push(ShortRangeForce {
+                contact_radius: definition.contact_radius,
+                spring_constant: definition.spring_constant,
+                friction_coefficient,
+            });
+            used.push(&definition.name);
+            Ok((models.len() - 1) as u16)
+        };
+        // General and Self Contact first, then named pairs in file order (later ones win).
+        let mut pair_model: Vec<Option<u16>> = vec![None; blocks * blocks];
+        for interaction in &contact.interactions {
+            match interaction {
+                ContactInteraction::General { model } => {
+                    let m = model_index("General Contact", model)?;
+                    for a in 0..blocks {
+                        for b in (0..blocks).filter(|&b| b != a) {
+                            pair_model[a * blocks + b] = Some(m);
+                        }
+                    }
+                }
+                ContactInteraction::SelfContact { model } => {
+                    let m = model_index("Self Contact", model)?;
+                    for a in 0..blocks {
+                        pair_model[a * blocks + a] = Some(m);
+                    }
+                }
+                ContactInteraction::Pair { .. } => {}
+            }
+        }
+        for interaction in &contact.interactions {
+            if let ContactInteraction::Pair {
+                name,
+                first_block,
+                second_block,
+                model,
+            } = interaction
+            {
+                let a = block_index(name, "First Block", first_block)?;
+                let b = block_index(name, "Second Block", second_block)?;
+                let m = model_index(name, model)?;
+                pair_model[a * blocks + b] = Some(m);
+                pair_model[b * blocks + a] = Some(m);
+            }
+        }
+        let mut notes = Vec::new();
+        if contact.interactions.is_empty() {
+            notes.push(
+                "Contact has no Interactions, so no pair of points is in contact. (Peridigm puts every unbonded pair in contact whatever Interactions says; add \"General Contact\" and \"Self Contact\" for that.)"
+                    .to_string(),
+            );
+        }
+        let in_contact: Vec<bool> = (0..blocks)
+            .map(|a| (0..blocks).any(|b| pair_model[a * blocks + b].is_some()))
+            .collect();
+        let points: Vec<u32> = (0..model.points.len() as u32)
+            .filter(|&p| in_contact[model.points.block[p as usize] as usize])
+            .collect();
+        let max_contact_radius = models.iter().map(|m| m.contact_radius).fold(0.0, f64::max);
+        let search_radius = contact
+            .search_radius
+            .max(max_contact_radius * (1.0 + SKIN_FRACTION));
+        Ok(Some(Self {
+            search_frequency: contact.search_frequency.max(1),
+            search_radius,
+            max_contact_radius,
+            models,
+            pair_model,
+            blocks,
+            points,
+            searched_at: Vec::new(),
+            candidates: None,
+            backend: SearchBackend::Auto,
+            force_density: vec![[0.0; 3]; model.points.len()],
+            statistics: ContactStatistics::default(),
+            notes,
+        }))
+    }
+
+    /// Search radius R actually used (length): max(`Search Radius`, r_c,max(1 + skin fraction)).
+    pub fn search_radius(&self) -> f64 {
+        self.search_radius
+    }
+
+    /// Largest contact radius of the models in use (length).
+    pub fn max_contact_radius(&self) -> f64 {
+        self.max_contact_radius
+    }
+
+    /// `Search Frequency` (steps).
+    pub fn search_frequency(&self) -> u64 {
+        self.search_frequency
+    }
+
+    /// The model that acts between blocks `a` and `b` (model block indices), if any.
+    pub fn pair_model(&self, a: usize, b: usize) -> Option<&ShortRangeForce> {
+        self.pair_model[a * self.blocks + b].map(|m| &self.models[m as usize])
+    }
+
+    /// Points that take part in contact (ascending run order).
+    pub fn points(&self) -> &[u32] {
+        &self.points
+    }
+
+    /// The candidate list of the last search (`None` before the first).
+    pub fn candidates(&self) -> Option<&CandidateList> {
+        self.candidates.as_ref()
+    }
+
+    /// Contact force density of every point at the last evaluation (force/length³).
+    pub fn force_density(&self) -> &[[f64; 3]] {
+        &self.force_density
+    }
+
+    /// Search counts and list sizes so far.
+    pub fn statistics(&self) -> ContactStatistics {
+        self.statistics
+    }
+
+    /// Remarks for the run log about how the deck's contact is read (e.g. no interactions).
+    pub fn notes(&self) -> &[String] {
+        &self.notes
+    }
+
+    /// Sets the search structure (for benchmarks and cross-checks; results do not depend on it).
+    pub fn set_search_backend(&mut self, backend: SearchBackend) {
+        self.backend = backend;
+    }
+
+    /// True when points i and j (run order) may touch: their blocks interact and they are not
+    /// bonded in the reference configuration (in either family).
+    pub fn may_touch(&self, model: &Model, i: usize, j: usize) -> bool {
+        let (a, b) = (
+            model.points.block[i] as usize,
+            model.points.block[j] as usize,
+        );
+        self.pair_model[a * self.blocks + b].is_some()
+            && model.bonds.family(i).binary_search(&(j as u32)).is_err()
+            && model.bonds.family(j).binary_search(&(i as u32)).is_err()
+    }
+
+    /// Searches now at `current` (positions of every point, run order).
+    pub fn search(&mut self, model: &Model, current: &[[f64; 3]]) {
+        let start = Instant::now();
+        let list = find_candidates(
+            &self.points,
+            current,
+            self.search_radius,
+            self.backend,
+            |i, j| self.may_touch(model, i, j),
+        );
+        self.searched_at = self.points.iter().map(|&p| current[p as usize]).collect();
+        self.statistics.candidate_pairs = list.pairs();
+        self.statistics.max_candidate_pairs = self.statistics.max_candidate_pairs.max(list.pairs());
+        self.statistics.search_seconds += start.elapsed().as_secs_f64();
+        self.candidates = Some(list);
+    }
+
+    /// Peridigm's schedule: searches at the start of step `step` (1-based) when it is a
+    /// multiple of `Search Frequency`, with the positions at the start of the step.
+    pub fn scheduled_search(&mut self, step: u64, model: &Model, current: &[[f64; 3]]) {
+        if step % self.search_frequency == 0 {
+            self.search(model, current);
+            self.statistics.scheduled_searches += 1;
+        }
+    }
+
+    /// True when the candidate list may miss a pair at `current`: no search yet, or some point
+    /// moved more than (R − r_c,max)/2 since the last one.
+    pub fn needs_search(&self, current: &[[f64; 3]]) -> bool {
+        self.candidates.is_none()
+            || 2.0 * max_displacement(&self.points, &self.searched_at, current)
+                > self.search_radius - self.max_contact_radius
+    }
+
+    /// Contact force density at positions `current` and velocities `velocity` (the mid-step
+    /// velocity inside a Verlet step, as in Peridigm), after searching first if the skin rule
+    /// asks for it. Returns the force density of every point.
+    pub fn compute_force(
+        &mut self,
+        model: &Model,
+        current: &[[f64; 3]],
+        velocity: &[[f64; 3]],
+    ) -> &[[f64; 3]] {
+        if self.candidates.is_none() {
+            self.search(model, current);
+            self.statistics.initial_searches += 1;
+        } else if self.needs_search(current) {
+            self.search(model, current);
+            self.statistics.early_searches += 1;
+        }
+        let candidates = self.candidates.as_ref().expect("searched above");
+        let blocks = self.blocks;
+        let (pair_model, models) = (&self.pair_model, &self.models);
+        let point = |p: usize| PairPoint {
+            position: current[p],
+            velocity: velocity[p],
+            horizon: model.horizon[p],
+            volume: model.points.volume[p],
+        };
+        let in_contact: usize = self
+            .force_density
+            .par_iter_mut()
+            .enumerate()
+            .map(|(i, f)| {
+                *f = [0.0; 3];
+                let row = candidates.row(i);
+                if row.is_empty() {
+                    return 0;
+                }
+                let a = model.points.block[i] as usize;
+                let me = point(i);
+                let mut touching = 0;
+                for &j in row {
+                    let j = j as usize;
+                    let b = model.points.block[j] as usize;
+                    let law =
+                        &models[pair_model[a * blocks + b].expect("filtered by search") as usize];
+                    if let Some(g) = law.force_density_on(&me, &point(j)) {
+                        for k in 0..3 {
+                            f[k] += g[k];
+                        }
+                        touching += 1;
+                    }
+                }
+                touching
+            })
+            .sum();
+        self.statistics.pairs_in_contact = in_contact / 2;
+        &self.force_density
+    }
+}
+
+impl fmt::Display for ContactStatistics {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} searches ({} initial, {} scheduled, {} early by the skin rule, {:.3} s), {} candidate pairs at the last search (max {}), {} pairs in contact at the last step",
+            self.searches(),
+            self.initial_searches,
+            self.scheduled_searches,
+            self.early_searches,
+            self.search_seconds,
+            self.candidate_pairs,
+            self.max_candidate_pairs,
+            self.pairs_in_contact
+        )
+    }
+}
