@@ -197,6 +197,9 @@ pub trait Material: Send + Sync {
     }
 }
 
+/// The value of π in Peridigm's critical-time-step formula (`Peridigm_CriticalTimeStep.cpp`).
+pub const PERIDIGM_PI: f64 = std::f64::consts::PI;
+
 /// Peridigm's stable time step estimate (`Peridigm_CriticalTimeStep.cpp`, reference §1.6), the
 /// Silling–Askari bond-based bound applied to every material:
 ///
@@ -212,7 +215,10 @@ pub fn critical_time_step(
     bulk_modulus: f64,
     horizon: f64,
 ) -> Option<f64> {
-    let micromodulus = 18.0 * bulk_modulus / (std::f64::consts::PI * horizon.powi(4));
+    // Peridigm evaluates c = 18K/(3.14159265·δ·δ·δ·δ) with π cut to 9 digits, in this order;
+    // decks with a `Safety Factor` get the time step from this number, and Peridigm's gold
+    // files compare times to 1e-14, so the same value is computed here.
+    let micromodulus = 18.0 * bulk_modulus / (PERIDIGM_PI * horizon * horizon * horizon * horizon);
     let bonds = reference.bonds;
     points
         .par_iter()

@@ -11,7 +11,6 @@ use crate::plan::{
     BlockPlan, FieldPlan, MemoryPlan, NodeSetPlan, OutputPlan, PhysicsPlan, RunPlan, SolverPlan,
     TimeStepPlan,
 };
-use std::f64::consts::PI;
 
 /// Integrators this build runs.
 const SUPPORTED_INTEGRATORS: &[&str] = &["Verlet"];
@@ -227,37 +226,32 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
     missing
 }
 
-/// Peridigm's critical time step (`Peridigm_CriticalTimeStep.cpp`):
-/// Δt = min_i sqrt(2ρ_i / Σ_j V_j c_i / ζ_ij), c_i = 18 K_i / (π δ_i⁴), with each point's
-/// block material. Points without neighbours impose no bound; `None` if no point has one.
+/// Peridigm's critical time step over all blocks ([`crate::material::critical_time_step`] with
+/// each block's density, bulk modulus and horizon); `None` if no point has a neighbour.
 pub fn critical_time_step(deck: &Deck, model: &Model) -> Option<f64> {
-    let per_block: Vec<Option<(f64, f64)>> = model
+    let reference = crate::material::ReferenceView {
+        bonds: &model.bonds,
+        position: &model.points.position,
+        volume: &model.points.volume,
+    };
+    model
         .blocks
         .iter()
-        .map(|b| {
-            let material = deck.material(&deck.blocks[b.deck_block].material)?;
-            bulk_modulus_and_density(&material.model, material)
+        .filter_map(|block| {
+            let entry = &deck.blocks[block.deck_block];
+            let material = deck.material(&entry.material)?;
+            let (bulk, density) = bulk_modulus_and_density(&material.model, material)?;
+            let horizon = match entry.horizon {
+                Horizon::Constant(value) => value,
+                Horizon::Expression(_) => block
+                    .points
+                    .iter()
+                    .map(|&p| model.horizon[p as usize])
+                    .fold(0.0, f64::max),
+            };
+            crate::material::critical_time_step(&reference, &block.points, density, bulk, horizon)
         })
-        .collect();
-    let mut best: Option<f64> = None;
-    for i in 0..model.points.len() {
-        let Some((bulk, density)) = per_block[model.points.block[i] as usize] else {
-            continue;
-        };
-        let delta = model.horizon[i];
-        let micromodulus = 18.0 * bulk / (PI * delta.powi(4));
-        let range = model.bonds.range(i);
-        let stiffness: f64 = model.bonds.neighbor[range.clone()]
-            .iter()
-            .zip(&model.bonds.reference_length[range])
-            .map(|(&j, &zeta)| model.points.volume[j as usize] * micromodulus / zeta)
-            .sum();
-        if stiffness > 0.0 {
-            let dt = (2.0 * density / stiffness).sqrt();
-            best = Some(best.map_or(dt, |b: f64| b.min(dt)));
-        }
-    }
-    best
+        .reduce(f64::min)
 }
 
 /// Number of distinct points reachable in two hops (the state-based tangent pattern), exact
