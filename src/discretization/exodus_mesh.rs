@@ -151,7 +151,8 @@ fn tetrahedron_volume(c: &[[f64; 3]]) -> f64 {
 fn hexahedron_volume_and_centroid(c: &[[f64; 3]]) -> (f64, [f64; 3]) {
     // Each face: its four corners in order, and the four (first, second) corner pairs whose
     // triangles with the face average and the centre make the tetrahedra (outward winding).
-    const FACES: [([usize; 4], [(usize, usize); 4]); 6] = [
+    type FaceSplit = ([usize; 4], [(usize, usize); 4]);
+    const FACES: [FaceSplit; 6] = [
         ([0, 1, 4, 5], [(1, 0), (5, 1), (4, 5), (0, 4)]),
         ([1, 2, 5, 6], [(2, 1), (6, 2), (5, 6), (1, 5)]),
         ([2, 3, 6, 7], [(3, 2), (7, 3), (6, 7), (2, 6)]),
