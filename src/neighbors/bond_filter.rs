@@ -8,7 +8,8 @@
 //! * the segment meets the object's plane at parameter t ∈ [0, 1] — **endpoints included**, so a
 //!   bond that merely touches the plane at one of its points is cut (Peridigm's `t >= 0 && t <= 1`);
 //! * a segment parallel to the plane (including one lying in it) is never cut;
-//! * rectangle: the hit point must lie in the closed rectangle; disk: strictly inside the circle
+//! * rectangle: the hit point must lie in the closed rectangle, widened by Peridigm's 1e-15
+//!   edge tolerance ([`EDGE_TOLERANCE`]); disk: strictly inside the circle
 //!   (Peridigm's `distance² < radius²`).
 //!
 //! The test is evaluated with the two endpoints put in a canonical (lexicographic) order, so
@@ -73,6 +74,10 @@ const UNIT_LENGTH_TOLERANCE: f64 = 1e-6;
 /// its length. Peridigm uses an absolute 1e-14 (length units); a relative bound behaves the same
 /// for bonds of length ~1e-2…1e2 and does not depend on the mesh units.
 const PARALLEL_TOLERANCE: f64 = 1e-12;
+
+/// Tolerance of Peridigm's rectangle edge test (absolute below the lower edges, relative to the
+/// length at the upper edges).
+pub const EDGE_TOLERANCE: f64 = 1e-15;
 
 /// A finite rectangle that bonds may not cross (Peridigm `Type: Rectangular_Plane`).
 ///
@@ -163,8 +168,11 @@ impl RectangularPlane {
         let offset = sub(hit, self.lower_left_corner);
         let along_bottom = dot(offset, self.bottom_unit_vector);
         let along_side = dot(offset, self.side_unit_vector());
-        (0.0..=self.bottom_length).contains(&along_bottom)
-            && (0.0..=self.side_length).contains(&along_side)
+        // Peridigm's edge test (`FinitePlane::bondIntersect`): −ε < s and s/L < 1 + ε with
+        // ε = 1e-15, so a crossing that rounds to just below the lower edge still counts
+        // (PrecrackedPlateTwoCracks has one such bond, at −4.4e-16).
+        let within = |s: f64, length: f64| -EDGE_TOLERANCE < s && s / length < 1.0 + EDGE_TOLERANCE;
+        within(along_bottom, self.bottom_length) && within(along_side, self.side_length)
     }
 }
 
