@@ -25,6 +25,32 @@ pub struct Physics {
     pub density: Vec<f64>,
     /// Short-range contact, only when the deck has a `Contact` section.
     pub contact: Option<crate::contact::Contact>,
+    /// Both directions (i→j, j→i) of every bond that joins two blocks when damage is active.
+    /// Each block's damage model only updates its own rows, so without this a bond between a
+    /// breakable and an unbreakable block would break from one end only: half a spring that
+    /// still pulls, whose force no longer derives from an energy (a ball bonded to a brittle
+    /// disk gains kinetic energy from nothing). Such pairs are given the larger damage of the
+    /// two directions after every damage update.
+    interface_bonds: Vec<(u32, u32)>,
+}
+
+/// The (bond, reverse bond) pairs of bonds that join different blocks (each pair once).
+fn interface_bonds(points: &PointCloud, bonds: &BondList) -> Vec<(u32, u32)> {
+    let mut pairs = Vec::new();
+    for i in 0..bonds.num_points() {
+        for b in bonds.range(i) {
+            let j = bonds.neighbor[b] as usize;
+            if j <= i || points.block[i] == points.block[j] {
+                continue;
+            }
+            // Rows are sorted, so the reverse bond is found by binary search; a one-way bond
+            // (variable horizons) has no reverse and nothing to keep consistent.
+            if let Ok(k) = bonds.family(j).binary_search(&(i as u32)) {
+                pairs.push((b as u32, (bonds.offsets[j] + k) as u32));
+            }
+        }
+    }
+    pairs
 }
 
 impl Physics {
@@ -41,10 +67,16 @@ impl Physics {
             .iter()
             .any(|b| b.damage.is_some())
             .then(|| vec![0.0f32; bonds.num_bonds()]);
+        let interface_bonds = if bond_damage.is_some() {
+            interface_bonds(points, bonds)
+        } else {
+            Vec::new()
+        };
         let mut physics = Self {
             blocks,
             coefficients: vec![PointCoefficients::default(); points.len()],
             bond_damage,
+            interface_bonds,
             density,
             contact: None,
         };
@@ -96,6 +128,14 @@ impl Physics {
                     broken +=
                         damage.update(&reference, current, block.material.points(), bond_damage);
                 }
+            }
+        }
+        if let Some(bond_damage) = &mut self.bond_damage {
+            for &(forward, backward) in &self.interface_bonds {
+                let (f, b) = (forward as usize, backward as usize);
+                let larger = bond_damage[f].max(bond_damage[b]);
+                bond_damage[f] = larger;
+                bond_damage[b] = larger;
             }
         }
         let view = CurrentView {
