@@ -101,6 +101,16 @@ impl Physics {
         physics
     }
 
+    /// Sets the time of the next force evaluation for time-dependent damage parameters.
+    pub fn set_time(&mut self, time: f64) -> Result<(), crate::damage::DamageError> {
+        for block in &mut self.blocks {
+            if let Some(damage) = &mut block.damage {
+                damage.set_time(time)?;
+            }
+        }
+        Ok(())
+    }
+
     /// True when any material has a dilatation pass.
     pub fn state_based(&self) -> bool {
         self.blocks.iter().any(|b| b.material.needs_dilatation())

@@ -11,8 +11,10 @@
 //! array at the start of the step and restore it; the models themselves only ever increase d.
 
 mod critical_stretch;
+mod time_dependent_critical_stretch;
 
 pub use critical_stretch::{critical_stretch_from_energy_release_rate, CriticalStretch};
+pub use time_dependent_critical_stretch::TimeDependentCriticalStretch;
 
 use crate::material::point_chunks::for_each_chunk;
 use crate::material::ReferenceView;
@@ -30,12 +32,26 @@ pub enum DamageError {
         /// The offending value.
         value: f64,
     },
+    /// A time-dependent parameter could not be evaluated.
+    #[error("Time Dependent Critical Stretch at t = {time}: {message}")]
+    Expression {
+        /// The time of the evaluation.
+        time: f64,
+        /// What went wrong.
+        message: String,
+    },
 }
 
 /// A damage model for one block. Object-safe; one instance per block.
 pub trait DamageModel: Send + Sync {
     /// Peridigm's `Damage Model` string, e.g. `"Critical Stretch"`.
     fn model_name(&self) -> &'static str;
+
+    /// Sets the time of the next update (models with time-dependent parameters evaluate them
+    /// here, once per step). The default does nothing.
+    fn set_time(&mut self, _time: f64) -> Result<(), DamageError> {
+        Ok(())
+    }
 
     /// Updates the damage of the bonds in the rows of `points` (strictly increasing global
     /// indices) from the current positions `current_position` (all points). `bond_damage` is

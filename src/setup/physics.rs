@@ -1,8 +1,8 @@
 //! Materials and damage models from the deck, one instance per block.
 
 use super::{compile, Model, SetupError};
-use crate::damage::CriticalStretch;
-use crate::expression::INFLUENCE;
+use crate::damage::{CriticalStretch, TimeDependentCriticalStretch};
+use crate::expression::{INFLUENCE, TIME};
 use crate::io::deck::{
     DamageKind, Deck, Horizon, InfluenceFunction as DeckInfluence, MaterialModel,
 };
@@ -125,6 +125,18 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
                         CriticalStretch::new(*critical_stretch)
                             .map_err(|e| deck.error_at(&key, e.to_string()))?,
                     )),
+                    DamageKind::TimeDependentCriticalStretch {
+                        critical_stretch,
+                        thermal_expansion_coefficient: None,
+                    } => {
+                        let key_value = [key[0], key[1], "Time Dependent Critical Stretch"];
+                        let expression = compile(deck, &key_value, critical_stretch, TIME)?;
+                        let t0 = deck.solvers.first().map_or(0.0, |s| s.initial_time);
+                        Some(Box::new(
+                            TimeDependentCriticalStretch::new(expression, t0)
+                                .map_err(|e| deck.error_at(&key_value, e.to_string()))?,
+                        ))
+                    }
                     other => {
                         return Err(deck
                             .error_at(

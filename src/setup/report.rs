@@ -17,7 +17,7 @@ const SUPPORTED_INTEGRATORS: &[&str] = &["Verlet"];
 /// Material models this build runs.
 const SUPPORTED_MATERIALS: &[&str] = &["Elastic", "Elastic Bond Based"];
 /// Damage models this build runs.
-const SUPPORTED_DAMAGE: &[&str] = &["Critical Stretch"];
+const SUPPORTED_DAMAGE: &[&str] = &["Critical Stretch", "Time Dependent Critical Stretch"];
 /// Output variables this build can compute.
 const SUPPORTED_OUTPUTS: &[&str] = &[
     "Volume",
@@ -150,6 +150,10 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
             note(format!("damage model {name}"));
         }
         if let DamageKind::CriticalStretch {
+            thermal_expansion_coefficient: Some(_),
+            ..
+        }
+        | DamageKind::TimeDependentCriticalStretch {
             thermal_expansion_coefficient: Some(_),
             ..
         } = damage.kind

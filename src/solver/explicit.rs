@@ -89,6 +89,7 @@ impl VelocityVerlet {
             model.boundary.body_force(positions, t0, b)?;
         }
         state.update_current_position(positions);
+        set_damage_time(physics, t0)?;
         evaluate_acceleration(model, physics, state);
         Ok(())
     }
@@ -146,6 +147,7 @@ impl VelocityVerlet {
         if let Some(b) = &mut state.external_force_density {
             model.boundary.body_force(positions, t_to, b)?;
         }
+        set_damage_time(physics, t_to)?;
         let broken_bonds = evaluate_acceleration(model, physics, state);
 
         let volume = &model.points.volume;
@@ -181,6 +183,18 @@ impl VelocityVerlet {
             broken_bonds,
         })
     }
+}
+
+/// Passes the time to time-dependent damage models; a failing expression is reported like a
+/// failing boundary-condition expression.
+fn set_damage_time(physics: &mut Physics, time: f64) -> Result<(), BoundaryError> {
+    physics
+        .set_time(time)
+        .map_err(|e| BoundaryError::Evaluation {
+            condition: "Damage Models".into(),
+            time,
+            message: e.to_string(),
+        })
 }
 
 /// Internal force at the current positions `state.current_position`, then the contact force

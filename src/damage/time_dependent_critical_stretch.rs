@@ -1,0 +1,113 @@
+//! Peridigm's `Time Dependent Critical Stretch`: critical stretch s_c(t) from an expression.
+
+use super::{CriticalStretch, DamageError, DamageModel};
+use crate::expression::Expression;
+use crate::material::ReferenceView;
+
+/// Critical stretch as a function of time, e.g. `if(t < 7e-5) { value = 50; } else { value =
+/// 0.015; }` (Peridigm's `BondBreakingInitialVelocity_TimeDependentCS`). The expression (in
+/// `t`) is evaluated once per time step, before the damage update; otherwise the model is
+/// [`CriticalStretch`] with the current value.
+#[derive(Debug, Clone)]
+pub struct TimeDependentCriticalStretch {
+    expression: Expression,
+    current: CriticalStretch,
+}
+
+impl TimeDependentCriticalStretch {
+    /// The model at time `t0`; errors when s_c(t0) is not a positive number.
+    pub fn new(expression: Expression, t0: f64) -> Result<Self, DamageError> {
+        let current = Self::evaluate(&expression, t0)?;
+        Ok(Self {
+            expression,
+            current,
+        })
+    }
+
+    fn evaluate(expression: &Expression, time: f64) -> Result<CriticalStretch, DamageError> {
+        let value = expression
+            .eval(&[time])
+            .map_err(|e| DamageError::Expression {
+                time,
+                message: e.to_string(),
+            })?;
+        CriticalStretch::new(value).map_err(|_| DamageError::Expression {
+            time,
+            message: format!(
+                "the critical stretch evaluates to {value}; it must be a positive number"
+            ),
+        })
+    }
+
+    /// The critical stretch in force.
+    pub fn critical_stretch(&self) -> f64 {
+        self.current.critical_stretch()
+    }
+}
+
+impl DamageModel for TimeDependentCriticalStretch {
+    fn model_name(&self) -> &'static str {
+        "Time Dependent Critical Stretch"
+    }
+
+    fn set_time(&mut self, time: f64) -> Result<(), DamageError> {
+        self.current = Self::evaluate(&self.expression, time)?;
+        Ok(())
+    }
+
+    fn update(
+        &self,
+        reference: &ReferenceView<'_>,
+        current_position: &[[f64; 3]],
+        points: &[u32],
+        bond_damage: &mut [f32],
+    ) -> usize {
+        self.current
+            .update(reference, current_position, points, bond_damage)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::expression::TIME;
+    use crate::model::BondList;
+
+    #[test]
+    fn the_limit_follows_the_expression_in_time() {
+        let expression = Expression::parse(
+            "if(t < 1.0) { value = 50.0; } else { value = 0.015; }",
+            TIME,
+        )
+        .unwrap();
+        let mut model = TimeDependentCriticalStretch::new(expression, 0.0).unwrap();
+        assert_eq!(model.critical_stretch(), 50.0);
+        // Two points 1 apart, stretched by 2 %: intact while s_c = 50, broken once s_c = 0.015.
+        let x = [[0.0; 3], [1.0, 0.0, 0.0]];
+        let y = [[0.0; 3], [1.02, 0.0, 0.0]];
+        let bonds = BondList {
+            offsets: vec![0, 1, 2],
+            neighbor: vec![1, 0],
+            reference_length: vec![1.0, 1.0],
+        };
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &[1.0, 1.0],
+        };
+        let mut damage = vec![0.0f32; 2];
+        assert_eq!(model.update(&reference, &y, &[0, 1], &mut damage), 0);
+        model.set_time(1.5).unwrap();
+        assert_eq!(model.critical_stretch(), 0.015);
+        assert_eq!(model.update(&reference, &y, &[0, 1], &mut damage), 2);
+        assert_eq!(damage, vec![1.0, 1.0]);
+    }
+
+    #[test]
+    fn a_non_positive_value_is_an_error_naming_the_time() {
+        let expression = Expression::parse("1.0 - t", TIME).unwrap();
+        let mut model = TimeDependentCriticalStretch::new(expression, 0.0).unwrap();
+        let error = model.set_time(2.0).unwrap_err().to_string();
+        assert!(error.contains("t = 2") && error.contains("-1"), "{error}");
+    }
+}
