@@ -86,11 +86,10 @@ fn check(path: &Path, json: bool) -> Result<()> {
     let model = build(&deck)?;
     let plan = setup::plan(&deck, &model).map_err(invalid)?;
     if json {
-        println!("{}", serde_json::to_string_pretty(&plan)?);
+        emit(&format!("{}\n", serde_json::to_string_pretty(&plan)?))
     } else {
-        print!("{plan}");
+        emit(&plan.to_string())
     }
-    Ok(())
 }
 
 fn run(path: &Path, output_dir: &Path, threads: Option<usize>) -> Result<()> {
@@ -143,11 +142,20 @@ fn diff(a: &Path, b: &Path, comp: Option<&Path>) -> Result<()> {
     let first = ExodusFile::open(a).map_err(invalid)?;
     let second = ExodusFile::open(b).map_err(invalid)?;
     let report = compare(&first, &second, &spec).map_err(invalid)?;
-    print!("{report}");
+    emit(&report.to_string())?;
     if report.passed() {
         Ok(())
     } else {
         Err(Failure::Differs(format!("{} and {} differ", a.display(), b.display())).into())
+    }
+}
+
+/// Writes to standard output; a closed pipe (`peridyn diff … | head`) is not an error.
+fn emit(text: &str) -> Result<()> {
+    use std::io::Write;
+    match std::io::stdout().lock().write_all(text.as_bytes()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => Ok(other?),
     }
 }
 
