@@ -115,7 +115,22 @@ pub struct Fields<'a> {
     pub compute_classes: &'a [PreparedComputeClass],
 }
 
-impl Fields<'_> {
+impl<'a> Fields<'a> {
+    /// A view of a simulation's current state.
+    pub fn new(
+        model: &'a Model,
+        physics: &'a Physics,
+        state: &'a State,
+        compute_classes: &'a [PreparedComputeClass],
+    ) -> Self {
+        Self {
+            model,
+            physics,
+            state,
+            compute_classes,
+        }
+    }
+
     fn stored_energy_density(&self) -> Vec<f64> {
         let mut w = vec![0.0; self.model.points.len()];
         self.physics.stored_energy_density(

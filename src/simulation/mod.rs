@@ -7,7 +7,7 @@ pub use fields::{prepare_compute_classes, Fields, PreparedComputeClass};
 
 use crate::boundary::BoundaryError;
 use crate::io::deck::{Deck, Integrator};
-use crate::io::output::{OutputError, OutputFile, OutputGeometry, Schedule};
+use crate::io::output::{FieldSource, OutputError, OutputFile, OutputGeometry, Schedule};
 use crate::physics::Physics;
 use crate::setup::{self, Model};
 use crate::solver::{EnergyMonitor, Instability, VelocityVerlet, VerletSettings};
@@ -284,30 +284,19 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
             );
         }
         integrator.initialize(model, &mut physics, &mut state)?;
-        let fields = |physics: &Physics, state: &State| -> (f64, f64) {
-            let view = Fields {
-                model,
-                physics,
-                state,
-                compute_classes: &compute_classes,
-            };
-            let kinetic = crate::io::output::FieldSource::global(&view, "Global_Kinetic_Energy")
-                .unwrap_or(0.0);
-            let stored =
-                crate::io::output::FieldSource::global(&view, "Global_Stored_Elastic_Energy")
-                    .unwrap_or(0.0);
-            (kinetic, stored)
+        let initial_energy = {
+            let fields = Fields::new(model, &physics, &state, &compute_classes);
+            ["Global_Kinetic_Energy", "Global_Stored_Elastic_Energy"]
+                .iter()
+                .filter_map(|name| FieldSource::global(&fields, name))
+                .sum::<f64>()
         };
-        let (kinetic, stored) = fields(&physics, &state);
-        let mut monitor = EnergyMonitor::new(kinetic + stored, energy_floor(model, &physics));
+        let mut monitor = EnergyMonitor::new(initial_energy, energy_floor(model, &physics));
         if first {
-            let view = Fields {
-                model,
-                physics: &physics,
-                state: &state,
-                compute_classes: &compute_classes,
-            };
-            outputs.call(state.time, &view)?;
+            outputs.call(
+                state.time,
+                &Fields::new(model, &physics, &state, &compute_classes),
+            )?;
             first = false;
         }
         let start = Instant::now();
@@ -326,13 +315,10 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
                     estimate,
                 });
             }
-            let view = Fields {
-                model,
-                physics: &physics,
-                state: &state,
-                compute_classes: &compute_classes,
-            };
-            outputs.call(state.time, &view)?;
+            outputs.call(
+                state.time,
+                &Fields::new(model, &physics, &state, &compute_classes),
+            )?;
             progress.update(step);
         }
         progress.finish();
