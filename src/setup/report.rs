@@ -47,6 +47,8 @@ const SUPPORTED_OUTPUTS: &[&str] = &[
     "Global_Kinetic_Energy",
     "Global_Stored_Elastic_Energy",
     "Global_Linear_Momentum",
+    "Angular_Momentum",
+    "Global_Angular_Momentum",
     "Deformation_Gradient",
 ];
 
