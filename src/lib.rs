@@ -3,6 +3,7 @@
 //! Peridynamics in Rust, compatible with Peridigm's input decks.
 #![warn(missing_docs)]
 
+pub mod bench;
 pub mod boundary;
 pub mod damage;
 pub mod discretization;
