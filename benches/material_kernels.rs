@@ -2,8 +2,9 @@
 //! simple-cubic points, spacing 1, δ = 3.015 (122-point interior family, 2 929 168 directed
 //! bonds), points sorted along a Morton curve as the run does, small random displacements.
 //!
-//! Prints directed bond evaluations per second per core (bonds × evaluations / time / threads)
-//! for 1 and 2 rayon threads. One LPS evaluation is the dilatation pass plus the force pass.
+//! Prints directed bond evaluations per second per core (bonds × evaluations / wall time /
+//! threads) and per CPU-second (bonds × evaluations / process CPU time, steadier on a shared
+//! machine) for 1 and 2 rayon threads, medians of `MATERIAL_KERNELS_REPEAT` (default 3) runs. One LPS evaluation is the dilatation pass plus the force pass.
 //! No assertions on time. Run: `cargo bench --bench material_kernels`.
 
 use std::hint::black_box;
@@ -119,32 +120,73 @@ struct Case<'a> {
     damage: Option<&'a [f32]>,
 }
 
-/// Seconds for `EVALUATIONS` full force evaluations (coefficients when needed, then force).
-fn time_case(case: &Case<'_>, reference: &ReferenceView<'_>, y: &[[f64; 3]]) -> f64 {
-    let n = y.len();
-    let current = CurrentView {
-        position: y,
-        bond_damage: case.damage,
+/// Process CPU seconds (user + system, all threads) from `/proc/self/stat` (Linux, fields 14
+/// and 15 in USER_HZ = 100 ticks); NaN elsewhere. On a shared machine CPU time is steadier
+/// than wall time: it does not count the time the process waits for a core.
+fn cpu_seconds() -> f64 {
+    let read = || -> Option<f64> {
+        let text = std::fs::read_to_string("/proc/self/stat").ok()?;
+        let fields: Vec<&str> = text[text.rfind(')')? + 1..].split_whitespace().collect();
+        Some((fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?) / 100.0)
     };
-    let mut coefficients = vec![PointCoefficients::default(); n];
-    let mut force = vec![[0.0; 3]; n];
-    case.material
-        .compute_point_coefficients(reference, &current, &mut coefficients);
-    // Warm-up evaluation (page faults, caches).
-    case.material
-        .add_force_density(reference, &current, &coefficients, &mut force);
+    read().unwrap_or(f64::NAN)
+}
+
+/// (wall, CPU) seconds of `EVALUATIONS` calls of `work`, after one warm-up call (page faults,
+/// caches).
+fn time_it(mut work: impl FnMut()) -> (f64, f64) {
+    work();
+    let cpu = cpu_seconds();
     let start = Instant::now();
     for _ in 0..EVALUATIONS {
-        force.iter_mut().for_each(|f| *f = [0.0; 3]);
-        if case.material.needs_dilatation() {
-            case.material
-                .compute_point_coefficients(reference, &current, &mut coefficients);
-        }
-        case.material
-            .add_force_density(reference, &current, &coefficients, &mut force);
-        black_box(&force);
+        work();
     }
-    start.elapsed().as_secs_f64()
+    (start.elapsed().as_secs_f64(), cpu_seconds() - cpu)
+}
+
+/// One full force evaluation (coefficients when needed, then force).
+fn evaluate(
+    case: &Case<'_>,
+    reference: &ReferenceView<'_>,
+    current: &CurrentView<'_>,
+    coefficients: &mut [PointCoefficients],
+    force: &mut [[f64; 3]],
+) {
+    force.iter_mut().for_each(|f| *f = [0.0; 3]);
+    if case.material.needs_dilatation() {
+        case.material
+            .compute_point_coefficients(reference, current, coefficients);
+    }
+    case.material
+        .add_force_density(reference, current, coefficients, force);
+    black_box(&force);
+}
+
+/// Median of the repeats.
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let mid = values.len() / 2;
+    if values.len() % 2 == 1 {
+        values[mid]
+    } else {
+        0.5 * (values[mid - 1] + values[mid])
+    }
+}
+
+/// Prints one row: median wall ms per evaluation, median wall rate per core, median rate per
+/// CPU-second (the per-core rate the kernel reaches when it has the core to itself).
+fn report(name: &str, threads: usize, num_bonds: usize, runs: &[(f64, f64)]) {
+    let work = (num_bonds * EVALUATIONS) as f64;
+    let wall = median(runs.iter().map(|r| r.0).collect());
+    let cpu_rate = median(runs.iter().map(|r| work / r.1).collect());
+    println!(
+        "{:<32} {:>8} {:>12.2} {:>20.3e} {:>20.3e}",
+        name,
+        threads,
+        wall * 1e3 / EVALUATIONS as f64,
+        work / wall / threads as f64,
+        cpu_rate
+    );
 }
 
 fn main() {
@@ -226,43 +268,51 @@ fn main() {
     }
 
     println!(
-        "{:<32} {:>8} {:>12} {:>22}",
-        "kernel", "threads", "ms/eval", "bond evals/s/core"
+        "{:<32} {:>8} {:>12} {:>20} {:>20}",
+        "kernel", "threads", "ms/eval", "bond evals/s/core", "bond evals/CPU-s"
     );
+    let repeats: usize = std::env::var("MATERIAL_KERNELS_REPEAT")
+        .ok()
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(3);
+    let n = x.len();
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
         pool.install(|| {
+            let mut coefficients = vec![PointCoefficients::default(); n];
+            let mut force = vec![[0.0; 3]; n];
             for case in &cases {
-                // Best of three runs: the machine is shared.
-                let seconds = (0..3)
-                    .map(|_| time_case(case, &reference, &y))
-                    .fold(f64::INFINITY, f64::min);
-                let rate = (num_bonds * EVALUATIONS) as f64 / seconds / threads as f64;
-                println!(
-                    "{:<32} {:>8} {:>12.2} {:>22.3e}",
-                    case.name,
-                    threads,
-                    seconds * 1e3 / EVALUATIONS as f64,
-                    rate
-                );
+                let current = CurrentView {
+                    position: &y,
+                    bond_damage: case.damage,
+                };
+                case.material
+                    .compute_point_coefficients(&reference, &current, &mut coefficients);
+                // Median of the repeats: the machine is shared.
+                let runs: Vec<(f64, f64)> = (0..repeats)
+                    .map(|_| {
+                        time_it(|| {
+                            evaluate(case, &reference, &current, &mut coefficients, &mut force)
+                        })
+                    })
+                    .collect();
+                report(case.name, threads, num_bonds, &runs);
             }
-            let model = CriticalStretch::new(5e-4).unwrap();
-            let mut damage = vec![0.0f32; num_bonds];
-            let start = Instant::now();
-            for _ in 0..EVALUATIONS {
-                black_box(model.update(&reference, &y, &points, &mut damage));
+            if std::env::var("MATERIAL_KERNELS").is_err() {
+                let model = CriticalStretch::new(5e-4).unwrap();
+                let mut damage = vec![0.0f32; num_bonds];
+                let runs: Vec<(f64, f64)> = (0..repeats)
+                    .map(|_| {
+                        time_it(|| {
+                            black_box(model.update(&reference, &y, &points, &mut damage));
+                        })
+                    })
+                    .collect();
+                report("critical stretch update", threads, num_bonds, &runs);
             }
-            let seconds = start.elapsed().as_secs_f64();
-            println!(
-                "{:<32} {:>8} {:>12.2} {:>22.3e}",
-                "critical stretch update",
-                threads,
-                seconds * 1e3 / EVALUATIONS as f64,
-                (num_bonds * EVALUATIONS) as f64 / seconds / threads as f64
-            );
         });
     }
     println!("LAMMPS reference (whole step, 1 core): PMB 6.6e7, LPS 2.5e7 bond evals/s/core");

@@ -61,6 +61,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod bench;
 pub mod boundary;
 pub mod compute;
 pub mod contact;

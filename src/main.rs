@@ -54,6 +54,8 @@ enum Command {
         #[arg(long)]
         comp: Option<PathBuf>,
     },
+    /// Time the explicit-dynamics speed check (the LAMMPS PERI problem); optionally run LAMMPS.
+    Bench(peridyn::bench::BenchArgs),
 }
 
 /// Failure classes that decide the exit code.
@@ -181,6 +183,7 @@ fn main() -> ExitCode {
         } => run(deck, output_dir, *threads),
         Command::Check { deck, json } => check(deck, *json),
         Command::Diff { a, b, comp } => diff(a, b, comp.as_deref()),
+        Command::Bench(args) => peridyn::bench::main(args).map_err(Into::into),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
