@@ -338,3 +338,12 @@ fn unknown_output_variable_with_suggestion() {
         ],
     );
 }
+
+#[test]
+fn empty_block_names() {
+    assert_invalid(
+        "      Block Names: \"block_1\"",
+        "      Block Names: \"\"",
+        &["Blocks → All → Block Names"],
+    );
+}
