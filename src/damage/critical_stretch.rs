@@ -5,12 +5,12 @@
 //! # Both directions of a pair agree
 //! Each point updates its own row (a gather, no atomics), so the bonds i→j and j→i are
 //! decided by two different tasks. They agree bitwise because the stretch is computed by the
-//! same expression from the same two points: `ζ = |X_j − X_i|` and `|Y_j − Y_i|` are evaluated
-//! from coordinate differences, and IEEE subtraction is exactly antisymmetric
-//! (`a − b = −(b − a)`), so both ends square the same numbers, add them in the same order and
-//! take the same square root. (The stored `reference_length` is not used here: nothing forces
-//! the neighbour search to compute it identically for both directions.) Damage only ever goes
-//! from 0 to 1, and both ends start equal, so they stay equal.
+//! same expression from the same two points: `|Y_j − Y_i|` is evaluated from coordinate
+//! differences, and IEEE subtraction is exactly antisymmetric (`a − b = −(b − a)`), so both
+//! ends square the same numbers, add them in the same order and take the same square root; ζ
+//! is the stored reference length, which [`BondList`](crate::model::BondList) guarantees to be
+//! the same number in both directions. Damage only ever goes from 0 to 1, and both ends start
+//! equal, so they stay equal.
 //!
 //! Not yet supported: `Thermal Expansion Coefficient` (s ← s − αΔT_i).
 
@@ -79,7 +79,6 @@ impl DamageModel for CriticalStretch {
         bond_damage: &mut [f32],
     ) -> usize {
         let bonds = reference.bonds;
-        let x = reference.position;
         let y = current_position;
         let s_c = self.critical_stretch;
         let broken = AtomicUsize::new(0);
@@ -93,12 +92,12 @@ impl DamageModel for CriticalStretch {
                     let i = i as usize;
                     let range = bonds.range(i);
                     let row = &mut rows[range.start - base..range.end - base];
-                    for (d, &j) in row.iter_mut().zip(&bonds.neighbor[range]) {
+                    let zetas = &bonds.reference_length[range.clone()];
+                    for ((d, &j), &zeta) in row.iter_mut().zip(&bonds.neighbor[range]).zip(zetas) {
                         if *d >= 1.0 {
                             continue;
                         }
                         let j = j as usize;
-                        let zeta = distance(x[i], x[j]);
                         let stretch = (distance(y[i], y[j]) - zeta) / zeta;
                         if stretch > s_c {
                             *d = 1.0;

@@ -11,7 +11,9 @@ pub struct BondList {
     pub offsets: Vec<usize>,
     /// Neighbour point index of each directed bond.
     pub neighbor: Vec<u32>,
-    /// Reference bond length ζ = |X_j − X_i| of each directed bond (length units).
+    /// Reference bond length ζ = |X_j − X_i| of each directed bond (length units), computed as
+    /// the square root of the summed squared coordinate differences (x, y, z in that order), so
+    /// the bonds i→j and j→i hold bitwise the same number (damage models rely on it).
     pub reference_length: Vec<f64>,
 }
 

@@ -941,6 +941,25 @@ mod tests {
     }
 
     #[test]
+    fn reference_lengths_agree_bitwise_in_both_directions() {
+        let positions = random_cloud(2000, 7);
+        let horizons = vec![0.12; positions.len()];
+        let blocks = vec![0u32; positions.len()];
+        let s = search(&positions, &horizons, &blocks, NeighborhoodRule::Sphere);
+        let bonds = find_families(&s);
+        for i in 0..bonds.num_points() {
+            for b in bonds.range(i) {
+                let j = bonds.neighbor[b] as usize;
+                let k = bonds.offsets[j] + bonds.family(j).binary_search(&(i as u32)).unwrap();
+                assert_eq!(
+                    bonds.reference_length[b].to_bits(),
+                    bonds.reference_length[k].to_bits()
+                );
+            }
+        }
+    }
+
+    #[test]
     fn interior_family_sizes_on_cubic_lattice() {
         // Integer vectors v with |v|² ≤ 3.015² = 9.09, by |v|² = 0..9 (sums of three squares):
         // 1 + 6 + 12 + 8 + 6 + 24 + 24 + 0 + 12 + 30 = 123; minus self → 122. The 30 at |v|² = 9
