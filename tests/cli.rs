@@ -347,3 +347,20 @@ fn empty_block_names() {
         &["Blocks → All → Block Names"],
     );
 }
+
+#[test]
+fn critical_stretch_needs_exactly_one_limit() {
+    let both = "  Damage Models:\n    Brittle:\n      Damage Model: \"Critical Stretch\"\n      Critical Energy Release Rate: 1.8e5\n      Critical Stretch: 0.001\n  Blocks:";
+    assert_invalid(
+        "  Blocks:",
+        both,
+        &["Damage Models → Brittle", "exactly one"],
+    );
+    let neither =
+        "  Damage Models:\n    Brittle:\n      Damage Model: \"Critical Stretch\"\n  Blocks:";
+    assert_invalid(
+        "  Blocks:",
+        neither,
+        &["Damage Models → Brittle", "exactly one"],
+    );
+}

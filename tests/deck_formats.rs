@@ -8,7 +8,7 @@ use deck_common::*;
 use peridyn::io::deck::{
     self, BondFilterShape, BoundaryConditionKind, ComputeClassKind, ContactInteraction, Coordinate,
     DamageKind, Friction, Horizon, InfluenceFunction, Integrator, LoadSteps, MaterialModel,
-    NodeSetSource, OmitBonds, ParameterValue, PeridigmPreconditioner, PointSource,
+    NodeSetSource, OmitBonds, ParameterValue, PeridigmPreconditioner, PointSource, StretchLimit,
 };
 
 #[test]
@@ -89,7 +89,7 @@ fn twin_content_is_typed_as_written() {
     assert_eq!(
         deck.damage_model("Brittle").unwrap().kind,
         DamageKind::CriticalStretch {
-            critical_stretch: 0.001,
+            critical_stretch: StretchLimit::Stretch(0.001),
             thermal_expansion_coefficient: None
         }
     );

@@ -410,3 +410,29 @@ fn bonds_between_a_brittle_and_an_unbreakable_block_break_from_both_ends() {
     let most = e.iter().copied().fold(0.0, f64::max);
     assert!(most <= 1.02 * e[0], "energy rose from {} to {most}", e[0]);
 }
+
+#[test]
+fn an_energy_release_rate_gives_the_same_run_as_its_critical_stretch() {
+    // s0 = √(5G0/(9Kδ)) (Silling–Askari): with K = 1, δ = 2.015 and s0 = 0.01,
+    // G0 = s0²·9Kδ/5 = 1e-4 · 9 · 2.015 / 5 = 3.627e-4. Both decks must break the same bonds
+    // and give the same energies.
+    let (deck, mesh) = bonded_blocks_deck();
+    let g0 = 0.01f64.powi(2) * 9.0 * 2.015 / 5.0;
+    let by_energy = deck.replace(
+        "Critical Stretch: 0.01",
+        &format!("Critical Energy Release Rate: {g0:e}"),
+    );
+    assert_ne!(deck, by_energy);
+    let mut results = Vec::new();
+    for text in [&deck, &by_energy] {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("blocks.txt"), &mesh).unwrap();
+        let summary = run_deck(dir.path(), text).expect("run");
+        results.push((summary.broken_bonds, energies(dir.path())));
+    }
+    assert!(results[0].0 > 0);
+    assert_eq!(results[0].0, results[1].0);
+    for (a, b) in results[0].1.iter().zip(&results[1].1) {
+        assert!((a - b).abs() <= 1e-12 * a.abs(), "{a} vs {b}");
+    }
+}

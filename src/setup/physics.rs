@@ -1,10 +1,12 @@
 //! Materials and damage models from the deck, one instance per block.
 
 use super::{compile, Model, SetupError};
-use crate::damage::{CriticalStretch, TimeDependentCriticalStretch};
+use crate::damage::{
+    critical_stretch_from_energy_release_rate, CriticalStretch, TimeDependentCriticalStretch,
+};
 use crate::expression::{INFLUENCE, TIME};
 use crate::io::deck::{
-    DamageKind, Deck, Horizon, InfluenceFunction as DeckInfluence, MaterialModel,
+    DamageKind, Deck, Horizon, InfluenceFunction as DeckInfluence, MaterialModel, StretchLimit,
 };
 use crate::material::{
     BondBased, BondBasedParameters, InfluenceFunction, LinearPeridynamicSolid,
@@ -121,10 +123,22 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
                     DamageKind::CriticalStretch {
                         critical_stretch,
                         thermal_expansion_coefficient: None,
-                    } => Some(Box::new(
-                        CriticalStretch::new(*critical_stretch)
-                            .map_err(|e| deck.error_at(&key, e.to_string()))?,
-                    )),
+                    } => {
+                        let s_c = match *critical_stretch {
+                            StretchLimit::Stretch(s_c) => s_c,
+                            StretchLimit::EnergyReleaseRate(g0) => {
+                                critical_stretch_from_energy_release_rate(
+                                    g0,
+                                    built.bulk_modulus(),
+                                    horizon,
+                                )
+                            }
+                        };
+                        Some(Box::new(
+                            CriticalStretch::new(s_c)
+                                .map_err(|e| deck.error_at(&key, e.to_string()))?,
+                        ))
+                    }
                     DamageKind::TimeDependentCriticalStretch {
                         critical_stretch,
                         thermal_expansion_coefficient: None,

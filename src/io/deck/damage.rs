@@ -13,14 +13,26 @@ pub struct DamageModel {
     pub kind: DamageKind,
 }
 
+/// How the limit of `Critical Stretch` is given.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StretchLimit {
+    /// `Critical Stretch` s_c (dimensionless).
+    Stretch(f64),
+    /// `Critical Energy Release Rate` G₀ (energy/area), a peridyn key: each block using the
+    /// model gets s_c = √(5G₀/(9Kδ)) with its own bulk modulus K and horizon δ (Silling &
+    /// Askari 2005; [`crate::damage::critical_stretch_from_energy_release_rate`]).
+    EnergyReleaseRate(f64),
+}
+
 /// `Damage Model` and its parameters (Peridigm 1.5 damage-model factory).
 #[derive(Debug, Clone, PartialEq)]
 pub enum DamageKind {
     /// `"Critical Stretch"`: a bond breaks for good when its stretch
     /// `(|Y| − ζ − α ΔT ζ)/ζ` exceeds `Critical Stretch` (tension only).
     CriticalStretch {
-        /// `Critical Stretch` s_c (required, > 0).
-        critical_stretch: f64,
+        /// The limit: `Critical Stretch` s_c, or (peridyn's addition) `Critical Energy Release
+        /// Rate` G₀ from which s_c is derived per block; exactly one of the two (> 0).
+        critical_stretch: StretchLimit,
         /// `Thermal Expansion Coefficient` α; default none (no thermal stretch).
         thermal_expansion_coefficient: Option<f64>,
     },
@@ -83,20 +95,33 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<DamageModel, DeckErro
         .require(ctx, "Damage Model", "the damage law")?
         .choice(ctx, MODELS)?;
     let kind = match model {
-        "Critical Stretch" | "Interface Aware" => {
+        "Critical Stretch" => {
+            let stretch = list.positive_opt(ctx, "Critical Stretch")?;
+            let energy = list.positive_opt(ctx, "Critical Energy Release Rate")?;
+            let critical_stretch = match (stretch, energy) {
+                (Some(s), None) => StretchLimit::Stretch(s),
+                (None, Some(g)) => StretchLimit::EnergyReleaseRate(g),
+                _ => {
+                    return Err(ctx.error(
+                        Some(list.line),
+                        &list.path,
+                        "give exactly one of \"Critical Stretch\" and \"Critical Energy Release Rate\" \
+                         (the second derives s_c = sqrt(5 G0 / (9 K horizon)) for each block)",
+                    ))
+                }
+            };
+            DamageKind::CriticalStretch {
+                critical_stretch,
+                thermal_expansion_coefficient: list
+                    .f64_opt(ctx, "Thermal Expansion Coefficient")?,
+            }
+        }
+        "Interface Aware" => {
             let critical_stretch = list.positive_req(ctx, "Critical Stretch")?;
-            let thermal_expansion_coefficient =
-                list.f64_opt(ctx, "Thermal Expansion Coefficient")?;
-            if model == "Critical Stretch" {
-                DamageKind::CriticalStretch {
-                    critical_stretch,
-                    thermal_expansion_coefficient,
-                }
-            } else {
-                DamageKind::InterfaceAware {
-                    critical_stretch,
-                    thermal_expansion_coefficient,
-                }
+            DamageKind::InterfaceAware {
+                critical_stretch,
+                thermal_expansion_coefficient: list
+                    .f64_opt(ctx, "Thermal Expansion Coefficient")?,
             }
         }
         "Time Dependent Critical Stretch" => DamageKind::TimeDependentCriticalStretch {

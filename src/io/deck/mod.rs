@@ -36,7 +36,7 @@ pub use boundary::{
     NodeSetDefinition, NodeSetSource,
 };
 pub use contact::{Contact, ContactInteraction, ContactModel, Friction};
-pub use damage::{DamageKind, DamageModel};
+pub use damage::{DamageKind, DamageModel, StretchLimit};
 pub use discretization::{
     BondFilter, BondFilterShape, Discretization, ElementHorizonIntersections, InfluenceFunction,
     OmitBonds, PointSource, QuickGridGenerator,
