@@ -237,7 +237,9 @@ fn friction_acts_against_sliding_with_peridigms_magnitude() {
 #[test]
 fn named_block_pairs_use_their_own_models() {
     // Blocks 1–2 touch through "Soft" (k = 1), blocks 3–4 through "Stiff" (k = 7). Peridigm
-    // would use the first model ("Soft") for both pairs; here each pair keeps its own.
+    // would use the first model ("Soft") for both pairs; here each pair keeps its own. Pairs
+    // that no interaction names (here 1–3, 2–4, each block with itself) use the first model,
+    // as Peridigm does.
     let (rc, delta) = (0.4, 0.5);
     let contact = contact_list(
         1.0,
@@ -252,15 +254,14 @@ fn named_block_pairs_use_their_own_models() {
             (0.3, 0.0, 0.0, 2, 1.0),
             (10.0, 0.0, 0.0, 3, 1.0),
             (10.3, 0.0, 0.0, 4, 1.0),
-            // Block 3 point 0.2 from block 2's point: no interaction 2–3, so no force.
-            (0.3, 0.2, 0.0, 3, 1.0),
         ],
     );
     let mut contact = s.contact();
     assert_eq!(contact.pair_model(0, 1).unwrap().spring_constant, 1.0);
     assert_eq!(contact.pair_model(1, 0).unwrap().spring_constant, 1.0);
     assert_eq!(contact.pair_model(2, 3).unwrap().spring_constant, 7.0);
-    assert!(contact.pair_model(1, 2).is_none());
+    assert_eq!(contact.pair_model(1, 2).unwrap().spring_constant, 1.0);
+    assert_eq!(contact.pair_model(3, 3).unwrap().spring_constant, 1.0);
     let y = s.model.points.position.clone();
     let v = vec![[0.0; 3]; y.len()];
     let f = contact.compute_force(&s.model, &y, &v).to_vec();
@@ -268,42 +269,46 @@ fn named_block_pairs_use_their_own_models() {
     let stiff = f[s.run(2)][0];
     assert!(close(soft, -expected_magnitude(1.0, rc, 0.3, delta, 1.0)));
     assert!(close(stiff, -expected_magnitude(7.0, rc, 0.3, delta, 1.0)));
-    assert_eq!(f[s.run(4)], [0.0; 3]);
-    // Block 2's point feels only block 1's point (the block-3 point is 0.2 away but unpaired).
     assert!(close(f[s.run(1)][0], -soft) && f[s.run(1)][1] == 0.0);
+    assert!(close(f[s.run(3)][0], -stiff));
 }
 
 #[test]
-fn general_contact_pairs_different_blocks_self_contact_pairs_each_block_with_itself() {
+fn general_and_self_contact_choose_the_models_of_their_pairs() {
     // δ = 0.2 < 0.3 = spacing < r_c = 0.4: nothing is bonded, every pair is within r_c.
-    // A, B in block 1; C in block 2.
+    // A, B in block 1; C in block 2. Every pair touches; the first model ("One", k = 1) serves
+    // pairs no interaction names, "Five" (k = 5) those an interaction gives it.
     let mesh = [
         (0.0, 0.0, 0.0, 1, 1.0),
         (0.3, 0.0, 0.0, 1, 1.0),
         (0.0, 0.3, 0.0, 2, 1.0),
     ];
     let forces = |interactions: &str| {
-        let contact = contact_list(1.0, 1, &[("M", 0.4, 1.0, 0.0)], interactions);
+        let contact = contact_list(
+            1.0,
+            1,
+            &[("One", 0.4, 1.0, 0.0), ("Five", 0.4, 5.0, 0.0)],
+            interactions,
+        );
         let s = Setup::new(&deck_text(2, 0.2, false, &contact), &mesh);
         assert_eq!(s.model.bonds.num_bonds(), 0);
         let mut c = s.contact();
         let y = s.model.points.position.clone();
         let v = vec![[0.0; 3]; y.len()];
         let f = c.compute_force(&s.model, &y, &v).to_vec();
-        // Force on A from B (along x) and from C (along y).
+        // Force on A from B (same block, along x) and from C (other block, along y).
         f[s.run(0)]
     };
-    let general_only = forces(&general("M"));
-    assert_eq!(general_only[0], 0.0, "same block, no Self Contact");
+    let unit = -expected_magnitude(1.0, 0.4, 0.3, 0.2, 1.0);
+    let none = forces("");
+    assert!(close(none[0], unit) && close(none[1], unit), "{none:?}");
+    let general = forces(&general("Five"));
     assert!(
-        general_only[1] < 0.0,
-        "different blocks under General Contact"
+        close(general[0], unit) && close(general[1], 5.0 * unit),
+        "{general:?}"
     );
-    let self_only = forces(&self_contact("M"));
-    assert!(self_only[0] < 0.0, "same block under Self Contact");
-    assert_eq!(self_only[1], 0.0, "different blocks, no General Contact");
-    let both = forces(&(general("M") + &self_contact("M")));
-    assert_eq!(both, [self_only[0], general_only[1], 0.0]);
+    let own = forces(&self_contact("Five"));
+    assert!(close(own[0], 5.0 * unit) && close(own[1], unit), "{own:?}");
 }
 
 /// Two points of different blocks approach with ±v, touch, and separate.

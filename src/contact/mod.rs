@@ -5,27 +5,23 @@
 //!
 //! # Who touches whom
 //!
-//! `Contact → Interactions` decides which pairs of blocks interact and with which model:
-//! `General Contact` pairs every two *different* blocks, `Self Contact` pairs each block with
-//! itself, and a named entry (`First Block`, `Second Block`, `Contact Model`) pairs two blocks
-//! (or one block with itself when both names agree). A named entry overrides `General` /
-//! `Self Contact` for its pair; when two named entries name the same pair, the later one in
-//! the file wins. Two points never interact when they are bonded in the reference
-//! configuration (in either one's family), and they stay excluded after the bond breaks.
+//! As in Peridigm, every two points that are not bonded in the reference configuration (in
+//! either one's family) are in contact, whatever their blocks, so fragments of one block
+//! collide with each other; they stay excluded after their bond breaks. `Contact →
+//! Interactions` chooses the model of each pair of blocks: pairs no interaction names use the
+//! first entry of `Models`; `General Contact` sets the model of every two *different* blocks,
+//! `Self Contact` that of each block with itself, and a named entry (`First Block`, `Second
+//! Block`, `Contact Model`) that of its two blocks (or one block with itself when both names
+//! agree). Named entries override `General` / `Self Contact`; when two name the same pair, the
+//! later one in the file wins.
 //!
 //! ## Differences from Peridigm (deliberate)
 //!
-//! * Peridigm reads `Interactions` but does not use them: every point is in contact with every
-//!   point it is not bonded to, including points of the same block (its issue #206), and
-//!   every pair uses the **first** entry of `Models` (comment "assume that there is only one
-//!   contact model"). Here each pair of blocks uses the model its interaction names, and pairs
-//!   without an interaction do not touch. A deck written for Peridigm that relies on contact
-//!   between fragments of one block needs `Self Contact` here.
+//! * Peridigm uses the **first** entry of `Models` for every pair (comment "assume that there
+//!   is only one contact model"); here each interaction's model is used for its pairs.
 //! * Peridigm's contact neighbour list is only refreshed every `Search Frequency` steps, with
 //!   no regard to how far points move in between, so it misses pairs that close in from
 //!   beyond `Search Radius`. Here the skin rule below guarantees that no pair is missed.
-//! * Like Peridigm, broken bonds are not re-admitted as contact pairs, so fragments of one
-//!   block that were bonded never repel each other.
 //!
 //! # The force
 //!
@@ -185,8 +181,15 @@ impl Contact {
             used.push(&definition.name);
             Ok((models.len() - 1) as u16)
         };
-        // General and Self Contact first, then named pairs in file order (later ones win).
-        let mut pair_model: Vec<Option<u16>> = vec![None; blocks * blocks];
+        // As in Peridigm, every pair of blocks (each block with itself included) is in contact,
+        // through the first model of `Models`; then General and Self Contact, then named pairs
+        // in file order (later ones win) choose the model of their pairs. Peridigm uses the
+        // first model for every pair whatever the interactions say; that part is not kept.
+        let default_model = match contact.models.first() {
+            Some(first) => Some(model_index("Models", &first.name)?),
+            None => None,
+        };
+        let mut pair_model: Vec<Option<u16>> = vec![default_model; blocks * blocks];
         for interaction in &contact.interactions {
             match interaction {
                 ContactInteraction::General { model } => {
@@ -221,13 +224,7 @@ impl Contact {
                 pair_model[b * blocks + a] = Some(m);
             }
         }
-        let mut notes = Vec::new();
-        if contact.interactions.is_empty() {
-            notes.push(
-                "Contact has no Interactions, so no pair of points is in contact. (Peridigm puts every unbonded pair in contact whatever Interactions says; add \"General Contact\" and \"Self Contact\" for that.)"
-                    .to_string(),
-            );
-        }
+        let notes = Vec::new();
         let in_contact: Vec<bool> = (0..blocks)
             .map(|a| (0..blocks).any(|b| pair_model[a * blocks + b].is_some()))
             .collect();
