@@ -116,7 +116,6 @@ pub struct Contact {
     /// Contact force density of every point (force/length³).
     force_density: Vec<[f64; 3]>,
     statistics: ContactStatistics,
-    notes: Vec<String>,
 }
 
 impl Contact {
@@ -224,7 +223,6 @@ impl Contact {
                 pair_model[b * blocks + a] = Some(m);
             }
         }
-        let notes = Vec::new();
         let in_contact: Vec<bool> = (0..blocks)
             .map(|a| (0..blocks).any(|b| pair_model[a * blocks + b].is_some()))
             .collect();
@@ -248,7 +246,6 @@ impl Contact {
             backend: SearchBackend::Auto,
             force_density: vec![[0.0; 3]; model.points.len()],
             statistics: ContactStatistics::default(),
-            notes,
         }))
     }
 
@@ -290,11 +287,6 @@ impl Contact {
     /// Search counts and list sizes so far.
     pub fn statistics(&self) -> ContactStatistics {
         self.statistics
-    }
-
-    /// Remarks for the run log about how the deck's contact is read (e.g. no interactions).
-    pub fn notes(&self) -> &[String] {
-        &self.notes
     }
 
     /// Sets the search structure (for benchmarks and cross-checks; results do not depend on it).

@@ -272,9 +272,6 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
             },
         );
         if let Some(contact) = &physics.contact {
-            for note in contact.notes() {
-                eprintln!("{}: contact: {note}", solver.name);
-            }
             eprintln!(
                 "{}: contact: search radius {:e} (skin rule: search again when a point moves {:e}), {} contact points",
                 solver.name,
