@@ -44,8 +44,20 @@ impl Condition {
         t: f64,
         mut apply: impl FnMut(usize, f64),
     ) -> Result<(), BoundaryError> {
+        self.for_each_value_at(positions, [t], |p, [value]| apply(p, value))
+    }
+
+    /// Evaluates g at each of `times` for every point of the set, calling
+    /// `apply(point, [g(t₀), g(t₁), …])`; the evaluation is hoisted out of the point loop when
+    /// g does not depend on position.
+    fn for_each_value_at<const N: usize>(
+        &self,
+        positions: &[[f64; 3]],
+        times: [f64; N],
+        mut apply: impl FnMut(usize, [f64; N]),
+    ) -> Result<(), BoundaryError> {
         let depends_on_position = ["x", "y", "z"].iter().any(|v| self.value.uses(v));
-        let eval = |x: [f64; 3]| {
+        let eval = |x: [f64; 3], t: f64| {
             self.value
                 .eval(&[x[0], x[1], x[2], t])
                 .map_err(|source| BoundaryError::Evaluation {
@@ -54,15 +66,22 @@ impl Condition {
                     message: source.to_string(),
                 })
         };
+        let at_times = |x: [f64; 3]| -> Result<[f64; N], BoundaryError> {
+            let mut values = [0.0; N];
+            for (value, &t) in values.iter_mut().zip(&times) {
+                *value = eval(x, t)?;
+            }
+            Ok(values)
+        };
         if !depends_on_position {
-            let value = eval([0.0; 3])?;
+            let values = at_times([0.0; 3])?;
             for &p in &self.points {
-                apply(p as usize, value);
+                apply(p as usize, values);
             }
             return Ok(());
         }
         for &p in &self.points {
-            apply(p as usize, eval(positions[p as usize])?);
+            apply(p as usize, at_times(positions[p as usize])?);
         }
         Ok(())
     }
@@ -133,22 +152,14 @@ impl BoundaryConditions {
         mut apply: impl FnMut(usize, usize, f64),
     ) -> Result<(), BoundaryError> {
         for c in self.of_kind(ConditionKind::PrescribedDisplacement) {
-            let mut previous = vec![0.0; c.points.len()];
-            let mut k = 0;
-            c.for_each_value(positions, t_from, |_, v| {
-                previous[k] = v;
-                k += 1;
-            })?;
-            k = 0;
-            c.for_each_value(positions, t_to, |p, v| {
-                let increment = v - previous[k];
+            c.for_each_value_at(positions, [t_from, t_to], |p, [from, to]| {
+                let increment = to - from;
                 let increment = if increment == 0.0 {
-                    v - displacement[p][c.component]
+                    to - displacement[p][c.component]
                 } else {
                     increment
                 };
                 apply(p, c.component, increment);
-                k += 1;
             })?;
         }
         Ok(())
