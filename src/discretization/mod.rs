@@ -17,23 +17,15 @@ pub use tensor_product::{cells_per_horizon, TensorProductGrid};
 pub use text_file::{parse_text_mesh, read_text_mesh, TextMesh};
 
 use crate::model::{BlockInfo, NodeSets, PointCloud};
+use crate::neighbors::NeighborhoodRule;
 use std::path::PathBuf;
 
 /// How families are formed for a discretization.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FamilyRule {
-    /// Text File and Exodus meshes: every point within the horizon, |ξ|² ≤ δ² (inclusive).
-    Sphere,
-    /// QuickGrid box: ±n cells per axis (see [`cells_per_horizon`]); with `spherical` only
-    /// |ξ|² < δ² (Peridigm's `NeighborhoodType: "Spherical"`).
-    Lattice {
-        /// Cell sizes Δx, Δy, Δz.
-        spacing: [f64; 3],
-        /// Cells per axis.
-        cells: [usize; 3],
-        /// Strict spherical filter on top of the box.
-        spherical: bool,
-    },
+    /// A neighbour search over positions: the inclusive sphere |ξ|² ≤ δ² for Text File and
+    /// Exodus meshes, Peridigm's box rule for the QuickGrid box (see [`NeighborhoodRule`]).
+    Search(NeighborhoodRule),
     /// QuickGrid cylinder: families in (ring, ray, axial) index space.
     Cylinder {
         /// The generator, which also builds the families.

@@ -4,9 +4,7 @@ use super::SetupError;
 use crate::discretization::FamilyRule;
 use crate::io::deck::{BondFilterShape, Deck, OmitBonds};
 use crate::model::{BondList, PointCloud};
-use crate::neighbors::{
-    try_find_families, BondFilter, Disk, FamilySearch, NeighborhoodRule, RectangularPlane,
-};
+use crate::neighbors::{try_find_families, BondFilter, Disk, FamilySearch, RectangularPlane};
 
 /// The deck's bond filters as geometry; `Exodus Mesh` filters are skipped here (the plan
 /// reports them as unsupported).
@@ -52,16 +50,7 @@ pub(super) fn build(
     run_index: &[u32],
 ) -> Result<BondList, SetupError> {
     let search_rule = match rule {
-        FamilyRule::Sphere => NeighborhoodRule::Sphere,
-        FamilyRule::Lattice {
-            spacing,
-            cells,
-            spherical,
-        } => NeighborhoodRule::LatticeBox {
-            spacing: *spacing,
-            cells: *cells,
-            spherical: *spherical,
-        },
+        FamilyRule::Search(search_rule) => *search_rule,
         FamilyRule::Cylinder { grid, spherical } => {
             let generated = grid.families(horizon[0], *spherical);
             return Ok(renumber(

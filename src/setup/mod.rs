@@ -23,7 +23,7 @@ use crate::io::deck::{
     QuickGridGenerator,
 };
 use crate::model::{BlockInfo, BondList, NodeSets, PointCloud};
-use crate::neighbors::space_filling_curve_order;
+use crate::neighbors::{space_filling_curve_order, NeighborhoodRule};
 
 /// A problem setting up the run from a valid deck. All are invalid input (exit code 2).
 #[derive(Debug, thiserror::Error)]
@@ -94,11 +94,11 @@ pub fn discretize(deck: &Deck) -> Result<Discretization, SetupError> {
                         points: grid.generate(),
                         blocks: vec![BlockInfo::from_id(1)],
                         node_sets: NodeSets::default(),
-                        family_rule: FamilyRule::Lattice {
+                        family_rule: FamilyRule::Search(NeighborhoodRule::LatticeBox {
                             spacing: grid.spacing(),
                             cells: grid.points,
                             spherical,
-                        },
+                        }),
                     }
                 }
                 QuickGridGenerator::TensorProductCylinder {
@@ -132,7 +132,7 @@ pub fn discretize(deck: &Deck) -> Result<Discretization, SetupError> {
                 points: mesh.points,
                 blocks: mesh.blocks,
                 node_sets: NodeSets::default(),
-                family_rule: FamilyRule::Sphere,
+                family_rule: FamilyRule::Search(NeighborhoodRule::Sphere),
             }
         }
         PointSource::Exodus {
@@ -143,7 +143,7 @@ pub fn discretize(deck: &Deck) -> Result<Discretization, SetupError> {
                 points: mesh.points,
                 blocks: mesh.blocks,
                 node_sets: mesh.node_sets,
-                family_rule: FamilyRule::Sphere,
+                family_rule: FamilyRule::Search(NeighborhoodRule::Sphere),
             }
         }
     };
