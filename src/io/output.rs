@@ -252,7 +252,6 @@ pub struct OutputFile {
     history: Option<HistoryWriter>,
     globals: Vec<String>,
     calls: i64,
-    gather: Vec<f64>,
     run_index: Vec<u32>,
 }
 
@@ -359,7 +358,6 @@ impl OutputFile {
             history,
             globals,
             calls: 0,
-            gather: vec![0.0; geometry.coordinates.len()],
             run_index: geometry.run_index.clone(),
         })
     }
@@ -415,10 +413,7 @@ impl OutputFile {
                     let field = source
                         .scalar(&v.name)
                         .ok_or_else(|| self.missing(&v.name))?;
-                    for (k, slot) in self.gather.iter_mut().enumerate() {
-                        *slot = field[self.run_index[k] as usize];
-                    }
-                    element.push(self.gather.clone());
+                    element.push((0..n).map(|k| field[self.run_index[k] as usize]).collect());
                 }
                 VariableKind::ElementTensor => {
                     let field = source
