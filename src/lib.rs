@@ -61,6 +61,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod backend;
 pub mod bench;
 pub mod boundary;
 pub mod compute;
@@ -78,3 +79,4 @@ pub mod setup;
 pub mod simulation;
 pub mod solver;
 pub mod state;
+pub mod tangent;

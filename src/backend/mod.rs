@@ -1,0 +1,67 @@
+//! Who does the linear algebra: the traits every backend implements and the matrix form they
+//! receive (DESIGN §7). Backends never see physics: they get a [`Csr`] matrix and vectors, or
+//! a residual callback, and return a solution with a report.
+
+mod csr;
+
+pub use csr::Csr;
+
+/// Why a linear or nonlinear solve did not produce an answer. Convergence failure is a value
+/// the load-stepping driver acts on (it cuts the step), not a panic.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SolveError {
+    /// An iterative method stopped at its iteration limit above its tolerance.
+    #[error(
+        "{method} did not converge in {iterations} iterations (relative residual {relative_residual:.3e}, \
+         tolerance {tolerance:.1e})"
+    )]
+    NotConverged {
+        /// Method name, e.g. `CG`.
+        method: &'static str,
+        /// Iterations taken.
+        iterations: usize,
+        /// ‖b − Ax‖/‖b‖ reached.
+        relative_residual: f64,
+        /// Requested relative tolerance.
+        tolerance: f64,
+    },
+    /// The matrix is singular or not of the kind the method needs (e.g. not positive definite
+    /// for Cholesky or CG).
+    #[error("{method}: {reason}")]
+    Breakdown {
+        /// Method name.
+        method: &'static str,
+        /// What went wrong, for the log.
+        reason: String,
+    },
+    /// A residual, matrix entry or solution component is NaN or infinite.
+    #[error("non-finite value in {what}")]
+    NonFinite {
+        /// Where it appeared, e.g. `the residual`.
+        what: String,
+    },
+}
+
+/// What a linear solve did, for the log and the CSV history.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct KrylovReport {
+    /// Method used, e.g. `CG + block Jacobi` or `sparse Cholesky`.
+    pub method: String,
+    /// Iterations (1 for a direct solve).
+    pub iterations: usize,
+    /// Final ‖b − Ax‖/‖b‖.
+    pub relative_residual: f64,
+}
+
+/// Solves A x = b for one matrix. Implementations may keep a factorization or preconditioner
+/// between calls on the same pattern.
+pub trait LinearSolver {
+    /// Solves `matrix · x = rhs`; `x` holds the initial guess on entry (iterative methods) and
+    /// the solution on return.
+    fn solve(
+        &mut self,
+        matrix: &Csr,
+        rhs: &[f64],
+        x: &mut [f64],
+    ) -> Result<KrylovReport, SolveError>;
+}
