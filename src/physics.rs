@@ -4,6 +4,7 @@
 use crate::damage::{point_damage, DamageModel};
 use crate::material::{CurrentView, Material, PointCoefficients, ReferenceView};
 use crate::model::{BondList, PointCloud};
+use crate::tangent::{BlockPattern, BlockTangent, TangentError, TangentMethod};
 
 /// The physics of one block.
 pub struct BlockPhysics {
@@ -219,5 +220,99 @@ impl Physics {
             .iter()
             .filter_map(|b| b.material.critical_time_step(&reference))
             .reduce(f64::min)
+    }
+}
+
+/// The tangent stiffness ∂(V f)/∂u for implicit solvers (see [`crate::tangent`]).
+impl Physics {
+    /// The block pattern the materials need: [`BlockPattern::one_hop`] when every block is
+    /// bond-based, else [`BlockPattern::two_hop`].
+    pub fn tangent_pattern(&self, bonds: &BondList) -> BlockPattern {
+        if self
+            .blocks
+            .iter()
+            .all(|b| b.material.tangent_is_bond_local())
+        {
+            BlockPattern::one_hop(bonds)
+        } else {
+            BlockPattern::two_hop(bonds)
+        }
+    }
+
+    /// Assembles `J = ∂(V f)/∂u` (force/length) at the positions `current` with the bond
+    /// damage as it is now (damage is not updated here), each block by the method chosen in
+    /// the deck ([`crate::material::Material::tangent_method`]; analytic by default). The
+    /// pattern of `tangent` must come from [`Physics::tangent_pattern`]. Points without an
+    /// intact bond get zero rows. On error the contents of `tangent` are unspecified.
+    pub fn tangent(
+        &self,
+        bonds: &BondList,
+        points: &PointCloud,
+        current: &[[f64; 3]],
+        tangent: &mut BlockTangent,
+    ) -> Result<(), TangentError> {
+        self.assemble_tangent(bonds, points, current, None, tangent)
+    }
+
+    /// As [`Physics::tangent`] with `method` for every block (tests and cross-checks).
+    pub fn tangent_with(
+        &self,
+        bonds: &BondList,
+        points: &PointCloud,
+        current: &[[f64; 3]],
+        method: TangentMethod,
+        tangent: &mut BlockTangent,
+    ) -> Result<(), TangentError> {
+        self.assemble_tangent(bonds, points, current, Some(method), tangent)
+    }
+
+    /// Only the 3×3 diagonal blocks J_ii (block-Jacobi preconditioning, JFNK), in point
+    /// order, without allocating the full pattern. Each point's force state is still
+    /// differentiated in full (its diagonal block gathers the derivatives of its neighbours'
+    /// force states too).
+    pub fn block_diagonal_tangent(
+        &self,
+        bonds: &BondList,
+        points: &PointCloud,
+        current: &[[f64; 3]],
+    ) -> Result<Vec<[[f64; 3]; 3]>, TangentError> {
+        let pattern = std::sync::Arc::new(BlockPattern::diagonal(points.len()));
+        let mut tangent = BlockTangent::zeros(pattern);
+        self.assemble_tangent(bonds, points, current, None, &mut tangent)?;
+        Ok(tangent.blocks)
+    }
+
+    fn assemble_tangent(
+        &self,
+        bonds: &BondList,
+        points: &PointCloud,
+        current: &[[f64; 3]],
+        method: Option<TangentMethod>,
+        tangent: &mut BlockTangent,
+    ) -> Result<(), TangentError> {
+        let reference = ReferenceView {
+            bonds,
+            position: &points.position,
+            volume: &points.volume,
+        };
+        let view = CurrentView {
+            position: current,
+            bond_damage: self.bond_damage.as_deref(),
+        };
+        tangent.fill_zero();
+        for block in &self.blocks {
+            let method = method.unwrap_or_else(|| block.material.tangent_method());
+            block
+                .material
+                .add_tangent(&reference, &view, method, tangent)
+                .map_err(|e| match e {
+                    TangentError::NonFinite { point, .. } => TangentError::NonFinite {
+                        point,
+                        input_id: points.original_id.get(point).map(|&id| id as usize + 1),
+                    },
+                    other => other,
+                })?;
+        }
+        Ok(())
     }
 }

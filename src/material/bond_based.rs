@@ -32,8 +32,12 @@
 
 use super::point_chunks::for_each_chunk;
 use super::{
-    assert_point_set, positive, CurrentView, Damaged, Integrity, Material, MaterialError,
-    PointCoefficients, ReferenceView, Undamaged,
+    assert_point_set, checked_tangent_method, positive, CurrentView, Damaged, Integrity, Material,
+    MaterialError, PointCoefficients, ReferenceView, Undamaged,
+};
+use crate::tangent::{
+    assemble, Block, BlockTangent, ForceState, Layout, PointIndex, Scalar, TangentError,
+    TangentMethod,
 };
 
 /// Deck parameters of `Elastic Bond Based`.
@@ -61,6 +65,8 @@ pub struct BondBased {
     closed: bool,
     /// Pair-once evaluation plan, when the block is closed and its rows are sorted.
     pairs: Option<PairPlan>,
+    /// How the tangent is computed (default analytic).
+    tangent: TangentMethod,
 }
 
 impl BondBased {
@@ -81,6 +87,7 @@ impl BondBased {
             points: Vec::new(),
             closed: false,
             pairs: None,
+            tangent: TangentMethod::Analytic,
         })
     }
 
@@ -557,6 +564,84 @@ impl PairRows<'_> {
     }
 }
 
+/// The PMB force state of one point for the tangent: `T_n = a_i (1−d) (|Y| − ζ)/ζ · M` with
+/// a_i = c/2 (this point's half of the pair stiffness; the neighbour's force state adds its
+/// own half, as in the gather `c_ij = a_i + a_j`).
+struct PmbForceState<'a, D> {
+    bonds: &'a crate::model::BondList,
+    half: f64,
+    damage: D,
+}
+
+impl<D: Integrity> ForceState for PmbForceState<'_, D> {
+    const BOND_LOCAL: bool = true;
+    const ANALYTIC: bool = true;
+
+    fn force_state<T: Scalar>(
+        &self,
+        point: PointIndex,
+        y: &[[T; 3]],
+        only: Option<usize>,
+        t: &mut [[T; 3]],
+    ) {
+        let range = self.bonds.range(point.global);
+        let selected = match only {
+            Some(n) => n..n + 1,
+            None => 0..range.len(),
+        };
+        for n in selected {
+            let b = range.start + n;
+            let zeta = self.bonds.reference_length[b];
+            let d = [0, 1, 2].map(|k| y[n + 1][k] - y[0][k]);
+            let squared = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            // Coincident points carry no force (as in the force kernel).
+            t[n] = if squared.re() > 0.0 {
+                let length = squared.sqrt();
+                let scale = (length - zeta) * (self.half * self.damage.intact(b) / zeta) / length;
+                d.map(|c| c * scale)
+            } else {
+                [T::from(0.0); 3]
+            };
+        }
+    }
+
+    /// `∂T_n/∂Y_j = a (1−d) [M⊗M/ζ + (|Y| − ζ)/(ζ|Y|) (I − M⊗M)] = −∂T_n/∂Y_i`: the bond's
+    /// axial stiffness along M and the pre-stress term across it.
+    fn analytic_jacobian(
+        &self,
+        point: PointIndex,
+        y: &[[f64; 3]],
+        _work: &mut Vec<[f64; 3]>,
+        grad: &mut [Block],
+    ) {
+        let range = self.bonds.range(point.global);
+        let layout = Layout {
+            family: range.len(),
+            bond_local: true,
+        };
+        for (n, b) in range.enumerate() {
+            let zeta = self.bonds.reference_length[b];
+            let d = [0, 1, 2].map(|k| y[n + 1][k] - y[0][k]);
+            let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let mut block = [[0.0; 3]; 3];
+            if length > 0.0 {
+                let a = self.half * self.damage.intact(b);
+                let m = d.map(|c| c / length);
+                let axial = a / zeta;
+                let lateral = a * (length - zeta) / (zeta * length);
+                for k in 0..3 {
+                    for l in 0..3 {
+                        let identity = if k == l { 1.0 } else { 0.0 };
+                        block[k][l] = axial * m[k] * m[l] + lateral * (identity - m[k] * m[l]);
+                    }
+                }
+            }
+            grad[layout.index(n, n + 1)] = block;
+            grad[layout.index(n, 0)] = block.map(|row| row.map(|v| -v));
+        }
+    }
+}
+
 /// Upper bonds of a row handled per block of the pair loop (an interior row at m = 3 has 61).
 const PAIR_BLOCK: usize = 64;
 
@@ -667,6 +752,64 @@ impl Material for BondBased {
             (Some(d), false) => rows.add_force_dispatch(chunk, base, out, Damaged(d), mixed, wide),
         };
         for_each_chunk(&self.points, force_density, &|i| i as usize, &run);
+    }
+
+    fn tangent_is_bond_local(&self) -> bool {
+        true
+    }
+
+    fn tangent_method(&self) -> TangentMethod {
+        self.tangent
+    }
+
+    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
+        self.tangent = checked_tangent_method(method)?;
+        Ok(())
+    }
+
+    fn add_tangent(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        method: TangentMethod,
+        tangent: &mut BlockTangent,
+    ) -> Result<(), TangentError> {
+        let model = self.model_name();
+        let (bonds, half) = (reference.bonds, self.half());
+        match current.bond_damage {
+            None => {
+                let kernel = PmbForceState {
+                    bonds,
+                    half,
+                    damage: Undamaged,
+                };
+                assemble(
+                    &kernel,
+                    model,
+                    &self.points,
+                    reference,
+                    current,
+                    method,
+                    tangent,
+                )
+            }
+            Some(d) => {
+                let kernel = PmbForceState {
+                    bonds,
+                    half,
+                    damage: Damaged(d),
+                };
+                assemble(
+                    &kernel,
+                    model,
+                    &self.points,
+                    reference,
+                    current,
+                    method,
+                    tangent,
+                )
+            }
+        }
     }
 
     fn stored_energy_density(

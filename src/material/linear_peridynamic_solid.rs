@@ -21,9 +21,13 @@
 use super::influence::InfluenceFunction;
 use super::point_chunks::for_each_chunk;
 use super::{
-    assert_point_set, local_offsets, positive, BondWeights, CurrentView, Damaged, Integrity,
-    Material, MaterialError, PointCoefficients, ReferenceView, StoredWeights, Undamaged,
-    UnitWeights,
+    assert_point_set, checked_tangent_method, local_offsets, positive, BondWeights, CurrentView,
+    Damaged, Integrity, Material, MaterialError, PointCoefficients, ReferenceView, StoredWeights,
+    Undamaged, UnitWeights,
+};
+use crate::tangent::{
+    assemble, Block, BlockTangent, ForceState, Layout, PointIndex, Scalar, TangentError,
+    TangentMethod,
 };
 
 /// Deck parameters of `Elastic`.
@@ -52,6 +56,8 @@ pub struct LinearPeridynamicSolid {
     weights: Option<Vec<f64>>,
     /// m per block point (same order as `points`).
     weighted_volume: Vec<f64>,
+    /// How the tangent is computed (default analytic).
+    tangent: TangentMethod,
 }
 
 impl LinearPeridynamicSolid {
@@ -67,6 +73,7 @@ impl LinearPeridynamicSolid {
             local_offsets: vec![0],
             weights: None,
             weighted_volume: Vec::new(),
+            tangent: TangentMethod::Analytic,
         })
     }
 
@@ -250,6 +257,168 @@ impl Rows<'_> {
     }
 }
 
+/// The LPS force state of one point for the tangent, from its family's positions alone:
+/// `θ = (3/m) Σ_n ω (1−d) ζ e V_j`, `t_n = (1−d) ω [A ζ + (1−d) B e]` with
+/// `A = (3K − 5μ) θ/m`, `B = 15μ/m`, and `T_n = t_n M_n` (the module docs' formulas).
+struct LpsForceState<'a, W, D> {
+    bonds: &'a crate::model::BondList,
+    volume: &'a [f64],
+    local_offsets: &'a [usize],
+    weighted_volume: &'a [f64],
+    weights: W,
+    damage: D,
+    bulk: f64,
+    shear: f64,
+}
+
+impl<W: BondWeights, D: Integrity> LpsForceState<'_, W, D> {
+    /// m, (3K − 5μ)/m and 15μ/m of the point; `None` when m = 0 (no force).
+    fn moduli(&self, point: PointIndex) -> Option<(f64, f64, f64)> {
+        let m = self.weighted_volume[point.local];
+        (m > 0.0).then(|| {
+            (
+                m,
+                (3.0 * self.bulk - 5.0 * self.shear) / m,
+                15.0 * self.shear / m,
+            )
+        })
+    }
+}
+
+impl<W: BondWeights, D: Integrity> ForceState for LpsForceState<'_, W, D> {
+    const BOND_LOCAL: bool = false;
+    const ANALYTIC: bool = true;
+
+    fn force_state<T: Scalar>(
+        &self,
+        point: PointIndex,
+        y: &[[T; 3]],
+        _only: Option<usize>,
+        t: &mut [[T; 3]],
+    ) {
+        let range = self.bonds.range(point.global);
+        let zero = T::from(0.0);
+        let Some((m, isotropic_per_theta, deviatoric)) = self.moduli(point) else {
+            t.fill([zero; 3]);
+            return;
+        };
+        let local = self.local_offsets[point.local];
+        // Pass 1: θ; each bond's length and extension are kept in t[n] for pass 2.
+        let mut sum = zero;
+        for (n, b) in range.clone().enumerate() {
+            let zeta = self.bonds.reference_length[b];
+            let d = [0, 1, 2].map(|k| y[n + 1][k] - y[0][k]);
+            let squared = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            // A zero length has no derivative; the force kernel gives such a bond no force.
+            let length = if squared.re() > 0.0 {
+                squared.sqrt()
+            } else {
+                zero
+            };
+            let extension = length - zeta;
+            let j = self.bonds.neighbor[b] as usize;
+            sum += extension
+                * (self.weights.weight(local + n) * self.damage.intact(b) * zeta * self.volume[j]);
+            t[n] = [length, extension, zero];
+        }
+        let theta = sum * (3.0 / m);
+        let isotropic = theta * isotropic_per_theta;
+        for (n, b) in range.enumerate() {
+            let [length, extension, _] = t[n];
+            t[n] = if length.re() > 0.0 {
+                let zeta = self.bonds.reference_length[b];
+                let intact = self.damage.intact(b);
+                let scalar = (isotropic * zeta + extension * (intact * deviatoric))
+                    * (intact * self.weights.weight(local + n));
+                let scale = scalar / length;
+                [0, 1, 2].map(|k| (y[n + 1][k] - y[0][k]) * scale)
+            } else {
+                [zero; 3]
+            };
+        }
+    }
+
+    /// With `D_n = (1−d)² ω B M⊗M + (t_n/|Y|)(I − M⊗M)`, `u_n = (1−d) ω ζ (3K − 5μ)/m · M_n`
+    /// and `w_k = ∂θ/∂Y_k = (3/m) ω (1−d) ζ V_k M_k` (`W = Σ_k w_k = −∂θ/∂Y_i`):
+    /// `∂T_n/∂Y_{j_k} = δ_nk D_n + u_n ⊗ w_k` and `∂T_n/∂Y_i = −D_n − u_n ⊗ W`.
+    fn analytic_jacobian(
+        &self,
+        point: PointIndex,
+        y: &[[f64; 3]],
+        work: &mut Vec<[f64; 3]>,
+        grad: &mut [Block],
+    ) {
+        let range = self.bonds.range(point.global);
+        let family = range.len();
+        let layout = Layout {
+            family,
+            bond_local: false,
+        };
+        let Some((m, isotropic_per_theta, deviatoric)) = self.moduli(point) else {
+            grad.fill([[0.0; 3]; 3]);
+            return;
+        };
+        let local = self.local_offsets[point.local];
+        // work[3n] = M_n, work[3n + 1] = w_n, work[3n + 2] = [|Y|, e, 0].
+        work.clear();
+        work.resize(3 * family, [0.0; 3]);
+        let mut sum = 0.0;
+        let mut total_w = [0.0; 3];
+        for (n, b) in range.clone().enumerate() {
+            let zeta = self.bonds.reference_length[b];
+            let d = [0, 1, 2].map(|k| y[n + 1][k] - y[0][k]);
+            let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let extension = length - zeta;
+            let j = self.bonds.neighbor[b] as usize;
+            let factor =
+                self.weights.weight(local + n) * self.damage.intact(b) * zeta * self.volume[j];
+            sum += factor * extension;
+            if length > 0.0 {
+                let direction = d.map(|c| c / length);
+                let w = direction.map(|c| 3.0 / m * factor * c);
+                for k in 0..3 {
+                    total_w[k] += w[k];
+                }
+                work[3 * n] = direction;
+                work[3 * n + 1] = w;
+            }
+            work[3 * n + 2] = [length, extension, 0.0];
+        }
+        let theta = 3.0 * sum / m;
+        let isotropic = theta * isotropic_per_theta;
+        for (n, b) in range.enumerate() {
+            let [length, extension, _] = work[3 * n + 2];
+            let row = &mut grad[layout.index(n, 0)..=layout.index(n, family)];
+            if length <= 0.0 {
+                row.fill([[0.0; 3]; 3]);
+                continue;
+            }
+            let direction = work[3 * n];
+            let zeta = self.bonds.reference_length[b];
+            let intact = self.damage.intact(b);
+            let omega = self.weights.weight(local + n);
+            let scalar = intact * omega * (isotropic * zeta + intact * deviatoric * extension);
+            let axial = intact * intact * omega * deviatoric;
+            let lateral = scalar / length;
+            let u = direction.map(|c| intact * omega * zeta * isotropic_per_theta * c);
+            for (k, block) in row.iter_mut().enumerate().skip(1) {
+                let w = work[3 * (k - 1) + 1];
+                *block = u.map(|uc| w.map(|wc| uc * wc));
+            }
+            let mut diagonal = [[0.0; 3]; 3];
+            for k in 0..3 {
+                for l in 0..3 {
+                    let identity = if k == l { 1.0 } else { 0.0 };
+                    let mm = direction[k] * direction[l];
+                    diagonal[k][l] = axial * mm + lateral * (identity - mm);
+                    row[n + 1][k][l] += diagonal[k][l];
+                    row[0][k][l] = -diagonal[k][l] - u[k] * total_w[l];
+                }
+            }
+        }
+    }
+}
+
 impl LinearPeridynamicSolid {
     fn rows<'a>(
         &'a self,
@@ -372,6 +541,46 @@ impl Material for LinearPeridynamicSolid {
                 &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
                     rows.add_force(coefficients, chunk, base, out, w, d)
                 },
+            )
+        })
+    }
+
+    fn tangent_method(&self) -> TangentMethod {
+        self.tangent
+    }
+
+    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
+        self.tangent = checked_tangent_method(method)?;
+        Ok(())
+    }
+
+    fn add_tangent(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        method: TangentMethod,
+        tangent: &mut BlockTangent,
+    ) -> Result<(), TangentError> {
+        let model = self.model_name();
+        with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
+            let kernel = LpsForceState {
+                bonds: reference.bonds,
+                volume: reference.volume,
+                local_offsets: &self.local_offsets,
+                weighted_volume: &self.weighted_volume,
+                weights: w,
+                damage: d,
+                bulk: self.parameters.bulk_modulus,
+                shear: self.parameters.shear_modulus,
+            };
+            assemble(
+                &kernel,
+                model,
+                &self.points,
+                reference,
+                current,
+                method,
+                tangent,
             )
         })
     }

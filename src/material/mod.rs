@@ -37,6 +37,7 @@ pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSoli
 use rayon::prelude::*;
 
 use crate::model::BondList;
+use crate::tangent::{BlockTangent, TangentError, TangentMethod};
 
 /// Invalid material parameters or reference data. Messages name the deck key; the deck layer
 /// adds the file and line.
@@ -71,6 +72,19 @@ pub(crate) fn positive(key: &'static str, value: f64) -> Result<f64, MaterialErr
         Ok(value)
     } else {
         Err(MaterialError::NotPositive { key, value })
+    }
+}
+
+/// `method` if a material with an analytic tangent can use it: the finite-difference probe,
+/// when given, must be a positive finite number.
+pub(crate) fn checked_tangent_method(method: TangentMethod) -> Result<TangentMethod, TangentError> {
+    match method {
+        TangentMethod::FiniteDifference { probe: Some(value) }
+            if !(value.is_finite() && value > 0.0) =>
+        {
+            Err(TangentError::InvalidProbe { value })
+        }
+        _ => Ok(method),
     }
 }
 
@@ -183,6 +197,50 @@ pub trait Material: Send + Sync {
     /// (Peridigm's `Weighted_Volume`), for state-based models; `None` otherwise.
     fn weighted_volume(&self) -> Option<&[f64]> {
         None
+    }
+
+    /// True when the bond forces of this material depend only on the two ends of each bond
+    /// (bond-based), so that its tangent fits [`BlockPattern::one_hop`]; false (the default)
+    /// for state-based materials, which need [`BlockPattern::two_hop`].
+    ///
+    /// [`BlockPattern::one_hop`]: crate::tangent::BlockPattern::one_hop
+    /// [`BlockPattern::two_hop`]: crate::tangent::BlockPattern::two_hop
+    fn tangent_is_bond_local(&self) -> bool {
+        false
+    }
+
+    /// The tangent method chosen for this block (deck `Tangent`, set by
+    /// [`Material::set_tangent_method`]); materials without a tangent report finite
+    /// differences, which they cannot do either ([`Material::add_tangent`] says so).
+    fn tangent_method(&self) -> TangentMethod {
+        TangentMethod::FiniteDifference { probe: None }
+    }
+
+    /// Chooses how [`Material::add_tangent`] computes this block's tangent by default.
+    /// Fails when the material cannot use `method` (no analytic form, or no tangent at all) or
+    /// the finite-difference probe is not a positive finite number.
+    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
+        let _ = method;
+        Err(TangentError::Unsupported {
+            model: self.model_name(),
+        })
+    }
+
+    /// Adds the tangent contribution of the force states of the block's points,
+    /// `∂(V f)/∂u` at `current` with its bond damage held fixed, to `tangent`, computed by
+    /// `method` (see [`crate::tangent`]). The pattern must hold every pair of points sharing
+    /// a family of a block point (one hop suffices when [`Material::tangent_is_bond_local`]).
+    fn add_tangent(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        method: TangentMethod,
+        tangent: &mut BlockTangent,
+    ) -> Result<(), TangentError> {
+        let _ = (reference, current, method, tangent);
+        Err(TangentError::Unsupported {
+            model: self.model_name(),
+        })
     }
 
     /// Peridigm's critical time step over the block's points, see [`critical_time_step`].
