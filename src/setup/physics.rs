@@ -109,6 +109,12 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
         built
             .setup(&reference, block.points.clone())
             .map_err(|e| deck.error_at(&key_material, e.to_string()))?;
+        // `Tangent` / `Apply Automatic Differentiation Jacobian`; otherwise the model's default.
+        if let Some(method) = material.tangent {
+            built
+                .set_tangent_method(method)
+                .map_err(|e| deck.error_at(&key_material, e.to_string()))?;
+        }
         let damage: Option<Box<dyn crate::damage::DamageModel>> = match &entry.damage_model {
             None => None,
             Some(name) => {

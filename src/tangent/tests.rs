@@ -604,3 +604,125 @@ fn memory_counts_blocks_and_pattern() {
         7 * 72 + 4 * std::mem::size_of::<usize>() + 7 * 4
     );
 }
+
+/// A small valid deck (4 × 2 × 2 points, one `Elastic` block) whose material list gets
+/// `extra` lines.
+fn deck_with(extra: &[&str]) -> String {
+    let mut material = String::new();
+    for line in extra {
+        material.push_str("      ");
+        material.push_str(line);
+        material.push('\n');
+    }
+    format!(
+        r#"Peridigm:
+  Discretization:
+    Type: "PdQuickGrid"
+    NeighborhoodType: "Spherical"
+    TensorProduct3DMeshGenerator:
+      X Origin: 0.0
+      Y Origin: 0.0
+      Z Origin: 0.0
+      X Length: 4.0
+      Y Length: 2.0
+      Z Length: 2.0
+      Number Points X: 4
+      Number Points Y: 2
+      Number Points Z: 2
+  Materials:
+    Steel:
+      Material Model: "Elastic"
+      Density: 7800.0
+      Bulk Modulus: 130.0e9
+      Shear Modulus: 78.0e9
+{material}  Blocks:
+    Everything:
+      Block Names: "block_1"
+      Material: "Steel"
+      Horizon: 1.5
+  Solver:
+    Initial Time: 0.0
+    Final Time: 1.0
+    QuasiStatic:
+      Number of Load Steps: 2
+      Maximum Solver Iterations: 5
+"#
+    )
+}
+
+fn parse(text: &str) -> Result<crate::io::deck::Deck, crate::io::deck::DeckError> {
+    crate::io::deck::parse_str(
+        text,
+        crate::io::deck::DeckFormat::Yaml,
+        std::path::Path::new("tangent.yaml"),
+    )
+}
+
+/// The tangent method of the (only) block after the deck is set up.
+fn method_of_deck(extra: &[&str]) -> TangentMethod {
+    let deck = parse(&deck_with(extra)).unwrap();
+    let model = crate::setup::build(&deck).unwrap();
+    let physics = crate::setup::build_physics(&deck, &model).unwrap();
+    physics.blocks[0].material.tangent_method()
+}
+
+#[test]
+fn deck_selects_the_tangent_method() {
+    // No key: analytic (peridyn's default for Elastic, although Peridigm's is AD).
+    assert_eq!(method_of_deck(&[]), TangentMethod::Analytic);
+    assert_eq!(
+        method_of_deck(&[r#"Tangent: "Automatic Differentiation""#]),
+        TangentMethod::AutomaticDifferentiation
+    );
+    assert_eq!(
+        method_of_deck(&[
+            r#"Tangent: "Finite Difference""#,
+            "Finite Difference Probe Length: 1.0e-7"
+        ]),
+        TangentMethod::FiniteDifference { probe: Some(1e-7) }
+    );
+    // Peridigm's key, written explicitly, decides when `Tangent` is absent.
+    assert_eq!(
+        method_of_deck(&["Apply Automatic Differentiation Jacobian: true"]),
+        TangentMethod::AutomaticDifferentiation
+    );
+    assert_eq!(
+        method_of_deck(&["Apply Automatic Differentiation Jacobian: false"]),
+        TangentMethod::FiniteDifference { probe: None }
+    );
+    // Both keys, agreeing.
+    assert_eq!(
+        method_of_deck(&[
+            "Apply Automatic Differentiation Jacobian: false",
+            r#"Tangent: "Finite Difference""#
+        ]),
+        TangentMethod::FiniteDifference { probe: None }
+    );
+}
+
+#[test]
+fn deck_tangent_errors_name_the_key_and_the_fix() {
+    let text = deck_with(&[r#"Tangent: "Finite Diference""#]);
+    let message = parse(&text).unwrap_err().to_string();
+    let line = text
+        .lines()
+        .position(|l| l.contains("Finite Diference"))
+        .unwrap()
+        + 1;
+    assert!(
+        message.starts_with(&format!("tangent.yaml:{line}:")),
+        "{message}"
+    );
+    assert!(
+        message.contains(r#"did you mean "Finite Difference"?"#),
+        "{message}"
+    );
+
+    let text = deck_with(&[
+        "Apply Automatic Differentiation Jacobian: true",
+        r#"Tangent: "Analytic""#,
+    ]);
+    let message = parse(&text).unwrap_err().to_string();
+    assert!(message.contains("contradicts"), "{message}");
+    assert!(message.contains("remove one of the two keys"), "{message}");
+}

@@ -2,6 +2,7 @@
 
 use super::error::DeckError;
 use super::reader::{Ctx, Field, ListReader};
+use crate::tangent::TangentMethod;
 
 /// One named material (an entry of `Materials`).
 #[derive(Debug, Clone, PartialEq)]
@@ -22,6 +23,13 @@ pub struct Material {
     /// `Finite Difference Probe Length` ε for finite-difference tangents (> 0); default
     /// `1e-6 × min element radius`, computed at setup.
     pub finite_difference_probe_length: Option<f64>,
+    /// The tangent method the deck asks for explicitly: peridyn's `Tangent` key
+    /// (`"Analytic"`, `"Automatic Differentiation"` or `"Finite Difference"`), or Peridigm's
+    /// `Apply Automatic Differentiation Jacobian` when written in the deck (true → automatic
+    /// differentiation, false → finite differences). Finite differences carry
+    /// `Finite Difference Probe Length` (`None`: Peridigm's default, resolved at assembly).
+    /// `None` leaves the model's default (analytic for `Elastic` and `Elastic Bond Based`).
+    pub tangent: Option<TangentMethod>,
 }
 
 /// The elastic constants as given in the deck (exactly two of four), with Peridigm's
@@ -507,6 +515,7 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Material, DeckError> 
     };
     let finite_difference_probe_length =
         list.positive_opt(ctx, "Finite Difference Probe Length")?;
+    let tangent = read_tangent(ctx, &mut list, finite_difference_probe_length)?;
     let mut ignored: Vec<(&str, &str)> = Vec::new();
 
     let model = match model_name {
@@ -778,7 +787,51 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Material, DeckError> 
         elastic,
         thermal_expansion_coefficient,
         finite_difference_probe_length,
+        tangent,
     })
+}
+
+/// `Tangent`, or the method implied by an explicit `Apply Automatic Differentiation Jacobian`
+/// (peeked, not consumed: the model reads it as before). Both present and disagreeing is an
+/// error at `Tangent`.
+fn read_tangent(
+    ctx: &Ctx,
+    list: &mut ListReader,
+    probe: Option<f64>,
+) -> Result<Option<TangentMethod>, DeckError> {
+    let finite_difference = TangentMethod::FiniteDifference { probe };
+    let peridigm = match list.peek("Apply Automatic Differentiation Jacobian") {
+        Some(f) if f.bool(ctx)? => Some(TangentMethod::AutomaticDifferentiation),
+        Some(_) => Some(finite_difference),
+        None => None,
+    };
+    let Some(field) = list.get("Tangent") else {
+        return Ok(peridigm);
+    };
+    let names = [
+        TangentMethod::Analytic.deck_name(),
+        TangentMethod::AutomaticDifferentiation.deck_name(),
+        finite_difference.deck_name(),
+    ];
+    let name = field.choice(ctx, &names)?;
+    let chosen = if name == names[0] {
+        TangentMethod::Analytic
+    } else if name == names[1] {
+        TangentMethod::AutomaticDifferentiation
+    } else {
+        finite_difference
+    };
+    match peridigm {
+        Some(implied) if implied != chosen => Err(field.err(
+            ctx,
+            format!(
+                "`Tangent: \"{name}\"` contradicts `Apply Automatic Differentiation Jacobian` \
+                 (which asks for \"{}\"); remove one of the two keys",
+                implied.deck_name()
+            ),
+        )),
+        _ => Ok(Some(chosen)),
+    }
 }
 
 impl MaterialModel {
