@@ -149,6 +149,24 @@ impl Physics {
                 bond_damage[b] = larger;
             }
         }
+        self.internal_force_with_damage_fixed(bonds, points, current, force_density);
+        broken
+    }
+
+    /// Internal force density at `current` with the bond damage left as it is (no bond breaks).
+    /// Implicit solvers use it for the probes of Jacobian-free directional derivatives.
+    pub fn internal_force_with_damage_fixed(
+        &mut self,
+        bonds: &BondList,
+        points: &PointCloud,
+        current: &[[f64; 3]],
+        force_density: &mut [[f64; 3]],
+    ) {
+        let reference = ReferenceView {
+            bonds,
+            position: &points.position,
+            volume: &points.volume,
+        };
         let view = CurrentView {
             position: current,
             bond_damage: self.bond_damage.as_deref(),
@@ -168,7 +186,6 @@ impl Physics {
                 .material
                 .add_force_density(&reference, &view, &self.coefficients, force_density);
         }
-        broken
     }
 
     /// Stored elastic energy density of every point at `current` (uses the coefficients of the

@@ -13,7 +13,7 @@ use crate::plan::{
 };
 
 /// Integrators this build runs.
-const SUPPORTED_INTEGRATORS: &[&str] = &["Verlet"];
+const SUPPORTED_INTEGRATORS: &[&str] = &["Verlet", "QuasiStatic", "NOXQuasiStatic", "Implicit"];
 /// Material models this build runs.
 const SUPPORTED_MATERIALS: &[&str] = &["Elastic", "Elastic Bond Based"];
 /// Damage models this build runs.
@@ -50,6 +50,7 @@ const SUPPORTED_OUTPUTS: &[&str] = &[
     "Angular_Momentum",
     "Global_Angular_Momentum",
     "Deformation_Gradient",
+    "Nonlinear_Solver_Iterations",
 ];
 
 /// The requested variables of one output list, checked against Peridigm's catalogue and the
@@ -138,6 +139,14 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
         let name = solver.integrator.deck_name();
         if !SUPPORTED_INTEGRATORS.contains(&name) {
             note(format!("solver {name}"));
+        }
+        if let crate::io::deck::Integrator::NoxQuasiStatic(nox) = &solver.integrator {
+            if nox.direction_method != "Newton" {
+                note(format!(
+                    "NOXQuasiStatic Direction Method \"{}\" (NOX decks run on peridyn's own Newton)",
+                    nox.direction_method
+                ));
+            }
         }
     }
     for material in &deck.materials {

@@ -113,6 +113,8 @@ pub struct Fields<'a> {
     pub state: &'a State,
     /// Prepared compute classes.
     pub compute_classes: &'a [PreparedComputeClass],
+    /// Newton iterations of the last implicit step (`Nonlinear_Solver_Iterations`), if any.
+    pub nonlinear_iterations: Option<f64>,
 }
 
 impl<'a> Fields<'a> {
@@ -128,6 +130,7 @@ impl<'a> Fields<'a> {
             physics,
             state,
             compute_classes,
+            nonlinear_iterations: None,
         }
     }
 
@@ -300,6 +303,8 @@ impl FieldSource for Fields<'_> {
             "Global_Stored_Elastic_Energy" => {
                 Some(self.scalar("Stored_Elastic_Energy")?.iter().sum())
             }
+            // Zero for explicit solvers, as Peridigm writes it.
+            "Nonlinear_Solver_Iterations" => Some(self.nonlinear_iterations.unwrap_or(0.0)),
             _ => {
                 let class = self.class(name)?;
                 let values = self.scalar(&class.variable)?;

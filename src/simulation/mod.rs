@@ -6,11 +6,15 @@ mod fields;
 pub use fields::{prepare_compute_classes, Fields, PreparedComputeClass};
 
 use crate::boundary::BoundaryError;
-use crate::io::deck::{Deck, Integrator};
+use crate::io::deck::{Deck, Integrator, Solver};
+use crate::io::history::HistoryWriter;
 use crate::io::output::{FieldSource, OutputError, OutputFile, OutputGeometry, Schedule};
 use crate::physics::Physics;
 use crate::setup::{self, Model};
-use crate::solver::{EnergyMonitor, Instability, VelocityVerlet, VerletSettings};
+use crate::solver::newmark::{self, NewmarkError, NewmarkSettings};
+use crate::solver::newton::{ConvergenceMeasure, NewtonReport};
+use crate::solver::quasistatic::{self, QuasiStaticError, QuasiStaticSettings};
+use crate::solver::{linear, EnergyMonitor, Instability, VelocityVerlet, VerletSettings};
 use crate::state::State;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -28,6 +32,12 @@ pub enum RunError {
     /// A solver needs something this build does not have.
     #[error("{0}")]
     Unsupported(String),
+    /// A quasi-static solve failed (exit code 3).
+    #[error(transparent)]
+    QuasiStatic(#[from] QuasiStaticError),
+    /// A Newmark-β solve failed (exit code 3).
+    #[error(transparent)]
+    Newmark(#[from] NewmarkError),
     /// The explicit run became unstable (exit code 3).
     #[error(
         "the run became unstable at step {} of solver \"{solver}\" (t = {:.4e} s): kinetic energy {:.4e} exceeds {}× the energy supplied to the body ({:.4e}). \
@@ -53,7 +63,7 @@ impl RunError {
     /// Process exit code: 3 for solver failures and instabilities, 1 otherwise.
     pub fn exit_code(&self) -> u8 {
         match self {
-            RunError::Unstable { .. } => 3,
+            RunError::Unstable { .. } | RunError::QuasiStatic(_) | RunError::Newmark(_) => 3,
             _ => 1,
         }
     }
@@ -231,19 +241,120 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
         &mut state.displacement,
         &mut state.velocity,
     )?;
-    let mut outputs = Outputs::create(deck, model, dir)?;
-    let mut summary = RunSummary::default();
+    let mut run = Run {
+        model,
+        compute_classes: &compute_classes,
+        outputs: Outputs::create(deck, model, dir)?,
+        solver_history: None,
+        dir: dir.to_path_buf(),
+        history_name: deck
+            .outputs
+            .first()
+            .map_or_else(|| "peridyn".to_string(), |o| o.filename.clone()),
+        summary: RunSummary::default(),
+        nonlinear_iterations: None,
+    };
     let estimate = physics.critical_time_step(&model.bonds, &model.points);
-    let mut first = true;
-
-    for solver in &deck.solvers {
-        let Integrator::Verlet(verlet) = &solver.integrator else {
-            return Err(RunError::Unsupported(format!(
-                "solver \"{}\": {} is not available in this build",
-                solver.name,
-                solver.integrator.deck_name()
-            )));
+    for (index, solver) in deck.solvers.iter().enumerate() {
+        let start = Instant::now();
+        let result = match &solver.integrator {
+            Integrator::Verlet(verlet) => {
+                run.verlet(solver, verlet, estimate, &mut physics, &mut state)
+            }
+            Integrator::QuasiStatic(_) | Integrator::NoxQuasiStatic(_) => {
+                let predecessor = index > 0;
+                run.quasi_static(solver, predecessor, &mut physics, &mut state)
+            }
+            Integrator::Implicit(implicit) => {
+                run.newmark(solver, implicit, &mut physics, &mut state)
+            }
+            Integrator::ImplicitDiffusion(_) => Err(RunError::Unsupported(format!(
+                "solver \"{}\": ImplicitDiffusion is not available in this build",
+                solver.name
+            ))),
         };
+        run.summary.solve_seconds += start.elapsed().as_secs_f64();
+        if let Err(error) = result {
+            // Frames written so far stay readable; close the files before reporting.
+            run.outputs.finish()?;
+            return Err(error);
+        }
+    }
+    let mut summary = run.summary;
+    summary.output_seconds = run.outputs.seconds;
+    summary.solve_seconds -= summary.output_seconds.min(summary.solve_seconds);
+    summary.files = run.outputs.finish()?;
+    if let Some(history) = run.solver_history {
+        history
+            .finish()
+            .map_err(|e| RunError::Unsupported(e.to_string()))?;
+    }
+    Ok(summary)
+}
+
+/// A run in progress: what every solver writes to.
+struct Run<'a> {
+    model: &'a Model,
+    compute_classes: &'a [PreparedComputeClass],
+    outputs: Outputs,
+    /// Per-step report of the implicit solvers (`<output>_solver.csv`), created on first use.
+    solver_history: Option<HistoryWriter>,
+    dir: PathBuf,
+    history_name: String,
+    summary: RunSummary,
+    /// Newton iterations of the last accepted implicit step (`Nonlinear_Solver_Iterations`).
+    nonlinear_iterations: Option<f64>,
+}
+
+impl Run<'_> {
+    fn output(&mut self, physics: &Physics, state: &State) -> Result<(), RunError> {
+        let mut fields = Fields::new(self.model, physics, state, self.compute_classes);
+        fields.nonlinear_iterations = self.nonlinear_iterations;
+        self.outputs.call(state.time, &fields)
+    }
+
+    /// Appends one implicit step's solver report to `<output>_solver.csv`.
+    fn record(&mut self, time: f64, step: usize, report: &NewtonReport) -> Result<(), RunError> {
+        if self.solver_history.is_none() {
+            let path = self.dir.join(format!("{}_solver.csv", self.history_name));
+            let names: Vec<String> = SOLVER_HISTORY_COLUMNS
+                .iter()
+                .map(|s| s.to_string())
+                .collect();
+            self.solver_history = Some(
+                HistoryWriter::create(&path, &names)
+                    .map_err(|e| RunError::Unsupported(e.to_string()))?,
+            );
+        }
+        let first = report.residual_history.first().copied().unwrap_or(0.0);
+        let last = report.residual_history.last().copied().unwrap_or(0.0);
+        let row = [
+            step as f64,
+            report.iterations as f64,
+            report.linear_iterations as f64,
+            report.residual_evaluations as f64,
+            first,
+            last,
+            report.seconds,
+            report.tangent_bytes as f64,
+            report.broken_bonds as f64,
+        ];
+        self.solver_history
+            .as_mut()
+            .expect("created above")
+            .write_row(time, &row)
+            .map_err(|e| RunError::Unsupported(e.to_string()))
+    }
+
+    fn verlet(
+        &mut self,
+        solver: &Solver,
+        verlet: &crate::io::deck::Verlet,
+        estimate: Option<f64>,
+        physics: &mut Physics,
+        state: &mut State,
+    ) -> Result<(), RunError> {
+        let model = self.model;
         let base = match (verlet.fixed_dt, estimate) {
             (Some(dt), _) | (None, Some(dt)) => dt,
             (None, None) => {
@@ -280,31 +391,23 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
                 contact.points().len()
             );
         }
-        integrator.initialize(model, &mut physics, &mut state)?;
+        integrator.initialize(model, physics, state)?;
         let initial_energy = {
-            let fields = Fields::new(model, &physics, &state, &compute_classes);
+            let fields = Fields::new(model, physics, state, self.compute_classes);
             ["Global_Kinetic_Energy", "Global_Stored_Elastic_Energy"]
                 .iter()
                 .filter_map(|name| FieldSource::global(&fields, name))
                 .sum::<f64>()
         };
-        let mut monitor = EnergyMonitor::new(initial_energy, energy_floor(model, &physics));
-        if first {
-            outputs.call(
-                state.time,
-                &Fields::new(model, &physics, &state, &compute_classes),
-            )?;
-            first = false;
-        }
-        let start = Instant::now();
+        let mut monitor = EnergyMonitor::new(initial_energy, energy_floor(model, physics));
+        self.output(physics, state)?;
         let mut progress = Progress::new(&solver.name, steps);
         for step in 1..=steps {
-            let report = integrator.step(model, &mut physics, &mut state, step)?;
-            summary.broken_bonds += report.broken_bonds;
+            let report = integrator.step(model, physics, state, step)?;
+            self.summary.broken_bonds += report.broken_bonds;
             monitor.add_work(report.supplied_work);
             if let Err(instability) = monitor.check(step, state.time, report.free_kinetic_energy) {
                 progress.finish();
-                summary.files = outputs.finish()?;
                 return Err(RunError::Unstable {
                     solver: solver.name.clone(),
                     instability,
@@ -312,21 +415,161 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
                     estimate,
                 });
             }
-            outputs.call(
-                state.time,
-                &Fields::new(model, &physics, &state, &compute_classes),
-            )?;
+            self.output(physics, state)?;
             progress.update(step);
         }
         progress.finish();
         if let Some(contact) = &physics.contact {
             eprintln!("{}: contact: {}", solver.name, contact.statistics());
         }
-        summary.steps += steps;
-        summary.solve_seconds += start.elapsed().as_secs_f64();
+        self.summary.steps += steps;
+        Ok(())
     }
-    summary.output_seconds = outputs.seconds;
-    summary.solve_seconds -= summary.output_seconds.min(summary.solve_seconds);
-    summary.files = outputs.finish()?;
-    Ok(summary)
+
+    fn quasi_static(
+        &mut self,
+        solver: &Solver,
+        predecessor: bool,
+        physics: &mut Physics,
+        state: &mut State,
+    ) -> Result<(), RunError> {
+        let settings = quasi_static_settings(solver, predecessor)?;
+        let mut linear = linear::strategy(solver, self.model, physics)?;
+        eprintln!(
+            "{}: {}, {} load steps, linear solver: {}",
+            solver.name,
+            solver.integrator.deck_name(),
+            settings.times.len() - 1,
+            linear.describe()
+        );
+        state.time = solver.initial_time;
+        self.nonlinear_iterations = None;
+        self.output(physics, state)?;
+        let reports = quasistatic::run(
+            self.model,
+            physics,
+            state,
+            &settings,
+            &mut linear,
+            |physics, state, report| -> Result<(), RunError> {
+                self.nonlinear_iterations = Some(report.newton.iterations as f64);
+                self.summary.broken_bonds += report.newton.broken_bonds;
+                self.record(report.time, report.step, &report.newton)?;
+                self.output(physics, state)
+            },
+        )?;
+        self.summary.steps += reports.len() as u64;
+        Ok(())
+    }
+
+    fn newmark(
+        &mut self,
+        solver: &Solver,
+        implicit: &crate::io::deck::Implicit,
+        physics: &mut Physics,
+        state: &mut State,
+    ) -> Result<(), RunError> {
+        let steps = ((solver.final_time - solver.initial_time) / implicit.fixed_dt)
+            .floor()
+            .max(0.0) as u64;
+        let settings = NewmarkSettings {
+            time_step: implicit.fixed_dt,
+            steps,
+            initial_time: solver.initial_time,
+            beta: implicit.beta,
+            gamma: implicit.gamma,
+            tolerance: implicit.absolute_tolerance,
+            max_iterations: implicit.maximum_solver_iterations,
+            verbose: solver.verbose,
+        };
+        let mut linear = linear::strategy(solver, self.model, physics)?;
+        eprintln!(
+            "{}: Implicit (Newmark-β, β = {}, γ = {}), Δt = {:e} s, {steps} steps, linear solver: {}",
+            solver.name,
+            implicit.beta,
+            implicit.gamma,
+            implicit.fixed_dt,
+            linear.describe()
+        );
+        state.time = solver.initial_time;
+        self.nonlinear_iterations = None;
+        self.output(physics, state)?;
+        newmark::run(
+            self.model,
+            physics,
+            state,
+            &settings,
+            &mut linear,
+            |physics, state, step, report| -> Result<(), RunError> {
+                self.nonlinear_iterations = Some(report.iterations as f64);
+                self.summary.broken_bonds += report.broken_bonds;
+                self.record(state.time, step as usize, report)?;
+                self.output(physics, state)
+            },
+        )?;
+        self.summary.steps += steps;
+        Ok(())
+    }
+}
+
+/// Columns of the implicit solver report (`<output>_solver.csv`, after `Time`).
+pub const SOLVER_HISTORY_COLUMNS: [&str; 9] = [
+    "Step",
+    "Newton_Iterations",
+    "Linear_Iterations",
+    "Residual_Evaluations",
+    "Initial_Residual",
+    "Final_Residual",
+    "Seconds",
+    "Tangent_Bytes",
+    "Broken_Bonds",
+];
+
+/// The quasi-static settings of a `QuasiStatic` or `NOXQuasiStatic` list.
+fn quasi_static_settings(
+    solver: &Solver,
+    predecessor: bool,
+) -> Result<QuasiStaticSettings, RunError> {
+    let heuristics = !solver.disable_heuristics;
+    let (load_steps, max_iterations, relative, absolute, measure, adaptive) = match &solver
+        .integrator
+    {
+        Integrator::QuasiStatic(q) => (
+            &q.load_steps,
+            q.maximum_solver_iterations,
+            q.relative_tolerance,
+            q.absolute_tolerance,
+            ConvergenceMeasure::PeridigmQuasiStatic,
+            q.adaptive_load_stepping.clone(),
+        ),
+        Integrator::NoxQuasiStatic(n) => {
+            if n.direction_method != "Newton" {
+                return Err(RunError::Unsupported(format!(
+                        "solver \"{}\": NOXQuasiStatic Direction → Method \"{}\" is not available; this build runs NOX decks with its own Newton (use Method: \"Newton\")",
+                        solver.name, n.direction_method
+                    )));
+            }
+            (
+                &n.load_steps,
+                n.max_solver_iterations,
+                n.relative_tolerance,
+                n.absolute_tolerance,
+                ConvergenceMeasure::TwoNorm,
+                None,
+            )
+        }
+        _ => unreachable!("only quasi-static integrators come here"),
+    };
+    Ok(QuasiStaticSettings {
+        times: quasistatic::load_step_times(load_steps, solver.initial_time, solver.final_time),
+        max_iterations,
+        relative_tolerance: relative,
+        absolute_tolerance: absolute,
+        measure,
+        predictor: heuristics,
+        predict_first_step: predecessor && solver.initialize_predictor_from_previous_solver,
+        line_search: heuristics,
+        verbose: solver.verbose,
+        adaptive,
+    })
 }

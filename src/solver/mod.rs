@@ -1,7 +1,12 @@
 //! How time advances. Every solver calls the one internal-force path in [`crate::physics`].
 
 pub mod explicit;
+pub mod implicit;
+pub mod linear;
 pub mod monitor;
+pub mod newmark;
+pub mod newton;
+pub mod quasistatic;
 
 pub use explicit::{VelocityVerlet, VerletSettings};
 pub use monitor::{EnergyMonitor, Instability};

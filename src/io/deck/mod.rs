@@ -49,8 +49,8 @@ pub use materials::{
 pub use output::{CalculationType, ComputeClass, ComputeClassKind, Output};
 pub use solver::{
     AdaptiveLoadStepping, BelosSettings, BelosSolver, Implicit, ImplicitDiffusion, Integrator,
-    LoadSteps, NoxQuasiStatic, ParameterValue, PeridigmPreconditioner, QuasiStatic, SolveFor,
-    Solver, SwitchToVerlet, Verlet,
+    LinearMethod, LinearPreconditioner, LinearSolve, LoadSteps, NoxQuasiStatic, ParameterValue,
+    PeridigmPreconditioner, QuasiStatic, SolveFor, Solver, SwitchToVerlet, Verlet,
 };
 
 use reader::{suggest, Ctx, Field, ListReader};

@@ -29,6 +29,58 @@ pub struct Solver {
     pub solve_for: SolveFor,
     /// The integrator sublist (exactly one).
     pub integrator: Integrator,
+    /// How implicit solvers solve their linear systems (peridyn keys, see [`LinearSolve`]).
+    pub linear_solve: LinearSolve,
+}
+
+/// Linear solver of the implicit integrators (peridyn keys in the `Solver` list; Peridigm's
+/// `Belos *` keys choose the default, so its decks keep their meaning).
+///
+/// | key | values | default |
+/// |---|---|---|
+/// | `Linear Solver` | `Direct`, `Cholesky`, `LU`, `CG`, `GMRES` | `CG` when the deck gives `Belos Linear Solver: BlockCG`, `GMRES` for `BlockGMRES`, else `Direct` |
+/// | `Linear Solver Preconditioner` | `Block 3x3`, `Jacobi`, `None` | `Block 3x3` |
+/// | `Linear Solver Tolerance` | relative residual of the Krylov methods | `Belos Relative Tolerance` when given, else 1e-10 |
+/// | `Linear Solver Maximum Iterations` | Krylov iteration limit | `Belos Maximum Iterations`, else the number of unknowns |
+///
+/// `Direct` is a sparse Cholesky factorization that falls back to LU when the stiffness is not
+/// positive definite (after bonds break, or with an unstable material state).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinearSolve {
+    /// `Linear Solver`.
+    pub method: LinearMethod,
+    /// `Linear Solver Preconditioner` (Krylov methods only).
+    pub preconditioner: LinearPreconditioner,
+    /// `Linear Solver Tolerance`.
+    pub relative_tolerance: f64,
+    /// `Linear Solver Maximum Iterations` (`None`: the number of unknowns).
+    pub maximum_iterations: Option<u64>,
+}
+
+/// `Linear Solver`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LinearMethod {
+    /// `"Direct"`: sparse Cholesky, LU when the matrix is not positive definite.
+    Direct,
+    /// `"Cholesky"`: sparse Cholesky only (fails on an indefinite stiffness).
+    Cholesky,
+    /// `"LU"`: sparse LU.
+    Lu,
+    /// `"CG"`: preconditioned conjugate gradients.
+    Cg,
+    /// `"GMRES"`: restarted GMRES.
+    Gmres,
+}
+
+/// `Linear Solver Preconditioner`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LinearPreconditioner {
+    /// `"Block 3x3"`: the inverted diagonal block of each point.
+    Block3x3,
+    /// `"Jacobi"`: the inverted diagonal.
+    Jacobi,
+    /// `"None"`.
+    None,
 }
 
 /// Which fields are unknowns.
@@ -335,8 +387,10 @@ fn read_load_steps(
     }
 }
 
-fn read_belos(ctx: &Ctx, list: &mut ListReader) -> Result<BelosSettings, DeckError> {
-    Ok(BelosSettings {
+/// Reads the `Belos *` keys; the flag says whether `Belos Linear Solver` was given.
+fn read_belos(ctx: &Ctx, list: &mut ListReader) -> Result<(BelosSettings, bool), DeckError> {
+    let given = list.peek("Belos Linear Solver").is_some();
+    let settings = BelosSettings {
         linear_solver: match list.get("Belos Linear Solver") {
             None => BelosSolver::BlockCg,
             Some(f) => match f.choice(ctx, &["BlockCG", "BlockGMRES"])? {
@@ -351,6 +405,57 @@ fn read_belos(ctx: &Ctx, list: &mut ListReader) -> Result<BelosSettings, DeckErr
             .positive_opt(ctx, "Belos Relative Tolerance")?
             .unwrap_or(1e-4),
         print_status: list.bool_or(ctx, "Belos Print Status", false)?,
+    };
+    Ok((settings, given))
+}
+
+/// Reads the peridyn linear-solver keys of a `Solver` list, with defaults from Peridigm's
+/// `Belos` settings when the deck chose a Belos solver.
+fn read_linear_solve(
+    ctx: &Ctx,
+    list: &mut ListReader,
+    belos: Option<(&BelosSettings, bool)>,
+) -> Result<LinearSolve, DeckError> {
+    let belos_method = belos.and_then(|(b, given)| {
+        given.then_some(match b.linear_solver {
+            BelosSolver::BlockCg => LinearMethod::Cg,
+            BelosSolver::BlockGmres => LinearMethod::Gmres,
+        })
+    });
+    let method = match list.get("Linear Solver") {
+        None => belos_method.unwrap_or(LinearMethod::Direct),
+        Some(f) => match f.choice(ctx, &["Direct", "Cholesky", "LU", "CG", "GMRES"])? {
+            "Cholesky" => LinearMethod::Cholesky,
+            "LU" => LinearMethod::Lu,
+            "CG" => LinearMethod::Cg,
+            "GMRES" => LinearMethod::Gmres,
+            _ => LinearMethod::Direct,
+        },
+    };
+    let preconditioner = match list.get("Linear Solver Preconditioner") {
+        None => LinearPreconditioner::Block3x3,
+        Some(f) => match f.choice(ctx, &["Block 3x3", "Jacobi", "None"])? {
+            "Jacobi" => LinearPreconditioner::Jacobi,
+            "None" => LinearPreconditioner::None,
+            _ => LinearPreconditioner::Block3x3,
+        },
+    };
+    let relative_tolerance = match list.positive_opt(ctx, "Linear Solver Tolerance")? {
+        Some(t) => t,
+        None => match belos {
+            Some((b, true)) => b.relative_tolerance,
+            _ => 1e-10,
+        },
+    };
+    let maximum_iterations = match list.int_opt(ctx, "Linear Solver Maximum Iterations", 1)? {
+        Some(m) => Some(m as u64),
+        None => belos.and_then(|(b, _)| b.maximum_iterations),
+    };
+    Ok(LinearSolve {
+        method,
+        preconditioner,
+        relative_tolerance,
+        maximum_iterations,
     })
 }
 
@@ -410,6 +515,7 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, 
     let final_field = list.get("Final Time");
     let final_given = final_field.as_ref().map(|f| f.f64(ctx)).transpose()?;
     let mut integ = integrator_field.list(ctx)?;
+    let mut belos_given = false;
     let (integrator, final_time) = match integrator_field.key() {
         "Verlet" => {
             let v = Verlet {
@@ -437,7 +543,11 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, 
                 damped_newton_diagonal_shift_factor: integ
                     .non_negative_opt(ctx, "Damped Newton Diagonal Shift Factor")?
                     .unwrap_or(1e-5),
-                belos: read_belos(ctx, &mut integ)?,
+                belos: {
+                    let (settings, given) = read_belos(ctx, &mut integ)?;
+                    belos_given = given;
+                    settings
+                },
                 adaptive_load_stepping: adaptive.map(|f| read_adaptive(ctx, &f)).transpose()?,
             };
             integ.finish(ctx, &[])?;
@@ -553,7 +663,7 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, 
                     .positive_opt(ctx, "Relative Tolerance")?
                     .unwrap_or(1e-6),
                 absolute_tolerance: integ.positive_opt(ctx, "Absolute Tolerance")?,
-                belos: read_belos(ctx, &mut integ)?,
+                belos: read_belos(ctx, &mut integ)?.0,
             };
             integ.finish(ctx, &[])?;
             let final_time = final_time_for_steps(ctx, &list, final_given, last)?;
@@ -598,6 +708,11 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, 
             }
         }
     }
+    let belos = match &integrator {
+        Integrator::QuasiStatic(q) => Some((&q.belos, belos_given)),
+        _ => None,
+    };
+    let linear_solve = read_linear_solve(ctx, &mut list, belos)?;
     let solver = Solver {
         name: field.key().to_string(),
         initial_time,
@@ -613,6 +728,7 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, 
         peridigm_preconditioner,
         solve_for,
         integrator,
+        linear_solve,
     };
     list.finish(ctx, &[])?;
     Ok(solver)

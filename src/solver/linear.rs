@@ -1,0 +1,134 @@
+//! Chooses how an implicit solver solves its Newton corrections, from the deck.
+//!
+//! * `QuasiStatic` and `Implicit`: the peridyn `Linear Solver` keys ([`LinearSolve`](crate::io::deck::LinearSolve)) on the
+//!   native backend; `Direct` is sparse Cholesky, with sparse LU taking over for good once the
+//!   stiffness is found not positive definite.
+//! * `NOXQuasiStatic` on the native backend: `Direction → Newton → Linear Solver → Jacobian
+//!   Operator: "Matrix-Free"` together with `Peridigm Preconditioner: "Block 3x3"` or `"None"`
+//!   selects Jacobian-free Newton–Krylov (Peridigm's rule, reference §4.2: `Matrix-Free` with
+//!   `Full Tangent` still assembles); anything else is Newton with the assembled tangent and the
+//!   `Linear Solver` keys.
+
+use crate::backend::native::{
+    KrylovSettings, NativeLinearSolver, NativeMethod, NativeSolverSettings, PreconditionerKind,
+};
+use crate::io::deck::{
+    Integrator, LinearMethod, LinearPreconditioner, ParameterValue, PeridigmPreconditioner, Solver,
+};
+use crate::physics::Physics;
+use crate::setup::Model;
+use crate::simulation::RunError;
+use crate::solver::newton::LinearStrategy;
+
+/// The smallest Krylov tolerance Jacobian-free solves use: a finite-difference directional
+/// derivative is accurate to about √ε ≈ 1e-8 relative, so asking for less only wastes
+/// iterations.
+pub const MATRIX_FREE_TOLERANCE_FLOOR: f64 = 1e-7;
+
+/// The linear strategy of `solver` (see the module docs).
+pub fn strategy(
+    solver: &Solver,
+    _model: &Model,
+    _physics: &Physics,
+) -> Result<LinearStrategy, RunError> {
+    let settings = &solver.linear_solve;
+    let krylov = KrylovSettings {
+        relative_tolerance: settings.relative_tolerance,
+        max_iterations: settings.maximum_iterations.map(|m| m as usize),
+        ..KrylovSettings::default()
+    };
+    if let Integrator::NoxQuasiStatic(nox) = &solver.integrator {
+        let matrix_free = nox_string(
+            &nox.nox,
+            &["Direction", "Newton", "Linear Solver", "Jacobian Operator"],
+        )
+        .is_some_and(|s| s == "Matrix-Free");
+        let preconditioner = match solver.peridigm_preconditioner {
+            PeridigmPreconditioner::Block3x3 => Some(LinearPreconditioner::Block3x3),
+            PeridigmPreconditioner::None => Some(LinearPreconditioner::None),
+            PeridigmPreconditioner::FullTangent => None,
+        };
+        if let (true, Some(preconditioner)) = (matrix_free, preconditioner) {
+            return Ok(LinearStrategy::MatrixFree {
+                krylov: KrylovSettings {
+                    relative_tolerance: krylov.relative_tolerance.max(MATRIX_FREE_TOLERANCE_FLOOR),
+                    ..krylov
+                },
+                preconditioner,
+            });
+        }
+    }
+    let preconditioner = match settings.preconditioner {
+        LinearPreconditioner::Block3x3 => PreconditionerKind::BlockJacobi,
+        LinearPreconditioner::Jacobi => PreconditionerKind::Jacobi,
+        LinearPreconditioner::None => PreconditionerKind::None,
+    };
+    let native = |method| {
+        NativeLinearSolver::new(
+            &NativeSolverSettings {
+                method,
+                preconditioner,
+                krylov,
+            },
+            Vec::new(),
+        )
+    };
+    Ok(match settings.method {
+        LinearMethod::Direct => LinearStrategy::Native {
+            solver: native(NativeMethod::Cholesky),
+            fallback: Some(native(NativeMethod::Lu)),
+        },
+        LinearMethod::Cholesky => LinearStrategy::Native {
+            solver: native(NativeMethod::Cholesky),
+            fallback: None,
+        },
+        LinearMethod::Lu => LinearStrategy::Native {
+            solver: native(NativeMethod::Lu),
+            fallback: None,
+        },
+        LinearMethod::Cg => LinearStrategy::Native {
+            solver: native(NativeMethod::Cg),
+            fallback: None,
+        },
+        LinearMethod::Gmres => LinearStrategy::Native {
+            solver: native(NativeMethod::Gmres),
+            fallback: None,
+        },
+    })
+}
+
+/// A string parameter at `path` in a NOX parameter tree.
+fn nox_string<'a>(tree: &'a [(String, ParameterValue)], path: &[&str]) -> Option<&'a str> {
+    let (first, rest) = path.split_first()?;
+    let (_, value) = tree.iter().find(|(k, _)| k == first)?;
+    match (value, rest.is_empty()) {
+        (ParameterValue::String(s), true) => Some(s),
+        (ParameterValue::List(children), false) => nox_string(children, rest),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nox_string_follows_the_path() {
+        let tree = vec![(
+            "Direction".to_string(),
+            ParameterValue::List(vec![(
+                "Newton".to_string(),
+                ParameterValue::List(vec![(
+                    "Linear Solver".to_string(),
+                    ParameterValue::List(vec![(
+                        "Jacobian Operator".to_string(),
+                        ParameterValue::String("Matrix-Free".into()),
+                    )]),
+                )]),
+            )]),
+        )];
+        let path = ["Direction", "Newton", "Linear Solver", "Jacobian Operator"];
+        assert_eq!(nox_string(&tree, &path), Some("Matrix-Free"));
+        assert_eq!(nox_string(&tree, &["Direction", "Method"]), None);
+    }
+}

@@ -1,0 +1,453 @@
+//! Newton's method on an [`ImplicitSystem`] with a backtracking line search; the iteration
+//! shared by quasi-statics (QuasiStatic, NOXQuasiStatic) and Newmark-β.
+//!
+//! Each iteration solves `K Δ = r` (K = −∂r/∂u over the unknowns, assembled or matrix-free)
+//! and moves to `u + αΔ`. The line search is a real one: α = 1 first, then quadratic
+//! interpolation of g(α) = ‖r(u + αΔ)‖² from g(0), g'(0) = −2‖r‖² (exact for a Newton
+//! direction) and the last trial, kept within [0.1, 0.5] of the previous α, until the Armijo
+//! condition g(α) ≤ (1 − 2·10⁻⁴α) g(0) holds — at most [`MAX_BACKTRACKS`] extra residuals
+//! where Peridigm's scan may spend sixty.
+
+use crate::backend::native::{
+    gmres_matrix_free, KrylovSettings, NativeLinearSolver, Preconditioner, PreconditionerOperator,
+};
+use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
+use crate::io::deck::LinearPreconditioner;
+use crate::physics::Physics;
+use crate::setup::Model;
+use crate::solver::implicit::{rank_deficient_points, DofMap, ImplicitSystem};
+use crate::state::State;
+use std::time::Instant;
+
+/// Backtracking steps of the line search after the full step.
+pub const MAX_BACKTRACKS: usize = 8;
+
+/// Sufficient-decrease constant of the Armijo condition.
+const ARMIJO: f64 = 1e-4;
+
+/// The scalar that is compared with the tolerance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ConvergenceMeasure {
+    /// Peridigm's `QuasiStatic` measure `‖r‖₂ + 20‖r‖∞` (force units).
+    PeridigmQuasiStatic,
+    /// `‖r‖₂` (force units), NOX's `NormF`.
+    TwoNorm,
+    /// Peridigm's Newmark measure `βΔt²·‖r_k/V‖₂`: the residual in force-density units scaled
+    /// by βΔt², whose value is `scale = βΔt²`.
+    ForceDensity {
+        /// βΔt².
+        scale: f64,
+    },
+}
+
+impl ConvergenceMeasure {
+    /// The measure of `residual` over the unknowns `dofs`.
+    pub fn of(&self, residual: &[f64], dofs: &DofMap, volume: &[f64]) -> f64 {
+        match *self {
+            ConvergenceMeasure::PeridigmQuasiStatic => {
+                norm2(residual) + 20.0 * residual.iter().fold(0.0f64, |m, r| m.max(r.abs()))
+            }
+            ConvergenceMeasure::TwoNorm => norm2(residual),
+            ConvergenceMeasure::ForceDensity { scale } => {
+                let sum: f64 = residual
+                    .iter()
+                    .zip(&dofs.free)
+                    .map(|(r, &dof)| (r / volume[dof / 3]).powi(2))
+                    .sum();
+                scale * sum.sqrt()
+            }
+        }
+    }
+}
+
+/// Euclidean norm.
+pub fn norm2(values: &[f64]) -> f64 {
+    values.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// Newton settings of one solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewtonSettings {
+    /// Linear solves allowed.
+    pub max_iterations: u64,
+    /// Converged when the measure is ≤ this.
+    pub tolerance: f64,
+    /// What is compared with the tolerance.
+    pub measure: ConvergenceMeasure,
+    /// Backtracking line search (off: always the full step, `Disable Heuristics`).
+    pub line_search: bool,
+    /// Print every iteration (otherwise only the first and last).
+    pub verbose: bool,
+}
+
+/// How the Newton correction is solved.
+pub enum LinearStrategy {
+    /// Assemble K and solve with a native solver; `fallback` (sparse LU behind the `Direct`
+    /// choice) takes over for the rest of the run when `solver` breaks down, e.g. Cholesky on
+    /// a stiffness that damage made indefinite.
+    Native {
+        /// The first choice.
+        solver: NativeLinearSolver,
+        /// Used after the first choice broke down.
+        fallback: Option<NativeLinearSolver>,
+    },
+    /// Assemble K and hand it to another backend's solver.
+    Assembled(Box<dyn LinearSolver>),
+    /// Jacobian-free Newton–Krylov: GMRES on the directional derivative
+    /// `K v ≈ (r(u) − r(u + εv))/ε`, with ε = λ·max|Y|/‖v‖∞, λ = 10⁻⁷ (about √ε_mach: the
+    /// probe moves the largest component by λ times the largest coordinate, which balances
+    /// truncation against the round-off of forces computed from positions Y), and the damage
+    /// of the current iterate held fixed during the probes. NOX's rule λ(λ + ‖u‖/‖v‖) is not
+    /// used: with u = 0 at the start of a load step and a preconditioned v of size 1/stiffness
+    /// its probe vanishes below round-off. No tangent is
+    /// assembled; the preconditioner needs only the 3×3 diagonal blocks.
+    MatrixFree {
+        /// GMRES settings.
+        krylov: KrylovSettings,
+        /// `Block 3x3` (inverted diagonal blocks), `Jacobi` or `None`.
+        preconditioner: LinearPreconditioner,
+    },
+}
+
+impl LinearStrategy {
+    /// A short description for the log.
+    pub fn describe(&self) -> String {
+        match self {
+            LinearStrategy::Native { solver, fallback } => {
+                let name = match solver {
+                    NativeLinearSolver::Cholesky(_) => "native sparse Cholesky".to_string(),
+                    NativeLinearSolver::Lu(_) => "native sparse LU".to_string(),
+                    NativeLinearSolver::Cg(cg) => {
+                        format!("native CG + {}", cg.preconditioner.label())
+                    }
+                    NativeLinearSolver::Gmres(g) => {
+                        format!("native GMRES + {}", g.preconditioner.label())
+                    }
+                };
+                match fallback {
+                    Some(_) => format!("{name} (sparse LU if not positive definite)"),
+                    None => name,
+                }
+            }
+            LinearStrategy::Assembled(_) => "external backend".to_string(),
+            LinearStrategy::MatrixFree { preconditioner, .. } => format!(
+                "Jacobian-free Newton–Krylov (GMRES, preconditioner {})",
+                match preconditioner {
+                    LinearPreconditioner::Block3x3 => "Block 3x3",
+                    LinearPreconditioner::Jacobi => "Jacobi",
+                    LinearPreconditioner::None => "none",
+                }
+            ),
+        }
+    }
+}
+
+/// Solves the assembled system with the native solver, switching to the fallback for good
+/// when the first choice breaks down.
+fn solve_native(
+    solver: &mut NativeLinearSolver,
+    fallback: &mut Option<NativeLinearSolver>,
+    groups: &[usize],
+    matrix: &Csr,
+    rhs: &[f64],
+    x: &mut [f64],
+) -> Result<KrylovReport, SolveError> {
+    solver.set_groups(groups.to_vec());
+    match solver.solve(matrix, rhs, x) {
+        Err(SolveError::Breakdown { method, reason }) if fallback.is_some() => {
+            eprintln!("  note: {method}: {reason}; switching to sparse LU");
+            *solver = fallback.take().expect("checked above");
+            x.iter_mut().for_each(|v| *v = 0.0);
+            solver.solve(matrix, rhs, x)
+        }
+        other => other,
+    }
+}
+
+/// One Jacobian-free solve of `K Δ = r` at the current iterate (see
+/// [`LinearStrategy::MatrixFree`]). The state is back at the iterate on return.
+#[allow(clippy::too_many_arguments)]
+fn solve_matrix_free(
+    system: &mut ImplicitSystem,
+    model: &Model,
+    physics: &mut Physics,
+    state: &mut State,
+    krylov: &KrylovSettings,
+    preconditioner: LinearPreconditioner,
+    residual: &[f64],
+    correction: &mut [f64],
+) -> Result<KrylovReport, SolveError> {
+    const LAMBDA: f64 = 1e-7;
+    let n = system.dofs.len();
+    let operator = match preconditioner {
+        LinearPreconditioner::None => None,
+        kind => {
+            let blocks = system.block_diagonal(model, physics, state)?;
+            let matrix = block_diagonal_csr(&system.dofs.groups, &blocks);
+            let choice = match kind {
+                LinearPreconditioner::Jacobi => Preconditioner::Jacobi,
+                _ => Preconditioner::BlockJacobi {
+                    groups: system.dofs.groups.clone(),
+                },
+            };
+            Some(PreconditionerOperator::build(&choice, &matrix)?)
+        }
+    };
+    let mut base = vec![0.0; n];
+    system.dofs.gather(&state.displacement, &mut base);
+    // Forces are computed from positions Y, whose round-off is ε_mach·|Y|, so the probe is
+    // scaled by the largest coordinate, not by ‖u‖ (which is 0 at the start of a load step).
+    let position_scale = state
+        .current_position
+        .iter()
+        .flat_map(|y| y.iter())
+        .fold(0.0f64, |m, y| m.max(y.abs()))
+        .max(f64::MIN_POSITIVE);
+    let mut probe = vec![0.0; n];
+    let mut probe_residual = vec![0.0; n];
+    let mut apply = |v: &[f64], out: &mut [f64]| -> Result<(), SolveError> {
+        let v_max = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        if v_max == 0.0 {
+            out.iter_mut().for_each(|o| *o = 0.0);
+            return Ok(());
+        }
+        let epsilon = LAMBDA * position_scale / v_max;
+        for ((p, b), d) in probe.iter_mut().zip(&base).zip(v) {
+            *p = b + epsilon * d;
+        }
+        system.dofs.scatter(&probe, &mut state.displacement);
+        system.residual_keeping_damage(model, physics, state, &mut probe_residual, false)?;
+        for ((o, r0), r) in out.iter_mut().zip(residual).zip(&probe_residual) {
+            *o = (r0 - r) / epsilon;
+        }
+        Ok(())
+    };
+    let identity = |r: &[f64], z: &mut [f64]| z.copy_from_slice(r);
+    let report = match &operator {
+        Some(op) => gmres_matrix_free(
+            &mut apply,
+            &|r, z| op.apply(r, z),
+            residual,
+            correction,
+            krylov,
+        ),
+        None => gmres_matrix_free(&mut apply, &identity, residual, correction, krylov),
+    };
+    system.dofs.scatter(&base, &mut state.displacement);
+    state.update_current_position(&model.points.position);
+    report
+}
+
+/// A CSR matrix holding only the dense diagonal blocks (row-major per group).
+fn block_diagonal_csr(groups: &[usize], blocks: &[f64]) -> Csr {
+    let n = *groups.last().unwrap_or(&0);
+    let mut matrix = Csr {
+        nrows: n,
+        ncols: n,
+        offsets: vec![0],
+        columns: Vec::new(),
+        values: Vec::new(),
+    };
+    let mut at = 0;
+    for g in groups.windows(2) {
+        for _row in g[0]..g[1] {
+            for column in g[0]..g[1] {
+                matrix.columns.push(column);
+                matrix.values.push(blocks[at]);
+                at += 1;
+            }
+            matrix.offsets.push(matrix.columns.len());
+        }
+    }
+    matrix
+}
+
+/// What one Newton solve did (the per-step solver report).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct NewtonReport {
+    /// True when the measure reached the tolerance.
+    pub converged: bool,
+    /// Linear solves taken.
+    pub iterations: usize,
+    /// Krylov iterations summed over the linear solves.
+    pub linear_iterations: usize,
+    /// Measure after every iteration (the first entry is the starting residual).
+    pub residual_history: Vec<f64>,
+    /// Residual evaluations, line search included.
+    pub residual_evaluations: usize,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+    /// Bonds broken in the accepted iterate relative to the start of the step.
+    pub broken_bonds: usize,
+    /// Points whose dofs were held because they had too few intact bonds (original ids).
+    pub held_points: Vec<u32>,
+    /// Bytes of the assembled tangent (0 when none was assembled).
+    pub tangent_bytes: usize,
+    /// Last linear-solver method name.
+    pub linear_method: String,
+}
+
+/// Runs Newton from `state.displacement` (prescribed dofs already set); on return the state
+/// holds the last iterate, consistent forces and damage. A non-converged solve is a report with
+/// `converged == false`; errors are failures of the linear algebra or non-finite values.
+pub fn solve(
+    system: &mut ImplicitSystem,
+    model: &Model,
+    physics: &mut Physics,
+    state: &mut State,
+    linear: &mut LinearStrategy,
+    settings: &NewtonSettings,
+    constrained: &[usize],
+) -> Result<NewtonReport, SolveError> {
+    let start = Instant::now();
+    let volume = &model.points.volume;
+    let mut report = NewtonReport::default();
+    let evaluations_before = system.residual_evaluations;
+    let mut residual = vec![0.0; system.dofs.len()];
+    report.broken_bonds = system.residual(model, physics, state, &mut residual)?;
+    let mut measure = settings.measure.of(&residual, &system.dofs, volume);
+    report.residual_history.push(measure);
+    let mut held: Vec<u32> = Vec::new();
+    while measure > settings.tolerance && (report.iterations as u64) < settings.max_iterations {
+        let deficient = rank_deficient_points(model, physics);
+        if deficient != held {
+            for &p in deficient.iter().filter(|p| held.binary_search(p).is_err()) {
+                eprintln!(
+                    "  note: point {} has too few intact bonds for a stiffness; its displacement is held (RANK_DEFICIENT_NODES)",
+                    model.points.original_id[p as usize] + 1
+                );
+            }
+            held = deficient;
+            system.dofs = DofMap::new(model.points.len(), constrained, &held);
+            residual = vec![0.0; system.dofs.len()];
+            report.broken_bonds = system.residual(model, physics, state, &mut residual)?;
+            measure = settings.measure.of(&residual, &system.dofs, volume);
+            if measure <= settings.tolerance {
+                break;
+            }
+        }
+        let mut correction = vec![0.0; system.dofs.len()];
+        let linear_report = match linear {
+            LinearStrategy::Native { solver, fallback } => {
+                let matrix = system.stiffness(model, physics, state)?;
+                report.tangent_bytes = report.tangent_bytes.max(system.tangent_bytes);
+                let groups = system.dofs.groups.clone();
+                solve_native(
+                    solver,
+                    fallback,
+                    &groups,
+                    &matrix,
+                    &residual,
+                    &mut correction,
+                )?
+            }
+            LinearStrategy::Assembled(solver) => {
+                let matrix = system.stiffness(model, physics, state)?;
+                report.tangent_bytes = report.tangent_bytes.max(system.tangent_bytes);
+                solver.solve(&matrix, &residual, &mut correction)?
+            }
+            LinearStrategy::MatrixFree {
+                krylov,
+                preconditioner,
+            } => solve_matrix_free(
+                system,
+                model,
+                physics,
+                state,
+                krylov,
+                *preconditioner,
+                &residual,
+                &mut correction,
+            )?,
+        };
+        report.linear_iterations += linear_report.iterations;
+        report.linear_method = linear_report.method.clone();
+        report.iterations += 1;
+        let (broken, new_measure) = line_search(
+            system,
+            model,
+            physics,
+            state,
+            &mut residual,
+            &correction,
+            settings,
+        )?;
+        report.broken_bonds = broken;
+        measure = new_measure;
+        report.residual_history.push(measure);
+        if settings.verbose {
+            eprintln!(
+                "  iteration {}: residual = {measure:.6e} ({}: {} linear iterations)",
+                report.iterations, linear_report.method, linear_report.iterations
+            );
+        }
+    }
+    report.converged = measure <= settings.tolerance;
+    report.residual_evaluations = system.residual_evaluations - evaluations_before;
+    report.held_points = held
+        .iter()
+        .map(|&p| model.points.original_id[p as usize] + 1)
+        .collect();
+    report.seconds = start.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// Moves the unknowns from u₀ to u₀ + αΔ with the line search of the module docs; leaves the
+/// state and `residual` at the accepted point and returns (broken bonds, measure).
+#[allow(clippy::too_many_arguments)]
+fn line_search(
+    system: &mut ImplicitSystem,
+    model: &Model,
+    physics: &mut Physics,
+    state: &mut State,
+    residual: &mut [f64],
+    correction: &[f64],
+    settings: &NewtonSettings,
+) -> Result<(usize, f64), SolveError> {
+    let volume = &model.points.volume;
+    let n = system.dofs.len();
+    let mut start = vec![0.0; n];
+    system.dofs.gather(&state.displacement, &mut start);
+    let g0 = norm2(residual).powi(2);
+    let mut trial = vec![0.0; n];
+    let mut alpha = 1.0;
+    let mut best: Option<(f64, f64)> = None;
+    let backtracks = if settings.line_search {
+        MAX_BACKTRACKS
+    } else {
+        0
+    };
+    for attempt in 0..=backtracks {
+        for ((t, s), d) in trial.iter_mut().zip(&start).zip(correction) {
+            *t = s + alpha * d;
+        }
+        system.dofs.scatter(&trial, &mut state.displacement);
+        let broken = system.residual(model, physics, state, residual)?;
+        let g = norm2(residual).powi(2);
+        if g <= (1.0 - 2.0 * ARMIJO * alpha) * g0 || attempt == backtracks && best.is_none() {
+            return Ok((broken, settings.measure.of(residual, &system.dofs, volume)));
+        }
+        if best.is_none_or(|(_, g_best)| g < g_best) {
+            best = Some((alpha, g));
+        }
+        if attempt == backtracks {
+            break;
+        }
+        let curvature = (g - g0 + 2.0 * g0 * alpha) / (alpha * alpha);
+        let minimizer = if curvature > 0.0 {
+            g0 / curvature
+        } else {
+            0.5 * alpha
+        };
+        alpha = minimizer.clamp(0.1 * alpha, 0.5 * alpha);
+    }
+    // No trial met the Armijo condition: take the best one seen (the driver decides whether
+    // the step converged).
+    let (alpha, _) = best.expect("at least one trial was evaluated");
+    for ((t, s), d) in trial.iter_mut().zip(&start).zip(correction) {
+        *t = s + alpha * d;
+    }
+    system.dofs.scatter(&trial, &mut state.displacement);
+    let broken = system.residual(model, physics, state, residual)?;
+    Ok((broken, settings.measure.of(residual, &system.dofs, volume)))
+}

@@ -1,0 +1,434 @@
+//! Quasi-static load stepping (`QuasiStatic`, and `NOXQuasiStatic` on the native backend):
+//! the prescribed displacements and body forces are applied in load steps, and each step is
+//! solved for equilibrium `V ⊙ (f_int(u) + b) = 0` over the free dofs by Newton's method.
+//!
+//! One load step from t_n to t_{n+1} (reference §4.1, with our own Newton):
+//! 1. u = u_n plus the prescribed increments g(t_{n+1}) − g(t_n); the free dofs get the
+//!    predictor `v_prev·Δt` (the last accepted step's velocity; not on the first step unless
+//!    `Initialize Predictor From Previous Solver`, never with `Disable Heuristics`);
+//! 2. body force and time-dependent damage parameters at t_{n+1};
+//! 3. tolerance: `Absolute Tolerance`, or `Relative Tolerance × ‖reaction‖₂` with the reaction
+//!    V·f at the prescribed dofs of this first state (when nothing is prescribed, or the
+//!    reaction is zero, the norm of the applied body force V·b is the reference instead, and
+//!    when that is zero too, the first residual);
+//! 4. Newton ([`super::newton`]); bonds broken by unconverged iterates heal until the step is
+//!    accepted;
+//! 5. accepted when converged, or — Peridigm's rule, with a warning — when the measure is within
+//!    100× the tolerance; otherwise, with `Adaptive Load-Stepping`, the step is cut in half and
+//!    redone (bounded), else the run stops with exit code 3;
+//! 6. on acceptance: `v = (u − u_n)/Δt`, damage committed, output.
+
+use crate::backend::SolveError;
+use crate::boundary::BoundaryError;
+use crate::io::deck::{AdaptiveLoadStepping, LoadSteps};
+use crate::physics::Physics;
+use crate::setup::Model;
+use crate::solver::implicit::{DofMap, ImplicitSystem};
+use crate::solver::newton::{
+    self, norm2, ConvergenceMeasure, LinearStrategy, NewtonReport, NewtonSettings,
+};
+use crate::state::State;
+use std::time::Instant;
+
+/// Peridigm accepts an unconverged load step whose measure is below this multiple of the
+/// tolerance (with a warning).
+pub const ACCEPTANCE_FACTOR: f64 = 100.0;
+
+/// Default bound on halvings of one load step when `Maximum load step reductions in one step`
+/// is not given.
+pub const DEFAULT_REDUCTIONS_IN_ONE_STEP: u64 = 10;
+
+/// Settings of one quasi-static solver list.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QuasiStaticSettings {
+    /// Load-step end times, starting with the initial time.
+    pub times: Vec<f64>,
+    /// Newton iterations per load step.
+    pub max_iterations: u64,
+    /// `Relative Tolerance`.
+    pub relative_tolerance: f64,
+    /// `Absolute Tolerance` (replaces the relative one when given).
+    pub absolute_tolerance: Option<f64>,
+    /// The convergence measure (Peridigm's for `QuasiStatic`, ‖r‖₂ for `NOXQuasiStatic`).
+    pub measure: ConvergenceMeasure,
+    /// Use the previous step's velocity as predictor (off with `Disable Heuristics`).
+    pub predictor: bool,
+    /// Also predict the first load step (`Initialize Predictor From Previous Solver`).
+    pub predict_first_step: bool,
+    /// Line search (off with `Disable Heuristics`).
+    pub line_search: bool,
+    /// Print every Newton iteration.
+    pub verbose: bool,
+    /// `Adaptive Load-Stepping`.
+    pub adaptive: Option<AdaptiveLoadStepping>,
+}
+
+/// The load-step end times of a `Number of Load Steps` / `Time Steps` setting.
+pub fn load_step_times(steps: &LoadSteps, initial: f64, last: f64) -> Vec<f64> {
+    match steps {
+        LoadSteps::Count(n) => {
+            let n = *n as usize;
+            (0..=n)
+                .map(|k| initial + (last - initial) * k as f64 / n as f64)
+                .collect()
+        }
+        LoadSteps::Times(times) => times.clone(),
+    }
+}
+
+/// Why a quasi-static solve stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum QuasiStaticError {
+    /// A load step did not converge and could not be cut further.
+    #[error(
+        "load step {step} (t = {from:e} → {to:e}) did not converge: residual {measure:.4e} after {iterations} Newton iterations, \
+         tolerance {tolerance:.4e}. Increase \"Maximum Solver Iterations\", use more load steps, or add \"Adaptive Load-Stepping\"; \
+         output up to the last accepted step is valid"
+    )]
+    NotConverged {
+        /// 1-based load step.
+        step: usize,
+        /// Start time of the step.
+        from: f64,
+        /// End time of the step.
+        to: f64,
+        /// Final measure.
+        measure: f64,
+        /// Tolerance.
+        tolerance: f64,
+        /// Newton iterations taken.
+        iterations: usize,
+    },
+    /// The linear algebra failed (singular stiffness, non-finite residual).
+    #[error("load step {step} (t = {time:e}): {source}")]
+    Solve {
+        /// 1-based load step.
+        step: usize,
+        /// End time of the step.
+        time: f64,
+        /// What failed.
+        source: SolveError,
+    },
+    /// A boundary-condition expression failed.
+    #[error(transparent)]
+    Boundary(#[from] BoundaryError),
+}
+
+/// One accepted load step, for the log, output and the solver history.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadStepReport {
+    /// 1-based number of the accepted step.
+    pub step: usize,
+    /// End time.
+    pub time: f64,
+    /// Tolerance used.
+    pub tolerance: f64,
+    /// The Newton report.
+    pub newton: NewtonReport,
+    /// Load-step halvings before this step was accepted.
+    pub cuts: u64,
+}
+
+/// Runs the load steps of `settings` from the current state, calling `on_step` after every
+/// accepted step (the state then holds u, v = Δu/Δt, forces and committed damage at its end).
+pub fn run<E: From<QuasiStaticError>>(
+    model: &Model,
+    physics: &mut Physics,
+    state: &mut State,
+    settings: &QuasiStaticSettings,
+    linear: &mut LinearStrategy,
+    mut on_step: impl FnMut(&Physics, &State, &LoadStepReport) -> Result<(), E>,
+) -> Result<Vec<LoadStepReport>, E> {
+    let constrained = model.boundary.constrained_dofs();
+    let mut reports = Vec::new();
+    let mut times = settings.times.clone();
+    let mut total_cuts = 0u64;
+    let mut cuts_this_step = 0u64;
+    let mut k = 1;
+    let run_start = Instant::now();
+    while k < times.len() {
+        let (from, to) = (times[k - 1], times[k]);
+        let dt = to - from;
+        let step_start = Instant::now();
+        let start_displacement = state.displacement.clone();
+        let predictor_velocity = state.velocity.clone();
+        let mut system =
+            ImplicitSystem::new(DofMap::new(model.points.len(), &constrained, &[]), physics);
+        set_loads(model, physics, state, &start_displacement, from, to)?;
+        if settings.predictor && (!reports.is_empty() || settings.predict_first_step) {
+            for &dof in &system.dofs.free {
+                state.displacement[dof / 3][dof % 3] += predictor_velocity[dof / 3][dof % 3] * dt;
+            }
+        }
+        let tolerance = tolerance(&mut system, model, physics, state, settings, &constrained)
+            .map_err(|source| QuasiStaticError::Solve {
+                step: k,
+                time: to,
+                source,
+            })?;
+        eprintln!(
+            "Load step {k}, initial time = {from:e}, final time = {to:e}, convergence criterion = {tolerance:e}"
+        );
+        let newton_settings = NewtonSettings {
+            max_iterations: settings.max_iterations,
+            tolerance,
+            measure: settings.measure,
+            line_search: settings.line_search,
+            verbose: settings.verbose,
+        };
+        let report = newton::solve(
+            &mut system,
+            model,
+            physics,
+            state,
+            linear,
+            &newton_settings,
+            &constrained,
+        );
+        let report = match report {
+            Ok(r) => r,
+            Err(source) => {
+                if can_cut(settings, cuts_this_step, total_cuts) {
+                    eprintln!("Warning: {source}; cutting the load step in half and redoing it.");
+                    cut(&mut times, k, settings);
+                    (cuts_this_step, total_cuts) = (cuts_this_step + 1, total_cuts + 1);
+                    restore(
+                        &system,
+                        physics,
+                        state,
+                        &start_displacement,
+                        &predictor_velocity,
+                    );
+                    continue;
+                }
+                return Err(QuasiStaticError::Solve {
+                    step: k,
+                    time: to,
+                    source,
+                }
+                .into());
+            }
+        };
+        let measure = *report.residual_history.last().unwrap_or(&f64::INFINITY);
+        if !report.converged {
+            if can_cut(settings, cuts_this_step, total_cuts) {
+                eprintln!(
+                    "Warning: residual {measure:.4e} above the tolerance {tolerance:.4e} after {} iterations; cutting the load step in half and redoing it.",
+                    report.iterations
+                );
+                cut(&mut times, k, settings);
+                (cuts_this_step, total_cuts) = (cuts_this_step + 1, total_cuts + 1);
+                restore(
+                    &system,
+                    physics,
+                    state,
+                    &start_displacement,
+                    &predictor_velocity,
+                );
+                continue;
+            }
+            if measure < ACCEPTANCE_FACTOR * tolerance {
+                eprintln!(
+                    "Warning:  Accepting current solution and progressing to next load step."
+                );
+            } else {
+                return Err(QuasiStaticError::NotConverged {
+                    step: k,
+                    from,
+                    to,
+                    measure,
+                    tolerance,
+                    iterations: report.iterations,
+                }
+                .into());
+            }
+        }
+        eprintln!("  iteration {}: residual = {measure:e}", report.iterations);
+        for (v, (u, u0)) in state
+            .velocity
+            .iter_mut()
+            .zip(state.displacement.iter().zip(&start_displacement))
+        {
+            *v = [0, 1, 2].map(|c| (u[c] - u0[c]) / dt);
+        }
+        state.time = to;
+        system.commit_damage(physics);
+        eprintln!(
+            "  cpu time for load step = {:.3} sec., cumulative cpu time = {:.3} sec.",
+            step_start.elapsed().as_secs_f64(),
+            run_start.elapsed().as_secs_f64()
+        );
+        let accepted = LoadStepReport {
+            step: reports.len() + 1,
+            time: to,
+            tolerance,
+            newton: report,
+            cuts: cuts_this_step,
+        };
+        on_step(physics, state, &accepted)?;
+        reports.push(accepted);
+        cuts_this_step = 0;
+        k += 1;
+    }
+    Ok(reports)
+}
+
+/// Sets u = u_n + prescribed increments, the body force and the damage time for the step.
+fn set_loads(
+    model: &Model,
+    physics: &mut Physics,
+    state: &mut State,
+    start_displacement: &[[f64; 3]],
+    from: f64,
+    to: f64,
+) -> Result<(), QuasiStaticError> {
+    let positions = &model.points.position;
+    state.displacement.copy_from_slice(start_displacement);
+    let displacement = &mut state.displacement;
+    model
+        .boundary
+        .prescribed_increments(positions, start_displacement, from, to, |p, c, du| {
+            displacement[p][c] += du
+        })?;
+    if let Some(b) = &mut state.external_force_density {
+        model.boundary.body_force(positions, to, b)?;
+    }
+    physics
+        .set_time(to)
+        .map_err(|e| BoundaryError::Evaluation {
+            condition: "Damage Models".into(),
+            time: to,
+            message: e.to_string(),
+        })?;
+    Ok(())
+}
+
+/// The step's tolerance (rule 3 of the module docs).
+fn tolerance(
+    system: &mut ImplicitSystem,
+    model: &Model,
+    physics: &mut Physics,
+    state: &mut State,
+    settings: &QuasiStaticSettings,
+    constrained: &[usize],
+) -> Result<f64, SolveError> {
+    if let Some(absolute) = settings.absolute_tolerance {
+        return Ok(absolute);
+    }
+    let mut residual = vec![0.0; system.dofs.len()];
+    system.residual(model, physics, state, &mut residual)?;
+    let volume = &model.points.volume;
+    let reaction: Vec<f64> = constrained
+        .iter()
+        .map(|&dof| volume[dof / 3] * state.force_density[dof / 3][dof % 3])
+        .collect();
+    let mut reference = norm2(&reaction);
+    if reference == 0.0 {
+        if let Some(b) = &state.external_force_density {
+            let applied: Vec<f64> = (0..3 * b.len())
+                .map(|dof| volume[dof / 3] * b[dof / 3][dof % 3])
+                .collect();
+            reference = norm2(&applied);
+        }
+    }
+    if reference == 0.0 {
+        reference = settings.measure.of(&residual, &system.dofs, volume);
+    }
+    Ok(settings.relative_tolerance * reference)
+}
+
+fn can_cut(settings: &QuasiStaticSettings, in_step: u64, total: u64) -> bool {
+    settings.adaptive.as_ref().is_some_and(|a| {
+        in_step
+            < a.max_reductions_in_one_step
+                .unwrap_or(DEFAULT_REDUCTIONS_IN_ONE_STEP)
+            && a.max_total_reductions.is_none_or(|m| total < m)
+    })
+}
+
+/// Halves step k (inserts its midpoint); with `Reduce all remaining load steps` every later
+/// step is halved too.
+fn cut(times: &mut Vec<f64>, k: usize, settings: &QuasiStaticSettings) {
+    let all = settings
+        .adaptive
+        .as_ref()
+        .is_some_and(|a| a.reduce_all_remaining_load_steps);
+    let end = if all { times.len() } else { k + 1 };
+    let mut refined = times[..k].to_vec();
+    for w in k..end {
+        refined.push(0.5 * (times[w - 1] + times[w]));
+        refined.push(times[w]);
+    }
+    refined.extend_from_slice(&times[end..]);
+    *times = refined;
+}
+
+/// Puts the state back to the start of a step that is redone.
+fn restore(
+    system: &ImplicitSystem,
+    physics: &mut Physics,
+    state: &mut State,
+    displacement: &[[f64; 3]],
+    velocity: &[[f64; 3]],
+) {
+    system.restore_damage(physics);
+    state.displacement.copy_from_slice(displacement);
+    state.velocity.copy_from_slice(velocity);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn load_step_times_divide_the_interval_evenly() {
+        assert_eq!(
+            load_step_times(&LoadSteps::Count(4), 0.0, 2.0),
+            vec![0.0, 0.5, 1.0, 1.5, 2.0]
+        );
+        let listed = LoadSteps::Times(vec![0.0, 0.25, 1.0]);
+        assert_eq!(load_step_times(&listed, 0.0, 1.0), vec![0.0, 0.25, 1.0]);
+    }
+
+    fn adaptive(all: bool) -> QuasiStaticSettings {
+        QuasiStaticSettings {
+            times: vec![],
+            max_iterations: 10,
+            relative_tolerance: 1e-6,
+            absolute_tolerance: None,
+            measure: ConvergenceMeasure::TwoNorm,
+            predictor: true,
+            predict_first_step: false,
+            line_search: true,
+            verbose: false,
+            adaptive: Some(AdaptiveLoadStepping {
+                max_reductions_in_one_step: Some(2),
+                max_total_reductions: Some(3),
+                reduce_all_remaining_load_steps: all,
+                adaptive_output_frequency: false,
+                switch_to_verlet: None,
+            }),
+        }
+    }
+
+    #[test]
+    fn cutting_halves_one_step_or_all_remaining_ones() {
+        let mut times = vec![0.0, 1.0, 2.0, 3.0];
+        cut(&mut times, 2, &adaptive(false));
+        assert_eq!(times, vec![0.0, 1.0, 1.5, 2.0, 3.0]);
+        let mut times = vec![0.0, 1.0, 2.0, 3.0];
+        cut(&mut times, 2, &adaptive(true));
+        assert_eq!(times, vec![0.0, 1.0, 1.5, 2.0, 2.5, 3.0]);
+    }
+
+    #[test]
+    fn cuts_are_bounded_per_step_and_in_total() {
+        let s = adaptive(false);
+        assert!(can_cut(&s, 1, 1));
+        assert!(!can_cut(&s, 2, 2), "two cuts in one step is the limit");
+        assert!(!can_cut(&s, 0, 3), "three cuts in total is the limit");
+        let mut none = s.clone();
+        none.adaptive = None;
+        assert!(!can_cut(&none, 0, 0));
+    }
+}
