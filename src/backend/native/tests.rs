@@ -307,6 +307,12 @@ fn cholesky_of_an_indefinite_matrix_is_a_breakdown() {
         matches!(error, SolveError::Breakdown { method: "CG", .. }),
         "{error}"
     );
+    let mut x = vec![0.0; 2];
+    Gmres::default().solve(&a, &[1.0, 0.0], &mut x).unwrap();
+    assert!(
+        (x[0] + 1.0 / 3.0).abs() < 1e-12 && (x[1] - 2.0 / 3.0).abs() < 1e-12,
+        "{x:?}"
+    );
 }
 
 #[test]
