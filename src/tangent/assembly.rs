@@ -57,7 +57,7 @@ pub(crate) trait ForceState: Sync {
     /// `T_n` depends on y₀ and y_{n+1} only (bond-based): the tangent needs the one-hop
     /// pattern, and a perturbation of a neighbour needs only its own bond re-evaluated.
     const BOND_LOCAL: bool;
-    /// [`ForceState::analytic_jacobian`] is implemented.
+    /// [`ForceState::ordinary_derivatives`] is implemented (the closed-form tangent).
     const ANALYTIC: bool;
 
     /// Writes `t[n] = T_n` for every bond of the point, or only `t[only]` when `only` is
@@ -70,15 +70,56 @@ pub(crate) trait ForceState: Sync {
         t: &mut [[T; 3]],
     );
 
-    /// Writes ∂T_n/∂y_a in the layout of [`Layout`]; `work` is scratch the kernel may resize.
-    /// Called only when [`ForceState::ANALYTIC`].
-    fn analytic_jacobian(
-        &self,
-        point: PointIndex,
-        y: &[[f64; 3]],
-        work: &mut Vec<[f64; 3]>,
-        grad: &mut [Block],
-    );
+    /// Writes the closed-form derivatives of every bond of an ordinary force state
+    /// ([`OrdinaryBond`]) to `out` (one entry per bond). Called only when
+    /// [`ForceState::ANALYTIC`].
+    fn ordinary_derivatives(&self, point: PointIndex, y: &[[f64; 3]], out: &mut [OrdinaryBond]);
+}
+
+/// The derivatives of one bond of an *ordinary* force state, `T_n = t_n M_n`, whose scalar
+/// `t_n(e_n, θ)` depends on the bond's own extension `e_n = |Y_n| − ζ_n` and on one scalar
+/// `θ` linear in the family's extensions (LPS: the dilatation; PMB: no θ). With
+/// `D_n = axial·M⊗M + lateral·(I − M⊗M)`:
+///
+/// `∂T_n/∂Y_{j_k} = δ_nk D_n + γ_n β_k M_n ⊗ M_k`, `∂T_n/∂Y_i = −Σ_k ∂T_n/∂Y_{j_k}`.
+///
+/// The whole point tangent is thus O(n) numbers, and its (n + 1)² blocks are formed while
+/// they are added, never stored (the dense path of AD and finite differences stores them).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct OrdinaryBond {
+    /// M_n, the current bond direction (zero for a bond of zero length, which has no force).
+    pub direction: [f64; 3],
+    /// ∂t_n/∂e_n at fixed θ (force/length⁷).
+    pub axial: f64,
+    /// t_n/|Y_n|: the rotation stiffness of the pre-stressed bond (force/length⁷).
+    pub lateral: f64,
+    /// γ_n = ∂t_n/∂θ (force/length⁶).
+    pub coupling: f64,
+    /// β_n = ∂θ/∂e_n (1/length).
+    pub weight: f64,
+}
+
+impl OrdinaryBond {
+    /// `scale · D_n`.
+    #[inline(always)]
+    fn stiffness(&self, scale: f64) -> Block {
+        let m = self.direction;
+        let mut block = [[0.0; 3]; 3];
+        for k in 0..3 {
+            for l in 0..3 {
+                let mm = m[k] * m[l];
+                let identity = if k == l { 1.0 } else { 0.0 };
+                block[k][l] = scale * (self.axial * mm + self.lateral * (identity - mm));
+            }
+        }
+        block
+    }
+}
+
+/// `a ⊗ b`.
+#[inline(always)]
+fn outer(a: [f64; 3], b: [f64; 3]) -> Block {
+    a.map(|ak| b.map(|bl| ak * bl))
 }
 
 /// Where ∂T_n/∂y_a lives in the per-point `grad` buffer of a point with `family` neighbours.
@@ -178,15 +219,23 @@ struct Scratch {
     y_dual: Vec<[Dual64; 3]>,
     t_dual: Vec<[Dual64; 3]>,
     grad: Vec<Block>,
-    work: Vec<[f64; 3]>,
+    ordinary: Vec<OrdinaryBond>,
+    /// β_k M_k per bond (analytic path).
+    weighted_direction: Vec<[f64; 3]>,
+    /// The point's contribution to its own row, per closed-family column.
+    own_row: Vec<Block>,
+    place: Placement,
+}
+
+/// Where the closed family of the current point sits in the rows it writes.
+#[derive(Default)]
+struct Placement {
     /// Global indices of the closed family (i first).
     closed: Vec<u32>,
     /// Local indices of the closed family sorted by global index.
     order: Vec<u32>,
     /// Position of each closed-family member in the current row (u32::MAX: not stored).
     position: Vec<u32>,
-    /// The point's contribution to its own row, per closed-family column.
-    own_row: Vec<Block>,
 }
 
 /// How a method is carried out at one point (the probe resolved).
@@ -317,30 +366,119 @@ impl<K: ForceState> Context<'_, K> {
         let point = PointIndex { global: i, local };
         let bonds = self.reference.bonds;
         let family = bonds.family(i);
-        let layout = Layout {
-            family: family.len(),
-            bond_local: K::BOND_LOCAL,
-        };
         let y = self.current.position;
-        s.closed.clear();
-        s.closed.push(i as u32);
-        s.closed.extend_from_slice(family);
+        let place = &mut s.place;
+        place.closed.clear();
+        place.closed.push(i as u32);
+        place.closed.extend_from_slice(family);
         s.y.clear();
-        s.y.extend(s.closed.iter().map(|&j| y[j as usize]));
-        s.grad.clear();
-        s.grad.resize(layout.len(), [[0.0; 3]; 3]);
-        self.derivatives(point, layout, s);
-        self.scatter(i, layout, s, rows)
+        s.y.extend(place.closed.iter().map(|&j| y[j as usize]));
+        let volume = self.reference.volume;
+        let nf = family.len();
+        s.own_row.clear();
+        s.own_row.resize(nf + 1, [[0.0; 3]; 3]);
+        if let Resolved::Analytic = self.resolved {
+            s.ordinary.clear();
+            s.ordinary.resize(nf, OrdinaryBond::default());
+            self.kernel
+                .ordinary_derivatives(point, &s.y, &mut s.ordinary);
+            let bonds = &s.ordinary;
+            let weight = |n: usize| volume[i] * volume[family[n] as usize];
+            // Own row (see OrdinaryBond): column k: s_k D_k + G ⊗ q_k, column i:
+            // −Σ s_n D_n − G ⊗ Q, with s_n = V_i V_j, q_k = β_k M_k, G = Σ s_n γ_n M_n, Q = Σ q_k.
+            s.weighted_direction.clear();
+            s.weighted_direction
+                .extend(bonds.iter().map(|b| b.direction.map(|c| b.weight * c)));
+            let (mut g, mut q_total) = ([0.0; 3], [0.0; 3]);
+            for (n, (b, q)) in bonds.iter().zip(&s.weighted_direction).enumerate() {
+                let w = weight(n) * b.coupling;
+                for k in 0..3 {
+                    g[k] += w * b.direction[k];
+                    q_total[k] += q[k];
+                }
+            }
+            for (n, (b, q)) in bonds.iter().zip(&s.weighted_direction).enumerate() {
+                let d = b.stiffness(weight(n));
+                let column = &mut s.own_row[n + 1];
+                *column = outer(g, *q);
+                add_scaled(column, 1.0, &d);
+                add_scaled(&mut s.own_row[0], -1.0, &d);
+            }
+            add_scaled(&mut s.own_row[0], -1.0, &outer(g, q_total));
+            let q = &s.weighted_direction;
+            // Row j_n: column k: −s_n (δ_nk D_n + γ_n M_n ⊗ q_k); column i: s_n (D_n + γ_n M_n ⊗ Q).
+            let neighbour = |n: usize, b: usize| -> Block {
+                let bond = &bonds[n];
+                let w = weight(n);
+                let p = bond.direction.map(|c| -w * bond.coupling * c);
+                if b == 0 {
+                    let mut block = bond.stiffness(w);
+                    add_scaled(&mut block, -1.0, &outer(p, q_total));
+                    block
+                } else {
+                    let mut block = outer(p, q[b - 1]);
+                    if b == n + 1 {
+                        add_scaled(&mut block, 1.0, &bond.stiffness(-w));
+                    }
+                    block
+                }
+            };
+            scatter(
+                self.pattern,
+                i,
+                K::BOND_LOCAL,
+                &mut s.place,
+                &s.own_row,
+                neighbour,
+                rows,
+            )
+        } else {
+            let layout = Layout {
+                family: nf,
+                bond_local: K::BOND_LOCAL,
+            };
+            s.grad.clear();
+            s.grad.resize(layout.len(), [[0.0; 3]; 3]);
+            self.derivatives(point, layout, s);
+            let weight = |n: usize| volume[i] * volume[family[n] as usize];
+            // Own row: Σ_n s_n ∂T_n/∂y_a for every column a (bond-local: a = 0 sums all
+            // bonds, a = n + 1 has bond n only). Row j_n: −s_n ∂T_n/∂y_a.
+            for n in 0..nf {
+                let w = weight(n);
+                if layout.bond_local {
+                    for a in [0, n + 1] {
+                        add_scaled(&mut s.own_row[a], w, &s.grad[layout.index(n, a)]);
+                    }
+                } else {
+                    let row = &s.grad[layout.index(n, 0)..=layout.index(n, nf)];
+                    for (own, g) in s.own_row.iter_mut().zip(row) {
+                        add_scaled(own, w, g);
+                    }
+                }
+            }
+            let grad = &s.grad;
+            let neighbour = |n: usize, b: usize| -> Block {
+                let mut block = [[0.0; 3]; 3];
+                add_scaled(&mut block, -weight(n), &grad[layout.index(n, b)]);
+                block
+            };
+            scatter(
+                self.pattern,
+                i,
+                K::BOND_LOCAL,
+                &mut s.place,
+                &s.own_row,
+                neighbour,
+                rows,
+            )
+        }
     }
 
     /// Fills `s.grad` with ∂T_n/∂y_a by the chosen method.
     fn derivatives(&self, point: PointIndex, layout: Layout, s: &mut Scratch) {
         let nf = layout.family;
         match self.resolved {
-            Resolved::Analytic => {
-                self.kernel
-                    .analytic_jacobian(point, &s.y, &mut s.work, &mut s.grad)
-            }
+            Resolved::Analytic => unreachable!("the analytic path forms its blocks directly"),
             Resolved::Automatic => {
                 s.y_dual.clear();
                 s.y_dual.extend(s.y.iter().map(|p| p.map(Dual64::from)));
@@ -401,106 +539,95 @@ impl<K: ForceState> Context<'_, K> {
             }
         }
     }
+}
 
-    /// Adds the rows of point `i`'s contribution (see the module docs) to the tangent.
-    fn scatter(
-        &self,
-        i: usize,
-        layout: Layout,
-        s: &mut Scratch,
-        rows: &mut [(u32, &mut [Block])],
-    ) -> Result<(), TangentError> {
-        let nf = layout.family;
-        let volume = self.reference.volume;
-        let vi = volume[i];
-        let weight = |n: usize| vi * volume[s.closed[n + 1] as usize];
-        // Own row: Σ_n V_i V_j ∂T_n/∂y_a for every column a (bond-local: a = 0 sums all
-        // bonds, a = n + 1 has bond n only).
-        s.own_row.clear();
-        s.own_row.resize(nf + 1, [[0.0; 3]; 3]);
-        for n in 0..nf {
-            let w = weight(n);
-            if layout.bond_local {
-                for a in [0, n + 1] {
-                    add_scaled(&mut s.own_row[a], w, &s.grad[layout.index(n, a)]);
-                }
-            } else {
-                let row = &s.grad[layout.index(n, 0)..=layout.index(n, nf)];
-                for (own, g) in s.own_row.iter_mut().zip(row) {
-                    add_scaled(own, w, g);
-                }
-            }
-        }
-        // A non-finite derivative anywhere shows in the own row, which sums them all.
-        if s.own_row.iter().flatten().flatten().any(|v| !v.is_finite()) {
-            return Err(TangentError::NonFinite {
-                point: i,
-                input_id: None,
-            });
-        }
-        s.order.clear();
-        s.order.extend(0..=nf as u32);
-        s.order.sort_unstable_by_key(|&a| s.closed[a as usize]);
-        s.position.clear();
-        s.position.resize(nf + 1, u32::MAX);
-        for a in 0..=nf {
-            let r = s.closed[a] as usize;
-            let (columns, blocks) = row_mut(self.pattern, rows, r);
-            // Where each closed-family column sits in row r (both sorted: one merge). Bond-local
-            // rows of neighbours need only columns i and j_n.
-            if layout.bond_local && a > 0 {
-                for b in [0, a] {
-                    s.position[b] = columns
-                        .binary_search(&s.closed[b])
-                        .map_or(u32::MAX, |p| p as u32);
-                }
-            } else {
-                let first = s.closed[s.order[0] as usize];
-                let mut p = columns.partition_point(|&c| c < first);
-                for &b in &s.order {
-                    let wanted = s.closed[b as usize];
-                    while p < columns.len() && columns[p] < wanted {
-                        p += 1;
-                    }
-                    s.position[b as usize] = if p < columns.len() && columns[p] == wanted {
-                        p as u32
-                    } else {
-                        u32::MAX
-                    };
-                }
-            }
-            let mut put = |b: usize, scale: f64, block: &Block| -> Result<(), TangentError> {
-                match s.position[b] {
-                    u32::MAX if self.pattern.is_diagonal_only() => Ok(()),
-                    u32::MAX => Err(TangentError::PatternTooSmall {
-                        row: r,
-                        column: s.closed[b] as usize,
-                    }),
-                    p => {
-                        add_scaled(&mut blocks[p as usize], scale, block);
-                        Ok(())
-                    }
-                }
-            };
-            if a == 0 {
-                for b in 0..=nf {
-                    put(b, 1.0, &s.own_row[b])?;
-                }
-            } else {
-                let n = a - 1;
-                let w = -weight(n);
-                if layout.bond_local {
-                    put(0, w, &s.grad[layout.index(n, 0)])?;
-                    put(a, w, &s.grad[layout.index(n, a)])?;
-                } else {
-                    for b in 0..=nf {
-                        put(b, w, &s.grad[layout.index(n, b)])?;
-                    }
-                }
-            }
-        }
-        Ok(())
+/// Adds point `i`'s contribution to the rows of its closed family: `own_row[b]` to row i,
+/// `neighbour(n, b)` to the row of its n-th neighbour (b = 0 is column i, b = k + 1 the k-th
+/// neighbour; bond-local force states have only b = 0 and b = n + 1 in row j_n).
+fn scatter<F>(
+    pattern: &super::BlockPattern,
+    i: usize,
+    bond_local: bool,
+    place: &mut Placement,
+    own_row: &[Block],
+    neighbour: F,
+    rows: &mut [(u32, &mut [Block])],
+) -> Result<(), TangentError>
+where
+    F: Fn(usize, usize) -> Block,
+{
+    let nf = own_row.len() - 1;
+    // A non-finite derivative anywhere shows in the own row, which sums them all.
+    if own_row.iter().flatten().flatten().any(|v| !v.is_finite()) {
+        return Err(TangentError::NonFinite {
+            point: i,
+            input_id: None,
+        });
     }
+    let Placement {
+        closed,
+        order,
+        position,
+    } = place;
+    order.clear();
+    order.extend(0..=nf as u32);
+    order.sort_unstable_by_key(|&a| closed[a as usize]);
+    position.clear();
+    position.resize(nf + 1, u32::MAX);
+    for a in 0..=nf {
+        let r = closed[a] as usize;
+        let (columns, blocks) = row_mut(pattern, rows, r);
+        // Where each closed-family column sits in row r (both sorted: one merge). Bond-local
+        // rows of neighbours need only columns i and j_n.
+        if bond_local && a > 0 {
+            for b in [0, a] {
+                position[b] = columns
+                    .binary_search(&closed[b])
+                    .map_or(u32::MAX, |p| p as u32);
+            }
+        } else {
+            let mut p = columns.partition_point(|&c| c < closed[order[0] as usize]);
+            for &b in order.iter() {
+                let wanted = closed[b as usize];
+                while p < columns.len() && columns[p] < wanted {
+                    p += 1;
+                }
+                position[b as usize] = if p < columns.len() && columns[p] == wanted {
+                    p as u32
+                } else {
+                    u32::MAX
+                };
+            }
+        }
+        let mut put = |b: usize, block: &Block| -> Result<(), TangentError> {
+            match position[b] {
+                u32::MAX if pattern.is_diagonal_only() => Ok(()),
+                u32::MAX => Err(TangentError::PatternTooSmall {
+                    row: r,
+                    column: closed[b] as usize,
+                }),
+                p => {
+                    add_scaled(&mut blocks[p as usize], 1.0, block);
+                    Ok(())
+                }
+            }
+        };
+        if a == 0 {
+            for (b, block) in own_row.iter().enumerate() {
+                put(b, block)?;
+            }
+        } else if bond_local {
+            put(0, &neighbour(a - 1, 0))?;
+            put(a, &neighbour(a - 1, a))?;
+        } else if pattern.is_diagonal_only() {
+            put(a, &neighbour(a - 1, a))?;
+        } else {
+            for b in 0..=nf {
+                put(b, &neighbour(a - 1, b))?;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Column `c` of `block` (the derivatives with respect to one coordinate).
