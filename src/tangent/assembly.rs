@@ -14,6 +14,14 @@
 //! gather form `F_i = Σ_j (t_ij + t_ji) V_j M_ij` the force kernels use, given the symmetric
 //! bond data they already require (the same ω and damage on i→j and j→i).
 //!
+//! # Two assemblies
+//! * Analytic (PMB, LPS): the derivatives of an ordinary force state are O(n) numbers per
+//!   point ([`OrdinaryBond`]); they are stored for all bonds and every row is then summed by
+//!   one task (`gather_ordinary`), each block written once while its row is in cache. On a 20³
+//!   LPS lattice (δ = 3.015) this is ~12× faster than scattering the same blocks.
+//! * Automatic differentiation and finite differences: the derivatives of a point's force
+//!   state are a dense (n + 1) × n set of blocks, computed in a per-task buffer and scattered.
+//!
 //! # Parallel scatter without locks
 //! A point writes the rows of its whole closed family. Points are grouped by chunks of
 //! [`CHUNK`] consecutive indices (the run order follows a space-filling curve, so a chunk is a
@@ -86,7 +94,7 @@ pub(crate) trait ForceState: Sync {
 /// The whole point tangent is thus O(n) numbers, and its (n + 1)² blocks are formed while
 /// they are added, never stored (the dense path of AD and finite differences stores them).
 #[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct OrdinaryBond {
+pub struct OrdinaryBond {
     /// M_n, the current bond direction (zero for a bond of zero length, which has no force).
     pub direction: [f64; 3],
     /// ∂t_n/∂e_n at fixed θ (force/length⁷).
@@ -219,9 +227,6 @@ struct Scratch {
     y_dual: Vec<[Dual64; 3]>,
     t_dual: Vec<[Dual64; 3]>,
     grad: Vec<Block>,
-    ordinary: Vec<OrdinaryBond>,
-    /// β_k M_k per bond (analytic path).
-    weighted_direction: Vec<[f64; 3]>,
     /// The point's contribution to its own row, per closed-family column.
     own_row: Vec<Block>,
     place: Placement,
@@ -288,6 +293,9 @@ pub(crate) fn assemble<K: ForceState>(
     );
     if points.is_empty() {
         return Ok(());
+    }
+    if let Resolved::Analytic = resolved {
+        return gather_ordinary(kernel, points, reference, current, tangent);
     }
     let colours = plan(bonds, points);
     // Every chunk's rows, as a separate `&mut` slice that groups borrow and give back.
@@ -377,62 +385,7 @@ impl<K: ForceState> Context<'_, K> {
         let nf = family.len();
         s.own_row.clear();
         s.own_row.resize(nf + 1, [[0.0; 3]; 3]);
-        if let Resolved::Analytic = self.resolved {
-            s.ordinary.clear();
-            s.ordinary.resize(nf, OrdinaryBond::default());
-            self.kernel
-                .ordinary_derivatives(point, &s.y, &mut s.ordinary);
-            let bonds = &s.ordinary;
-            let weight = |n: usize| volume[i] * volume[family[n] as usize];
-            // Own row (see OrdinaryBond): column k: s_k D_k + G ⊗ q_k, column i:
-            // −Σ s_n D_n − G ⊗ Q, with s_n = V_i V_j, q_k = β_k M_k, G = Σ s_n γ_n M_n, Q = Σ q_k.
-            s.weighted_direction.clear();
-            s.weighted_direction
-                .extend(bonds.iter().map(|b| b.direction.map(|c| b.weight * c)));
-            let (mut g, mut q_total) = ([0.0; 3], [0.0; 3]);
-            for (n, (b, q)) in bonds.iter().zip(&s.weighted_direction).enumerate() {
-                let w = weight(n) * b.coupling;
-                for k in 0..3 {
-                    g[k] += w * b.direction[k];
-                    q_total[k] += q[k];
-                }
-            }
-            for (n, (b, q)) in bonds.iter().zip(&s.weighted_direction).enumerate() {
-                let d = b.stiffness(weight(n));
-                let column = &mut s.own_row[n + 1];
-                *column = outer(g, *q);
-                add_scaled(column, 1.0, &d);
-                add_scaled(&mut s.own_row[0], -1.0, &d);
-            }
-            add_scaled(&mut s.own_row[0], -1.0, &outer(g, q_total));
-            let q = &s.weighted_direction;
-            // Row j_n: column k: −s_n (δ_nk D_n + γ_n M_n ⊗ q_k); column i: s_n (D_n + γ_n M_n ⊗ Q).
-            let neighbour = |n: usize, b: usize| -> Block {
-                let bond = &bonds[n];
-                let w = weight(n);
-                let p = bond.direction.map(|c| -w * bond.coupling * c);
-                if b == 0 {
-                    let mut block = bond.stiffness(w);
-                    add_scaled(&mut block, -1.0, &outer(p, q_total));
-                    block
-                } else {
-                    let mut block = outer(p, q[b - 1]);
-                    if b == n + 1 {
-                        add_scaled(&mut block, 1.0, &bond.stiffness(-w));
-                    }
-                    block
-                }
-            };
-            scatter(
-                self.pattern,
-                i,
-                K::BOND_LOCAL,
-                &mut s.place,
-                &s.own_row,
-                neighbour,
-                rows,
-            )
-        } else {
+        {
             let layout = Layout {
                 family: nf,
                 bond_local: K::BOND_LOCAL,
@@ -478,7 +431,7 @@ impl<K: ForceState> Context<'_, K> {
     fn derivatives(&self, point: PointIndex, layout: Layout, s: &mut Scratch) {
         let nf = layout.family;
         match self.resolved {
-            Resolved::Analytic => unreachable!("the analytic path forms its blocks directly"),
+            Resolved::Analytic => unreachable!("the analytic path is assembled by rows"),
             Resolved::Automatic => {
                 s.y_dual.clear();
                 s.y_dual.extend(s.y.iter().map(|p| p.map(Dual64::from)));
@@ -662,4 +615,259 @@ fn row_mut<'s>(
     let first = offsets[q * CHUNK];
     let range = offsets[r] - first..offsets[r + 1] - first;
     (pattern.row(r), &mut rows[k].1[range])
+}
+
+/// The analytic assembly, row by row: every block is summed while its row is in cache and
+/// written once (the scatter of the other methods touches each block from every point whose
+/// family holds both ends, ~n/5 times on a lattice, which is what limits it).
+///
+/// Pass 1 stores the [`OrdinaryBond`] derivatives of every bond of the block's points and,
+/// per point, `G_i = Σ_n s_n γ_n M_n` and `Q_i = Σ_n β_n M_n` (`s_n = V_i V_{j_n}`,
+/// `q_n = β_n M_n`). Pass 2 gives row r the contributions of every block point i whose
+/// closed family holds r (see [`OrdinaryBond`] for the derivatives):
+/// * i = r: column j_n gets `s_n D_n + G_r ⊗ q_n`, column r gets `−Σ_n s_n D_n − G_r ⊗ Q_r`;
+/// * r the m-th neighbour of i, `s = V_i V_r`, `p = −s γ_m M_m` (bond i→r): column i gets
+///   `s D_m − p ⊗ Q_i`, column j_k gets `p ⊗ q_k`, and column r also `−s D_m`.
+fn gather_ordinary<K: ForceState>(
+    kernel: &K,
+    points: &[u32],
+    reference: &ReferenceView<'_>,
+    current: &CurrentView<'_>,
+    tangent: &mut BlockTangent,
+) -> Result<(), TangentError> {
+    use crate::material::point_chunks::for_each_chunk;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    let bonds = reference.bonds;
+    let volume = reference.volume;
+    let n_points = bonds.num_points();
+    let mut member = vec![false; n_points];
+    for &i in points {
+        member[i as usize] = true;
+    }
+    // Pass 1 (bond arrays indexed globally; entries of other blocks' points stay unused).
+    let mut data = vec![OrdinaryBond::default(); bonds.num_bonds()];
+    let first_bad = AtomicUsize::new(usize::MAX);
+    for_each_chunk(
+        points,
+        &mut data[..],
+        &|i| bonds.offsets[i as usize],
+        &|chunk: &[u32], base: usize, out: &mut [OrdinaryBond]| {
+            let mut y = Vec::new();
+            let local0 = points.partition_point(|&p| p < chunk[0]);
+            for (local, &i) in (local0..).zip(chunk) {
+                let i = i as usize;
+                y.clear();
+                y.push(current.position[i]);
+                y.extend(
+                    bonds
+                        .family(i)
+                        .iter()
+                        .map(|&j| current.position[j as usize]),
+                );
+                let range = bonds.range(i);
+                let row = &mut out[range.start - base..range.end - base];
+                kernel.ordinary_derivatives(PointIndex { global: i, local }, &y, row);
+                let finite = row.iter().all(|b| {
+                    b.direction.iter().all(|c| c.is_finite())
+                        && [b.axial, b.lateral, b.coupling, b.weight]
+                            .iter()
+                            .all(|c| c.is_finite())
+                });
+                if !finite {
+                    first_bad.fetch_min(i, Ordering::Relaxed);
+                }
+            }
+        },
+    );
+    let bad = first_bad.into_inner();
+    if bad != usize::MAX {
+        return Err(TangentError::NonFinite {
+            point: bad,
+            input_id: None,
+        });
+    }
+    let data = &data[..];
+    let weighted = |b: &OrdinaryBond| b.direction.map(|c| b.weight * c);
+    // G_i and Q_i of the block's points.
+    let mut sums = vec![[[0.0; 3]; 2]; n_points];
+    for_each_chunk(
+        points,
+        &mut sums[..],
+        &|i| i as usize,
+        &|chunk: &[u32], base: usize, out: &mut [[[f64; 3]; 2]]| {
+            for &i in chunk {
+                let i = i as usize;
+                let (mut g, mut q) = ([0.0; 3], [0.0; 3]);
+                for b in bonds.range(i) {
+                    let bond = &data[b];
+                    let w = volume[i] * volume[bonds.neighbor[b] as usize] * bond.coupling;
+                    let qb = weighted(bond);
+                    for k in 0..3 {
+                        g[k] += w * bond.direction[k];
+                        q[k] += qb[k];
+                    }
+                }
+                out[i - base] = [g, q];
+            }
+        },
+    );
+    let sums = &sums[..];
+    let sorted_rows = (0..n_points).all(|i| bonds.family(i).is_sorted());
+    // Bond index of i→r in i's row.
+    let reverse = |i: usize, r: usize| -> usize {
+        let family = bonds.family(i);
+        let found = if sorted_rows {
+            family.binary_search(&(r as u32)).ok()
+        } else {
+            family.iter().position(|&j| j as usize == r)
+        };
+        bonds.offsets[i] + found.expect("families are symmetric (j in i's iff i in j's)")
+    };
+    let pattern = tangent.pattern.clone();
+    let offsets = pattern.offsets();
+    let diagonal_only = pattern.is_diagonal_only();
+    let all: Vec<u32> = (0..n_points as u32).collect();
+    let missing = AtomicUsize::new(usize::MAX);
+    let missing_column = AtomicUsize::new(usize::MAX);
+    for_each_chunk(
+        &all,
+        &mut tangent.blocks[..],
+        &|r| offsets[r as usize],
+        &|chunk: &[u32], base: usize, out: &mut [Block]| {
+            // slot[c] = position of column c in the current row (u32::MAX: not stored).
+            let mut slot = if diagonal_only {
+                Vec::new()
+            } else {
+                vec![u32::MAX; n_points]
+            };
+            for &r in chunk {
+                let r = r as usize;
+                let family = bonds.family(r);
+                if !member[r] && !family.iter().any(|&i| member[i as usize]) {
+                    continue;
+                }
+                let row = &mut out[offsets[r] - base..offsets[r + 1] - base];
+                let columns = pattern.row(r);
+                if diagonal_only {
+                    add_diagonal_block(
+                        &mut row[0],
+                        r,
+                        bonds,
+                        volume,
+                        data,
+                        sums,
+                        &member,
+                        &reverse,
+                    );
+                    continue;
+                }
+                for (p, &c) in columns.iter().enumerate() {
+                    slot[c as usize] = p as u32;
+                }
+                let mut lost = None;
+                let mut add = |row: &mut [Block], c: usize, block: &Block| match slot[c] {
+                    u32::MAX => lost = Some(c),
+                    p => add_scaled(&mut row[p as usize], 1.0, block),
+                };
+                if member[r] {
+                    let [g, q_total] = sums[r];
+                    let mut diagonal = outer(g, q_total).map(|l| l.map(|v| -v));
+                    for b in bonds.range(r) {
+                        let bond = &data[b];
+                        let j = bonds.neighbor[b] as usize;
+                        let d = bond.stiffness(volume[r] * volume[j]);
+                        let mut block = outer(g, weighted(bond));
+                        add_scaled(&mut block, 1.0, &d);
+                        add(row, j, &block);
+                        add_scaled(&mut diagonal, -1.0, &d);
+                    }
+                    add(row, r, &diagonal);
+                }
+                for &i in family {
+                    let i = i as usize;
+                    if !member[i] {
+                        continue;
+                    }
+                    let m = reverse(i, r);
+                    let bond = &data[m];
+                    let s = volume[i] * volume[r];
+                    let d = bond.stiffness(s);
+                    let p = bond.direction.map(|c| -s * bond.coupling * c);
+                    let mut to_i = d;
+                    add_scaled(&mut to_i, -1.0, &outer(p, sums[i][1]));
+                    add(row, i, &to_i);
+                    add(row, r, &d.map(|l| l.map(|v| -v)));
+                    if bond.coupling != 0.0 {
+                        for b in bonds.range(i) {
+                            let k = bonds.neighbor[b] as usize;
+                            add(row, k, &outer(p, weighted(&data[b])));
+                        }
+                    }
+                }
+                for &c in columns {
+                    slot[c as usize] = u32::MAX;
+                }
+                if let Some(c) = lost {
+                    if missing.fetch_min(r, Ordering::Relaxed) > r {
+                        missing_column.store(c, Ordering::Relaxed);
+                    }
+                }
+            }
+        },
+    );
+    let row = missing.into_inner();
+    if row != usize::MAX {
+        return Err(TangentError::PatternTooSmall {
+            row,
+            column: missing_column.into_inner(),
+        });
+    }
+    Ok(())
+}
+
+/// Adds J_rr from the block's points: the column-r terms of [`gather_ordinary`], summed in
+/// the same order, so the block diagonal is bitwise the diagonal of the full tangent.
+#[allow(clippy::too_many_arguments)]
+fn add_diagonal_block(
+    target: &mut Block,
+    r: usize,
+    bonds: &BondList,
+    volume: &[f64],
+    data: &[OrdinaryBond],
+    sums: &[[[f64; 3]; 2]],
+    member: &[bool],
+    reverse: &impl Fn(usize, usize) -> usize,
+) {
+    if member[r] {
+        let [g, q_total] = sums[r];
+        let mut diagonal = outer(g, q_total).map(|l| l.map(|v| -v));
+        for b in bonds.range(r) {
+            let j = bonds.neighbor[b] as usize;
+            add_scaled(
+                &mut diagonal,
+                -1.0,
+                &data[b].stiffness(volume[r] * volume[j]),
+            );
+        }
+        add_scaled(target, 1.0, &diagonal);
+    }
+    for &i in bonds.family(r) {
+        let i = i as usize;
+        if !member[i] {
+            continue;
+        }
+        let bond = &data[reverse(i, r)];
+        let s = volume[i] * volume[r];
+        let d = bond.stiffness(s);
+        add_scaled(target, 1.0, &d.map(|l| l.map(|v| -v)));
+        if bond.coupling != 0.0 {
+            let p = bond.direction.map(|c| -s * bond.coupling * c);
+            add_scaled(
+                target,
+                1.0,
+                &outer(p, bond.direction.map(|c| bond.weight * c)),
+            );
+        }
+    }
 }
