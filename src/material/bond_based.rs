@@ -36,7 +36,7 @@ use super::{
     MaterialError, PointCoefficients, ReferenceView, Undamaged,
 };
 use crate::tangent::{
-    assemble, Block, BlockTangent, ForceState, Layout, PointIndex, Scalar, TangentError,
+    assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
 };
 
@@ -606,38 +606,25 @@ impl<D: Integrity> ForceState for PmbForceState<'_, D> {
     }
 
     /// `∂T_n/∂Y_j = a (1−d) [M⊗M/ζ + (|Y| − ζ)/(ζ|Y|) (I − M⊗M)] = −∂T_n/∂Y_i`: the bond's
-    /// axial stiffness along M and the pre-stress term across it.
-    fn analytic_jacobian(
-        &self,
-        point: PointIndex,
-        y: &[[f64; 3]],
-        _work: &mut Vec<[f64; 3]>,
-        grad: &mut [Block],
-    ) {
+    /// axial stiffness along M and the pre-stress term across it; no θ.
+    fn ordinary_derivatives(&self, point: PointIndex, y: &[[f64; 3]], out: &mut [OrdinaryBond]) {
         let range = self.bonds.range(point.global);
-        let layout = Layout {
-            family: range.len(),
-            bond_local: true,
-        };
-        for (n, b) in range.enumerate() {
+        for ((n, b), bond) in range.enumerate().zip(out.iter_mut()) {
             let zeta = self.bonds.reference_length[b];
             let d = [0, 1, 2].map(|k| y[n + 1][k] - y[0][k]);
             let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let mut block = [[0.0; 3]; 3];
-            if length > 0.0 {
+            *bond = if length > 0.0 {
                 let a = self.half * self.damage.intact(b);
-                let m = d.map(|c| c / length);
-                let axial = a / zeta;
-                let lateral = a * (length - zeta) / (zeta * length);
-                for k in 0..3 {
-                    for l in 0..3 {
-                        let identity = if k == l { 1.0 } else { 0.0 };
-                        block[k][l] = axial * m[k] * m[l] + lateral * (identity - m[k] * m[l]);
-                    }
+                OrdinaryBond {
+                    direction: d.map(|c| c / length),
+                    axial: a / zeta,
+                    lateral: a * (length - zeta) / (zeta * length),
+                    coupling: 0.0,
+                    weight: 0.0,
                 }
-            }
-            grad[layout.index(n, n + 1)] = block;
-            grad[layout.index(n, 0)] = block.map(|row| row.map(|v| -v));
+            } else {
+                OrdinaryBond::default()
+            };
         }
     }
 }

@@ -26,7 +26,7 @@ use super::{
     Undamaged, UnitWeights,
 };
 use crate::tangent::{
-    assemble, Block, BlockTangent, ForceState, Layout, PointIndex, Scalar, TangentError,
+    assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
 };
 
@@ -338,33 +338,18 @@ impl<W: BondWeights, D: Integrity> ForceState for LpsForceState<'_, W, D> {
         }
     }
 
-    /// With `D_n = (1−d)² ω B M⊗M + (t_n/|Y|)(I − M⊗M)`, `u_n = (1−d) ω ζ (3K − 5μ)/m · M_n`
-    /// and `w_k = ∂θ/∂Y_k = (3/m) ω (1−d) ζ V_k M_k` (`W = Σ_k w_k = −∂θ/∂Y_i`):
-    /// `∂T_n/∂Y_{j_k} = δ_nk D_n + u_n ⊗ w_k` and `∂T_n/∂Y_i = −D_n − u_n ⊗ W`.
-    fn analytic_jacobian(
-        &self,
-        point: PointIndex,
-        y: &[[f64; 3]],
-        work: &mut Vec<[f64; 3]>,
-        grad: &mut [Block],
-    ) {
+    /// `axial = (1−d)² ω B`, `lateral = t_n/|Y|`, `γ_n = ∂t_n/∂θ = (1−d) ω ζ (3K − 5μ)/m`,
+    /// `β_n = ∂θ/∂e_n = (3/m) ω (1−d) ζ V_j`.
+    fn ordinary_derivatives(&self, point: PointIndex, y: &[[f64; 3]], out: &mut [OrdinaryBond]) {
         let range = self.bonds.range(point.global);
-        let family = range.len();
-        let layout = Layout {
-            family,
-            bond_local: false,
-        };
         let Some((m, isotropic_per_theta, deviatoric)) = self.moduli(point) else {
-            grad.fill([[0.0; 3]; 3]);
+            out.fill(OrdinaryBond::default());
             return;
         };
         let local = self.local_offsets[point.local];
-        // work[3n] = M_n, work[3n + 1] = w_n, work[3n + 2] = [|Y|, e, 0].
-        work.clear();
-        work.resize(3 * family, [0.0; 3]);
+        // Pass 1: θ, with each bond's length kept in `lateral` and extension in `axial`.
         let mut sum = 0.0;
-        let mut total_w = [0.0; 3];
-        for (n, b) in range.clone().enumerate() {
+        for ((n, b), bond) in range.clone().enumerate().zip(out.iter_mut()) {
             let zeta = self.bonds.reference_length[b];
             let d = [0, 1, 2].map(|k| y[n + 1][k] - y[0][k]);
             let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
@@ -373,48 +358,34 @@ impl<W: BondWeights, D: Integrity> ForceState for LpsForceState<'_, W, D> {
             let factor =
                 self.weights.weight(local + n) * self.damage.intact(b) * zeta * self.volume[j];
             sum += factor * extension;
-            if length > 0.0 {
-                let direction = d.map(|c| c / length);
-                let w = direction.map(|c| 3.0 / m * factor * c);
-                for k in 0..3 {
-                    total_w[k] += w[k];
-                }
-                work[3 * n] = direction;
-                work[3 * n + 1] = w;
-            }
-            work[3 * n + 2] = [length, extension, 0.0];
+            *bond = OrdinaryBond {
+                direction: if length > 0.0 {
+                    d.map(|c| c / length)
+                } else {
+                    [0.0; 3]
+                },
+                axial: extension,
+                lateral: length,
+                coupling: 0.0,
+                weight: 3.0 / m * factor,
+            };
         }
         let theta = 3.0 * sum / m;
         let isotropic = theta * isotropic_per_theta;
-        for (n, b) in range.enumerate() {
-            let [length, extension, _] = work[3 * n + 2];
-            let row = &mut grad[layout.index(n, 0)..=layout.index(n, family)];
+        for ((n, b), bond) in range.enumerate().zip(out.iter_mut()) {
+            let (extension, length) = (bond.axial, bond.lateral);
             if length <= 0.0 {
-                row.fill([[0.0; 3]; 3]);
+                // No direction, no force, no derivative (as the force kernel).
+                *bond = OrdinaryBond::default();
                 continue;
             }
-            let direction = work[3 * n];
             let zeta = self.bonds.reference_length[b];
             let intact = self.damage.intact(b);
             let omega = self.weights.weight(local + n);
             let scalar = intact * omega * (isotropic * zeta + intact * deviatoric * extension);
-            let axial = intact * intact * omega * deviatoric;
-            let lateral = scalar / length;
-            let u = direction.map(|c| intact * omega * zeta * isotropic_per_theta * c);
-            for (k, block) in row.iter_mut().enumerate().skip(1) {
-                let w = work[3 * (k - 1) + 1];
-                *block = u.map(|uc| w.map(|wc| uc * wc));
-            }
-            let mut diagonal = [[0.0; 3]; 3];
-            for k in 0..3 {
-                for l in 0..3 {
-                    let identity = if k == l { 1.0 } else { 0.0 };
-                    let mm = direction[k] * direction[l];
-                    diagonal[k][l] = axial * mm + lateral * (identity - mm);
-                    row[n + 1][k][l] += diagonal[k][l];
-                    row[0][k][l] = -diagonal[k][l] - u[k] * total_w[l];
-                }
-            }
+            bond.axial = intact * intact * omega * deviatoric;
+            bond.lateral = scalar / length;
+            bond.coupling = intact * omega * zeta * isotropic_per_theta;
         }
     }
 }

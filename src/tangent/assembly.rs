@@ -14,6 +14,14 @@
 //! gather form `F_i = Σ_j (t_ij + t_ji) V_j M_ij` the force kernels use, given the symmetric
 //! bond data they already require (the same ω and damage on i→j and j→i).
 //!
+//! # Two assemblies
+//! * Analytic (PMB, LPS): the derivatives of an ordinary force state are O(n) numbers per
+//!   point ([`OrdinaryBond`]); they are stored for all bonds and every row is then summed by
+//!   one task (`gather_ordinary`), each block written once while its row is in cache. On a 20³
+//!   LPS lattice (δ = 3.015) this is ~12× faster than scattering the same blocks.
+//! * Automatic differentiation and finite differences: the derivatives of a point's force
+//!   state are a dense (n + 1) × n set of blocks, computed in a per-task buffer and scattered.
+//!
 //! # Parallel scatter without locks
 //! A point writes the rows of its whole closed family. Points are grouped by chunks of
 //! [`CHUNK`] consecutive indices (the run order follows a space-filling curve, so a chunk is a
@@ -57,7 +65,7 @@ pub(crate) trait ForceState: Sync {
     /// `T_n` depends on y₀ and y_{n+1} only (bond-based): the tangent needs the one-hop
     /// pattern, and a perturbation of a neighbour needs only its own bond re-evaluated.
     const BOND_LOCAL: bool;
-    /// [`ForceState::analytic_jacobian`] is implemented.
+    /// [`ForceState::ordinary_derivatives`] is implemented (the closed-form tangent).
     const ANALYTIC: bool;
 
     /// Writes `t[n] = T_n` for every bond of the point, or only `t[only]` when `only` is
@@ -70,15 +78,56 @@ pub(crate) trait ForceState: Sync {
         t: &mut [[T; 3]],
     );
 
-    /// Writes ∂T_n/∂y_a in the layout of [`Layout`]; `work` is scratch the kernel may resize.
-    /// Called only when [`ForceState::ANALYTIC`].
-    fn analytic_jacobian(
-        &self,
-        point: PointIndex,
-        y: &[[f64; 3]],
-        work: &mut Vec<[f64; 3]>,
-        grad: &mut [Block],
-    );
+    /// Writes the closed-form derivatives of every bond of an ordinary force state
+    /// ([`OrdinaryBond`]) to `out` (one entry per bond). Called only when
+    /// [`ForceState::ANALYTIC`].
+    fn ordinary_derivatives(&self, point: PointIndex, y: &[[f64; 3]], out: &mut [OrdinaryBond]);
+}
+
+/// The derivatives of one bond of an *ordinary* force state, `T_n = t_n M_n`, whose scalar
+/// `t_n(e_n, θ)` depends on the bond's own extension `e_n = |Y_n| − ζ_n` and on one scalar
+/// `θ` linear in the family's extensions (LPS: the dilatation; PMB: no θ). With
+/// `D_n = axial·M⊗M + lateral·(I − M⊗M)`:
+///
+/// `∂T_n/∂Y_{j_k} = δ_nk D_n + γ_n β_k M_n ⊗ M_k`, `∂T_n/∂Y_i = −Σ_k ∂T_n/∂Y_{j_k}`.
+///
+/// The whole point tangent is thus O(n) numbers, and its (n + 1)² blocks are formed while
+/// they are added, never stored (the dense path of AD and finite differences stores them).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct OrdinaryBond {
+    /// M_n, the current bond direction (zero for a bond of zero length, which has no force).
+    pub direction: [f64; 3],
+    /// ∂t_n/∂e_n at fixed θ (force/length⁷).
+    pub axial: f64,
+    /// t_n/|Y_n|: the rotation stiffness of the pre-stressed bond (force/length⁷).
+    pub lateral: f64,
+    /// γ_n = ∂t_n/∂θ (force/length⁶).
+    pub coupling: f64,
+    /// β_n = ∂θ/∂e_n (1/length).
+    pub weight: f64,
+}
+
+impl OrdinaryBond {
+    /// `scale · D_n`.
+    #[inline(always)]
+    fn stiffness(&self, scale: f64) -> Block {
+        let m = self.direction;
+        let mut block = [[0.0; 3]; 3];
+        for k in 0..3 {
+            for l in 0..3 {
+                let mm = m[k] * m[l];
+                let identity = if k == l { 1.0 } else { 0.0 };
+                block[k][l] = scale * (self.axial * mm + self.lateral * (identity - mm));
+            }
+        }
+        block
+    }
+}
+
+/// `a ⊗ b`.
+#[inline(always)]
+fn outer(a: [f64; 3], b: [f64; 3]) -> Block {
+    a.map(|ak| b.map(|bl| ak * bl))
 }
 
 /// Where ∂T_n/∂y_a lives in the per-point `grad` buffer of a point with `family` neighbours.
@@ -178,15 +227,20 @@ struct Scratch {
     y_dual: Vec<[Dual64; 3]>,
     t_dual: Vec<[Dual64; 3]>,
     grad: Vec<Block>,
-    work: Vec<[f64; 3]>,
+    /// The point's contribution to its own row, per closed-family column.
+    own_row: Vec<Block>,
+    place: Placement,
+}
+
+/// Where the closed family of the current point sits in the rows it writes.
+#[derive(Default)]
+struct Placement {
     /// Global indices of the closed family (i first).
     closed: Vec<u32>,
     /// Local indices of the closed family sorted by global index.
     order: Vec<u32>,
     /// Position of each closed-family member in the current row (u32::MAX: not stored).
     position: Vec<u32>,
-    /// The point's contribution to its own row, per closed-family column.
-    own_row: Vec<Block>,
 }
 
 /// How a method is carried out at one point (the probe resolved).
@@ -239,6 +293,9 @@ pub(crate) fn assemble<K: ForceState>(
     );
     if points.is_empty() {
         return Ok(());
+    }
+    if let Resolved::Analytic = resolved {
+        return gather_ordinary(kernel, points, reference, current, tangent);
     }
     let colours = plan(bonds, points);
     // Every chunk's rows, as a separate `&mut` slice that groups borrow and give back.
@@ -317,30 +374,64 @@ impl<K: ForceState> Context<'_, K> {
         let point = PointIndex { global: i, local };
         let bonds = self.reference.bonds;
         let family = bonds.family(i);
-        let layout = Layout {
-            family: family.len(),
-            bond_local: K::BOND_LOCAL,
-        };
         let y = self.current.position;
-        s.closed.clear();
-        s.closed.push(i as u32);
-        s.closed.extend_from_slice(family);
+        let place = &mut s.place;
+        place.closed.clear();
+        place.closed.push(i as u32);
+        place.closed.extend_from_slice(family);
         s.y.clear();
-        s.y.extend(s.closed.iter().map(|&j| y[j as usize]));
-        s.grad.clear();
-        s.grad.resize(layout.len(), [[0.0; 3]; 3]);
-        self.derivatives(point, layout, s);
-        self.scatter(i, layout, s, rows)
+        s.y.extend(place.closed.iter().map(|&j| y[j as usize]));
+        let volume = self.reference.volume;
+        let nf = family.len();
+        s.own_row.clear();
+        s.own_row.resize(nf + 1, [[0.0; 3]; 3]);
+        {
+            let layout = Layout {
+                family: nf,
+                bond_local: K::BOND_LOCAL,
+            };
+            s.grad.clear();
+            s.grad.resize(layout.len(), [[0.0; 3]; 3]);
+            self.derivatives(point, layout, s);
+            let weight = |n: usize| volume[i] * volume[family[n] as usize];
+            // Own row: Σ_n s_n ∂T_n/∂y_a for every column a (bond-local: a = 0 sums all
+            // bonds, a = n + 1 has bond n only). Row j_n: −s_n ∂T_n/∂y_a.
+            for n in 0..nf {
+                let w = weight(n);
+                if layout.bond_local {
+                    for a in [0, n + 1] {
+                        add_scaled(&mut s.own_row[a], w, &s.grad[layout.index(n, a)]);
+                    }
+                } else {
+                    let row = &s.grad[layout.index(n, 0)..=layout.index(n, nf)];
+                    for (own, g) in s.own_row.iter_mut().zip(row) {
+                        add_scaled(own, w, g);
+                    }
+                }
+            }
+            let grad = &s.grad;
+            let neighbour = |n: usize, b: usize| -> Block {
+                let mut block = [[0.0; 3]; 3];
+                add_scaled(&mut block, -weight(n), &grad[layout.index(n, b)]);
+                block
+            };
+            scatter(
+                self.pattern,
+                i,
+                K::BOND_LOCAL,
+                &mut s.place,
+                &s.own_row,
+                neighbour,
+                rows,
+            )
+        }
     }
 
     /// Fills `s.grad` with ∂T_n/∂y_a by the chosen method.
     fn derivatives(&self, point: PointIndex, layout: Layout, s: &mut Scratch) {
         let nf = layout.family;
         match self.resolved {
-            Resolved::Analytic => {
-                self.kernel
-                    .analytic_jacobian(point, &s.y, &mut s.work, &mut s.grad)
-            }
+            Resolved::Analytic => unreachable!("the analytic path is assembled by rows"),
             Resolved::Automatic => {
                 s.y_dual.clear();
                 s.y_dual.extend(s.y.iter().map(|p| p.map(Dual64::from)));
@@ -401,106 +492,95 @@ impl<K: ForceState> Context<'_, K> {
             }
         }
     }
+}
 
-    /// Adds the rows of point `i`'s contribution (see the module docs) to the tangent.
-    fn scatter(
-        &self,
-        i: usize,
-        layout: Layout,
-        s: &mut Scratch,
-        rows: &mut [(u32, &mut [Block])],
-    ) -> Result<(), TangentError> {
-        let nf = layout.family;
-        let volume = self.reference.volume;
-        let vi = volume[i];
-        let weight = |n: usize| vi * volume[s.closed[n + 1] as usize];
-        // Own row: Σ_n V_i V_j ∂T_n/∂y_a for every column a (bond-local: a = 0 sums all
-        // bonds, a = n + 1 has bond n only).
-        s.own_row.clear();
-        s.own_row.resize(nf + 1, [[0.0; 3]; 3]);
-        for n in 0..nf {
-            let w = weight(n);
-            if layout.bond_local {
-                for a in [0, n + 1] {
-                    add_scaled(&mut s.own_row[a], w, &s.grad[layout.index(n, a)]);
-                }
-            } else {
-                let row = &s.grad[layout.index(n, 0)..=layout.index(n, nf)];
-                for (own, g) in s.own_row.iter_mut().zip(row) {
-                    add_scaled(own, w, g);
-                }
-            }
-        }
-        // A non-finite derivative anywhere shows in the own row, which sums them all.
-        if s.own_row.iter().flatten().flatten().any(|v| !v.is_finite()) {
-            return Err(TangentError::NonFinite {
-                point: i,
-                input_id: None,
-            });
-        }
-        s.order.clear();
-        s.order.extend(0..=nf as u32);
-        s.order.sort_unstable_by_key(|&a| s.closed[a as usize]);
-        s.position.clear();
-        s.position.resize(nf + 1, u32::MAX);
-        for a in 0..=nf {
-            let r = s.closed[a] as usize;
-            let (columns, blocks) = row_mut(self.pattern, rows, r);
-            // Where each closed-family column sits in row r (both sorted: one merge). Bond-local
-            // rows of neighbours need only columns i and j_n.
-            if layout.bond_local && a > 0 {
-                for b in [0, a] {
-                    s.position[b] = columns
-                        .binary_search(&s.closed[b])
-                        .map_or(u32::MAX, |p| p as u32);
-                }
-            } else {
-                let first = s.closed[s.order[0] as usize];
-                let mut p = columns.partition_point(|&c| c < first);
-                for &b in &s.order {
-                    let wanted = s.closed[b as usize];
-                    while p < columns.len() && columns[p] < wanted {
-                        p += 1;
-                    }
-                    s.position[b as usize] = if p < columns.len() && columns[p] == wanted {
-                        p as u32
-                    } else {
-                        u32::MAX
-                    };
-                }
-            }
-            let mut put = |b: usize, scale: f64, block: &Block| -> Result<(), TangentError> {
-                match s.position[b] {
-                    u32::MAX if self.pattern.is_diagonal_only() => Ok(()),
-                    u32::MAX => Err(TangentError::PatternTooSmall {
-                        row: r,
-                        column: s.closed[b] as usize,
-                    }),
-                    p => {
-                        add_scaled(&mut blocks[p as usize], scale, block);
-                        Ok(())
-                    }
-                }
-            };
-            if a == 0 {
-                for b in 0..=nf {
-                    put(b, 1.0, &s.own_row[b])?;
-                }
-            } else {
-                let n = a - 1;
-                let w = -weight(n);
-                if layout.bond_local {
-                    put(0, w, &s.grad[layout.index(n, 0)])?;
-                    put(a, w, &s.grad[layout.index(n, a)])?;
-                } else {
-                    for b in 0..=nf {
-                        put(b, w, &s.grad[layout.index(n, b)])?;
-                    }
-                }
-            }
-        }
-        Ok(())
+/// Adds point `i`'s contribution to the rows of its closed family: `own_row[b]` to row i,
+/// `neighbour(n, b)` to the row of its n-th neighbour (b = 0 is column i, b = k + 1 the k-th
+/// neighbour; bond-local force states have only b = 0 and b = n + 1 in row j_n).
+fn scatter<F>(
+    pattern: &super::BlockPattern,
+    i: usize,
+    bond_local: bool,
+    place: &mut Placement,
+    own_row: &[Block],
+    neighbour: F,
+    rows: &mut [(u32, &mut [Block])],
+) -> Result<(), TangentError>
+where
+    F: Fn(usize, usize) -> Block,
+{
+    let nf = own_row.len() - 1;
+    // A non-finite derivative anywhere shows in the own row, which sums them all.
+    if own_row.iter().flatten().flatten().any(|v| !v.is_finite()) {
+        return Err(TangentError::NonFinite {
+            point: i,
+            input_id: None,
+        });
     }
+    let Placement {
+        closed,
+        order,
+        position,
+    } = place;
+    order.clear();
+    order.extend(0..=nf as u32);
+    order.sort_unstable_by_key(|&a| closed[a as usize]);
+    position.clear();
+    position.resize(nf + 1, u32::MAX);
+    for a in 0..=nf {
+        let r = closed[a] as usize;
+        let (columns, blocks) = row_mut(pattern, rows, r);
+        // Where each closed-family column sits in row r (both sorted: one merge). Bond-local
+        // rows of neighbours need only columns i and j_n.
+        if bond_local && a > 0 {
+            for b in [0, a] {
+                position[b] = columns
+                    .binary_search(&closed[b])
+                    .map_or(u32::MAX, |p| p as u32);
+            }
+        } else {
+            let mut p = columns.partition_point(|&c| c < closed[order[0] as usize]);
+            for &b in order.iter() {
+                let wanted = closed[b as usize];
+                while p < columns.len() && columns[p] < wanted {
+                    p += 1;
+                }
+                position[b as usize] = if p < columns.len() && columns[p] == wanted {
+                    p as u32
+                } else {
+                    u32::MAX
+                };
+            }
+        }
+        let mut put = |b: usize, block: &Block| -> Result<(), TangentError> {
+            match position[b] {
+                u32::MAX if pattern.is_diagonal_only() => Ok(()),
+                u32::MAX => Err(TangentError::PatternTooSmall {
+                    row: r,
+                    column: closed[b] as usize,
+                }),
+                p => {
+                    add_scaled(&mut blocks[p as usize], 1.0, block);
+                    Ok(())
+                }
+            }
+        };
+        if a == 0 {
+            for (b, block) in own_row.iter().enumerate() {
+                put(b, block)?;
+            }
+        } else if bond_local {
+            put(0, &neighbour(a - 1, 0))?;
+            put(a, &neighbour(a - 1, a))?;
+        } else if pattern.is_diagonal_only() {
+            put(a, &neighbour(a - 1, a))?;
+        } else {
+            for b in 0..=nf {
+                put(b, &neighbour(a - 1, b))?;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Column `c` of `block` (the derivatives with respect to one coordinate).
@@ -535,4 +615,259 @@ fn row_mut<'s>(
     let first = offsets[q * CHUNK];
     let range = offsets[r] - first..offsets[r + 1] - first;
     (pattern.row(r), &mut rows[k].1[range])
+}
+
+/// The analytic assembly, row by row: every block is summed while its row is in cache and
+/// written once (the scatter of the other methods touches each block from every point whose
+/// family holds both ends, ~n/5 times on a lattice, which is what limits it).
+///
+/// Pass 1 stores the [`OrdinaryBond`] derivatives of every bond of the block's points and,
+/// per point, `G_i = Σ_n s_n γ_n M_n` and `Q_i = Σ_n β_n M_n` (`s_n = V_i V_{j_n}`,
+/// `q_n = β_n M_n`). Pass 2 gives row r the contributions of every block point i whose
+/// closed family holds r (see [`OrdinaryBond`] for the derivatives):
+/// * i = r: column j_n gets `s_n D_n + G_r ⊗ q_n`, column r gets `−Σ_n s_n D_n − G_r ⊗ Q_r`;
+/// * r the m-th neighbour of i, `s = V_i V_r`, `p = −s γ_m M_m` (bond i→r): column i gets
+///   `s D_m − p ⊗ Q_i`, column j_k gets `p ⊗ q_k`, and column r also `−s D_m`.
+fn gather_ordinary<K: ForceState>(
+    kernel: &K,
+    points: &[u32],
+    reference: &ReferenceView<'_>,
+    current: &CurrentView<'_>,
+    tangent: &mut BlockTangent,
+) -> Result<(), TangentError> {
+    use crate::material::point_chunks::for_each_chunk;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    let bonds = reference.bonds;
+    let volume = reference.volume;
+    let n_points = bonds.num_points();
+    let mut member = vec![false; n_points];
+    for &i in points {
+        member[i as usize] = true;
+    }
+    // Pass 1 (bond arrays indexed globally; entries of other blocks' points stay unused).
+    let mut data = vec![OrdinaryBond::default(); bonds.num_bonds()];
+    let first_bad = AtomicUsize::new(usize::MAX);
+    for_each_chunk(
+        points,
+        &mut data[..],
+        &|i| bonds.offsets[i as usize],
+        &|chunk: &[u32], base: usize, out: &mut [OrdinaryBond]| {
+            let mut y = Vec::new();
+            let local0 = points.partition_point(|&p| p < chunk[0]);
+            for (local, &i) in (local0..).zip(chunk) {
+                let i = i as usize;
+                y.clear();
+                y.push(current.position[i]);
+                y.extend(
+                    bonds
+                        .family(i)
+                        .iter()
+                        .map(|&j| current.position[j as usize]),
+                );
+                let range = bonds.range(i);
+                let row = &mut out[range.start - base..range.end - base];
+                kernel.ordinary_derivatives(PointIndex { global: i, local }, &y, row);
+                let finite = row.iter().all(|b| {
+                    b.direction.iter().all(|c| c.is_finite())
+                        && [b.axial, b.lateral, b.coupling, b.weight]
+                            .iter()
+                            .all(|c| c.is_finite())
+                });
+                if !finite {
+                    first_bad.fetch_min(i, Ordering::Relaxed);
+                }
+            }
+        },
+    );
+    let bad = first_bad.into_inner();
+    if bad != usize::MAX {
+        return Err(TangentError::NonFinite {
+            point: bad,
+            input_id: None,
+        });
+    }
+    let data = &data[..];
+    let weighted = |b: &OrdinaryBond| b.direction.map(|c| b.weight * c);
+    // G_i and Q_i of the block's points.
+    let mut sums = vec![[[0.0; 3]; 2]; n_points];
+    for_each_chunk(
+        points,
+        &mut sums[..],
+        &|i| i as usize,
+        &|chunk: &[u32], base: usize, out: &mut [[[f64; 3]; 2]]| {
+            for &i in chunk {
+                let i = i as usize;
+                let (mut g, mut q) = ([0.0; 3], [0.0; 3]);
+                for b in bonds.range(i) {
+                    let bond = &data[b];
+                    let w = volume[i] * volume[bonds.neighbor[b] as usize] * bond.coupling;
+                    let qb = weighted(bond);
+                    for k in 0..3 {
+                        g[k] += w * bond.direction[k];
+                        q[k] += qb[k];
+                    }
+                }
+                out[i - base] = [g, q];
+            }
+        },
+    );
+    let sums = &sums[..];
+    let sorted_rows = (0..n_points).all(|i| bonds.family(i).is_sorted());
+    // Bond index of i→r in i's row.
+    let reverse = |i: usize, r: usize| -> usize {
+        let family = bonds.family(i);
+        let found = if sorted_rows {
+            family.binary_search(&(r as u32)).ok()
+        } else {
+            family.iter().position(|&j| j as usize == r)
+        };
+        bonds.offsets[i] + found.expect("families are symmetric (j in i's iff i in j's)")
+    };
+    let pattern = tangent.pattern.clone();
+    let offsets = pattern.offsets();
+    let diagonal_only = pattern.is_diagonal_only();
+    let all: Vec<u32> = (0..n_points as u32).collect();
+    let missing = AtomicUsize::new(usize::MAX);
+    let missing_column = AtomicUsize::new(usize::MAX);
+    for_each_chunk(
+        &all,
+        &mut tangent.blocks[..],
+        &|r| offsets[r as usize],
+        &|chunk: &[u32], base: usize, out: &mut [Block]| {
+            // slot[c] = position of column c in the current row (u32::MAX: not stored).
+            let mut slot = if diagonal_only {
+                Vec::new()
+            } else {
+                vec![u32::MAX; n_points]
+            };
+            for &r in chunk {
+                let r = r as usize;
+                let family = bonds.family(r);
+                if !member[r] && !family.iter().any(|&i| member[i as usize]) {
+                    continue;
+                }
+                let row = &mut out[offsets[r] - base..offsets[r + 1] - base];
+                let columns = pattern.row(r);
+                if diagonal_only {
+                    add_diagonal_block(
+                        &mut row[0],
+                        r,
+                        bonds,
+                        volume,
+                        data,
+                        sums,
+                        &member,
+                        &reverse,
+                    );
+                    continue;
+                }
+                for (p, &c) in columns.iter().enumerate() {
+                    slot[c as usize] = p as u32;
+                }
+                let mut lost = None;
+                let mut add = |row: &mut [Block], c: usize, block: &Block| match slot[c] {
+                    u32::MAX => lost = Some(c),
+                    p => add_scaled(&mut row[p as usize], 1.0, block),
+                };
+                if member[r] {
+                    let [g, q_total] = sums[r];
+                    let mut diagonal = outer(g, q_total).map(|l| l.map(|v| -v));
+                    for b in bonds.range(r) {
+                        let bond = &data[b];
+                        let j = bonds.neighbor[b] as usize;
+                        let d = bond.stiffness(volume[r] * volume[j]);
+                        let mut block = outer(g, weighted(bond));
+                        add_scaled(&mut block, 1.0, &d);
+                        add(row, j, &block);
+                        add_scaled(&mut diagonal, -1.0, &d);
+                    }
+                    add(row, r, &diagonal);
+                }
+                for &i in family {
+                    let i = i as usize;
+                    if !member[i] {
+                        continue;
+                    }
+                    let m = reverse(i, r);
+                    let bond = &data[m];
+                    let s = volume[i] * volume[r];
+                    let d = bond.stiffness(s);
+                    let p = bond.direction.map(|c| -s * bond.coupling * c);
+                    let mut to_i = d;
+                    add_scaled(&mut to_i, -1.0, &outer(p, sums[i][1]));
+                    add(row, i, &to_i);
+                    add(row, r, &d.map(|l| l.map(|v| -v)));
+                    if bond.coupling != 0.0 {
+                        for b in bonds.range(i) {
+                            let k = bonds.neighbor[b] as usize;
+                            add(row, k, &outer(p, weighted(&data[b])));
+                        }
+                    }
+                }
+                for &c in columns {
+                    slot[c as usize] = u32::MAX;
+                }
+                if let Some(c) = lost {
+                    if missing.fetch_min(r, Ordering::Relaxed) > r {
+                        missing_column.store(c, Ordering::Relaxed);
+                    }
+                }
+            }
+        },
+    );
+    let row = missing.into_inner();
+    if row != usize::MAX {
+        return Err(TangentError::PatternTooSmall {
+            row,
+            column: missing_column.into_inner(),
+        });
+    }
+    Ok(())
+}
+
+/// Adds J_rr from the block's points: the column-r terms of [`gather_ordinary`], summed in
+/// the same order, so the block diagonal is bitwise the diagonal of the full tangent.
+#[allow(clippy::too_many_arguments)]
+fn add_diagonal_block(
+    target: &mut Block,
+    r: usize,
+    bonds: &BondList,
+    volume: &[f64],
+    data: &[OrdinaryBond],
+    sums: &[[[f64; 3]; 2]],
+    member: &[bool],
+    reverse: &impl Fn(usize, usize) -> usize,
+) {
+    if member[r] {
+        let [g, q_total] = sums[r];
+        let mut diagonal = outer(g, q_total).map(|l| l.map(|v| -v));
+        for b in bonds.range(r) {
+            let j = bonds.neighbor[b] as usize;
+            add_scaled(
+                &mut diagonal,
+                -1.0,
+                &data[b].stiffness(volume[r] * volume[j]),
+            );
+        }
+        add_scaled(target, 1.0, &diagonal);
+    }
+    for &i in bonds.family(r) {
+        let i = i as usize;
+        if !member[i] {
+            continue;
+        }
+        let bond = &data[reverse(i, r)];
+        let s = volume[i] * volume[r];
+        let d = bond.stiffness(s);
+        add_scaled(target, 1.0, &d.map(|l| l.map(|v| -v)));
+        if bond.coupling != 0.0 {
+            let p = bond.direction.map(|c| -s * bond.coupling * c);
+            add_scaled(
+                target,
+                1.0,
+                &outer(p, bond.direction.map(|c| bond.weight * c)),
+            );
+        }
+    }
 }

@@ -28,7 +28,7 @@ mod assembly;
 mod matrix;
 mod pattern;
 
-pub(crate) use assembly::{assemble, ForceState, Layout, PointIndex, Scalar};
+pub(crate) use assembly::{assemble, ForceState, OrdinaryBond, PointIndex, Scalar};
 pub use matrix::BlockTangent;
 pub use pattern::BlockPattern;
 

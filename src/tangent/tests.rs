@@ -726,3 +726,95 @@ fn deck_tangent_errors_name_the_key_and_the_fix() {
     assert!(message.contains("contradicts"), "{message}");
     assert!(message.contains("remove one of the two keys"), "{message}");
 }
+
+/// Timing of the assembly against one force evaluation on a 20³ LPS block (δ = 3.015
+/// spacings, the full setup path so the points are in space-filling-curve order). Not a
+/// check: run `cargo test --release --lib tangent::tests::timing -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn timing_of_the_lps_tangent_on_a_20_cubed_block() {
+    use std::time::Instant;
+    let text = deck_with(&[]).replace("4.0", "20.0").replace("2.0", "20.0");
+    let text = text
+        .replace("Number Points X: 4", "Number Points X: 20")
+        .replace("Number Points Y: 2", "Number Points Y: 20")
+        .replace("Number Points Z: 2", "Number Points Z: 20")
+        .replace("Horizon: 1.5", "Horizon: 3.015");
+    let deck = parse(&text).unwrap();
+    let model = crate::setup::build(&deck).unwrap();
+    let mut physics = crate::setup::build_physics(&deck, &model).unwrap();
+    let (bonds, points) = (&model.bonds, &model.points);
+    let mut rng = Rng::new(1);
+    let y: Vec<[f64; 3]> = points
+        .position
+        .iter()
+        .map(|p| p.map(|c| c + 0.01 * (rng.uniform() - 0.5)))
+        .collect();
+    println!(
+        "{} points, {} bonds, {} threads",
+        points.len(),
+        bonds.num_bonds(),
+        rayon::current_num_threads()
+    );
+    let mut f = vec![[0.0; 3]; points.len()];
+    physics.internal_force(bonds, points, &y, &mut f);
+    let repeats = 20;
+    let start = Instant::now();
+    for _ in 0..repeats {
+        physics.internal_force(bonds, points, &y, &mut f);
+    }
+    let force = start.elapsed().as_secs_f64() / repeats as f64;
+    println!(
+        "force evaluation (θ pass + force pass): {:.3} ms",
+        1e3 * force
+    );
+
+    let start = Instant::now();
+    let pattern = Arc::new(physics.tangent_pattern(bonds));
+    println!(
+        "two-hop pattern: {:.3} s, {} blocks ({:.1} per row)",
+        start.elapsed().as_secs_f64(),
+        pattern.num_blocks(),
+        pattern.num_blocks() as f64 / points.len() as f64
+    );
+    let mut t = BlockTangent::zeros(pattern);
+    println!("tangent memory: {:.1} MB", t.memory_bytes() as f64 / 1e6);
+    for method in [
+        TangentMethod::Analytic,
+        TangentMethod::AutomaticDifferentiation,
+        CENTRAL,
+    ] {
+        let repeats = if method == TangentMethod::Analytic {
+            3
+        } else {
+            1
+        };
+        let start = Instant::now();
+        for _ in 0..repeats {
+            physics
+                .tangent_with(bonds, points, &y, method, &mut t)
+                .unwrap();
+        }
+        let seconds = start.elapsed().as_secs_f64() / repeats as f64;
+        println!(
+            "{:>26} tangent: {:.3} s = {:.0} force evaluations",
+            method.deck_name(),
+            seconds,
+            seconds / force
+        );
+    }
+    let start = Instant::now();
+    let kept: Vec<Option<usize>> = (0..3 * points.len()).map(Some).collect();
+    let csr = t.to_csr(&kept, -1.0);
+    println!(
+        "to_csr: {:.3} s, {} non-zeros",
+        start.elapsed().as_secs_f64(),
+        csr.nnz()
+    );
+    let start = Instant::now();
+    physics.block_diagonal_tangent(bonds, points, &y).unwrap();
+    println!(
+        "block diagonal (analytic): {:.3} s",
+        start.elapsed().as_secs_f64()
+    );
+}
