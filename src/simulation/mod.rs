@@ -444,6 +444,12 @@ impl Run<'_> {
         );
         state.time = solver.initial_time;
         self.nonlinear_iterations = None;
+        // The initial frame shows the body force at the initial time, as Peridigm writes it.
+        if let Some(b) = &mut state.external_force_density {
+            self.model
+                .boundary
+                .body_force(&self.model.points.position, state.time, b)?;
+        }
         self.output(physics, state)?;
         let reports = quasistatic::run(
             self.model,
