@@ -408,3 +408,44 @@ fn a_body_that_cannot_carry_its_load_stops_with_exit_code_3_and_valid_output() {
     let file = ExodusFile::open(&dir.path().join("bar.e")).expect("the output stays readable");
     assert_eq!(file.times, vec![0.0], "only the initial frame was written");
 }
+
+/// A 30 % pull with shear in one load step that Newton cannot finish in 4 iterations.
+const HARD_STEP: &str = "    Final Time: 1.0
+    QuasiStatic:
+      Number of Load Steps: {steps}
+      Absolute Tolerance: 1.0
+      Maximum Solver Iterations: 4
+      Adaptive Load-Stepping:
+        Maximum load step reductions in one step: 6";
+
+#[test]
+fn a_load_step_that_cannot_converge_is_cut_and_then_succeeds() {
+    let dir = tempfile::tempdir().unwrap();
+    run_deck(dir.path(), &bar_deck(HARD_STEP, 3.6, 2.0, 1)).expect("the cut steps converge");
+    let file = ExodusFile::open(&dir.path().join("bar.e")).unwrap();
+    // Every accepted step is written: the one step became several shorter ones, ending at 1.
+    assert!(file.times.len() > 2, "the step was not cut: times {:?}", file.times);
+    assert_eq!(*file.times.last().unwrap(), 1.0);
+    assert!(file.times.windows(2).all(|w| w[1] > w[0]));
+    let (cut, _) = final_fields(dir.path());
+    // The elastic answer does not depend on the path: 16 even steps with a generous iteration
+    // limit reach the same equilibrium (both to ‖r‖ ≤ 1 N on a ~1e11 N/m body).
+    let (reference, _) = solve_bar(&QUASI_STATIC.replace("20", "40"), 3.6, 2.0, 16);
+    let difference = largest_difference(&cut, &reference);
+    assert!(difference < 1e-8 * 3.6, "cut run differs by {difference:e}");
+}
+
+#[test]
+fn a_load_step_that_cannot_converge_without_adaptive_stepping_stops_with_exit_code_3() {
+    let dir = tempfile::tempdir().unwrap();
+    let deck = bar_deck(HARD_STEP, 3.6, 2.0, 1).replace(
+        "      Adaptive Load-Stepping:\n        Maximum load step reductions in one step: 6",
+        "",
+    );
+    let error = run_deck(dir.path(), &deck).expect_err("one step of 4 iterations is not enough");
+    assert_eq!(error.exit_code(), 3);
+    let message = error.to_string();
+    assert!(message.contains("load step 1") && message.contains("did not converge"), "{message}");
+    let file = ExodusFile::open(&dir.path().join("bar.e")).expect("the output stays readable");
+    assert_eq!(file.times, vec![0.0]);
+}
