@@ -53,6 +53,10 @@ enum Command {
         /// exodiff command file with tolerances (default: exodiff's defaults).
         #[arg(long)]
         comp: Option<PathBuf>,
+        /// Further files whose frames continue A (one file per solver, as SEACAS `conjoin`
+        /// joins them); may be repeated.
+        #[arg(long = "then")]
+        then: Vec<PathBuf>,
     },
     /// Time the explicit-dynamics speed check (the LAMMPS PERI problem); optionally run LAMMPS.
     Bench(peridyn::bench::BenchArgs),
@@ -136,12 +140,14 @@ fn run(path: &Path, output_dir: &Path, threads: Option<usize>) -> Result<()> {
     }
 }
 
-fn diff(a: &Path, b: &Path, comp: Option<&Path>) -> Result<()> {
+fn diff(a: &Path, then: &[PathBuf], b: &Path, comp: Option<&Path>) -> Result<()> {
     let spec = match comp {
         Some(path) => ComparisonSpec::from_file(path).map_err(invalid)?,
         None => ComparisonSpec::default(),
     };
-    let first = ExodusFile::open(a).map_err(invalid)?;
+    let mut parts = vec![a];
+    parts.extend(then.iter().map(PathBuf::as_path));
+    let first = ExodusFile::open_conjoined(&parts).map_err(invalid)?;
     let second = ExodusFile::open(b).map_err(invalid)?;
     let report = compare(&first, &second, &spec).map_err(invalid)?;
     emit(&report.to_string())?;
@@ -182,7 +188,7 @@ fn main() -> ExitCode {
             threads,
         } => run(deck, output_dir, *threads),
         Command::Check { deck, json } => check(deck, *json),
-        Command::Diff { a, b, comp } => diff(a, b, comp.as_deref()),
+        Command::Diff { a, b, comp, then } => diff(a, then, b, comp.as_deref()),
         Command::Bench(args) => peridyn::bench::main(args).map_err(Into::into),
     };
     match result {

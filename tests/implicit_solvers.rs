@@ -424,7 +424,11 @@ fn a_load_step_that_cannot_converge_is_cut_and_then_succeeds() {
     run_deck(dir.path(), &bar_deck(HARD_STEP, 3.6, 2.0, 1)).expect("the cut steps converge");
     let file = ExodusFile::open(&dir.path().join("bar.e")).unwrap();
     // Every accepted step is written: the one step became several shorter ones, ending at 1.
-    assert!(file.times.len() > 2, "the step was not cut: times {:?}", file.times);
+    assert!(
+        file.times.len() > 2,
+        "the step was not cut: times {:?}",
+        file.times
+    );
     assert_eq!(*file.times.last().unwrap(), 1.0);
     assert!(file.times.windows(2).all(|w| w[1] > w[0]));
     let (cut, _) = final_fields(dir.path());
@@ -445,7 +449,10 @@ fn a_load_step_that_cannot_converge_without_adaptive_stepping_stops_with_exit_co
     let error = run_deck(dir.path(), &deck).expect_err("one step of 4 iterations is not enough");
     assert_eq!(error.exit_code(), 3);
     let message = error.to_string();
-    assert!(message.contains("load step 1") && message.contains("did not converge"), "{message}");
+    assert!(
+        message.contains("load step 1") && message.contains("did not converge"),
+        "{message}"
+    );
     let file = ExodusFile::open(&dir.path().join("bar.e")).expect("the output stays readable");
     assert_eq!(file.times, vec![0.0]);
 }

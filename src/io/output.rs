@@ -221,11 +221,13 @@ pub struct Schedule {
 }
 
 impl Schedule {
-    /// True when call `call` (1 = initial state) writes a frame.
+    /// True when call `call` (1 = initial state) writes a frame. Peridigm compares the call
+    /// count with `Initial Output Step` but the step number (call − 1) with `Final Output
+    /// Step`, so `Final Output Step: 20` still writes the state after step 20.
     pub fn writes(&self, call: i64) -> bool {
         self.frequency > 0
             && call >= self.initial_step
-            && call <= self.final_step
+            && call - 1 <= self.final_step
             && (call - 1) % self.frequency == 0
     }
 }

@@ -79,6 +79,10 @@ pub struct ExodusFile {
     /// `elem_var_tab[block][variable]`: whether the variable exists on the block.
     pub element_variable_defined: Vec<Vec<bool>>,
     nc: NcReader,
+    /// Frames of this file itself; later steps come from `continuations`.
+    own_steps: usize,
+    /// Files whose frames continue this one (see [`ExodusFile::open_conjoined`]).
+    continuations: Vec<ExodusFile>,
 }
 
 impl ExodusFile {
@@ -94,6 +98,50 @@ impl ExodusFile {
             source,
         })?;
         Loader { path, nc }.load()
+    }
+
+    /// Opens several results files of one run as one time series, like SEACAS `conjoin`:
+    /// the mesh and variable names are the first file's, the frames are those of every file
+    /// in order. Peridigm's regression tests compare a run that wrote one file per solver
+    /// against a single conjoined gold file this way. The files must have the same nodes and
+    /// the same variables.
+    pub fn open_conjoined(paths: &[&Path]) -> Result<Self, ExodusError> {
+        let (first, rest) = paths.split_first().ok_or_else(|| ExodusError::BadInput {
+            path: PathBuf::new(),
+            problem: "no file to open".into(),
+        })?;
+        let mut file = Self::open(first)?;
+        for path in rest {
+            let next = Self::open(path)?;
+            let same = next.coordinates.len() == file.coordinates.len()
+                && next.nodal_variable_names == file.nodal_variable_names
+                && next.element_variable_names == file.element_variable_names
+                && next.global_variable_names == file.global_variable_names;
+            if !same {
+                return Err(ExodusError::BadInput {
+                    path: path.to_path_buf(),
+                    problem: format!(
+                        "cannot continue {}: the nodes or variable names differ",
+                        file.path.display()
+                    ),
+                });
+            }
+            file.times.extend_from_slice(&next.times);
+            file.continuations.push(next);
+        }
+        Ok(file)
+    }
+
+    /// The file holding `step` and the step within it, when it is a continuation.
+    fn continuation(&self, step: usize) -> Option<(&ExodusFile, usize)> {
+        let mut local = step.checked_sub(self.own_steps)?;
+        for next in &self.continuations {
+            if local < next.own_steps {
+                return Some((next, local));
+            }
+            local -= next.own_steps;
+        }
+        None
     }
 
     fn nc_err(&self, source: NcError) -> ExodusError {
@@ -124,6 +172,9 @@ impl ExodusFile {
     /// (0-based), one per node.
     pub fn nodal_values(&self, step: usize, variable: usize) -> Result<Vec<f64>, ExodusError> {
         self.check_step(step)?;
+        if let Some((file, local)) = self.continuation(step) {
+            return file.nodal_values(local, variable);
+        }
         let count = self.nodal_variable_names.len();
         if variable >= count {
             return Err(self.out_of_range(format!(
@@ -157,6 +208,9 @@ impl ExodusFile {
         block: usize,
     ) -> Result<Option<Vec<f64>>, ExodusError> {
         self.check_step(step)?;
+        if let Some((file, local)) = self.continuation(step) {
+            return file.element_values(local, variable, block);
+        }
         let count = self.element_variable_names.len();
         if variable >= count {
             return Err(self.out_of_range(format!(
@@ -183,6 +237,9 @@ impl ExodusFile {
     /// Values of all global variables at `step`.
     pub fn global_values(&self, step: usize) -> Result<Vec<f64>, ExodusError> {
         self.check_step(step)?;
+        if let Some((file, local)) = self.continuation(step) {
+            return file.global_values(local);
+        }
         if self.global_variable_names.is_empty() {
             return Ok(Vec::new());
         }
@@ -451,6 +508,7 @@ impl Loader<'_> {
         };
 
         let Loader { path, nc } = self;
+        let own_steps = times.len();
         Ok(ExodusFile {
             path: path.to_path_buf(),
             title,
@@ -465,6 +523,8 @@ impl Loader<'_> {
             element_variable_names,
             global_variable_names,
             element_variable_defined,
+            own_steps,
+            continuations: Vec::new(),
             nc,
         })
     }

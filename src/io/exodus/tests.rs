@@ -887,3 +887,32 @@ fn file_without_variables_stores_only_times() {
     assert!(file.global_values(2).unwrap().is_empty());
     assert_eq!(file.element_variable_defined, vec![Vec::<bool>::new(); 2]);
 }
+
+#[test]
+fn conjoined_files_read_as_one_time_series() {
+    let dir = tempfile::tempdir().unwrap();
+    let first = dir.path().join("first.e");
+    let second = dir.path().join("second.e");
+    write_frames(&first, 2).finish().unwrap();
+    // The second file holds frames 0..3 of the same series; read after the first two, its
+    // frames become steps 2..5 of the joined series.
+    write_frames(&second, 3).finish().unwrap();
+    let joined = ExodusFile::open_conjoined(&[&first, &second]).unwrap();
+    assert_eq!(joined.times, vec![0.0, 0.1, 0.0, 0.1, 0.2]);
+    let alone = ExodusFile::open(&second).unwrap();
+    for step in 0..3 {
+        assert_eq!(
+            joined.nodal_values(2 + step, 1).unwrap(),
+            alone.nodal_values(step, 1).unwrap()
+        );
+        assert_eq!(
+            joined.element_values(2 + step, 0, 0).unwrap(),
+            alone.element_values(step, 0, 0).unwrap()
+        );
+        assert_eq!(
+            joined.global_values(2 + step).unwrap(),
+            alone.global_values(step).unwrap()
+        );
+    }
+    assert!(joined.nodal_values(5, 0).is_err(), "past the last frame");
+}
