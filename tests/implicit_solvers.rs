@@ -456,3 +456,21 @@ fn a_load_step_that_cannot_converge_without_adaptive_stepping_stops_with_exit_co
     let file = ExodusFile::open(&dir.path().join("bar.e")).expect("the output stays readable");
     assert_eq!(file.times, vec![0.0]);
 }
+
+#[test]
+fn switch_to_verlet_continues_explicitly_when_cutting_is_not_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    // No cut allowed: the one hard step fails, the state goes back to t = 0 and Verlet
+    // carries the prescribed motion to the final time.
+    let deck = bar_deck(HARD_STEP, 3.6, 2.0, 1).replace(
+        "Maximum load step reductions in one step: 6",
+        "Maximum load step reductions in one step: 0\n        Switch to Verlet:\n          Safety Factor: 0.5",
+    );
+    let summary = run_deck(dir.path(), &deck).expect("the explicit continuation finishes");
+    let file = ExodusFile::open(&dir.path().join("bar.e")).unwrap();
+    // Verlet with Δt = 0.5 × the stable estimate of a steel bar (~1e-4 s at unit spacing)
+    // takes thousands of steps over 1 s; every one is a frame after the initial QS frame.
+    assert!(summary.steps > 100, "{summary:?}");
+    assert_eq!(file.times[0], 0.0);
+    assert!(*file.times.last().unwrap() <= 1.0 && *file.times.last().unwrap() > 0.99);
+}

@@ -451,7 +451,7 @@ impl Run<'_> {
                 .body_force(&self.model.points.position, state.time, b)?;
         }
         self.output(physics, state)?;
-        let reports = quasistatic::run(
+        let result = quasistatic::run(
             self.model,
             physics,
             state,
@@ -460,12 +460,39 @@ impl Run<'_> {
             |physics, state, report| -> Result<(), RunError> {
                 self.nonlinear_iterations = Some(report.newton.iterations as f64);
                 self.summary.broken_bonds += report.newton.broken_bonds;
+                self.summary.steps += 1;
                 self.record(report.time, report.step, &report.newton)?;
                 self.output(physics, state)
             },
-        )?;
-        self.summary.steps += reports.len() as u64;
-        Ok(())
+        );
+        let switch = settings
+            .adaptive
+            .as_ref()
+            .and_then(|a| a.switch_to_verlet.clone());
+        match (result, switch) {
+            (Ok(_), _) => Ok(()),
+            (Err(RunError::QuasiStatic(error @ QuasiStaticError::NotConverged { .. })), Some(verlet)) => {
+                eprintln!(
+                    "Warning: {error}\n{}: switching to Verlet from t = {:e} to the solver's final time {:e}",
+                    solver.name, state.time, solver.final_time
+                );
+                let explicit = Solver {
+                    name: format!("{} (Switch to Verlet)", solver.name),
+                    initial_time: state.time,
+                    integrator: Integrator::Verlet(crate::io::deck::Verlet {
+                        fixed_dt: verlet.fixed_dt,
+                        safety_factor: verlet.safety_factor,
+                    }),
+                    ..solver.clone()
+                };
+                let estimate = physics.critical_time_step(&self.model.bonds, &self.model.points);
+                let Integrator::Verlet(settings) = &explicit.integrator else {
+                    unreachable!("built above")
+                };
+                self.verlet(&explicit, settings, estimate, physics, state)
+            }
+            (Err(error), _) => Err(error),
+        }
     }
 
     fn newmark(

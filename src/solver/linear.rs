@@ -28,7 +28,7 @@ pub const MATRIX_FREE_TOLERANCE_FLOOR: f64 = 1e-7;
 /// The linear strategy of `solver` (see the module docs).
 pub fn strategy(
     solver: &Solver,
-    _model: &Model,
+    model: &Model,
     _physics: &Physics,
 ) -> Result<LinearStrategy, RunError> {
     let settings = &solver.linear_solve;
@@ -73,7 +73,15 @@ pub fn strategy(
             Vec::new(),
         )
     };
-    Ok(match settings.method {
+    let method = match settings.method {
+        LinearMethod::Automatic if 3 * model.points.len() <= LinearMethod::AUTOMATIC_DIRECT_LIMIT => {
+            LinearMethod::Direct
+        }
+        LinearMethod::Automatic => LinearMethod::Cg,
+        chosen => chosen,
+    };
+    Ok(match method {
+        LinearMethod::Automatic => unreachable!("resolved above"),
         LinearMethod::Direct => LinearStrategy::Native {
             solver: native(NativeMethod::Cholesky),
             fallback: Some(native(NativeMethod::Lu)),

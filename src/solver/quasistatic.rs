@@ -15,7 +15,9 @@
 //!    accepted;
 //! 5. accepted when converged, or — Peridigm's rule, with a warning — when the measure is within
 //!    100× the tolerance; otherwise, with `Adaptive Load-Stepping`, the step is cut in half and
-//!    redone (bounded), else the run stops with exit code 3;
+//!    redone (bounded), else the state goes back to the last accepted step and the solve
+//!    returns [`QuasiStaticError::NotConverged`] (the run stops with exit code 3, or continues
+//!    explicitly with `Switch to Verlet`);
 //! 6. on acceptance: `v = (u − u_n)/Δt`, damage committed, output.
 
 use crate::backend::SolveError;
@@ -232,6 +234,11 @@ pub fn run<E: From<QuasiStaticError>>(
                     "Warning:  Accepting current solution and progressing to next load step."
                 );
             } else {
+                // Leave the state as the last accepted step left it (what a `Switch to
+                // Verlet` continues from, and what the output already shows).
+                restore(&system, physics, state, &start_displacement, &predictor_velocity);
+                state.update_current_position(&model.points.position);
+                state.time = from;
                 return Err(QuasiStaticError::NotConverged {
                     step: k,
                     from,
