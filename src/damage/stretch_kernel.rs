@@ -462,38 +462,26 @@ impl<L: BondLimit> Chunk<'_, L> {
         while start < end {
             let count = (end - start).min(LANES);
             let neighbors = &bonds.neighbor[start..start + count];
-            // Lanes past `count` and bonds that never break get p = +∞, which every finite q
-            // passes (k > 0), so they are never suspects unless q is NaN; `limit` sorts those
-            // out on the rare path.
-            let mut q = [0.0; LANES];
-            let mut p = [f64::INFINITY; LANES];
-            let mut k = [1.0; LANES];
-            for n in 0..count {
-                let j = neighbors[n] as usize;
-                q[n] = squared_distance(yi, y[j]);
-                if let Some(l) = self.limits.limit(i, j) {
-                    p[n] = squared_distance(xi, x[j]);
-                    k[n] = l.intact_factor;
-                }
-            }
+            // One bit per bond the filter cannot clear. Computed straight from registers: lane
+            // arrays written one element at a time and read back as vectors stall the loads.
             let mut suspects = 0u32;
-            for n in 0..LANES {
-                suspects |= u32::from(!(q[n] <= p[n] * k[n])) << n;
+            for (n, &j) in neighbors.iter().enumerate() {
+                let j = j as usize;
+                if let Some(limit) = self.limits.limit(i, j) {
+                    let q = squared_distance(yi, y[j]);
+                    let p = squared_distance(xi, x[j]);
+                    suspects |= u32::from(!(q <= p * limit.intact_factor)) << n;
+                }
             }
             while suspects != 0 {
                 let n = suspects.trailing_zeros() as usize;
                 suspects &= suspects - 1;
-                if n >= count {
-                    break;
-                }
                 let b = start + n;
                 let j = neighbors[n] as usize;
-                let Some(limit) = self.limits.limit(i, j) else {
-                    continue;
-                };
+                let limit = self.limits.limit(i, j).expect("suspects have a limit");
                 // SAFETY: b is an upper pair of i, owned by this chunk.
                 if unsafe { *self.damage.0.add(b) } < 1.0
-                    && limit.exceeded(q[n], bonds.reference_length[b])
+                    && limit.exceeded(squared_distance(yi, y[j]), bonds.reference_length[b])
                 {
                     // SAFETY: as above.
                     newly += unsafe { self.break_pair(i, j, b) };
