@@ -70,10 +70,10 @@ impl OneWayBonds {
                     }
                 }
             }
-            for j in 0..n {
+            for (j, &unmatched) in cursor.iter().enumerate() {
                 let lower_end =
                     bonds.offsets[j] + bonds.family(j).partition_point(|&k| (k as usize) < j);
-                for c in cursor[j]..lower_end {
+                for c in unmatched..lower_end {
                     pairs.push((bonds.neighbor[c], j as u32));
                 }
             }
@@ -215,6 +215,20 @@ fn general_rows(
         .collect()
 }
 
+/// True when the grid scan may use its AVX2 build (x86-64 CPUs that report AVX2; cached by the
+/// standard library). `PERIDYN_NO_WIDE_VECTORS` in the environment forces the baseline build.
+fn wide_vectors_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx2")
+            && std::env::var_os("PERIDYN_NO_WIDE_VECTORS").is_none()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
 /// Points per task of the grid search.
 const GRID_CHUNK: usize = 512;
 
@@ -338,6 +352,7 @@ impl CellGrid {
     ) -> Vec<Vec<u32>> {
         let radius_squared = radius * radius;
         let n = current.len();
+        let wide = wide_vectors_available();
         searched
             .par_chunks(GRID_CHUNK)
             .map_init(
@@ -347,7 +362,15 @@ impl CellGrid {
                 |marker, chunk| {
                     let mut rows = Vec::with_capacity(chunk.len());
                     for &i in chunk {
-                        rows.push(self.row(i, current, radius_squared, bonded, allowed, marker));
+                        rows.push(self.row_dispatch(
+                            i,
+                            current,
+                            radius_squared,
+                            bonded,
+                            allowed,
+                            marker,
+                            wide,
+                        ));
                     }
                     rows
                 },
@@ -356,7 +379,49 @@ impl CellGrid {
             .collect()
     }
 
+    /// [`CellGrid::row`] built for AVX2 when `wide`, else for the baseline target (the same
+    /// list: the same IEEE operations decide).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn row_dispatch(
+        &self,
+        i: u32,
+        current: &[[f64; 3]],
+        radius_squared: f64,
+        bonded: Option<(&BondList, &OneWayBonds)>,
+        allowed: &impl Fn(usize, usize) -> bool,
+        marker: &mut [u32],
+        wide: bool,
+    ) -> Vec<u32> {
+        #[cfg(target_arch = "x86_64")]
+        if wide {
+            // SAFETY: `wide` is true only when the CPU reports AVX2 at run time.
+            return unsafe { self.row_avx2(i, current, radius_squared, bonded, allowed, marker) };
+        }
+        let _ = wide;
+        self.row(i, current, radius_squared, bonded, allowed, marker)
+    }
+
+    /// [`CellGrid::row`] with AVX2 enabled (4-wide distance tests).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn row_avx2(
+        &self,
+        i: u32,
+        current: &[[f64; 3]],
+        radius_squared: f64,
+        bonded: Option<(&BondList, &OneWayBonds)>,
+        allowed: &impl Fn(usize, usize) -> bool,
+        marker: &mut [u32],
+    ) -> Vec<u32> {
+        self.row(i, current, radius_squared, bonded, allowed, marker)
+    }
+
     /// Candidates of point `i` (ascending).
+    #[inline(always)]
     fn row(
         &self,
         i: u32,
@@ -380,7 +445,6 @@ impl CellGrid {
         let reach = CELLS_PER_RADIUS;
         let span = |k: usize| c[k].saturating_sub(reach)..=(c[k] + reach).min(self.dims[k] - 1);
         let mut row = Vec::new();
-        let mut inside = [false; MASK_RUN];
         for cz in span(2) {
             for cy in span(1) {
                 let xs = span(0);
@@ -389,12 +453,19 @@ impl CellGrid {
                 for run in (first..last).step_by(MASK_RUN) {
                     let end = (run + MASK_RUN).min(last);
                     let (x, y, z) = (&self.x[run..end], &self.y[run..end], &self.z[run..end]);
-                    for (m, ((&a, &b), &c)) in inside.iter_mut().zip(x.iter().zip(y).zip(z)) {
+                    // One bit per slot within R, so that the loop over the survivors (a
+                    // quarter of the slots) has no hard-to-predict branch per slot.
+                    let mut inside = 0u64;
+                    for (k, ((&a, &b), &c)) in x.iter().zip(y).zip(z).enumerate() {
                         let d = [a - p[0], b - p[1], c - p[2]];
-                        *m = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] <= radius_squared;
+                        inside |=
+                            u64::from(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] <= radius_squared)
+                                << k;
                     }
-                    for (slot, _) in (run..end).zip(&inside).filter(|(_, &m)| m) {
-                        let j = self.index[slot];
+                    while inside != 0 {
+                        let k = inside.trailing_zeros() as usize;
+                        inside &= inside - 1;
+                        let j = self.index[run + k];
                         if j != i && marker[j as usize] != i && allowed(i as usize, j as usize) {
                             row.push(j);
                         }
@@ -517,8 +588,8 @@ mod tests {
                 Some((&bonds, &one_way)),
                 keep,
             );
-            for i in 0..n {
-                assert_eq!(list.row(i), &expected[i][..], "{backend:?}, point {i}");
+            for (i, row) in expected.iter().enumerate() {
+                assert_eq!(list.row(i), &row[..], "{backend:?}, point {i}");
             }
         }
     }

@@ -312,3 +312,106 @@ mod tests {
         assert!(msg.contains("Critical Stretch"), "{msg}");
     }
 }
+
+#[cfg(test)]
+mod setup_tests {
+    use crate::io::deck;
+    use crate::setup;
+
+    #[test]
+    fn deck_blocks_get_the_field_and_bonds_break_by_the_smaller_limit() {
+        // Bar of 9 points (x = 0..8, spacing 1, horizon 1.5: nearest neighbours only) in three
+        // blocks: points 0–2 Interface Aware s_c = 0.1, points 3–5 Interface Aware s_c = 0.3,
+        // points 6–8 without damage (s_c = 0 in the field). Stretching every gap by 20 %
+        // breaks the pairs 0–1 and 1–2 (0.2 > 0.1), the interface 2–3 (min(0.1, 0.3) = 0.1),
+        // and nothing else: 3–4 and 4–5 hold (0.2 < 0.3), 5–6 never breaks (s_c,6 = 0),
+        // block 3 has no model. Six directed bonds.
+        let dir = tempfile::tempdir().unwrap();
+        let mesh: Vec<String> = (0..9)
+            .map(|k| format!("{k}.0 0.0 0.0 {} 1.0", 1 + k / 3))
+            .collect();
+        std::fs::write(dir.path().join("mesh.txt"), mesh.join("\n")).unwrap();
+        let text = r#"Peridigm:
+  Discretization:
+    Type: "Text File"
+    Input Mesh File: "mesh.txt"
+  Materials:
+    Soft:
+      Material Model: "Elastic Bond Based"
+      Density: 1.0
+      Bulk Modulus: 1.0
+  Damage Models:
+    Weak:
+      Damage Model: "Interface Aware"
+      Critical Stretch: 0.1
+    Strong:
+      Damage Model: "Interface Aware"
+      Critical Stretch: 0.3
+  Blocks:
+    One:
+      Block Names: "block_1"
+      Material: "Soft"
+      Damage Model: "Weak"
+      Horizon: 1.5
+    Two:
+      Block Names: "block_2"
+      Material: "Soft"
+      Damage Model: "Strong"
+      Horizon: 1.5
+    Three:
+      Block Names: "block_3"
+      Material: "Soft"
+      Horizon: 1.5
+  Solver:
+    Final Time: 1.0
+    Verlet:
+      Fixed dt: 1.0e-3
+"#;
+        let path = dir.path().join("deck.yaml");
+        std::fs::write(&path, text).unwrap();
+        let deck = deck::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        assert!(setup::unsupported_features(&deck).is_empty());
+        let model = setup::build(&deck).unwrap_or_else(|e| panic!("{e}"));
+        let mut physics = setup::build_physics(&deck, &model).unwrap_or_else(|e| panic!("{e}"));
+        let names: Vec<Option<&str>> = physics
+            .blocks
+            .iter()
+            .map(|b| b.damage.as_ref().map(|d| d.model_name()))
+            .collect();
+        assert_eq!(
+            names,
+            vec![Some("Interface Aware"), Some("Interface Aware"), None]
+        );
+        let stretched: Vec<[f64; 3]> = model
+            .points
+            .position
+            .iter()
+            .map(|x| [1.2 * x[0], x[1], x[2]])
+            .collect();
+        let mut force = vec![[0.0; 3]; model.points.len()];
+        let broken = physics.internal_force(&model.bonds, &model.points, &stretched, &mut force);
+        assert_eq!(broken, 6);
+        let damage = physics.bond_damage.as_ref().unwrap();
+        let original = |run: usize| model.points.original_id[run] as usize;
+        for i in 0..model.points.len() {
+            for b in model.bonds.range(i) {
+                let j = model.bonds.neighbor[b] as usize;
+                let (a, c) = (original(i).min(original(j)), original(i).max(original(j)));
+                let expected = if c <= 3 && c == a + 1 { 1.0 } else { 0.0 };
+                assert_eq!(damage[b], expected, "bond {a}–{c}");
+            }
+        }
+        // Irreversible: back to the reference configuration, nothing heals or breaks.
+        let again = physics.internal_force(
+            &model.bonds,
+            &model.points,
+            &model.points.position.clone(),
+            &mut force,
+        );
+        assert_eq!(again, 0);
+        assert_eq!(
+            physics.bond_damage.as_ref().unwrap().iter().sum::<f32>(),
+            6.0
+        );
+    }
+}

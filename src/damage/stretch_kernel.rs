@@ -437,17 +437,19 @@ impl<L: BondLimit> Chunk<'_, L> {
     /// bonds the filter cannot clear (rare) read their damage and ζ and take the exact test.
     ///
     /// # The filter
-    /// A bond is certainly intact when its squared current
-    /// length `length_squared` at most fl(p·k), where p = fl(|X_j − X_i|²) is the squared
-    /// reference length recomputed from the reference positions (which are in cache, unlike
-    /// the stored ζ). [`PairPlan::new`] checks, for every bond it filters this way, that
+    /// A bond is cleared (certainly intact) when its squared current length q is at most
+    /// t = fl(p·k), where p = fl(|X_j − X_i|²) is the squared reference length recomputed from
+    /// the reference positions (which stay in cache, unlike the stored ζ). [`PairPlan::new`] checks, for every bond it filters this way, that
     /// p ≥ 2⁻¹⁰²² and p ≤ fl(fl(ζ·ζ)·(1 + 2⁻⁴⁰)), i.e. p ≤ ζ²(1 + 2⁻⁴⁰)(1 + u)², u = 2⁻⁵³.
     ///
     /// Same decisions as the exact test: the proof of [`StretchLimit::breaks`] goes through
     /// with t = fl(p·k) ≤ ζ²(1 + s)²(1 − m)(1 + 2⁻⁴⁰)(1 + 2u)⁸ (four roundings in k, one in
     /// t, three from the check on p); since (1 − m)(1 + 2⁻⁴⁰) ≤ 1 − m(1 − 2⁻¹⁰), step 2
     /// gives A ≤ (1 − m(1 − 2⁻¹⁰)/2)(1 + 2u)⁵ < 1 − m/4 (the slack m/4·(1 − 2⁻⁹) ≈ 2.3e-10
-    /// dwarfs 11u ≈ 1.2e-15), and step 3 is unchanged.
+    /// dwarfs 11u ≈ 1.2e-15), and step 3 is unchanged. (p·k ≥ 2⁻¹⁰²³ because p is normal and
+    /// k ≥ 1 − m; an overflow of t to +∞ and k = −∞ are handled as in step 1.) A bond that is
+    /// not cleared reads its damage and ζ and takes the exact test, so every decision is the
+    /// exact test's.
     ///
     /// # Safety
     /// As [`Chunk::run`].
@@ -470,7 +472,9 @@ impl<L: BondLimit> Chunk<'_, L> {
                 if let Some(limit) = self.limits.limit(i, j) {
                     let q = squared_distance(yi, y[j]);
                     let p = squared_distance(xi, x[j]);
-                    suspects |= u32::from(!(q <= p * limit.intact_factor)) << n;
+                    // Not `q > t`: a NaN q must be a suspect (the exact test decides it).
+                    let cleared = q <= p * limit.intact_factor;
+                    suspects |= u32::from(!cleared) << n;
                 }
             }
             while suspects != 0 {
@@ -627,9 +631,12 @@ mod tests {
         assert!(huge.breaks(1.0, 1e-250));
     }
 
-    /// Random cloud, three classes of points; several updates with growing random
-    /// displacements. Returns (x, bonds, displacement fields).
-    fn cloud(seed: u64) -> (Vec<[f64; 3]>, Vec<f64>, BondList, Vec<Vec<[f64; 3]>>) {
+    /// Reference positions, volumes, families and a sequence of current positions.
+    type Cloud = (Vec<[f64; 3]>, Vec<f64>, BondList, Vec<Vec<[f64; 3]>>);
+
+    /// Random cloud of 500 points, families within 1.3, and four current configurations with
+    /// growing random displacements.
+    fn cloud(seed: u64) -> Cloud {
         let mut rng = Rng::new(seed);
         let (x, v) = random_cloud(&mut rng, 500, 5.0);
         let bonds = brute_force_bonds(&x, 1.3);
