@@ -18,8 +18,10 @@
 //!
 //! # Differences from the LAMMPS input that remain
 //! * LAMMPS's `peri/*` styles add a short-range contact force over a half neighbour list in the
-//!   same loop; the "+ contact" rows add a Peridigm `Contact` section ([`CONTACT_SECTION`]) and
-//!   run once this build supports contact.
+//!   same loop; the "+ contact" rows add a Peridigm `Contact` section ([`CONTACT_SECTION`]).
+//!   LAMMPS rebuilds its neighbour list only when an atom has moved half the skin
+//!   (`neigh_modify every 1 check yes`); Peridigm's `Search Frequency` searches every 20 steps
+//!   regardless, so the "+ contact" rows include five searches per 100 steps that LAMMPS skips.
 //! * LAMMPS's PMB breaks a bond at `s00 − α·min(stretch)`; Peridigm's `Critical Stretch` at
 //!   `s00`. LAMMPS's LPS uses ω = 1/ζ; Peridigm's default influence function is ω = 1.
 

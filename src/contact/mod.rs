@@ -52,7 +52,7 @@
 mod search;
 mod short_range_force;
 
-pub use search::{find_candidates, max_displacement, CandidateList};
+pub use search::{find_candidates, max_displacement, CandidateList, OneWayBonds};
 pub use short_range_force::{PairPoint, ShortRangeForce};
 
 use crate::io::deck::{ContactInteraction, Deck, DeckError, Friction};
@@ -112,6 +112,8 @@ pub struct Contact {
     /// Positions of `points` at the last search.
     searched_at: Vec<[f64; 3]>,
     candidates: Option<CandidateList>,
+    /// Bonds without a reverse (so that the search strikes out bonded pairs from one side).
+    one_way_bonds: OneWayBonds,
     backend: SearchBackend,
     /// Contact force density of every point (force/length³).
     force_density: Vec<[f64; 3]>,
@@ -243,6 +245,7 @@ impl Contact {
             points,
             searched_at: Vec::new(),
             candidates: None,
+            one_way_bonds: OneWayBonds::new(&model.bonds),
             backend: SearchBackend::Auto,
             force_density: vec![[0.0; 3]; model.points.len()],
             statistics: ContactStatistics::default(),
@@ -297,13 +300,18 @@ impl Contact {
     /// True when points i and j (run order) may touch: their blocks interact and they are not
     /// bonded in the reference configuration (in either family).
     pub fn may_touch(&self, model: &Model, i: usize, j: usize) -> bool {
+        self.blocks_interact(model, i, j)
+            && model.bonds.family(i).binary_search(&(j as u32)).is_err()
+            && model.bonds.family(j).binary_search(&(i as u32)).is_err()
+    }
+
+    /// True when the blocks of points i and j have a contact model between them.
+    fn blocks_interact(&self, model: &Model, i: usize, j: usize) -> bool {
         let (a, b) = (
             model.points.block[i] as usize,
             model.points.block[j] as usize,
         );
         self.pair_model[a * self.blocks + b].is_some()
-            && model.bonds.family(i).binary_search(&(j as u32)).is_err()
-            && model.bonds.family(j).binary_search(&(i as u32)).is_err()
     }
 
     /// Searches now at `current` (positions of every point, run order).
@@ -314,7 +322,8 @@ impl Contact {
             current,
             self.search_radius,
             self.backend,
-            |i, j| self.may_touch(model, i, j),
+            Some((&model.bonds, &self.one_way_bonds)),
+            |i, j| self.blocks_interact(model, i, j),
         );
         self.searched_at = self.points.iter().map(|&p| current[p as usize]).collect();
         self.statistics.candidate_pairs = list.pairs();
@@ -365,6 +374,13 @@ impl Contact {
             horizon: model.horizon[p],
             volume: model.points.volume[p],
         };
+        // Quick reject on the squared distance q = |y_j − y_i|² (the very number whose root
+        // the pair law takes): with t = fl(fl(r_c,max²)·(1 + 2⁻³⁰)) ≥ r_c,max²(1 − u)³(1 + 2⁻³⁰)
+        // > r_c,max² (u = 2⁻⁵³), q > t implies √q > r_c,max, so the law's fl(√q) ≥ r_c,max
+        // (rounding is monotone and r_c,max is a float) ≥ its r_c and it returns no force.
+        // Rejecting here only skips work: the forces are bitwise those of the law alone.
+        let reject_beyond =
+            self.max_contact_radius * self.max_contact_radius * (1.0 + 1.0 / (1u64 << 30) as f64);
         let in_contact: usize = self
             .force_density
             .par_iter_mut()
@@ -380,6 +396,15 @@ impl Contact {
                 let mut touching = 0;
                 for &j in row {
                     let j = j as usize;
+                    let yj = current[j];
+                    let d = [
+                        yj[0] - me.position[0],
+                        yj[1] - me.position[1],
+                        yj[2] - me.position[2],
+                    ];
+                    if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > reject_beyond {
+                        continue;
+                    }
                     let b = model.points.block[j] as usize;
                     let law =
                         &models[pair_model[a * blocks + b].expect("filtered by search") as usize];

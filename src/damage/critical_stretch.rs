@@ -12,12 +12,15 @@
 //! the same number in both directions. Damage only ever goes from 0 to 1, and both ends start
 //! equal, so they stay equal.
 //!
+//! Updating each pair once (the pair-once loop of [`DamageModel::prepare`]) therefore takes
+//! the same decisions as updating each direction.
+//!
 //! Not yet supported: `Thermal Expansion Coefficient` (s ← s − αΔT_i).
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 
+use super::stretch_kernel::{update_stretch_damage, PairPlan, StretchLimit};
 use super::{DamageError, DamageModel};
-use crate::material::point_chunks::for_each_chunk;
 use crate::material::ReferenceView;
 
 /// Critical stretch from the critical energy release rate G₀ (Silling & Askari 2005, "A
@@ -35,16 +38,21 @@ pub fn critical_stretch_from_energy_release_rate(
 }
 
 /// The `Critical Stretch` damage model of one block.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct CriticalStretch {
     critical_stretch: f64,
+    /// The pair-once loop, once [`DamageModel::prepare`] has made one.
+    plan: Option<Arc<PairPlan>>,
 }
 
 impl CriticalStretch {
     /// Model with critical stretch s_c (`Critical Stretch`, positive and finite).
     pub fn new(critical_stretch: f64) -> Result<Self, DamageError> {
         if critical_stretch.is_finite() && critical_stretch > 0.0 {
-            Ok(Self { critical_stretch })
+            Ok(Self {
+                critical_stretch,
+                plan: None,
+            })
         } else {
             Err(DamageError::NotPositive {
                 key: "Critical Stretch",
@@ -57,18 +65,25 @@ impl CriticalStretch {
     pub fn critical_stretch(&self) -> f64 {
         self.critical_stretch
     }
-}
 
-/// `|b − a|`, evaluated identically for (a, b) and (b, a) (see the module docs).
-#[inline(always)]
-fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let (dx, dy, dz) = (b[0] - a[0], b[1] - a[1], b[2] - a[2]);
-    (dx * dx + dy * dy + dz * dz).sqrt()
+    /// Replaces s_c by an already validated value (time-dependent limits), keeping the plan.
+    pub(super) fn set_critical_stretch(&mut self, other: &CriticalStretch) {
+        self.critical_stretch = other.critical_stretch;
+    }
+
+    /// True once [`DamageModel::prepare`] has made a pair-once plan.
+    pub fn is_prepared(&self) -> bool {
+        self.plan.is_some()
+    }
 }
 
 impl DamageModel for CriticalStretch {
     fn model_name(&self) -> &'static str {
         "Critical Stretch"
+    }
+
+    fn prepare(&mut self, reference: &ReferenceView<'_>, points: &[u32]) {
+        self.plan = PairPlan::new(reference, points).map(Arc::new);
     }
 
     fn update(
@@ -78,37 +93,14 @@ impl DamageModel for CriticalStretch {
         points: &[u32],
         bond_damage: &mut [f32],
     ) -> usize {
-        let bonds = reference.bonds;
-        let y = current_position;
-        let s_c = self.critical_stretch;
-        let broken = AtomicUsize::new(0);
-        for_each_chunk(
+        update_stretch_damage(
+            reference,
+            current_position,
             points,
             bond_damage,
-            &|i| bonds.offsets[i as usize],
-            &|chunk: &[u32], base: usize, rows: &mut [f32]| {
-                let mut newly = 0;
-                for &i in chunk {
-                    let i = i as usize;
-                    let range = bonds.range(i);
-                    let row = &mut rows[range.start - base..range.end - base];
-                    let zetas = &bonds.reference_length[range.clone()];
-                    for ((d, &j), &zeta) in row.iter_mut().zip(&bonds.neighbor[range]).zip(zetas) {
-                        if *d >= 1.0 {
-                            continue;
-                        }
-                        let j = j as usize;
-                        let stretch = (distance(y[i], y[j]) - zeta) / zeta;
-                        if stretch > s_c {
-                            *d = 1.0;
-                            newly += 1;
-                        }
-                    }
-                }
-                broken.fetch_add(newly, Ordering::Relaxed);
-            },
-        );
-        broken.into_inner()
+            &StretchLimit::new(self.critical_stretch),
+            self.plan.as_deref(),
+        )
     }
 }
 

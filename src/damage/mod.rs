@@ -11,9 +11,12 @@
 //! array at the start of the step and restore it; the models themselves only ever increase d.
 
 mod critical_stretch;
+mod interface_aware;
+mod stretch_kernel;
 mod time_dependent_critical_stretch;
 
 pub use critical_stretch::{critical_stretch_from_energy_release_rate, CriticalStretch};
+pub use interface_aware::{rank_deficient_points, InterfaceAware};
 pub use time_dependent_critical_stretch::TimeDependentCriticalStretch;
 
 use crate::material::point_chunks::for_each_chunk;
@@ -52,6 +55,13 @@ pub trait DamageModel: Send + Sync {
     fn set_time(&mut self, _time: f64) -> Result<(), DamageError> {
         Ok(())
     }
+
+    /// Prepares faster updates of the rows of `points` (strictly increasing) of
+    /// `reference.bonds`, e.g. a pair-once loop that tests each pair of the block once and
+    /// writes both directions. Later [`DamageModel::update`] calls with these points and this
+    /// bond list use it and take exactly the same decisions; calls with other points fall back
+    /// to the general loop. The default does nothing.
+    fn prepare(&mut self, _reference: &ReferenceView<'_>, _points: &[u32]) {}
 
     /// Updates the damage of the bonds in the rows of `points` (strictly increasing global
     /// indices) from the current positions `current_position` (all points). `bond_damage` is

@@ -51,8 +51,13 @@ impl DamageModel for TimeDependentCriticalStretch {
     }
 
     fn set_time(&mut self, time: f64) -> Result<(), DamageError> {
-        self.current = Self::evaluate(&self.expression, time)?;
+        let next = Self::evaluate(&self.expression, time)?;
+        self.current.set_critical_stretch(&next);
         Ok(())
+    }
+
+    fn prepare(&mut self, reference: &ReferenceView<'_>, points: &[u32]) {
+        self.current.prepare(reference, points);
     }
 
     fn update(

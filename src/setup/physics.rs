@@ -2,7 +2,8 @@
 
 use super::{compile, Model, SetupError};
 use crate::damage::{
-    critical_stretch_from_energy_release_rate, CriticalStretch, TimeDependentCriticalStretch,
+    critical_stretch_from_energy_release_rate, CriticalStretch, InterfaceAware,
+    TimeDependentCriticalStretch,
 };
 use crate::expression::{INFLUENCE, TIME};
 use crate::io::deck::{
@@ -42,6 +43,23 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
         volume: &model.points.volume,
     };
     let influence = influence(deck)?;
+    // `Interface Aware`: one critical-stretch field over all points, s_c on the points of the
+    // blocks that use such a model, 0 elsewhere (Peridigm's `Critical_Stretch` field).
+    let interface_aware_blocks: Vec<(&[u32], f64)> = model
+        .blocks
+        .iter()
+        .filter_map(|block| {
+            let name = deck.blocks[block.deck_block].damage_model.as_ref()?;
+            match deck.damage_model(name)?.kind {
+                DamageKind::InterfaceAware {
+                    critical_stretch, ..
+                } => Some((&block.points[..], critical_stretch)),
+                _ => None,
+            }
+        })
+        .collect();
+    let interface_aware_field = (!interface_aware_blocks.is_empty())
+        .then(|| InterfaceAware::field(model.points.len(), interface_aware_blocks));
     let mut blocks = Vec::with_capacity(model.blocks.len());
     for block in &model.blocks {
         let entry = &deck.blocks[block.deck_block];
@@ -157,6 +175,18 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
                                 .map_err(|e| deck.error_at(&key_value, e.to_string()))?,
                         ))
                     }
+                    DamageKind::InterfaceAware {
+                        critical_stretch,
+                        thermal_expansion_coefficient: None,
+                    } => {
+                        let field = interface_aware_field
+                            .clone()
+                            .expect("built above for every Interface Aware block");
+                        Some(Box::new(
+                            InterfaceAware::new(*critical_stretch, field)
+                                .map_err(|e| deck.error_at(&key, e.to_string()))?,
+                        ))
+                    }
                     other => {
                         return Err(deck
                             .error_at(
@@ -168,6 +198,10 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
                 }
             }
         };
+        let mut damage = damage;
+        if let Some(damage) = &mut damage {
+            damage.prepare(&reference, &block.points);
+        }
         blocks.push(BlockPhysics {
             material: built,
             damage,

@@ -17,7 +17,11 @@ const SUPPORTED_INTEGRATORS: &[&str] = &["Verlet", "QuasiStatic", "NOXQuasiStati
 /// Material models this build runs.
 const SUPPORTED_MATERIALS: &[&str] = &["Elastic", "Elastic Bond Based"];
 /// Damage models this build runs.
-const SUPPORTED_DAMAGE: &[&str] = &["Critical Stretch", "Time Dependent Critical Stretch"];
+const SUPPORTED_DAMAGE: &[&str] = &[
+    "Critical Stretch",
+    "Time Dependent Critical Stretch",
+    "Interface Aware",
+];
 /// Output variables this build can compute.
 const SUPPORTED_OUTPUTS: &[&str] = &[
     "Volume",
