@@ -471,7 +471,10 @@ impl Run<'_> {
             .and_then(|a| a.switch_to_verlet.clone());
         match (result, switch) {
             (Ok(_), _) => Ok(()),
-            (Err(RunError::QuasiStatic(error @ QuasiStaticError::NotConverged { .. })), Some(verlet)) => {
+            (
+                Err(RunError::QuasiStatic(error @ QuasiStaticError::NotConverged { .. })),
+                Some(verlet),
+            ) => {
                 eprintln!(
                     "Warning: {error}\n{}: switching to Verlet from t = {:e} to the solver's final time {:e}",
                     solver.name, state.time, solver.final_time

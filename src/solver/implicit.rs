@@ -296,17 +296,16 @@ impl ImplicitSystem {
 /// `RANK_DEFICIENT_NODES`). Their dofs are held at their current displacement.
 pub fn rank_deficient_points(model: &Model, physics: &Physics) -> Vec<u32> {
     let bonds = &model.bonds;
-    let limit = if physics.bond_damage.is_some() { 2 } else { 0 };
-    (0..bonds.num_points())
-        .filter(|&i| {
-            let intact = match &physics.bond_damage {
-                Some(d) => bonds.range(i).filter(|&b| d[b] < 1.0).count(),
-                None => bonds.family_size(i),
-            };
-            intact <= limit
-        })
-        .map(|i| i as u32)
-        .collect()
+    match &physics.bond_damage {
+        Some(damage) => {
+            let all: Vec<u32> = (0..bonds.num_points() as u32).collect();
+            crate::damage::rank_deficient_points(bonds, damage, &all)
+        }
+        None => (0..bonds.num_points())
+            .filter(|&i| bonds.family_size(i) == 0)
+            .map(|i| i as u32)
+            .collect(),
+    }
 }
 
 #[cfg(test)]

@@ -74,7 +74,9 @@ pub fn strategy(
         )
     };
     let method = match settings.method {
-        LinearMethod::Automatic if 3 * model.points.len() <= LinearMethod::AUTOMATIC_DIRECT_LIMIT => {
+        LinearMethod::Automatic
+            if 3 * model.points.len() <= LinearMethod::AUTOMATIC_DIRECT_LIMIT =>
+        {
             LinearMethod::Direct
         }
         LinearMethod::Automatic => LinearMethod::Cg,

@@ -236,7 +236,13 @@ pub fn run<E: From<QuasiStaticError>>(
             } else {
                 // Leave the state as the last accepted step left it (what a `Switch to
                 // Verlet` continues from, and what the output already shows).
-                restore(&system, physics, state, &start_displacement, &predictor_velocity);
+                restore(
+                    &system,
+                    physics,
+                    state,
+                    &start_displacement,
+                    &predictor_velocity,
+                );
                 state.update_current_position(&model.points.position);
                 state.time = from;
                 return Err(QuasiStaticError::NotConverged {
