@@ -474,3 +474,67 @@ fn switch_to_verlet_continues_explicitly_when_cutting_is_not_allowed() {
     assert_eq!(file.times[0], 0.0);
     assert!(*file.times.last().unwrap() <= 1.0 && *file.times.last().unwrap() > 0.99);
 }
+
+#[test]
+fn a_point_without_bonds_is_held_instead_of_making_the_stiffness_singular() {
+    let dir = tempfile::tempdir().unwrap();
+    // A 6 × 2 × 2 bar (ids 1–24, x fastest) and one point far away (id 25) with no family.
+    let mut mesh = String::new();
+    for k in 0..2 {
+        for j in 0..2 {
+            for i in 0..6 {
+                mesh.push_str(&format!("{i} {j} {k} 1 1.0\n"));
+            }
+        }
+    }
+    mesh.push_str("100 0 0 1 1.0\n");
+    std::fs::write(dir.path().join("bar.txt"), mesh).unwrap();
+    let ids = |x: usize| -> String {
+        (0..4).map(|r| (1 + x + 6 * r).to_string()).collect::<Vec<_>>().join(" ")
+    };
+    let deck = format!(
+        r#"Peridigm:
+  Discretization:
+    Type: "Text File"
+    Input Mesh File: "bar.txt"
+  Materials:
+    Steel:
+      Material Model: "Elastic"
+      Density: 7800.0
+      Bulk Modulus: 130.0e9
+      Shear Modulus: 78.0e9
+  Blocks:
+    Bar:
+      Block Names: "block_1"
+      Material: "Steel"
+      Horizon: 1.8
+  Boundary Conditions:
+    Left Node Set: "{left}"
+    Right Node Set: "{right}"
+    Hold X: {{Type: "Prescribed Displacement", Node Set: "Left Node Set", Coordinate: "x", Value: "0.0"}}
+    Hold Y: {{Type: "Prescribed Displacement", Node Set: "Left Node Set", Coordinate: "y", Value: "0.0"}}
+    Hold Z: {{Type: "Prescribed Displacement", Node Set: "Left Node Set", Coordinate: "z", Value: "0.0"}}
+    Pull X: {{Type: "Prescribed Displacement", Node Set: "Right Node Set", Coordinate: "x", Value: "0.001*t"}}
+  Solver:
+    Final Time: 1.0
+    QuasiStatic:
+      Number of Load Steps: 1
+      Absolute Tolerance: 1.0
+      Maximum Solver Iterations: 10
+  Output:
+    Output Filename: "bar"
+    Output Frequency: 1
+    Output Variables:
+      Displacement: true
+"#,
+        left = ids(0),
+        right = ids(5)
+    );
+    run_deck(dir.path(), &deck).expect("the isolated point is held, not singular");
+    let file = ExodusFile::open(&dir.path().join("bar.e")).unwrap();
+    let ux = file.nodal_values(1, nodal(&file, "DisplacementX")).unwrap();
+    // Output is in input order: the isolated point is the last one and stays where it was;
+    // the pulled face moved by the prescribed 0.001.
+    assert_eq!(ux[24], 0.0);
+    assert!((ux[5] - 0.001).abs() < 1e-15);
+}
