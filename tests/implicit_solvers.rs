@@ -490,7 +490,10 @@ fn a_point_without_bonds_is_held_instead_of_making_the_stiffness_singular() {
     mesh.push_str("100 0 0 1 1.0\n");
     std::fs::write(dir.path().join("bar.txt"), mesh).unwrap();
     let ids = |x: usize| -> String {
-        (0..4).map(|r| (1 + x + 6 * r).to_string()).collect::<Vec<_>>().join(" ")
+        (0..4)
+            .map(|r| (1 + x + 6 * r).to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
     };
     let deck = format!(
         r#"Peridigm:

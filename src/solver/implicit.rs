@@ -15,6 +15,7 @@
 //! reference §5.2). Multiplying rows by V keeps K symmetric.
 
 use crate::backend::{Csr, SolveError};
+use crate::boundary::BoundaryError;
 use crate::physics::Physics;
 use crate::setup::Model;
 use crate::state::State;
@@ -289,6 +290,27 @@ impl ImplicitSystem {
         }
         Ok(out)
     }
+}
+
+/// Sets the time-dependent loads of an implicit step ending at `time`: the body force and the
+/// parameters of time-dependent damage models. A failing expression is reported like a failing
+/// boundary-condition expression.
+pub fn apply_loads_at(
+    model: &Model,
+    physics: &mut Physics,
+    state: &mut State,
+    time: f64,
+) -> Result<(), BoundaryError> {
+    if let Some(b) = &mut state.external_force_density {
+        model.boundary.body_force(&model.points.position, time, b)?;
+    }
+    physics
+        .set_time(time)
+        .map_err(|e| BoundaryError::Evaluation {
+            condition: "Damage Models".into(),
+            time,
+            message: e.to_string(),
+        })
 }
 
 /// Points whose intact bonds are too few for a stiffness of their own: none at all, or (when

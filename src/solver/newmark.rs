@@ -19,7 +19,7 @@ use crate::backend::SolveError;
 use crate::boundary::BoundaryError;
 use crate::physics::Physics;
 use crate::setup::Model;
-use crate::solver::implicit::{DofMap, ImplicitSystem, Inertia};
+use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem, Inertia};
 use crate::solver::newton::{
     self, ConvergenceMeasure, LinearStrategy, NewtonReport, NewtonSettings,
 };
@@ -117,19 +117,7 @@ pub fn run<E: From<NewmarkError>>(
                 })
                 .map_err(NewmarkError::from)?;
         }
-        if let Some(b) = &mut state.external_force_density {
-            model
-                .boundary
-                .body_force(positions, to, b)
-                .map_err(NewmarkError::from)?;
-        }
-        physics.set_time(to).map_err(|e| {
-            NewmarkError::from(BoundaryError::Evaluation {
-                condition: "Damage Models".into(),
-                time: to,
-                message: e.to_string(),
-            })
-        })?;
+        apply_loads_at(model, physics, state, to).map_err(NewmarkError::from)?;
         let factor = 1.0 / (beta * dt * dt);
         let mut system = ImplicitSystem::new(DofMap::new(n, &constrained, &[]), physics);
         system.inertia = Some(Inertia { predictor, factor });

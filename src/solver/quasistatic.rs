@@ -25,7 +25,7 @@ use crate::boundary::BoundaryError;
 use crate::io::deck::{AdaptiveLoadStepping, LoadSteps};
 use crate::physics::Physics;
 use crate::setup::Model;
-use crate::solver::implicit::{DofMap, ImplicitSystem};
+use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem};
 use crate::solver::newton::{
     self, norm2, ConvergenceMeasure, LinearStrategy, NewtonReport, NewtonSettings,
 };
@@ -187,37 +187,18 @@ pub fn run<E: From<QuasiStaticError>>(
             &newton_settings,
             &constrained,
         );
-        let report = match report {
-            Ok(r) => r,
-            Err(source) => {
-                if can_cut(settings, cuts_this_step, total_cuts) {
-                    eprintln!("Warning: {source}; cutting the load step in half and redoing it.");
-                    cut(&mut times, k, settings);
-                    (cuts_this_step, total_cuts) = (cuts_this_step + 1, total_cuts + 1);
-                    restore(
-                        &system,
-                        physics,
-                        state,
-                        &start_displacement,
-                        &predictor_velocity,
-                    );
-                    continue;
-                }
-                return Err(QuasiStaticError::Solve {
-                    step: k,
-                    time: to,
-                    source,
-                }
-                .into());
-            }
+        let failure = match &report {
+            Err(source) => Some(source.to_string()),
+            Ok(r) if !r.converged => Some(format!(
+                "residual {:.4e} above the tolerance {tolerance:.4e} after {} iterations",
+                r.residual_history.last().unwrap_or(&f64::INFINITY),
+                r.iterations
+            )),
+            Ok(_) => None,
         };
-        let measure = *report.residual_history.last().unwrap_or(&f64::INFINITY);
-        if !report.converged {
+        if let Some(reason) = failure {
             if can_cut(settings, cuts_this_step, total_cuts) {
-                eprintln!(
-                    "Warning: residual {measure:.4e} above the tolerance {tolerance:.4e} after {} iterations; cutting the load step in half and redoing it.",
-                    report.iterations
-                );
+                eprintln!("Warning: {reason}; cutting the load step in half and redoing it.");
                 cut(&mut times, k, settings);
                 (cuts_this_step, total_cuts) = (cuts_this_step + 1, total_cuts + 1);
                 restore(
@@ -229,6 +210,14 @@ pub fn run<E: From<QuasiStaticError>>(
                 );
                 continue;
             }
+        }
+        let report = report.map_err(|source| QuasiStaticError::Solve {
+            step: k,
+            time: to,
+            source,
+        })?;
+        let measure = *report.residual_history.last().unwrap_or(&f64::INFINITY);
+        if !report.converged {
             if measure < ACCEPTANCE_FACTOR * tolerance {
                 eprintln!(
                     "Warning:  Accepting current solution and progressing to next load step."
@@ -303,16 +292,7 @@ fn set_loads(
         .prescribed_increments(positions, start_displacement, from, to, |p, c, du| {
             displacement[p][c] += du
         })?;
-    if let Some(b) = &mut state.external_force_density {
-        model.boundary.body_force(positions, to, b)?;
-    }
-    physics
-        .set_time(to)
-        .map_err(|e| BoundaryError::Evaluation {
-            condition: "Damage Models".into(),
-            time: to,
-            message: e.to_string(),
-        })?;
+    apply_loads_at(model, physics, state, to)?;
     Ok(())
 }
 
