@@ -363,6 +363,7 @@ fn newton_converges_quadratically_on_a_large_stretch_and_shear() {
         tolerance: 0.0,
         measure: ConvergenceMeasure::TwoNorm,
         line_search: true,
+        print_iterations: true,
         verbose: true,
     };
     let report = newton::solve(

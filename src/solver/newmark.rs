@@ -128,6 +128,7 @@ pub fn run<E: From<NewmarkError>>(
                 scale: beta * dt * dt,
             },
             line_search: true,
+            print_iterations: settings.verbose,
             verbose: settings.verbose,
         };
         let report = newton::solve(

@@ -76,7 +76,9 @@ pub struct NewtonSettings {
     pub measure: ConvergenceMeasure,
     /// Backtracking line search (off: always the full step, `Disable Heuristics`).
     pub line_search: bool,
-    /// Print every iteration (otherwise only the first and last).
+    /// Print `  iteration i: residual = …` at the top of every iteration (Peridigm's log).
+    pub print_iterations: bool,
+    /// Also print each linear solve (method, iterations, relative residual).
     pub verbose: bool,
 }
 
@@ -336,6 +338,13 @@ pub fn solve(
     report.residual_history.push(measure);
     let mut held: Vec<u32> = Vec::new();
     while measure > settings.tolerance && (report.iterations as u64) < settings.max_iterations {
+        // Peridigm's log: the residual at the top of every iteration, numbered from 1.
+        if settings.print_iterations {
+            eprintln!(
+                "  iteration {}: residual = {measure:e}",
+                report.iterations + 1
+            );
+        }
         let deficient = rank_deficient_points(model, physics);
         if deficient != held {
             for &p in deficient.iter().filter(|p| held.binary_search(p).is_err()) {
@@ -404,8 +413,8 @@ pub fn solve(
         report.residual_history.push(measure);
         if settings.verbose {
             eprintln!(
-                "  iteration {}: residual = {measure:.6e} ({}: {} linear iterations)",
-                report.iterations, linear_report.method, linear_report.iterations
+                "    linear solve: {}, {} iterations, relative residual {:.2e}",
+                linear_report.method, linear_report.iterations, linear_report.relative_residual
             );
         }
     }

@@ -176,6 +176,7 @@ pub fn run<E: From<QuasiStaticError>>(
             tolerance,
             measure: settings.measure,
             line_search: settings.line_search,
+            print_iterations: true,
             verbose: settings.verbose,
         };
         let report = newton::solve(
@@ -245,7 +246,10 @@ pub fn run<E: From<QuasiStaticError>>(
                 .into());
             }
         }
-        eprintln!("  iteration {}: residual = {measure:e}", report.iterations);
+        eprintln!(
+            "  iteration {}: residual = {measure:e}",
+            report.iterations + 1
+        );
         for (v, (u, u0)) in state
             .velocity
             .iter_mut()
