@@ -33,7 +33,9 @@
 //! | [`compute`] | derived outputs such as the deformation gradient |
 //! | [`boundary`] | prescribed displacements, initial conditions, body forces |
 //! | [`expression`] | Peridigm's C-like expressions in x, y, z, t |
-//! | [`solver`] | how time advances (velocity Verlet, stability monitor) |
+//! | [`solver`] | how time advances (velocity Verlet and its stability monitor; quasi-static Newton load stepping, Newmark-β, Jacobian-free Newton–Krylov) |
+//! | [`tangent`] | ∂f/∂u in 3×3 blocks: patterns, analytic / automatic-differentiation / finite-difference assembly |
+//! | [`backend`] | who does the linear algebra: the `Csr` matrix, the `LinearSolver` trait, native direct and Krylov solvers |
 //! | [`simulation`] | a run from start to end: solvers in order, outputs, progress |
 //! | [`io::exodus`], [`io::output`], [`io::history`] | results in Exodus II and CSV, and exodiff-style comparison |
 //! | [`plan`] | what `peridyn check` reports |
@@ -48,6 +50,16 @@
 //! 7. contact force (when the deck has a `Contact` section);
 //! 8. `a = (f + f_contact + b)/ρ`, second half kick;
 //! 9. stability monitor and outputs.
+//!
+//! ## Life of a Newton step (quasi-static load step or Newmark-β step)
+//! 1. prescribed displacements and body force at the end of the step; free dofs get the
+//!    predictor;
+//! 2. residual `r = V ⊙ (f + b [− ρa])` over the free dofs through the same force path (bond
+//!    damage restarts from the last accepted step, so unconverged iterates heal);
+//! 3. stiffness `K = −∂r/∂u` assembled in 3×3 blocks (or only its diagonal blocks for
+//!    Jacobian-free Newton–Krylov), linear solve `K Δ = r`;
+//! 4. line search on ‖r‖, repeat until the measure meets the tolerance; then velocities,
+//!    damage committed, output.
 //!
 //! ## Example
 //! ```no_run
