@@ -17,7 +17,7 @@ pub struct ExodusMesh {
 }
 
 /// Reads an Exodus mesh the way Peridigm does: HEX8 (and the corner nodes of HEX20/27)
-/// elements become a point at their centroid (see [`hexahedron_volume_and_centroid`]), TETRA4 (corner nodes of TETRA10) at the
+/// elements become a point at their centroid (24 tetrahedra about the face averages, as Peridigm), TETRA4 (corner nodes of TETRA10) at the
 /// mean of their corners (the same thing for a tetrahedron), with the element volume; SPHERE elements become a point at their node with the volume in
 /// their second attribute. A node set becomes the set of every element that touches one of
 /// its nodes (named as in the file, or `nodelist_<id>`).

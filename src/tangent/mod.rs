@@ -12,7 +12,7 @@
 //! differentiated: a bond breaks between iterations, not inside one).
 //!
 //! # How (per block, [`TangentMethod`])
-//! Each material writes its force state T[x_i] once, generically over the scalar type
+//! Each material writes its force state T⟨x_i⟩ once, generically over the scalar type
 //! (`f64` or a forward-mode dual number), so that
 //! * [`TangentMethod::AutomaticDifferentiation`] differentiates it exactly (3 dual evaluations
 //!   per family point, `num-dual`);
