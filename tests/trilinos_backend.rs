@@ -283,3 +283,195 @@ fn an_iteration_limit_below_what_cg_needs_is_not_converged() {
         other => panic!("expected NotConverged, got {other:?}"),
     }
 }
+
+// ---- Through the deck: a quasi-static LPS bar, native direct against Belos ----
+
+use peridyn::io::deck::{parse_str, DeckFormat};
+use peridyn::io::exodus::ExodusFile;
+use peridyn::setup;
+use peridyn::simulation::{self, RunError, RunSummary};
+use std::path::Path;
+use std::process::Command;
+
+fn run_deck(dir: &Path, text: &str) -> Result<RunSummary, RunError> {
+    let origin = dir.join("deck.yaml");
+    std::fs::write(&origin, text).unwrap();
+    let deck = parse_str(text, DeckFormat::Yaml, &origin).expect("deck loads");
+    let model = setup::build(&deck).expect("model builds");
+    simulation::run(&deck, &model, dir)
+}
+
+/// An LPS bar of 12 × 3 × 3 points (spacing 1), left face held, right face pulled by `pull`
+/// along x and `shear` along y in two load steps (the bar of tests/implicit_solvers.rs).
+fn bar_deck(solver: &str, pull: f64, shear: f64) -> String {
+    let face = |x: usize| -> String {
+        (0..9)
+            .map(|k| (1 + x + 12 * k).to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    format!(
+        r#"Peridigm:
+  Discretization:
+    Type: "PdQuickGrid"
+    NeighborhoodType: "Spherical"
+    TensorProduct3DMeshGenerator:
+      X Origin: 0.0
+      Y Origin: 0.0
+      Z Origin: 0.0
+      X Length: 12.0
+      Y Length: 3.0
+      Z Length: 3.0
+      Number Points X: 12
+      Number Points Y: 3
+      Number Points Z: 3
+  Materials:
+    Steel:
+      Material Model: "Elastic"
+      Density: 7800.0
+      Bulk Modulus: 130.0e9
+      Shear Modulus: 78.0e9
+  Blocks:
+    Bar:
+      Block Names: "block_1"
+      Material: "Steel"
+      Horizon: 2.1
+  Boundary Conditions:
+    Left Node Set: "{left}"
+    Right Node Set: "{right}"
+    Hold X: {{Type: "Prescribed Displacement", Node Set: "Left Node Set", Coordinate: "x", Value: "0.0"}}
+    Hold Y: {{Type: "Prescribed Displacement", Node Set: "Left Node Set", Coordinate: "y", Value: "0.0"}}
+    Hold Z: {{Type: "Prescribed Displacement", Node Set: "Left Node Set", Coordinate: "z", Value: "0.0"}}
+    Pull X: {{Type: "Prescribed Displacement", Node Set: "Right Node Set", Coordinate: "x", Value: "{pull}*t"}}
+    Pull Y: {{Type: "Prescribed Displacement", Node Set: "Right Node Set", Coordinate: "y", Value: "{shear}*t"}}
+    Pull Z: {{Type: "Prescribed Displacement", Node Set: "Right Node Set", Coordinate: "z", Value: "0.0"}}
+  Solver:
+    Final Time: 1.0
+{solver}
+    QuasiStatic:
+      Number of Load Steps: 2
+      Absolute Tolerance: 1.0
+      Maximum Solver Iterations: 20
+  Output:
+    Output Filename: "bar"
+    Output Frequency: 1
+    Output Variables:
+      Displacement: true
+"#,
+        left = face(0),
+        right = face(11),
+    )
+}
+
+/// Final displacement of every point of a bar run.
+fn final_displacement(dir: &Path) -> Vec<f64> {
+    let file = ExodusFile::open(&dir.join("bar.e")).unwrap();
+    let last = file.times.len() - 1;
+    ["DisplacementX", "DisplacementY", "DisplacementZ"]
+        .iter()
+        .flat_map(|name| {
+            let index = file
+                .nodal_variable_names
+                .iter()
+                .position(|n| n == name)
+                .unwrap();
+            file.nodal_values(last, index).unwrap()
+        })
+        .collect()
+}
+
+const PULL: f64 = 0.012;
+const SHEAR: f64 = 0.004;
+
+fn largest_difference(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+}
+
+fn direct_bar() -> Vec<f64> {
+    let dir = tempfile::tempdir().unwrap();
+    run_deck(dir.path(), &bar_deck("    Linear Solver: \"Direct\"", PULL, SHEAR))
+        .expect("direct run succeeds");
+    final_displacement(dir.path())
+}
+
+#[test]
+fn quasi_static_bar_with_belos_matches_the_native_direct_solve() {
+    let direct = direct_bar();
+    assert!(direct.iter().any(|u| u.abs() > 0.5 * PULL), "the bar moved");
+    for (method, preconditioner) in [
+        ("CG", "ILU"),
+        ("CG", "ML"),
+        ("CG", "Jacobi"),
+        ("GMRES", "ILU"),
+    ] {
+        let solver = format!(
+            "    Backend: \"Trilinos\"\n    Linear Solver: \"{method}\"\n    Linear Solver Preconditioner: \"{preconditioner}\"\n    Linear Solver Tolerance: 1.0e-12"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        run_deck(dir.path(), &bar_deck(&solver, PULL, SHEAR))
+            .unwrap_or_else(|e| panic!("{method} + {preconditioner}: {e}"));
+        let difference = largest_difference(&direct, &final_displacement(dir.path()));
+        // Both runs stop Newton at ‖r‖₂ + 20‖r‖∞ ≤ 1 N on a stiffness of ~1e11 N/m (answers
+        // within ~1e-11 m), and Belos solves each correction to 1e-12: 1e-8 of the 0.012 pull
+        // is looser than both and far tighter than any wrong answer.
+        assert!(
+            difference < 1e-8 * PULL,
+            "{method} + {preconditioner} differs from the direct solve by {difference:e}"
+        );
+    }
+}
+
+#[test]
+fn peridyn_run_with_the_trilinos_backend_matches_the_native_direct_solve() {
+    let direct = direct_bar();
+    let dir = tempfile::tempdir().unwrap();
+    let deck = dir.path().join("bar.yaml");
+    let solver = "    Backend: \"Trilinos\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"ML\"\n    Linear Solver Tolerance: 1.0e-12";
+    std::fs::write(&deck, bar_deck(solver, PULL, SHEAR)).unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_peridyn"))
+        .arg("run")
+        .arg(&deck)
+        .arg("--output-dir")
+        .arg(dir.path())
+        .arg("--threads")
+        .arg("1")
+        .output()
+        .unwrap();
+    let log = format!(
+        "{}{}",
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(output.status.success(), "peridyn run failed:\n{log}");
+    let difference = largest_difference(&direct, &final_displacement(dir.path()));
+    // As in the test above.
+    assert!(difference < 1e-8 * PULL, "differs by {difference:e}\n{log}");
+}
+
+#[test]
+fn deck_choices_the_trilinos_backend_cannot_honour_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for (solver, expected) in [
+        (
+            "    Backend: \"Trilinos\"\n    Linear Solver: \"LU\"",
+            "Belos Krylov methods",
+        ),
+        (
+            "    Backend: \"Trilinos\"\n    Linear Solver Preconditioner: \"Block 3x3\"",
+            "native preconditioner",
+        ),
+        (
+            "    Linear Solver Preconditioner: \"ML\"",
+            "Backend: \"Trilinos\"",
+        ),
+    ] {
+        let text = bar_deck(solver, PULL, SHEAR);
+        let origin = dir.path().join("deck.yaml");
+        let error = parse_str(&text, DeckFormat::Yaml, &origin)
+            .expect_err(solver)
+            .to_string();
+        assert!(error.contains(expected), "{solver}: {error}");
+        assert!(error.contains("deck.yaml"), "names the file: {error}");
+    }
+}

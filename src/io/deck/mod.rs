@@ -48,6 +48,7 @@ pub use materials::{
 };
 pub use output::{CalculationType, ComputeClass, ComputeClassKind, Output};
 pub use solver::{
+    AlgebraicPreconditioner, LinearBackend,
     AdaptiveLoadStepping, BelosSettings, BelosSolver, Implicit, ImplicitDiffusion, Integrator,
     LinearMethod, LinearPreconditioner, LinearSolve, LoadSteps, NoxQuasiStatic, ParameterValue,
     PeridigmPreconditioner, QuasiStatic, SolveFor, Solver, SwitchToVerlet, Verlet,
