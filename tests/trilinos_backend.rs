@@ -385,13 +385,19 @@ const SHEAR: f64 = 0.004;
 
 fn largest_difference(a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len());
-    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
 }
 
 fn direct_bar() -> Vec<f64> {
     let dir = tempfile::tempdir().unwrap();
-    run_deck(dir.path(), &bar_deck("    Linear Solver: \"Direct\"", PULL, SHEAR))
-        .expect("direct run succeeds");
+    run_deck(
+        dir.path(),
+        &bar_deck("    Linear Solver: \"Direct\"", PULL, SHEAR),
+    )
+    .expect("direct run succeeds");
     final_displacement(dir.path())
 }
 

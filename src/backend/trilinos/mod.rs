@@ -137,7 +137,7 @@ impl TrilinosLinearSolver {
         }
     }
 
-    fn from_cxx(&self, stage: &str, e: cxx::Exception) -> SolveError {
+    fn cxx_failure(&self, stage: &str, e: cxx::Exception) -> SolveError {
         self.breakdown(format!("{stage}: {}", e.what()))
     }
 
@@ -150,7 +150,7 @@ impl TrilinosLinearSolver {
         x: &mut [f64],
     ) -> Result<bridge::BelosOutcome, SolveError> {
         let mpi_world = self.settings.communicator == Communicator::MpiWorld;
-        bridge::mpi_initialize().map_err(|e| self.from_cxx("MPI initialisation", e))?;
+        bridge::mpi_initialize().map_err(|e| self.cxx_failure("MPI initialisation", e))?;
         if mpi_world {
             let size = bridge::mpi_world_size();
             if size != 1 {
@@ -169,7 +169,7 @@ impl TrilinosLinearSolver {
             &matrix.columns,
             matrix.values,
         )
-        .map_err(|e| self.from_cxx("building the Epetra matrix", e))?;
+        .map_err(|e| self.cxx_failure("building the Epetra matrix", e))?;
         let pinned = system.pin_mut();
         match self.settings.preconditioner {
             TrilinosPreconditioner::None => Ok(()),
@@ -181,7 +181,7 @@ impl TrilinosLinearSolver {
                 bridge::set_ml_preconditioner(pinned, to_i32(self.settings.pde_equations as usize))
             }
         }
-        .map_err(|e| self.from_cxx("building the preconditioner", e))?;
+        .map_err(|e| self.cxx_failure("building the preconditioner", e))?;
         let krylov = &self.settings.krylov;
         let limit = krylov.max_iterations.unwrap_or(rhs.len()).max(1);
         bridge::belos_solve(
@@ -193,7 +193,7 @@ impl TrilinosLinearSolver {
             to_i32(limit),
             to_i32(krylov.restart.clamp(1, limit)),
         )
-        .map_err(|e| self.from_cxx("Belos", e))
+        .map_err(|e| self.cxx_failure("Belos", e))
     }
 }
 

@@ -514,7 +514,9 @@ fn read_linear_solve(
             method,
             LinearMethod::Direct | LinearMethod::Cholesky | LinearMethod::Lu
         ) {
-            let f = list.peek("Linear Solver").expect("a direct method is only chosen by this key");
+            let f = list
+                .peek("Linear Solver")
+                .expect("a direct method is only chosen by this key");
             return Err(f.err(
                 ctx,
                 "Backend \"Trilinos\" solves with Belos Krylov methods: use \"CG\", \"GMRES\" or \"Automatic\" \
@@ -885,5 +887,106 @@ impl Integrator {
     /// True for the solvers that need a tangent stiffness matrix.
     pub fn is_implicit(&self) -> bool {
         !matches!(self, Integrator::Verlet(_))
+    }
+}
+
+#[cfg(test)]
+mod linear_solve_tests {
+    use super::*;
+    use crate::io::deck::{parse_str, DeckFormat};
+    use std::path::Path;
+
+    /// A three-point quasi-static bar whose `Solver` list gets `keys`.
+    fn linear_solve(keys: &str) -> Result<LinearSolve, DeckError> {
+        let text = format!(
+            r#"Peridigm:
+  Discretization:
+    Type: "PdQuickGrid"
+    NeighborhoodType: "Spherical"
+    TensorProduct3DMeshGenerator:
+      X Origin: 0.0
+      Y Origin: 0.0
+      Z Origin: 0.0
+      X Length: 3.0
+      Y Length: 1.0
+      Z Length: 1.0
+      Number Points X: 3
+      Number Points Y: 1
+      Number Points Z: 1
+  Materials:
+    Steel:
+      Material Model: "Elastic"
+      Density: 7800.0
+      Bulk Modulus: 130.0e9
+      Shear Modulus: 78.0e9
+  Blocks:
+    Everything:
+      Block Names: "block_1"
+      Material: "Steel"
+      Horizon: 2
+  Solver:
+    Final Time: 1.0
+{keys}
+    QuasiStatic:
+      Number of Load Steps: 2
+  Output:
+    Output Filename: "bar"
+    Output Variables:
+      Displacement: true
+"#
+        );
+        let deck = parse_str(&text, DeckFormat::Yaml, Path::new("linear.yaml"))?;
+        Ok(deck.solvers[0].linear_solve.clone())
+    }
+
+    #[test]
+    fn native_is_the_default_backend_with_block_jacobi() {
+        let settings = linear_solve("").unwrap();
+        assert_eq!(settings.backend, LinearBackend::Native);
+        assert_eq!(settings.preconditioner, LinearPreconditioner::Block3x3);
+        assert_eq!(settings.method, LinearMethod::Automatic);
+    }
+
+    #[test]
+    fn trilinos_preconditioners_need_the_trilinos_backend() {
+        let error = linear_solve("    Linear Solver Preconditioner: \"ILU\"")
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("Backend: \"Trilinos\""), "{error}");
+        assert!(error.contains("linear.yaml"), "{error}");
+    }
+
+    #[cfg(not(feature = "trilinos"))]
+    #[test]
+    fn the_trilinos_backend_without_the_feature_names_the_feature() {
+        let error = linear_solve("    Backend: \"Trilinos\"")
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("--features trilinos"), "{error}");
+        assert!(error.contains("Backend"), "{error}");
+    }
+
+    #[cfg(feature = "trilinos")]
+    #[test]
+    fn the_trilinos_backend_reads_its_preconditioner_and_fill() {
+        let settings = linear_solve("    Backend: \"Trilinos\"").unwrap();
+        assert_eq!(
+            settings.backend,
+            LinearBackend::Trilinos {
+                preconditioner: AlgebraicPreconditioner::Ilu,
+                ilu_fill_level: 0
+            }
+        );
+        let settings = linear_solve(
+            "    Backend: \"Trilinos\"\n    Linear Solver Preconditioner: \"ML\"\n    Linear Solver ILU Level Of Fill: 2",
+        )
+        .unwrap();
+        assert_eq!(
+            settings.backend,
+            LinearBackend::Trilinos {
+                preconditioner: AlgebraicPreconditioner::Ml,
+                ilu_fill_level: 2
+            }
+        );
     }
 }
