@@ -1,4 +1,169 @@
 //! Build script: nothing to do unless a C++ backend feature is enabled.
+//!
+//! With feature `trilinos` it compiles the cxx bridge `src/backend/trilinos/ffi.rs` and the
+//! shim `cpp/src/trilinos_linear.cpp` with `cxx_build`, against the Trilinos and MPI found by
+//! [`trilinos::discover`].
+
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
+    #[cfg(feature = "trilinos")]
+    trilinos::build();
+}
+
+#[cfg(feature = "trilinos")]
+mod trilinos {
+    use std::path::{Path, PathBuf};
+
+    /// The Trilinos libraries the shim uses, most dependent first (the order a static link
+    /// would need). `trilinos_epetraext` is there because ML's inline destructors reference
+    /// EpetraExt symbols (a release link fails without it).
+    const LIBRARIES: &[&str] = &[
+        "belosepetra",
+        "belos",
+        "ml",
+        "ifpack",
+        "aztecoo",
+        "epetraext",
+        "epetra",
+        "teuchosremainder",
+        "teuchosnumerics",
+        "teuchoscomm",
+        "teuchosparameterlist",
+        "teuchosparser",
+        "teuchoscore",
+    ];
+
+    /// Where Trilinos and MPI live.
+    struct Found {
+        include_dirs: Vec<PathBuf>,
+        library_dirs: Vec<PathBuf>,
+        /// Library file stem prefix: Debian names them `libtrilinos_<pkg>.so`, an upstream
+        /// install `lib<pkg>.so`.
+        library_prefix: String,
+        mpi_include_dirs: Vec<PathBuf>,
+        mpi_library_dirs: Vec<PathBuf>,
+        mpi_libraries: Vec<String>,
+    }
+
+    pub fn build() {
+        for path in ["src/backend/trilinos/ffi.rs", "cpp", "cmake"] {
+            println!("cargo:rerun-if-changed={path}");
+        }
+        for var in ["Trilinos_DIR", "PERIDYN_TRILINOS_CMAKE"] {
+            println!("cargo:rerun-if-env-changed={var}");
+        }
+        let found = discover();
+        let mut build = cxx_build::bridge("src/backend/trilinos/ffi.rs");
+        build
+            .file("cpp/src/trilinos_linear.cpp")
+            .std("c++17")
+            .include("cpp/include")
+            // OpenMPI's and MPICH's C++ bindings would need libmpi_cxx; the shim uses the C API.
+            .define("OMPI_SKIP_MPICXX", None)
+            .define("MPICH_SKIP_MPICXX", None);
+        // -isystem: Trilinos headers trip -Wall -Wextra by the hundred.
+        for dir in found.include_dirs.iter().chain(&found.mpi_include_dirs) {
+            build
+                .flag("-isystem")
+                .flag(dir.to_str().expect("UTF-8 include path"));
+        }
+        build.compile("peridyn_trilinos");
+        for dir in found.library_dirs.iter().chain(&found.mpi_library_dirs) {
+            println!("cargo:rustc-link-search=native={}", dir.display());
+        }
+        for lib in LIBRARIES {
+            println!("cargo:rustc-link-lib=dylib={}{lib}", found.library_prefix);
+        }
+        for lib in &found.mpi_libraries {
+            println!("cargo:rustc-link-lib=dylib={lib}");
+        }
+    }
+
+    /// With `Trilinos_DIR` set (or `PERIDYN_TRILINOS_CMAKE=1`), the CMake project in `cmake/`
+    /// runs `find_package(Trilinos)` and `find_package(MPI)` and writes what it found;
+    /// otherwise the Debian layout (`/usr/include/trilinos`, `libtrilinos_*.so` on the default
+    /// path) and pkg-config's `mpi` are used, which needs none of the extra `-dev` packages
+    /// CMake's `TrilinosConfig.cmake` insists on.
+    fn discover() -> Found {
+        let use_cmake = std::env::var_os("Trilinos_DIR").is_some()
+            || std::env::var("PERIDYN_TRILINOS_CMAKE").is_ok_and(|v| v == "1");
+        if use_cmake {
+            return discover_with_cmake();
+        }
+        let mpi = pkg_config::Config::new()
+            .cargo_metadata(false)
+            .probe("mpi")
+            .unwrap_or_else(|e| {
+                panic!("feature `trilinos`: pkg-config could not find MPI ({e}); install libopenmpi-dev (see .ci/trilinos.sh)")
+            });
+        let include = PathBuf::from("/usr/include/trilinos");
+        if !include.join("Epetra_config.h").exists() {
+            panic!(
+                "feature `trilinos`: no Trilinos headers in {} — install the Debian packages listed in .ci/trilinos.sh, \
+                 or set Trilinos_DIR to the directory holding TrilinosConfig.cmake",
+                include.display()
+            );
+        }
+        Found {
+            include_dirs: vec![include],
+            library_dirs: Vec::new(),
+            library_prefix: "trilinos_".into(),
+            mpi_include_dirs: mpi.include_paths,
+            mpi_library_dirs: mpi.link_paths,
+            mpi_libraries: mpi.libs,
+        }
+    }
+
+    fn discover_with_cmake() -> Found {
+        let out = cmake::Config::new("cmake")
+            .build_target("peridyn_trilinos_discovery")
+            .very_verbose(false)
+            .build();
+        let report = out.join("build").join("trilinos_discovery.txt");
+        parse_report(&report)
+    }
+
+    /// Reads `key=value;value;...` lines written by cmake/CMakeLists.txt.
+    fn parse_report(path: &Path) -> Found {
+        let text = std::fs::read_to_string(path)
+            .unwrap_or_else(|e| panic!("feature `trilinos`: cannot read {}: {e}", path.display()));
+        let get = |key: &str| -> Vec<String> {
+            text.lines()
+                .find_map(|l| l.strip_prefix(key).and_then(|r| r.strip_prefix('=')))
+                .map(|v| {
+                    v.split(';')
+                        .filter(|s| !s.is_empty())
+                        .map(str::to_owned)
+                        .collect()
+                })
+                .unwrap_or_default()
+        };
+        // The compiler's own directories must stay out of -isystem: re-adding /usr/include
+        // breaks libstdc++'s #include_next <stdlib.h>.
+        let paths = |key: &str| {
+            get(key)
+                .into_iter()
+                .filter(|d| d != "/usr/include" && d != "/usr/local/include")
+                .map(PathBuf::from)
+                .collect()
+        };
+        let mut mpi_library_dirs = Vec::new();
+        let mut mpi_libraries = Vec::new();
+        for file in get("MPI_LIBRARIES") {
+            let file = PathBuf::from(file);
+            if let (Some(dir), Some(stem)) = (file.parent(), file.file_stem()) {
+                mpi_library_dirs.push(dir.to_path_buf());
+                let stem = stem.to_string_lossy();
+                mpi_libraries.push(stem.strip_prefix("lib").unwrap_or(&stem).to_string());
+            }
+        }
+        Found {
+            include_dirs: paths("TRILINOS_INCLUDE_DIRS"),
+            library_dirs: paths("TRILINOS_LIBRARY_DIRS"),
+            library_prefix: get("TRILINOS_LIBRARY_PREFIX").concat(),
+            mpi_include_dirs: paths("MPI_INCLUDE_DIRS"),
+            mpi_library_dirs,
+            mpi_libraries,
+        }
+    }
 }

@@ -4,6 +4,8 @@
 
 mod csr;
 pub mod native;
+#[cfg(feature = "trilinos")]
+pub mod trilinos;
 
 pub use csr::Csr;
 

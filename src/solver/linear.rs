@@ -8,12 +8,18 @@
 //!   selects Jacobian-free Newton–Krylov (Peridigm's rule, reference §4.2: `Matrix-Free` with
 //!   `Full Tangent` still assembles); anything else is Newton with the assembled tangent and the
 //!   `Linear Solver` keys.
+//! * `Backend: "Trilinos"` (feature `trilinos`): the assembled tangent goes to Belos
+//!   ([`TrilinosLinearSolver`](crate::backend::trilinos::TrilinosLinearSolver)) with the
+//!   Ifpack/ML preconditioner of the deck; Jacobian-free Newton–Krylov through NOX is not
+//!   available yet, so `Matrix-Free` with that backend is refused rather than silently run
+//!   natively.
 
 use crate::backend::native::{
     KrylovSettings, NativeLinearSolver, NativeMethod, NativeSolverSettings, PreconditionerKind,
 };
 use crate::io::deck::{
-    Integrator, LinearMethod, LinearPreconditioner, ParameterValue, PeridigmPreconditioner, Solver,
+    AlgebraicPreconditioner, Integrator, LinearBackend, LinearMethod, LinearPreconditioner,
+    LinearSolve, ParameterValue, PeridigmPreconditioner, Solver,
 };
 use crate::physics::Physics;
 use crate::setup::Model;
@@ -49,6 +55,14 @@ pub fn strategy(
             PeridigmPreconditioner::FullTangent => None,
         };
         if let (true, Some(preconditioner)) = (matrix_free, preconditioner) {
+            if matches!(settings.backend, LinearBackend::Trilinos { .. }) {
+                return Err(RunError::Unsupported(format!(
+                    "solver \"{}\": Backend \"Trilinos\" with Jacobian Operator \"Matrix-Free\" needs NOX's \
+                     Jacobian-free Newton–Krylov, which is not available yet; use Backend \"Native\" for \
+                     Jacobian-free solves or an assembled tangent (Peridigm Preconditioner \"Full Tangent\") with Trilinos",
+                    solver.name
+                )));
+            }
             return Ok(LinearStrategy::MatrixFree {
                 krylov: KrylovSettings {
                     relative_tolerance: krylov.relative_tolerance.max(MATRIX_FREE_TOLERANCE_FLOOR),
@@ -57,6 +71,13 @@ pub fn strategy(
                 preconditioner,
             });
         }
+    }
+    if let LinearBackend::Trilinos {
+        preconditioner,
+        ilu_fill_level,
+    } = settings.backend
+    {
+        return trilinos_strategy(solver, settings, krylov, preconditioner, ilu_fill_level);
     }
     let preconditioner = match settings.preconditioner {
         LinearPreconditioner::Block3x3 => PreconditionerKind::BlockJacobi,
@@ -105,6 +126,66 @@ pub fn strategy(
             fallback: None,
         },
     })
+}
+
+/// Belos through the Trilinos bridge: `CG` and `Automatic` are `BlockCG` (the stiffness is
+/// symmetric), `GMRES` is `BlockGMRES`. ML aggregates single unknowns (`PDE equations` 1):
+/// the reduced system drops prescribed components, so points carry one to three unknowns.
+#[cfg(feature = "trilinos")]
+fn trilinos_strategy(
+    solver: &Solver,
+    settings: &LinearSolve,
+    krylov: KrylovSettings,
+    preconditioner: AlgebraicPreconditioner,
+    ilu_fill_level: u32,
+) -> Result<LinearStrategy, RunError> {
+    use crate::backend::trilinos::{
+        BelosMethod, Communicator, TrilinosLinearSolver, TrilinosPreconditioner, TrilinosSettings,
+    };
+    let method = match settings.method {
+        LinearMethod::Automatic | LinearMethod::Cg => BelosMethod::BlockCg,
+        LinearMethod::Gmres => BelosMethod::BlockGmres,
+        LinearMethod::Direct | LinearMethod::Cholesky | LinearMethod::Lu => {
+            return Err(RunError::Unsupported(format!(
+                "solver \"{}\": Backend \"Trilinos\" solves with Belos CG or GMRES, not a direct method",
+                solver.name
+            )))
+        }
+    };
+    let preconditioner = match preconditioner {
+        AlgebraicPreconditioner::None => TrilinosPreconditioner::None,
+        AlgebraicPreconditioner::Jacobi => TrilinosPreconditioner::Jacobi,
+        AlgebraicPreconditioner::Ilu => TrilinosPreconditioner::Ilu {
+            fill_level: ilu_fill_level,
+        },
+        AlgebraicPreconditioner::Ml => TrilinosPreconditioner::Ml,
+    };
+    Ok(LinearStrategy::Assembled(Box::new(
+        TrilinosLinearSolver::new(TrilinosSettings {
+            method,
+            preconditioner,
+            krylov,
+            pde_equations: 1,
+            communicator: Communicator::MpiSelf,
+        }),
+    )))
+}
+
+/// Without the `trilinos` feature the backend does not exist (the deck reader already refuses
+/// the key; this covers settings built in code).
+#[cfg(not(feature = "trilinos"))]
+fn trilinos_strategy(
+    solver: &Solver,
+    _settings: &LinearSolve,
+    _krylov: KrylovSettings,
+    _preconditioner: AlgebraicPreconditioner,
+    _ilu_fill_level: u32,
+) -> Result<LinearStrategy, RunError> {
+    Err(RunError::Unsupported(format!(
+        "solver \"{}\": Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
+         (cargo build --release --features trilinos; see .ci/trilinos.sh)",
+        solver.name
+    )))
 }
 
 /// A string parameter at `path` in a NOX parameter tree.

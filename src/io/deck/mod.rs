@@ -48,9 +48,10 @@ pub use materials::{
 };
 pub use output::{CalculationType, ComputeClass, ComputeClassKind, Output};
 pub use solver::{
-    AdaptiveLoadStepping, BelosSettings, BelosSolver, Implicit, ImplicitDiffusion, Integrator,
-    LinearMethod, LinearPreconditioner, LinearSolve, LoadSteps, NoxQuasiStatic, ParameterValue,
-    PeridigmPreconditioner, QuasiStatic, SolveFor, Solver, SwitchToVerlet, Verlet,
+    AdaptiveLoadStepping, AlgebraicPreconditioner, BelosSettings, BelosSolver, Implicit,
+    ImplicitDiffusion, Integrator, LinearBackend, LinearMethod, LinearPreconditioner, LinearSolve,
+    LoadSteps, NoxQuasiStatic, ParameterValue, PeridigmPreconditioner, QuasiStatic, SolveFor,
+    Solver, SwitchToVerlet, Verlet,
 };
 
 use reader::{suggest, Ctx, Field, ListReader};

@@ -38,8 +38,10 @@ pub struct Solver {
 ///
 /// | key | values | default |
 /// |---|---|---|
-/// | `Linear Solver` | `Automatic`, `Direct`, `Cholesky`, `LU`, `CG`, `GMRES` | `CG` when the deck gives `Belos Linear Solver: BlockCG`, `GMRES` for `BlockGMRES`, else `Automatic` |
-/// | `Linear Solver Preconditioner` | `Block 3x3`, `Jacobi`, `None` | `Block 3x3` |
+/// | `Backend` | `Native`, `Trilinos` (a build with Cargo feature `trilinos`) | `Native` |
+/// | `Linear Solver` | `Automatic`, `Direct`, `Cholesky`, `LU`, `CG`, `GMRES`; `Trilinos`: `Automatic` (= `CG`), `CG`, `GMRES` | `CG` when the deck gives `Belos Linear Solver: BlockCG`, `GMRES` for `BlockGMRES`, else `Automatic` |
+/// | `Linear Solver Preconditioner` | `Native`: `Block 3x3`, `Jacobi`, `None`; `Trilinos`: `Jacobi`, `ILU`, `ML`, `None` | `Block 3x3` (`Native`), `ILU` (`Trilinos`) |
+/// | `Linear Solver ILU Level Of Fill` | `Trilinos` with `ILU`: Ifpack's `fact: level-of-fill` | 0 |
 /// | `Linear Solver Tolerance` | relative residual of the Krylov methods | `Belos Relative Tolerance` when given, else 1e-10 |
 /// | `Linear Solver Maximum Iterations` | Krylov iteration limit | `Belos Maximum Iterations`, else the number of unknowns |
 ///
@@ -49,11 +51,18 @@ pub struct Solver {
 /// fill-in of a factorization of a three-dimensional peridynamic stiffness costs minutes and
 /// gigabytes (a 20,000-point LPS block: over 10 minutes per factorization here, against 10 s
 /// for preconditioned CG).
+///
+/// `Backend: "Trilinos"` hands the assembled tangent to Belos (`CG` is `BlockCG`, `GMRES` is
+/// `BlockGMRES`) with an Ifpack or ML preconditioner; its default preconditioner is ILU(0),
+/// which unlike ML needs no knowledge of the unknowns' grouping into points.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LinearSolve {
+    /// `Backend` (and the Trilinos backend's own preconditioner settings).
+    pub backend: LinearBackend,
     /// `Linear Solver`.
     pub method: LinearMethod,
-    /// `Linear Solver Preconditioner` (Krylov methods only).
+    /// `Linear Solver Preconditioner` of the native Krylov methods (with `Backend:
+    /// "Trilinos"` the choice is in [`LinearBackend::Trilinos`] and this stays `Block 3x3`).
     pub preconditioner: LinearPreconditioner,
     /// `Linear Solver Tolerance`.
     pub relative_tolerance: f64,
@@ -83,7 +92,34 @@ impl LinearMethod {
     pub const AUTOMATIC_DIRECT_LIMIT: usize = 30_000;
 }
 
-/// `Linear Solver Preconditioner`.
+/// `Backend`: who solves the assembled linear systems.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LinearBackend {
+    /// `"Native"` (default): faer factorizations and our own Krylov methods.
+    Native,
+    /// `"Trilinos"`: Belos through the Trilinos bridge (Cargo feature `trilinos`).
+    Trilinos {
+        /// `Linear Solver Preconditioner`.
+        preconditioner: AlgebraicPreconditioner,
+        /// `Linear Solver ILU Level Of Fill` (default 0).
+        ilu_fill_level: u32,
+    },
+}
+
+/// `Linear Solver Preconditioner` values of the Trilinos backend.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AlgebraicPreconditioner {
+    /// `"None"`.
+    None,
+    /// `"Jacobi"`: Ifpack point Jacobi.
+    Jacobi,
+    /// `"ILU"` (default): Ifpack incomplete LU.
+    Ilu,
+    /// `"ML"`: ML smoothed-aggregation algebraic multigrid.
+    Ml,
+}
+
+/// `Linear Solver Preconditioner` values of the native backend.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LinearPreconditioner {
     /// `"Block 3x3"`: the inverted diagonal block of each point.
@@ -420,10 +456,15 @@ fn read_belos(ctx: &Ctx, list: &mut ListReader) -> Result<(BelosSettings, bool),
     Ok((settings, given))
 }
 
+/// The error for `Backend: "Trilinos"` in a build without the backend.
+pub(crate) const TRILINOS_NOT_BUILT: &str = "Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
+     (cargo build --release --features trilinos, with Trilinos and MPI installed: see .ci/trilinos.sh); \
+     this build has the \"Native\" backend only";
+
 /// Reads the peridyn linear-solver keys of a `Solver` list, with defaults from Peridigm's
 /// `Belos` settings when the deck chose a Belos solver.
 fn read_linear_solve(
-    ctx: &Ctx,
+    ctx: &mut Ctx,
     list: &mut ListReader,
     belos: Option<(&BelosSettings, bool)>,
 ) -> Result<LinearSolve, DeckError> {
@@ -447,13 +488,77 @@ fn read_linear_solve(
             _ => LinearMethod::Direct,
         },
     };
-    let preconditioner = match list.get("Linear Solver Preconditioner") {
-        None => LinearPreconditioner::Block3x3,
-        Some(f) => match f.choice(ctx, &["Block 3x3", "Jacobi", "None"])? {
-            "Jacobi" => LinearPreconditioner::Jacobi,
-            "None" => LinearPreconditioner::None,
-            _ => LinearPreconditioner::Block3x3,
+    let trilinos = match list.get("Backend") {
+        None => false,
+        Some(f) => match f.choice(ctx, &["Native", "Trilinos"])? {
+            "Trilinos" if !cfg!(feature = "trilinos") => {
+                return Err(f.err(ctx, TRILINOS_NOT_BUILT));
+            }
+            choice => choice == "Trilinos",
         },
+    };
+    let given_preconditioner = match list.get("Linear Solver Preconditioner") {
+        None => None,
+        Some(f) => Some((
+            f.choice(ctx, &["Block 3x3", "Jacobi", "None", "ILU", "ML"])?,
+            f,
+        )),
+    };
+    let ilu_field = list.get("Linear Solver ILU Level Of Fill");
+    let ilu_fill_level = list
+        .int_opt(ctx, "Linear Solver ILU Level Of Fill", 0)?
+        .map_or(0, |v| v as u32);
+    let mut preconditioner = LinearPreconditioner::Block3x3;
+    let backend = if trilinos {
+        if matches!(
+            method,
+            LinearMethod::Direct | LinearMethod::Cholesky | LinearMethod::Lu
+        ) {
+            let f = list
+                .peek("Linear Solver")
+                .expect("a direct method is only chosen by this key");
+            return Err(f.err(
+                ctx,
+                "Backend \"Trilinos\" solves with Belos Krylov methods: use \"CG\", \"GMRES\" or \"Automatic\" \
+                 (direct solves are on Backend \"Native\")",
+            ));
+        }
+        let algebraic = match given_preconditioner {
+            None | Some(("ILU", _)) => AlgebraicPreconditioner::Ilu,
+            Some(("ML", _)) => AlgebraicPreconditioner::Ml,
+            Some(("Jacobi", _)) => AlgebraicPreconditioner::Jacobi,
+            Some(("None", _)) => AlgebraicPreconditioner::None,
+            Some((_, f)) => {
+                return Err(f.err(
+                    ctx,
+                    "\"Block 3x3\" is a native preconditioner; with Backend \"Trilinos\" choose \"ILU\", \"ML\", \"Jacobi\" or \"None\"",
+                ))
+            }
+        };
+        LinearBackend::Trilinos {
+            preconditioner: algebraic,
+            ilu_fill_level,
+        }
+    } else {
+        if let Some((choice @ ("ILU" | "ML"), f)) = given_preconditioner {
+            return Err(f.err(
+                ctx,
+                format!("\"{choice}\" is a Trilinos preconditioner: add Backend: \"Trilinos\" to this solver list, or choose \"Block 3x3\", \"Jacobi\" or \"None\""),
+            ));
+        }
+        if let Some(f) = ilu_field {
+            ctx.warn(
+                f.line(),
+                &f.path,
+                "Linear Solver ILU Level Of Fill applies to Backend \"Trilinos\" only; ignored",
+            );
+        }
+        preconditioner = match given_preconditioner {
+            Some(("Jacobi", _)) => LinearPreconditioner::Jacobi,
+            Some(("None", _)) => LinearPreconditioner::None,
+            _ => LinearPreconditioner::Block3x3,
+        };
+        LinearBackend::Native
     };
     let relative_tolerance = match list.positive_opt(ctx, "Linear Solver Tolerance")? {
         Some(t) => t,
@@ -467,6 +572,7 @@ fn read_linear_solve(
         None => belos.and_then(|(b, _)| b.maximum_iterations),
     };
     Ok(LinearSolve {
+        backend,
         method,
         preconditioner,
         relative_tolerance,
@@ -781,5 +887,106 @@ impl Integrator {
     /// True for the solvers that need a tangent stiffness matrix.
     pub fn is_implicit(&self) -> bool {
         !matches!(self, Integrator::Verlet(_))
+    }
+}
+
+#[cfg(test)]
+mod linear_solve_tests {
+    use super::*;
+    use crate::io::deck::{parse_str, DeckFormat};
+    use std::path::Path;
+
+    /// A three-point quasi-static bar whose `Solver` list gets `keys`.
+    fn linear_solve(keys: &str) -> Result<LinearSolve, DeckError> {
+        let text = format!(
+            r#"Peridigm:
+  Discretization:
+    Type: "PdQuickGrid"
+    NeighborhoodType: "Spherical"
+    TensorProduct3DMeshGenerator:
+      X Origin: 0.0
+      Y Origin: 0.0
+      Z Origin: 0.0
+      X Length: 3.0
+      Y Length: 1.0
+      Z Length: 1.0
+      Number Points X: 3
+      Number Points Y: 1
+      Number Points Z: 1
+  Materials:
+    Steel:
+      Material Model: "Elastic"
+      Density: 7800.0
+      Bulk Modulus: 130.0e9
+      Shear Modulus: 78.0e9
+  Blocks:
+    Everything:
+      Block Names: "block_1"
+      Material: "Steel"
+      Horizon: 2
+  Solver:
+    Final Time: 1.0
+{keys}
+    QuasiStatic:
+      Number of Load Steps: 2
+  Output:
+    Output Filename: "bar"
+    Output Variables:
+      Displacement: true
+"#
+        );
+        let deck = parse_str(&text, DeckFormat::Yaml, Path::new("linear.yaml"))?;
+        Ok(deck.solvers[0].linear_solve.clone())
+    }
+
+    #[test]
+    fn native_is_the_default_backend_with_block_jacobi() {
+        let settings = linear_solve("").unwrap();
+        assert_eq!(settings.backend, LinearBackend::Native);
+        assert_eq!(settings.preconditioner, LinearPreconditioner::Block3x3);
+        assert_eq!(settings.method, LinearMethod::Automatic);
+    }
+
+    #[test]
+    fn trilinos_preconditioners_need_the_trilinos_backend() {
+        let error = linear_solve("    Linear Solver Preconditioner: \"ILU\"")
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("Backend: \"Trilinos\""), "{error}");
+        assert!(error.contains("linear.yaml"), "{error}");
+    }
+
+    #[cfg(not(feature = "trilinos"))]
+    #[test]
+    fn the_trilinos_backend_without_the_feature_names_the_feature() {
+        let error = linear_solve("    Backend: \"Trilinos\"")
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("--features trilinos"), "{error}");
+        assert!(error.contains("Backend"), "{error}");
+    }
+
+    #[cfg(feature = "trilinos")]
+    #[test]
+    fn the_trilinos_backend_reads_its_preconditioner_and_fill() {
+        let settings = linear_solve("    Backend: \"Trilinos\"").unwrap();
+        assert_eq!(
+            settings.backend,
+            LinearBackend::Trilinos {
+                preconditioner: AlgebraicPreconditioner::Ilu,
+                ilu_fill_level: 0
+            }
+        );
+        let settings = linear_solve(
+            "    Backend: \"Trilinos\"\n    Linear Solver Preconditioner: \"ML\"\n    Linear Solver ILU Level Of Fill: 2",
+        )
+        .unwrap();
+        assert_eq!(
+            settings.backend,
+            LinearBackend::Trilinos {
+                preconditioner: AlgebraicPreconditioner::Ml,
+                ilu_fill_level: 2
+            }
+        );
     }
 }

@@ -1,0 +1,74 @@
+// C++ side of the cxx bridge in src/backend/trilinos/ffi.rs: an Epetra matrix built from a
+// Rust CSR, an Ifpack/ML preconditioner and a Belos solve. Adaptation only: every choice
+// (which method, which preconditioner, tolerances, validation of the input) is made in Rust.
+// Only forward declarations of Trilinos types appear here, so the cxx-generated translation
+// unit does not parse the Trilinos headers.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+
+#include "rust/cxx.h"
+
+class Epetra_Comm;
+class Epetra_Map;
+class Epetra_FECrsMatrix;
+class Epetra_Operator;
+
+namespace peridyn {
+namespace trilinos {
+
+struct BelosOutcome;
+
+// One distributed matrix with its communicator, row map and (optional) preconditioner. Member
+// order is destruction order in reverse: the preconditioner goes before the matrix it
+// references, the map before the communicator.
+class LinearSystem {
+public:
+  LinearSystem();
+  ~LinearSystem();
+  std::unique_ptr<Epetra_Comm> comm;
+  std::unique_ptr<Epetra_Map> map;
+  std::unique_ptr<Epetra_FECrsMatrix> matrix;
+  std::unique_ptr<Epetra_Operator> preconditioner;
+};
+
+// MPI_Init_thread(MPI_THREAD_SERIALIZED) unless MPI is already initialised; returns whether
+// this call initialised it (then MPI_Finalize runs at process exit).
+bool mpi_initialize();
+// Size of MPI_COMM_WORLD (MPI must be initialised).
+std::int32_t mpi_world_size();
+
+// Builds the row map from `owned_rows` (global ids this process owns) on MPI_COMM_WORLD or
+// MPI_COMM_SELF (MPI must be initialised), then fills an Epetra_FECrsMatrix with the CSR rows `row_gids`
+// (row_offsets / column_gids / values; rows owned by another process are sent to it by
+// GlobalAssemble).
+std::unique_ptr<LinearSystem>
+new_linear_system(bool mpi_world, rust::Slice<const std::int32_t> owned_rows,
+                  rust::Slice<const std::int32_t> row_gids,
+                  rust::Slice<const std::int32_t> row_offsets,
+                  rust::Slice<const std::int32_t> column_gids,
+                  rust::Slice<const double> values);
+
+// y = A x over the owned rows (the Epetra mat-vec, for checks from Rust).
+void multiply(const LinearSystem &system, rust::Slice<const double> x,
+              rust::Slice<double> y);
+
+// Ifpack point relaxation (Jacobi, `sweeps` sweeps).
+void set_jacobi_preconditioner(LinearSystem &system, std::int32_t sweeps);
+// Ifpack incomplete LU with `fill_level` levels of fill.
+void set_ilu_preconditioner(LinearSystem &system, std::int32_t fill_level);
+// ML smoothed aggregation (ML_Epetra::SetDefaults("SA")) with `pde_equations` unknowns per
+// node.
+void set_ml_preconditioner(LinearSystem &system, std::int32_t pde_equations);
+
+// Belos BlockCGSolMgr (left preconditioner) or BlockGmresSolMgr (right preconditioner) with
+// block size 1, residuals scaled by the norm of the right-hand side. `x` is the initial
+// guess on entry and the solution on return.
+BelosOutcome belos_solve(const LinearSystem &system, bool gmres,
+                         rust::Slice<const double> rhs, rust::Slice<double> x,
+                         double relative_tolerance, std::int32_t max_iterations,
+                         std::int32_t gmres_restart);
+
+} // namespace trilinos
+} // namespace peridyn

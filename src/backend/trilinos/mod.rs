@@ -1,0 +1,340 @@
+//! Trilinos backend (feature `trilinos`): Belos Krylov solves of our assembled [`Csr`]
+//! matrices, preconditioned by Ifpack or ML, through the `cxx` bridge in [`ffi`] and the shim
+//! in `cpp/src/trilinos_linear.cpp` (DESIGN §7–8).
+//!
+//! Each [`TrilinosLinearSolver::solve`] builds an Epetra row map, an `Epetra_FECrsMatrix`
+//! from the CSR, the chosen preconditioner and a Belos solver manager, and drops them all on
+//! return. Everything that is decided (validation, method names, the achieved residual, which
+//! failure is which [`SolveError`]) happens here; the C++ side only adapts types.
+//!
+//! The Epetra objects live on an `Epetra_MpiComm`. MPI is initialised on the first solve if
+//! nobody has (`MPI_THREAD_SERIALIZED`, finalised at process exit), so a serial run needs no
+//! `mpirun`; solves from several threads take turns. `Epetra_SerialComm` is not offered: in
+//! Debian's MPI build of Trilinos, ML talks to `MPI_COMM_WORLD` itself unless the Epetra
+//! communicator hands it another, and fails without MPI ("ML::ERROR:: -1 …
+//! ml_MultiLevelPreconditioner.cpp, line 2644").
+//!
+//! The matrix handed to [`LinearSolver::solve`] holds every row, as on every process of a
+//! peridyn run today, so by default the solve is process-local ([`Communicator::MpiSelf`]:
+//! under `mpirun` each process solves the whole system itself). [`Communicator::MpiWorld`]
+//! builds the same objects on `MPI_COMM_WORLD`; with a replicated matrix that is only
+//! meaningful on one process, so it refuses a larger world until distributed assembly exists.
+
+mod ffi;
+
+use std::sync::Mutex;
+
+use self::ffi::bridge;
+use super::native::KrylovSettings;
+use super::{Csr, KrylovReport, LinearSolver, SolveError};
+
+/// Belos solver manager.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BelosMethod {
+    /// `Belos::BlockCGSolMgr` with block size 1 (symmetric positive definite matrices), left
+    /// preconditioned.
+    BlockCg,
+    /// `Belos::BlockGmresSolMgr` with block size 1, right preconditioned (so its residual test
+    /// is on the true residual).
+    BlockGmres,
+}
+
+/// Preconditioner built on the Epetra matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrilinosPreconditioner {
+    /// No preconditioner.
+    None,
+    /// Ifpack `point relaxation`, one Jacobi sweep: the inverted diagonal.
+    Jacobi,
+    /// Ifpack `ILU` with `fill_level` levels of fill (`fact: level-of-fill`, 0 = ILU(0)).
+    Ilu {
+        /// Levels of fill.
+        fill_level: u32,
+    },
+    /// ML smoothed-aggregation algebraic multigrid (`ML_Epetra::SetDefaults("SA")`).
+    Ml,
+}
+
+/// Which Epetra communicator the objects live on (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Communicator {
+    /// `Epetra_MpiComm(MPI_COMM_SELF)` (default): each process solves on its own.
+    #[default]
+    MpiSelf,
+    /// `Epetra_MpiComm(MPI_COMM_WORLD)`, one process only for now.
+    MpiWorld,
+}
+
+/// Everything a [`TrilinosLinearSolver`] needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrilinosSettings {
+    /// Krylov method.
+    pub method: BelosMethod,
+    /// Preconditioner.
+    pub preconditioner: TrilinosPreconditioner,
+    /// Tolerance (relative to ‖b‖), iteration limit and GMRES restart (Belos `Num Blocks`).
+    pub krylov: KrylovSettings,
+    /// Unknowns per node for ML's aggregation (`PDE equations`): 3 for displacement
+    /// problems whose unknowns come in x, y, z triples, 1 otherwise. Default 1.
+    pub pde_equations: u32,
+    /// Communicator.
+    pub communicator: Communicator,
+}
+
+impl Default for TrilinosSettings {
+    fn default() -> Self {
+        Self {
+            method: BelosMethod::BlockCg,
+            preconditioner: TrilinosPreconditioner::None,
+            krylov: KrylovSettings::default(),
+            pde_equations: 1,
+            communicator: Communicator::MpiSelf,
+        }
+    }
+}
+
+/// A [`LinearSolver`] that hands each system to Belos (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrilinosLinearSolver {
+    settings: TrilinosSettings,
+}
+
+/// MPI is initialised with `MPI_THREAD_SERIALIZED`: solves from several threads (cargo's test
+/// harness) take turns.
+static MPI_TURN: Mutex<()> = Mutex::new(());
+
+impl TrilinosLinearSolver {
+    /// A solver with these settings; nothing is allocated until the first solve.
+    pub fn new(settings: TrilinosSettings) -> Self {
+        Self { settings }
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &TrilinosSettings {
+        &self.settings
+    }
+
+    /// The name reports and errors use, e.g. `Belos BlockCG + ML`.
+    pub fn method_name(&self) -> &'static str {
+        use BelosMethod::*;
+        use TrilinosPreconditioner as P;
+        match (self.settings.method, self.settings.preconditioner) {
+            (BlockCg, P::None) => "Belos BlockCG",
+            (BlockCg, P::Jacobi) => "Belos BlockCG + Ifpack Jacobi",
+            (BlockCg, P::Ilu { .. }) => "Belos BlockCG + Ifpack ILU",
+            (BlockCg, P::Ml) => "Belos BlockCG + ML",
+            (BlockGmres, P::None) => "Belos BlockGMRES",
+            (BlockGmres, P::Jacobi) => "Belos BlockGMRES + Ifpack Jacobi",
+            (BlockGmres, P::Ilu { .. }) => "Belos BlockGMRES + Ifpack ILU",
+            (BlockGmres, P::Ml) => "Belos BlockGMRES + ML",
+        }
+    }
+
+    fn breakdown(&self, reason: impl Into<String>) -> SolveError {
+        SolveError::Breakdown {
+            method: self.method_name(),
+            reason: reason.into(),
+        }
+    }
+
+    fn cxx_failure(&self, stage: &str, e: cxx::Exception) -> SolveError {
+        self.breakdown(format!("{stage}: {}", e.what()))
+    }
+
+    /// Builds the Epetra system, the preconditioner and runs Belos; `x` holds the guess on
+    /// entry and Belos' answer on return.
+    fn run_belos(
+        &self,
+        matrix: &IndexedCsr,
+        rhs: &[f64],
+        x: &mut [f64],
+    ) -> Result<bridge::BelosOutcome, SolveError> {
+        let mpi_world = self.settings.communicator == Communicator::MpiWorld;
+        bridge::mpi_initialize().map_err(|e| self.cxx_failure("MPI initialisation", e))?;
+        if mpi_world {
+            let size = bridge::mpi_world_size();
+            if size != 1 {
+                return Err(self.breakdown(format!(
+                    "MPI_COMM_WORLD has {size} processes, but the matrix holds every row on every process; \
+                     distributed solves need distributed assembly (not available yet): run without mpirun \
+                     or use the process-local communicator"
+                )));
+            }
+        }
+        let mut system = bridge::new_linear_system(
+            mpi_world,
+            &matrix.rows,
+            &matrix.rows,
+            &matrix.offsets,
+            &matrix.columns,
+            matrix.values,
+        )
+        .map_err(|e| self.cxx_failure("building the Epetra matrix", e))?;
+        let pinned = system.pin_mut();
+        match self.settings.preconditioner {
+            TrilinosPreconditioner::None => Ok(()),
+            TrilinosPreconditioner::Jacobi => bridge::set_jacobi_preconditioner(pinned, 1),
+            TrilinosPreconditioner::Ilu { fill_level } => {
+                bridge::set_ilu_preconditioner(pinned, to_i32(fill_level as usize))
+            }
+            TrilinosPreconditioner::Ml => {
+                bridge::set_ml_preconditioner(pinned, to_i32(self.settings.pde_equations as usize))
+            }
+        }
+        .map_err(|e| self.cxx_failure("building the preconditioner", e))?;
+        let krylov = &self.settings.krylov;
+        let limit = krylov.max_iterations.unwrap_or(rhs.len()).max(1);
+        bridge::belos_solve(
+            &system,
+            self.settings.method == BelosMethod::BlockGmres,
+            rhs,
+            x,
+            krylov.relative_tolerance,
+            to_i32(limit),
+            to_i32(krylov.restart.clamp(1, limit)),
+        )
+        .map_err(|e| self.cxx_failure("Belos", e))
+    }
+}
+
+/// A [`Csr`] with the 32-bit global ids Epetra's `int` maps take.
+struct IndexedCsr<'a> {
+    rows: Vec<i32>,
+    offsets: Vec<i32>,
+    columns: Vec<i32>,
+    values: &'a [f64],
+}
+
+impl<'a> IndexedCsr<'a> {
+    /// `None` when a row count or an offset does not fit in an `i32`.
+    fn new(matrix: &'a Csr) -> Option<Self> {
+        let narrow = |v: &[usize]| -> Option<Vec<i32>> {
+            v.iter().map(|&i| i32::try_from(i).ok()).collect()
+        };
+        Some(Self {
+            rows: (0..i32::try_from(matrix.nrows).ok()?).collect(),
+            offsets: narrow(&matrix.offsets)?,
+            columns: narrow(&matrix.columns)?,
+            values: &matrix.values,
+        })
+    }
+}
+
+/// Saturating conversion for Belos' and Ifpack's `int` parameters.
+fn to_i32(v: usize) -> i32 {
+    i32::try_from(v).unwrap_or(i32::MAX)
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|a| a * a).sum::<f64>().sqrt()
+}
+
+impl LinearSolver for TrilinosLinearSolver {
+    fn solve(
+        &mut self,
+        matrix: &Csr,
+        rhs: &[f64],
+        x: &mut [f64],
+    ) -> Result<KrylovReport, SolveError> {
+        let n = matrix.nrows;
+        if matrix.ncols != n || rhs.len() != n || x.len() != n {
+            return Err(self.breakdown(format!(
+                "the system must be square with matching vectors (matrix {}×{}, right-hand side {}, solution {})",
+                matrix.nrows,
+                matrix.ncols,
+                rhs.len(),
+                x.len()
+            )));
+        }
+        for (what, values) in [
+            ("the matrix", &matrix.values[..]),
+            ("the right-hand side", rhs),
+            ("the initial guess", &x[..]),
+        ] {
+            if !values.iter().all(|v| v.is_finite()) {
+                return Err(SolveError::NonFinite {
+                    what: format!("{what} given to {}", self.method_name()),
+                });
+            }
+        }
+        let rhs_norm = norm(rhs);
+        if rhs_norm == 0.0 {
+            // A zero right-hand side has the zero solution; Belos would divide by ‖b‖ = 0.
+            x.fill(0.0);
+            return Ok(KrylovReport {
+                method: self.method_name().to_string(),
+                iterations: 0,
+                relative_residual: 0.0,
+            });
+        }
+        let indexed = IndexedCsr::new(matrix).ok_or_else(|| {
+            self.breakdown(format!(
+                "{} rows and {} stored entries exceed Epetra's 32-bit indices (2³¹ − 1)",
+                matrix.nrows,
+                matrix.nnz()
+            ))
+        })?;
+        let outcome = {
+            let _turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
+            self.run_belos(&indexed, rhs, x)?
+        };
+        if !x.iter().all(|v| v.is_finite()) {
+            return Err(SolveError::NonFinite {
+                what: format!("the solution of {}", self.method_name()),
+            });
+        }
+        // The residual reported is the true one, ‖b − A x‖/‖b‖, computed here rather than
+        // Belos' recursively updated estimate.
+        let mut ax = vec![0.0; n];
+        matrix.multiply_parallel(x, &mut ax);
+        let residual = rhs
+            .iter()
+            .zip(&ax)
+            .map(|(b, a)| (b - a) * (b - a))
+            .sum::<f64>()
+            .sqrt();
+        let relative_residual = residual / rhs_norm;
+        let iterations = usize::try_from(outcome.iterations).unwrap_or(0);
+        if !outcome.converged {
+            return Err(SolveError::NotConverged {
+                method: self.method_name(),
+                iterations,
+                relative_residual,
+                tolerance: self.settings.krylov.relative_tolerance,
+            });
+        }
+        Ok(KrylovReport {
+            method: self.method_name().to_string(),
+            iterations,
+            relative_residual,
+        })
+    }
+}
+
+/// The Epetra mat-vec y = A x of `matrix` on `MPI_COMM_SELF`: lets tests check that the CSR
+/// reached Epetra entry for entry.
+pub fn epetra_multiply(matrix: &Csr, x: &[f64], y: &mut [f64]) -> Result<(), SolveError> {
+    let fail = |reason: String| SolveError::Breakdown {
+        method: "Epetra_CrsMatrix::Multiply",
+        reason,
+    };
+    if x.len() != matrix.ncols || y.len() != matrix.nrows || matrix.nrows != matrix.ncols {
+        return Err(fail(
+            "the matrix must be square with matching vectors".into(),
+        ));
+    }
+    let indexed = IndexedCsr::new(matrix)
+        .ok_or_else(|| fail("the matrix exceeds Epetra's 32-bit indices".into()))?;
+    let _turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
+    bridge::mpi_initialize().map_err(|e| fail(e.what().to_string()))?;
+    let system = bridge::new_linear_system(
+        false,
+        &indexed.rows,
+        &indexed.rows,
+        &indexed.offsets,
+        &indexed.columns,
+        indexed.values,
+    )
+    .map_err(|e| fail(e.what().to_string()))?;
+    bridge::multiply(&system, x, y).map_err(|e| fail(e.what().to_string()))
+}

@@ -1,0 +1,483 @@
+//! The Trilinos backend (feature `trilinos`): Belos solves of known systems with every
+//! preconditioner, the Epetra matrix against our own product, failures as `SolveError`, and
+//! parity with the native direct solver through a full quasi-static run.
+#![cfg(feature = "trilinos")]
+
+use peridyn::backend::native::KrylovSettings;
+use peridyn::backend::trilinos::{
+    epetra_multiply, BelosMethod, Communicator, TrilinosLinearSolver, TrilinosPreconditioner,
+    TrilinosSettings,
+};
+use peridyn::backend::{Csr, LinearSolver, SolveError};
+
+/// The n × n matrix tridiag(−1, 2, −1): the finite-difference −d²/dx² on (0, 1) with
+/// u(0) = u(1) = 0 and h = 1/(n + 1), scaled by h².
+fn laplacian_1d(n: usize) -> Csr {
+    let mut offsets = vec![0];
+    let mut columns = Vec::new();
+    let mut values = Vec::new();
+    for r in 0..n {
+        for c in r.saturating_sub(1)..(r + 2).min(n) {
+            columns.push(c);
+            values.push(if c == r { 2.0 } else { -1.0 });
+        }
+        offsets.push(columns.len());
+    }
+    Csr {
+        nrows: n,
+        ncols: n,
+        offsets,
+        columns,
+        values,
+    }
+}
+
+/// −u'' = 1 with u(0) = u(1) = 0 has u(x) = x(1 − x)/2. The centred second difference is exact
+/// on quadratics, so the discrete solution of tridiag(−1, 2, −1) u = h² · 1 equals u at the
+/// nodes x_i = i h to round-off.
+fn laplacian_problem(n: usize) -> (Csr, Vec<f64>, Vec<f64>) {
+    let h = 1.0 / (n as f64 + 1.0);
+    let exact = (1..=n)
+        .map(|i| {
+            let x = i as f64 * h;
+            x * (1.0 - x) / 2.0
+        })
+        .collect();
+    (laplacian_1d(n), vec![h * h; n], exact)
+}
+
+fn settings(method: BelosMethod, preconditioner: TrilinosPreconditioner) -> TrilinosSettings {
+    TrilinosSettings {
+        method,
+        preconditioner,
+        krylov: KrylovSettings {
+            relative_tolerance: 1e-12,
+            ..KrylovSettings::default()
+        },
+        ..TrilinosSettings::default()
+    }
+}
+
+fn max_relative_error(x: &[f64], exact: &[f64]) -> f64 {
+    let scale = exact.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    x.iter()
+        .zip(exact)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max)
+        / scale
+}
+
+/// Solves the 1-D Laplacian problem and checks the closed-form answer to 1e-8; returns the
+/// iterations Belos took.
+fn check_known_answer(solver: &mut TrilinosLinearSolver, n: usize) -> usize {
+    let (matrix, rhs, exact) = laplacian_problem(n);
+    let mut x = vec![0.0; n];
+    let report = solver
+        .solve(&matrix, &rhs, &mut x)
+        .unwrap_or_else(|e| panic!("{} failed: {e}", solver.method_name()));
+    assert_eq!(report.method, solver.method_name());
+    // Tolerance 1e-12 on ‖b − Ax‖/‖b‖ and cond(A) ≈ 4(n + 1)²/π² ≈ 4e3 for n = 100 bound the
+    // relative error by ~4e-9.
+    assert!(
+        report.relative_residual <= 1e-11,
+        "{}: true relative residual {:e}",
+        report.method,
+        report.relative_residual
+    );
+    let error = max_relative_error(&x, &exact);
+    assert!(error < 1e-8, "{}: error {error:e}", report.method);
+    report.iterations
+}
+
+const N: usize = 100;
+
+#[test]
+fn cg_without_preconditioner_solves_the_laplacian() {
+    let mut solver =
+        TrilinosLinearSolver::new(settings(BelosMethod::BlockCg, TrilinosPreconditioner::None));
+    let iterations = check_known_answer(&mut solver, N);
+    // CG ends in at most as many steps as A has distinct eigenvalues (n); b = h²·1 is
+    // symmetric about the middle and so lies in the span of the n/2 symmetric eigenvectors.
+    assert!(iterations <= N / 2 + 1, "{iterations} iterations");
+    assert!(
+        iterations >= 10,
+        "{iterations} iterations is too few for cond ≈ 4e3"
+    );
+}
+
+#[test]
+fn cg_with_jacobi_solves_the_laplacian_in_the_same_iterations() {
+    let mut plain =
+        TrilinosLinearSolver::new(settings(BelosMethod::BlockCg, TrilinosPreconditioner::None));
+    let mut jacobi = TrilinosLinearSolver::new(settings(
+        BelosMethod::BlockCg,
+        TrilinosPreconditioner::Jacobi,
+    ));
+    let plain_iterations = check_known_answer(&mut plain, N);
+    let jacobi_iterations = check_known_answer(&mut jacobi, N);
+    // The diagonal is constant (2), so Jacobi only rescales and CG's iterates are the same.
+    assert!(
+        jacobi_iterations.abs_diff(plain_iterations) <= 1,
+        "Jacobi {jacobi_iterations} vs none {plain_iterations}"
+    );
+}
+
+#[test]
+fn cg_and_gmres_with_ilu_solve_the_laplacian_at_once() {
+    for method in [BelosMethod::BlockCg, BelosMethod::BlockGmres] {
+        let mut solver = TrilinosLinearSolver::new(settings(
+            method,
+            TrilinosPreconditioner::Ilu { fill_level: 0 },
+        ));
+        let iterations = check_known_answer(&mut solver, N);
+        // A tridiagonal matrix's LU factors have no fill, so ILU(0) is its exact LU and one
+        // preconditioned iteration solves the system.
+        assert!(iterations <= 2, "{}: {iterations}", solver.method_name());
+    }
+}
+
+#[test]
+fn cg_and_gmres_with_ml_solve_the_laplacian() {
+    for method in [BelosMethod::BlockCg, BelosMethod::BlockGmres] {
+        let mut solver = TrilinosLinearSolver::new(settings(method, TrilinosPreconditioner::Ml));
+        let iterations = check_known_answer(&mut solver, N);
+        // Multigrid's iteration count does not grow with n like CG's ~n/2.
+        assert!(iterations <= 20, "{}: {iterations}", solver.method_name());
+    }
+}
+
+#[test]
+fn mpi_world_communicator_solves_on_a_singleton_without_mpirun() {
+    let mut solver = TrilinosLinearSolver::new(TrilinosSettings {
+        communicator: Communicator::MpiWorld,
+        ..settings(BelosMethod::BlockCg, TrilinosPreconditioner::Ml)
+    });
+    check_known_answer(&mut solver, N);
+    // A second solve reuses the initialised MPI.
+    check_known_answer(&mut solver, N);
+}
+
+#[test]
+fn the_epetra_matrix_multiplies_like_the_csr() {
+    // A non-symmetric 4 × 4 matrix with an empty row, so transposed or shifted entries show.
+    let matrix = Csr {
+        nrows: 4,
+        ncols: 4,
+        offsets: vec![0, 2, 2, 5, 7],
+        columns: vec![0, 3, 0, 1, 2, 1, 3],
+        values: vec![1.5, -2.0, 4.0, 0.25, -1.0, 3.0, 7.0],
+    };
+    let x = [1.0, -2.0, 0.5, 3.0];
+    let mut expected = vec![0.0; 4];
+    matrix.multiply(&x, &mut expected);
+    let mut y = vec![f64::NAN; 4];
+    epetra_multiply(&matrix, &x, &mut y).unwrap();
+    // Each row is at most three products of exactly representable numbers: bit-equal sums.
+    assert_eq!(y, expected);
+}
+
+#[test]
+fn a_nan_in_the_matrix_is_a_non_finite_error() {
+    let (mut matrix, rhs, _) = laplacian_problem(10);
+    matrix.values[5] = f64::NAN;
+    let mut x = vec![0.0; 10];
+    let mut solver = TrilinosLinearSolver::new(settings(
+        BelosMethod::BlockCg,
+        TrilinosPreconditioner::Ilu { fill_level: 0 },
+    ));
+    match solver.solve(&matrix, &rhs, &mut x) {
+        Err(SolveError::NonFinite { what }) => assert!(what.contains("matrix"), "{what}"),
+        other => panic!("expected NonFinite, got {other:?}"),
+    }
+}
+
+#[test]
+fn cg_on_an_indefinite_matrix_is_a_breakdown_not_an_abort() {
+    // diag(1, −2) with b = (1, 1): the first search direction p = b has pᵀAp = 1 − 2 < 0,
+    // which Belos' CG reports as a failure of positive definiteness (a C++ exception).
+    let matrix = Csr {
+        nrows: 2,
+        ncols: 2,
+        offsets: vec![0, 1, 2],
+        columns: vec![0, 1],
+        values: vec![1.0, -2.0],
+    };
+    let mut x = vec![0.0; 2];
+    let mut solver =
+        TrilinosLinearSolver::new(settings(BelosMethod::BlockCg, TrilinosPreconditioner::None));
+    match solver.solve(&matrix, &[1.0, 1.0], &mut x) {
+        Err(SolveError::Breakdown { method, reason }) => {
+            assert_eq!(method, "Belos BlockCG");
+            assert!(reason.starts_with("Belos:"), "{reason}");
+        }
+        other => panic!("expected Breakdown, got {other:?}"),
+    }
+    // GMRES does not need definiteness: x = (1, −1/2).
+    let mut gmres = TrilinosLinearSolver::new(settings(
+        BelosMethod::BlockGmres,
+        TrilinosPreconditioner::None,
+    ));
+    x.fill(0.0);
+    gmres.solve(&matrix, &[1.0, 1.0], &mut x).unwrap();
+    assert!(
+        (x[0] - 1.0).abs() < 1e-12 && (x[1] + 0.5).abs() < 1e-12,
+        "{x:?}"
+    );
+}
+
+#[test]
+fn a_singular_matrix_fails_cleanly() {
+    // The zero matrix: ILU's pivots are all zero, and no x satisfies 0·x = b.
+    let matrix = Csr {
+        nrows: 3,
+        ncols: 3,
+        offsets: vec![0, 1, 2, 3],
+        columns: vec![0, 1, 2],
+        values: vec![0.0; 3],
+    };
+    for preconditioner in [
+        TrilinosPreconditioner::None,
+        TrilinosPreconditioner::Ilu { fill_level: 0 },
+    ] {
+        let mut solver =
+            TrilinosLinearSolver::new(settings(BelosMethod::BlockGmres, preconditioner));
+        let mut x = vec![0.0; 3];
+        let result = solver.solve(&matrix, &[1.0, 2.0, 3.0], &mut x);
+        assert!(
+            matches!(
+                result,
+                Err(SolveError::Breakdown { .. }
+                    | SolveError::NonFinite { .. }
+                    | SolveError::NotConverged { .. })
+            ),
+            "{}: {result:?}",
+            solver.method_name()
+        );
+    }
+}
+
+#[test]
+fn an_iteration_limit_below_what_cg_needs_is_not_converged() {
+    let (matrix, rhs, _) = laplacian_problem(N);
+    let mut solver = TrilinosLinearSolver::new(TrilinosSettings {
+        krylov: KrylovSettings {
+            relative_tolerance: 1e-12,
+            max_iterations: Some(5),
+            ..KrylovSettings::default()
+        },
+        ..settings(BelosMethod::BlockCg, TrilinosPreconditioner::None)
+    });
+    let mut x = vec![0.0; N];
+    match solver.solve(&matrix, &rhs, &mut x) {
+        Err(SolveError::NotConverged {
+            iterations,
+            relative_residual,
+            tolerance,
+            ..
+        }) => {
+            // Five CG steps on a system that needs ~50 leave most of the residual.
+            assert_eq!(iterations, 5);
+            assert!(relative_residual > 1e-3, "{relative_residual:e}");
+            assert_eq!(tolerance, 1e-12);
+        }
+        other => panic!("expected NotConverged, got {other:?}"),
+    }
+}
+
+// ---- Through the deck: a quasi-static LPS bar, native direct against Belos ----
+
+use peridyn::io::deck::{parse_str, DeckFormat};
+use peridyn::io::exodus::ExodusFile;
+use peridyn::setup;
+use peridyn::simulation::{self, RunError, RunSummary};
+use std::path::Path;
+use std::process::Command;
+
+fn run_deck(dir: &Path, text: &str) -> Result<RunSummary, RunError> {
+    let origin = dir.join("deck.yaml");
+    std::fs::write(&origin, text).unwrap();
+    let deck = parse_str(text, DeckFormat::Yaml, &origin).expect("deck loads");
+    let model = setup::build(&deck).expect("model builds");
+    simulation::run(&deck, &model, dir)
+}
+
+/// An LPS bar of 12 × 3 × 3 points (spacing 1), left face held, right face pulled by `pull`
+/// along x and `shear` along y in two load steps (the bar of tests/implicit_solvers.rs).
+fn bar_deck(solver: &str, pull: f64, shear: f64) -> String {
+    let face = |x: usize| -> String {
+        (0..9)
+            .map(|k| (1 + x + 12 * k).to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    format!(
+        r#"Peridigm:
+  Discretization:
+    Type: "PdQuickGrid"
+    NeighborhoodType: "Spherical"
+    TensorProduct3DMeshGenerator:
+      X Origin: 0.0
+      Y Origin: 0.0
+      Z Origin: 0.0
+      X Length: 12.0
+      Y Length: 3.0
+      Z Length: 3.0
+      Number Points X: 12
+      Number Points Y: 3
+      Number Points Z: 3
+  Materials:
+    Steel:
+      Material Model: "Elastic"
+      Density: 7800.0
+      Bulk Modulus: 130.0e9
+      Shear Modulus: 78.0e9
+  Blocks:
+    Bar:
+      Block Names: "block_1"
+      Material: "Steel"
+      Horizon: 2.1
+  Boundary Conditions:
+    Left Node Set: "{left}"
+    Right Node Set: "{right}"
+    Hold X: {{Type: "Prescribed Displacement", Node Set: "Left Node Set", Coordinate: "x", Value: "0.0"}}
+    Hold Y: {{Type: "Prescribed Displacement", Node Set: "Left Node Set", Coordinate: "y", Value: "0.0"}}
+    Hold Z: {{Type: "Prescribed Displacement", Node Set: "Left Node Set", Coordinate: "z", Value: "0.0"}}
+    Pull X: {{Type: "Prescribed Displacement", Node Set: "Right Node Set", Coordinate: "x", Value: "{pull}*t"}}
+    Pull Y: {{Type: "Prescribed Displacement", Node Set: "Right Node Set", Coordinate: "y", Value: "{shear}*t"}}
+    Pull Z: {{Type: "Prescribed Displacement", Node Set: "Right Node Set", Coordinate: "z", Value: "0.0"}}
+  Solver:
+    Final Time: 1.0
+{solver}
+    QuasiStatic:
+      Number of Load Steps: 2
+      Absolute Tolerance: 1.0
+      Maximum Solver Iterations: 20
+  Output:
+    Output Filename: "bar"
+    Output Frequency: 1
+    Output Variables:
+      Displacement: true
+"#,
+        left = face(0),
+        right = face(11),
+    )
+}
+
+/// Final displacement of every point of a bar run.
+fn final_displacement(dir: &Path) -> Vec<f64> {
+    let file = ExodusFile::open(&dir.join("bar.e")).unwrap();
+    let last = file.times.len() - 1;
+    ["DisplacementX", "DisplacementY", "DisplacementZ"]
+        .iter()
+        .flat_map(|name| {
+            let index = file
+                .nodal_variable_names
+                .iter()
+                .position(|n| n == name)
+                .unwrap();
+            file.nodal_values(last, index).unwrap()
+        })
+        .collect()
+}
+
+const PULL: f64 = 0.012;
+const SHEAR: f64 = 0.004;
+
+fn largest_difference(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+fn direct_bar() -> Vec<f64> {
+    let dir = tempfile::tempdir().unwrap();
+    run_deck(
+        dir.path(),
+        &bar_deck("    Linear Solver: \"Direct\"", PULL, SHEAR),
+    )
+    .expect("direct run succeeds");
+    final_displacement(dir.path())
+}
+
+#[test]
+fn quasi_static_bar_with_belos_matches_the_native_direct_solve() {
+    let direct = direct_bar();
+    assert!(direct.iter().any(|u| u.abs() > 0.5 * PULL), "the bar moved");
+    for (method, preconditioner) in [
+        ("CG", "ILU"),
+        ("CG", "ML"),
+        ("CG", "Jacobi"),
+        ("GMRES", "ILU"),
+    ] {
+        let solver = format!(
+            "    Backend: \"Trilinos\"\n    Linear Solver: \"{method}\"\n    Linear Solver Preconditioner: \"{preconditioner}\"\n    Linear Solver Tolerance: 1.0e-12"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        run_deck(dir.path(), &bar_deck(&solver, PULL, SHEAR))
+            .unwrap_or_else(|e| panic!("{method} + {preconditioner}: {e}"));
+        let difference = largest_difference(&direct, &final_displacement(dir.path()));
+        // Both runs stop Newton at ‖r‖₂ + 20‖r‖∞ ≤ 1 N on a stiffness of ~1e11 N/m (answers
+        // within ~1e-11 m), and Belos solves each correction to 1e-12: 1e-8 of the 0.012 pull
+        // is looser than both and far tighter than any wrong answer.
+        assert!(
+            difference < 1e-8 * PULL,
+            "{method} + {preconditioner} differs from the direct solve by {difference:e}"
+        );
+    }
+}
+
+#[test]
+fn peridyn_run_with_the_trilinos_backend_matches_the_native_direct_solve() {
+    let direct = direct_bar();
+    let dir = tempfile::tempdir().unwrap();
+    let deck = dir.path().join("bar.yaml");
+    let solver = "    Backend: \"Trilinos\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"ML\"\n    Linear Solver Tolerance: 1.0e-12";
+    std::fs::write(&deck, bar_deck(solver, PULL, SHEAR)).unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_peridyn"))
+        .arg("run")
+        .arg(&deck)
+        .arg("--output-dir")
+        .arg(dir.path())
+        .arg("--threads")
+        .arg("1")
+        .output()
+        .unwrap();
+    let log = format!(
+        "{}{}",
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(output.status.success(), "peridyn run failed:\n{log}");
+    let difference = largest_difference(&direct, &final_displacement(dir.path()));
+    // As in the test above.
+    assert!(difference < 1e-8 * PULL, "differs by {difference:e}\n{log}");
+}
+
+#[test]
+fn deck_choices_the_trilinos_backend_cannot_honour_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for (solver, expected) in [
+        (
+            "    Backend: \"Trilinos\"\n    Linear Solver: \"LU\"",
+            "Belos Krylov methods",
+        ),
+        (
+            "    Backend: \"Trilinos\"\n    Linear Solver Preconditioner: \"Block 3x3\"",
+            "native preconditioner",
+        ),
+        (
+            "    Linear Solver Preconditioner: \"ML\"",
+            "Backend: \"Trilinos\"",
+        ),
+    ] {
+        let text = bar_deck(solver, PULL, SHEAR);
+        let origin = dir.path().join("deck.yaml");
+        let error = parse_str(&text, DeckFormat::Yaml, &origin)
+            .expect_err(solver)
+            .to_string();
+        assert!(error.contains(expected), "{solver}: {error}");
+        assert!(error.contains("deck.yaml"), "names the file: {error}");
+    }
+}
