@@ -59,6 +59,11 @@ pub struct KrylovReport {
 /// Solves A x = b for one matrix. Implementations may keep a factorization or preconditioner
 /// between calls on the same pattern.
 pub trait LinearSolver {
+    /// What the solver is, for the log (e.g. `Belos BlockCG + ML`).
+    fn describe(&self) -> String {
+        "external backend".to_string()
+    }
+
     /// Solves `matrix · x = rhs`; `x` holds the initial guess on entry (iterative methods) and
     /// the solution on return.
     fn solve(

@@ -131,7 +131,7 @@ impl LinearStrategy {
                     None => name,
                 }
             }
-            LinearStrategy::Assembled(_) => "external backend".to_string(),
+            LinearStrategy::Assembled(solver) => solver.describe(),
             LinearStrategy::MatrixFree { preconditioner, .. } => format!(
                 "Jacobian-free Newton–Krylov (GMRES, preconditioner {})",
                 match preconditioner {

@@ -230,6 +230,10 @@ fn norm(v: &[f64]) -> f64 {
 }
 
 impl LinearSolver for TrilinosLinearSolver {
+    fn describe(&self) -> String {
+        self.method_name().to_string()
+    }
+
     fn solve(
         &mut self,
         matrix: &Csr,
