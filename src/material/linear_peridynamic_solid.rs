@@ -135,10 +135,9 @@ impl Rows<'_> {
     /// θ_i and the published coefficients of the chunk's points, after the bonds `breaker`
     /// breaks (if any) in their rows; returns the directed bonds broken.
     ///
-    /// Each row is taken [`ROW_BLOCK`] bonds at a time: the differences are gathered, the
-    /// per-bond terms computed in loops over plain arrays (vectorized: the square roots
-    /// dominate), and the terms then added one by one in bond order, so θ is bitwise the
-    /// plain running sum `Σ_j ω (1−d) ζ e V_j` whatever the vector width.
+    /// Each row is taken [`LANES`] bonds at a time: the per-bond terms are computed lane by
+    /// lane (vectorized: the square roots dominate), then added one by one in bond order, so
+    /// θ is bitwise the plain running sum `Σ_j ω (1−d) ζ e V_j` whatever the vector width.
     ///
     /// # Safety
     /// The contract of `breaker` ([`RowBreaker`]) for the rows of `chunk`.
@@ -156,69 +155,69 @@ impl Rows<'_> {
         let volume = self.reference.volume;
         let y = self.current.position;
         let k0 = self.first_local(chunk);
-        let mut d = [[0.0; ROW_BLOCK]; 3];
-        let mut squared = [0.0; ROW_BLOCK];
-        let mut neighbor_volume = [0.0; ROW_BLOCK];
-        let mut term = [0.0; ROW_BLOCK];
-        let mut suspect = [false; ROW_BLOCK];
         let mut broken = 0;
         for (k, &i) in (k0..).zip(chunk) {
             let i = i as usize;
             let yi = y[i];
             let range = bonds.range(i);
             let local = self.local_offsets[k];
+            let neighbors = &bonds.neighbor[range.clone()];
+            let lengths = &bonds.reference_length[range.clone()];
             let mut sum = 0.0;
-            for block_start in range.clone().step_by(ROW_BLOCK) {
-                let block_end = (block_start + ROW_BLOCK).min(range.end);
-                let count = block_end - block_start;
-                let neighbors = &bonds.neighbor[block_start..block_end];
-                let lengths = &bonds.reference_length[block_start..block_end];
-                let block_local = local + (block_start - range.start);
-                for (n, &j) in neighbors.iter().enumerate() {
-                    let j = j as usize;
-                    let yj = y[j];
-                    for c in 0..3 {
-                        d[c][n] = yj[c] - yi[c];
+            // Lane arrays stay in registers (written and read within one group of LANES); the
+            // tail bonds are groups of one.
+            macro_rules! group {
+                ($start:expr, $width:expr) => {{
+                    let start: usize = $start;
+                    let width: usize = $width;
+                    let mut squared = [0.0; LANES];
+                    let mut zeta = [0.0; LANES];
+                    let mut neighbor_volume = [0.0; LANES];
+                    for lane in 0..width {
+                        let j = neighbors[start + lane] as usize;
+                        let yj = y[j];
+                        let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
+                        // q = dx*dx + dy*dy + dz*dz, the number the damage models test.
+                        squared[lane] = dx * dx + dy * dy + dz * dz;
+                        zeta[lane] = lengths[start + lane];
+                        neighbor_volume[lane] = volume[j];
                     }
-                    neighbor_volume[n] = volume[j];
-                }
-                // q = dx*dx + dy*dy + dz*dz, the number the damage models test.
-                for n in 0..count {
-                    squared[n] = d[0][n] * d[0][n] + d[1][n] * d[1][n] + d[2][n] * d[2][n];
-                }
-                if let Some(limit) = breaker.limit() {
-                    let mut any = false;
-                    for n in 0..count {
-                        suspect[n] = !limit.certainly_intact(squared[n], lengths[n]);
-                        any |= suspect[n];
-                    }
-                    if any {
-                        for n in (0..count).filter(|&n| suspect[n]) {
-                            let b = block_start + n;
-                            // SAFETY: b is in the row of a point of this chunk (the caller's
-                            // contract).
-                            if unsafe { breaker.damage(b) } < 1.0
-                                && limit.exceeded(squared[n], lengths[n])
-                            {
-                                // SAFETY: as above.
-                                unsafe { breaker.break_bond(b) };
-                                broken += 1;
+                    if let Some(limit) = breaker.limit() {
+                        for lane in 0..width {
+                            if !limit.certainly_intact(squared[lane], zeta[lane]) {
+                                let b = range.start + start + lane;
+                                // SAFETY: b is in the row of a point of this chunk (the caller's
+                                // contract).
+                                if unsafe { breaker.damage(b) } < 1.0
+                                    && limit.exceeded(squared[lane], zeta[lane])
+                                {
+                                    // SAFETY: as above.
+                                    unsafe { breaker.break_bond(b) };
+                                    broken += 1;
+                                }
                             }
                         }
                     }
-                }
-                for n in 0..count {
-                    let zeta = lengths[n];
-                    let extension = squared[n].sqrt() - zeta;
-                    term[n] = weights.weight(block_local + n)
-                        * damage.intact(block_start + n)
-                        * zeta
-                        * extension
-                        * neighbor_volume[n];
-                }
-                for &t in &term[..count] {
-                    sum += t;
-                }
+                    let mut term = [0.0; LANES];
+                    for lane in 0..width {
+                        let extension = squared[lane].sqrt() - zeta[lane];
+                        term[lane] = weights.weight(local + start + lane)
+                            * damage.intact(range.start + start + lane)
+                            * zeta[lane]
+                            * extension
+                            * neighbor_volume[lane];
+                    }
+                    for &t in &term[..width] {
+                        sum += t;
+                    }
+                }};
+            }
+            let full = neighbors.len() - neighbors.len() % LANES;
+            for start in (0..full).step_by(LANES) {
+                group!(start, LANES);
+            }
+            for start in full..neighbors.len() {
+                group!(start, 1);
             }
             let m = self.weighted_volume[k];
             out[i - base] = if m > 0.0 {
@@ -310,9 +309,9 @@ impl Rows<'_> {
     }
 
     /// `F_i += Σ_j (1−d) ω [(A_i + A_j) ζ + (1−d)(B_i + B_j) e] V_j M_ij` with A = isotropic,
-    /// B = deviatoric coefficients; coincident deformed points contribute nothing. Blocked as
-    /// [`Rows::dilatation`]: the bond terms are computed in vectorized loops and added in bond
-    /// order, so F is bitwise the plain running sum.
+    /// B = deviatoric coefficients; coincident deformed points contribute nothing. Grouped as
+    /// [`Rows::dilatation`]: the bond terms are computed lane by lane and added in bond order,
+    /// so F is bitwise the plain running sum.
     #[inline(always)]
     fn add_force<W: BondWeights, D: Integrity>(
         &self,
@@ -327,59 +326,70 @@ impl Rows<'_> {
         let volume = self.reference.volume;
         let y = self.current.position;
         let k0 = self.first_local(chunk);
-        let mut d = [[0.0; ROW_BLOCK]; 3];
-        let mut neighbor_volume = [0.0; ROW_BLOCK];
-        let mut other_isotropic = [0.0; ROW_BLOCK];
-        let mut other_deviatoric = [0.0; ROW_BLOCK];
-        let mut part = [[0.0; ROW_BLOCK]; 3];
         for (k, &i) in (k0..).zip(chunk) {
             let i = i as usize;
             let yi = y[i];
             let own = coefficients[i];
             let range = bonds.range(i);
             let local = self.local_offsets[k];
+            let neighbors = &bonds.neighbor[range.clone()];
+            let lengths = &bonds.reference_length[range.clone()];
             let (mut fx, mut fy, mut fz) = (0.0, 0.0, 0.0);
-            for block_start in range.clone().step_by(ROW_BLOCK) {
-                let block_end = (block_start + ROW_BLOCK).min(range.end);
-                let count = block_end - block_start;
-                let neighbors = &bonds.neighbor[block_start..block_end];
-                let lengths = &bonds.reference_length[block_start..block_end];
-                let block_local = local + (block_start - range.start);
-                for (n, &j) in neighbors.iter().enumerate() {
-                    let j = j as usize;
-                    let yj = y[j];
-                    for c in 0..3 {
-                        d[c][n] = yj[c] - yi[c];
+            // Lane arrays stay in registers (written and read within one group of LANES); the
+            // tail bonds are groups of one.
+            macro_rules! group {
+                ($start:expr, $width:expr) => {{
+                    let start: usize = $start;
+                    let width: usize = $width;
+                    let mut d = [[0.0; LANES]; 3];
+                    let mut zeta = [0.0; LANES];
+                    let mut neighbor_volume = [0.0; LANES];
+                    let mut other_isotropic = [0.0; LANES];
+                    let mut other_deviatoric = [0.0; LANES];
+                    for lane in 0..width {
+                        let j = neighbors[start + lane] as usize;
+                        let yj = y[j];
+                        for c in 0..3 {
+                            d[c][lane] = yj[c] - yi[c];
+                        }
+                        zeta[lane] = lengths[start + lane];
+                        neighbor_volume[lane] = volume[j];
+                        let other = coefficients[j];
+                        other_isotropic[lane] = other.isotropic;
+                        other_deviatoric[lane] = other.deviatoric;
                     }
-                    neighbor_volume[n] = volume[j];
-                    let other = coefficients[j];
-                    other_isotropic[n] = other.isotropic;
-                    other_deviatoric[n] = other.deviatoric;
-                }
-                for n in 0..count {
-                    let (dx, dy, dz) = (d[0][n], d[1][n], d[2][n]);
-                    let zeta = lengths[n];
-                    let length = (dx * dx + dy * dy + dz * dz).sqrt();
-                    let extension = length - zeta;
-                    let intact = damage.intact(block_start + n);
-                    let t = intact
-                        * weights.weight(block_local + n)
-                        * ((own.isotropic + other_isotropic[n]) * zeta
-                            + intact * (own.deviatoric + other_deviatoric[n]) * extension);
-                    let scale = if length > 0.0 {
-                        t * neighbor_volume[n] / length
-                    } else {
-                        0.0
-                    };
-                    part[0][n] = scale * dx;
-                    part[1][n] = scale * dy;
-                    part[2][n] = scale * dz;
-                }
-                for n in 0..count {
-                    fx += part[0][n];
-                    fy += part[1][n];
-                    fz += part[2][n];
-                }
+                    let mut part = [[0.0; LANES]; 3];
+                    for lane in 0..width {
+                        let (dx, dy, dz) = (d[0][lane], d[1][lane], d[2][lane]);
+                        let length = (dx * dx + dy * dy + dz * dz).sqrt();
+                        let extension = length - zeta[lane];
+                        let intact = damage.intact(range.start + start + lane);
+                        let t = intact
+                            * weights.weight(local + start + lane)
+                            * ((own.isotropic + other_isotropic[lane]) * zeta[lane]
+                                + intact * (own.deviatoric + other_deviatoric[lane]) * extension);
+                        let scale = if length > 0.0 {
+                            t * neighbor_volume[lane] / length
+                        } else {
+                            0.0
+                        };
+                        part[0][lane] = scale * dx;
+                        part[1][lane] = scale * dy;
+                        part[2][lane] = scale * dz;
+                    }
+                    for lane in 0..width {
+                        fx += part[0][lane];
+                        fy += part[1][lane];
+                        fz += part[2][lane];
+                    }
+                }};
+            }
+            let full = neighbors.len() - neighbors.len() % LANES;
+            for start in (0..full).step_by(LANES) {
+                group!(start, LANES);
+            }
+            for start in full..neighbors.len() {
+                group!(start, 1);
             }
             let f = &mut out[i - base];
             f[0] += fx;
@@ -464,8 +474,9 @@ impl Rows<'_> {
     }
 }
 
-/// Bonds of a row handled per block of the LPS loops (an interior row at m = 3 has 122).
-const ROW_BLOCK: usize = 64;
+/// Bonds of a row evaluated together in the LPS loops (the width of an AVX2 vector of f64; the
+/// result does not depend on it, since the terms are summed in bond order).
+const LANES: usize = 4;
 
 /// True when the bond loops may use their AVX2 build (x86-64 CPUs that report AVX2; cached by
 /// the standard library). `PERIDYN_NO_WIDE_VECTORS` in the environment forces the baseline
