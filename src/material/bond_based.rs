@@ -1238,6 +1238,75 @@ mod tests {
     }
 
     #[test]
+    fn fused_breaking_matches_the_separate_update_bitwise() {
+        // Two evaluations, at half and then at the full random displacement, so that the
+        // second meets bonds already broken by the first. Fused or separate, the same bonds
+        // must break (same count, same damage array) and the forces must be the same bits:
+        // the fused loop takes the exact test on the same q and reads the updated damage.
+        let (x, v, bonds, y, _) = body();
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let mut m = material();
+        m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
+        assert!(m.fuses_critical_stretch());
+        let all: Vec<u32> = (0..x.len() as u32).collect();
+        let model = CriticalStretch::new(0.02).unwrap();
+        let mut coefficients = vec![PointCoefficients::default(); x.len()];
+        let current = CurrentView {
+            position: &x,
+            bond_damage: None,
+        };
+        m.compute_point_coefficients(&reference, &current, &mut coefficients);
+        let mut separate = vec![0.0f32; bonds.num_bonds()];
+        let mut fused = vec![0.0f32; bonds.num_bonds()];
+        let mut total = 0;
+        for fraction in [0.5, 1.0] {
+            let at: Vec<[f64; 3]> = x
+                .iter()
+                .zip(&y)
+                .map(|(p, q)| [0, 1, 2].map(|k| p[k] + fraction * (q[k] - p[k])))
+                .collect();
+            let broken = model.update(&reference, &at, &all, &mut separate);
+            let expected = force(&[&m], &reference, &at, &separate);
+            let mut f = vec![[0.0; 3]; x.len()];
+            let fused_broken = m.add_force_density_breaking_bonds(
+                &reference,
+                &at,
+                0.02,
+                &mut fused,
+                &coefficients,
+                &mut f,
+            );
+            assert_eq!(fused_broken, broken);
+            assert_eq!(fused, separate);
+            assert_eq!(f, expected);
+            total += broken;
+        }
+        assert!(total > 0 && total < bonds.num_bonds(), "{total}");
+    }
+
+    #[test]
+    fn open_blocks_do_not_fuse() {
+        // A block with bonds to another block leaves its damage to the damage model (the
+        // physics symmetrises interface bonds between the update and the force).
+        let (x, v, bonds, _, _) = body();
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let left: Vec<u32> = (0..x.len() as u32)
+            .filter(|&i| x[i as usize][0] < 3.5)
+            .collect();
+        let mut m = material();
+        m.setup(&reference, left).unwrap();
+        assert!(!m.fuses_critical_stretch());
+    }
+
+    #[test]
     fn unsorted_rows_fall_back_to_the_gather_loop() {
         let bonds = BondList {
             offsets: vec![0, 2, 3, 4],
