@@ -604,8 +604,8 @@ impl PairRows<'_> {
                         }
                     }
                 }
-                for n in 0..count {
-                    pair[n] = self.micromodulus * damage.intact(block_start + n);
+                for (n, pair) in pair[..count].iter_mut().enumerate() {
+                    *pair = self.micromodulus * damage.intact(block_start + n);
                 }
                 for n in 0..count {
                     scale[n] = bond_scale_squared(pair[n], lengths[n], squared[n]);
