@@ -198,14 +198,17 @@ impl Rows<'_> {
                             }
                         }
                     }
+                    // Read after the breaking above, and apart from the arithmetic below so
+                    // that it has no indexing (bounds checks would keep it scalar).
+                    let mut weight = [0.0; LANES];
+                    for lane in 0..width {
+                        weight[lane] = weights.weight(local + start + lane)
+                            * damage.intact(range.start + start + lane);
+                    }
                     let mut term = [0.0; LANES];
                     for lane in 0..width {
                         let extension = squared[lane].sqrt() - zeta[lane];
-                        term[lane] = weights.weight(local + start + lane)
-                            * damage.intact(range.start + start + lane)
-                            * zeta[lane]
-                            * extension
-                            * neighbor_volume[lane];
+                        term[lane] = weight[lane] * zeta[lane] * extension * neighbor_volume[lane];
                     }
                     for &t in &term[..width] {
                         sum += t;
@@ -346,6 +349,10 @@ impl Rows<'_> {
                     let mut neighbor_volume = [0.0; LANES];
                     let mut other_isotropic = [0.0; LANES];
                     let mut other_deviatoric = [0.0; LANES];
+                    // Read here, in the gather, so that the arithmetic below has no indexing
+                    // (bounds checks would keep it scalar).
+                    let mut intact = [0.0; LANES];
+                    let mut omega = [0.0; LANES];
                     for lane in 0..width {
                         let j = neighbors[start + lane] as usize;
                         let yj = y[j];
@@ -357,22 +364,24 @@ impl Rows<'_> {
                         let other = coefficients[j];
                         other_isotropic[lane] = other.isotropic;
                         other_deviatoric[lane] = other.deviatoric;
+                        intact[lane] = damage.intact(range.start + start + lane);
+                        omega[lane] = weights.weight(local + start + lane);
                     }
                     let mut part = [[0.0; LANES]; 3];
                     for lane in 0..width {
                         let (dx, dy, dz) = (d[0][lane], d[1][lane], d[2][lane]);
                         let length = (dx * dx + dy * dy + dz * dz).sqrt();
                         let extension = length - zeta[lane];
-                        let intact = damage.intact(range.start + start + lane);
-                        let t = intact
-                            * weights.weight(local + start + lane)
+                        let t = intact[lane]
+                            * omega[lane]
                             * ((own.isotropic + other_isotropic[lane]) * zeta[lane]
-                                + intact * (own.deviatoric + other_deviatoric[lane]) * extension);
-                        let scale = if length > 0.0 {
-                            t * neighbor_volume[lane] / length
-                        } else {
-                            0.0
-                        };
+                                + intact[lane]
+                                    * (own.deviatoric + other_deviatoric[lane])
+                                    * extension);
+                        // Divided unconditionally so that the lanes need no branch (the inf/NaN
+                        // of a zero length is discarded).
+                        let scale = t * neighbor_volume[lane] / length;
+                        let scale = if length > 0.0 { scale } else { 0.0 };
                         part[0][lane] = scale * dx;
                         part[1][lane] = scale * dy;
                         part[2][lane] = scale * dz;
