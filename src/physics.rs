@@ -120,6 +120,12 @@ impl Physics {
     /// Internal force density at the current positions `current` (force/length³). Damage is
     /// updated first, so a bond that exceeds its limit carries no force in this evaluation
     /// (Peridigm's order). Returns the number of bonds that broke.
+    ///
+    /// A block whose damage model is the constant `Critical Stretch` rule and whose material
+    /// can fold that test into its first bond pass
+    /// ([`Material::fuses_critical_stretch`]) breaks its bonds there instead of in a separate
+    /// pass: the same decisions, taken just before each bond is first used, so the damage and
+    /// forces are exactly those of the separate update.
     pub fn internal_force(
         &mut self,
         bonds: &BondList,
@@ -133,23 +139,87 @@ impl Physics {
             volume: &points.volume,
         };
         let mut broken = 0;
-        if let Some(bond_damage) = &mut self.bond_damage {
-            for block in &self.blocks {
-                if let Some(damage) = &block.damage {
-                    broken +=
-                        damage.update(&reference, current, block.material.points(), bond_damage);
+        if self.bond_damage.is_none() {
+            self.internal_force_with_damage_fixed(bonds, points, current, force_density);
+            return 0;
+        }
+        let bond_damage = self.bond_damage.as_mut().expect("checked above");
+        // The critical stretch of each block that breaks its bonds in its own bond pass.
+        let fused: Vec<Option<f64>> = self
+            .blocks
+            .iter()
+            .map(|block| {
+                let limit = block.damage.as_ref()?.fusable_critical_stretch()?;
+                block.material.fuses_critical_stretch().then_some(limit)
+            })
+            .collect();
+        for (block, fused) in self.blocks.iter().zip(&fused) {
+            if let (Some(damage), None) = (&block.damage, fused) {
+                broken += damage.update(&reference, current, block.material.points(), bond_damage);
+            }
+        }
+        for &(forward, backward) in &self.interface_bonds {
+            let (f, b) = (forward as usize, backward as usize);
+            let larger = bond_damage[f].max(bond_damage[b]);
+            bond_damage[f] = larger;
+            bond_damage[b] = larger;
+        }
+        // Fused blocks have no bond to another block, so nothing above reads or writes their
+        // rows, and their passes below see the damage as a separate update would leave it.
+        for (block, fused) in self.blocks.iter().zip(&fused) {
+            if !block.material.needs_dilatation() {
+                continue;
+            }
+            match fused {
+                Some(limit) => {
+                    broken += block.material.compute_point_coefficients_breaking_bonds(
+                        &reference,
+                        current,
+                        *limit,
+                        bond_damage,
+                        &mut self.coefficients,
+                    );
+                }
+                None => {
+                    let view = CurrentView {
+                        position: current,
+                        bond_damage: Some(&bond_damage[..]),
+                    };
+                    block.material.compute_point_coefficients(
+                        &reference,
+                        &view,
+                        &mut self.coefficients,
+                    );
                 }
             }
         }
-        if let Some(bond_damage) = &mut self.bond_damage {
-            for &(forward, backward) in &self.interface_bonds {
-                let (f, b) = (forward as usize, backward as usize);
-                let larger = bond_damage[f].max(bond_damage[b]);
-                bond_damage[f] = larger;
-                bond_damage[b] = larger;
+        force_density.iter_mut().for_each(|f| *f = [0.0; 3]);
+        for (block, fused) in self.blocks.iter().zip(&fused) {
+            match fused {
+                Some(limit) if !block.material.needs_dilatation() => {
+                    broken += block.material.add_force_density_breaking_bonds(
+                        &reference,
+                        current,
+                        *limit,
+                        bond_damage,
+                        &self.coefficients,
+                        force_density,
+                    );
+                }
+                _ => {
+                    let view = CurrentView {
+                        position: current,
+                        bond_damage: Some(&bond_damage[..]),
+                    };
+                    block.material.add_force_density(
+                        &reference,
+                        &view,
+                        &self.coefficients,
+                        force_density,
+                    );
+                }
             }
         }
-        self.internal_force_with_damage_fixed(bonds, points, current, force_density);
         broken
     }
 

@@ -86,6 +86,10 @@ impl DamageModel for CriticalStretch {
         self.plan = PairPlan::new(reference, points).map(Arc::new);
     }
 
+    fn fusable_critical_stretch(&self) -> Option<f64> {
+        Some(self.critical_stretch)
+    }
+
     fn update(
         &self,
         reference: &ReferenceView<'_>,

@@ -19,6 +19,8 @@ pub use critical_stretch::{critical_stretch_from_energy_release_rate, CriticalSt
 pub use interface_aware::{rank_deficient_points, InterfaceAware};
 pub use time_dependent_critical_stretch::TimeDependentCriticalStretch;
 
+pub(crate) use stretch_kernel::StretchLimit;
+
 use crate::material::point_chunks::for_each_chunk;
 use crate::material::ReferenceView;
 use crate::model::BondList;
@@ -62,6 +64,16 @@ pub trait DamageModel: Send + Sync {
     /// bond list use it and take exactly the same decisions; calls with other points fall back
     /// to the general loop. The default does nothing.
     fn prepare(&mut self, _reference: &ReferenceView<'_>, _points: &[u32]) {}
+
+    /// The critical stretch s_c when this model is exactly the constant `Critical Stretch`
+    /// rule (one limit for every bond, nothing else): a bond breaks for good once
+    /// `(fl(√q) − ζ)/ζ > s_c`, q = `dx*dx + dy*dy + dz*dz` of `Y_j − Y_i`. A material whose
+    /// bond pass already computes q may then take these decisions itself
+    /// ([`crate::material::Material::fuses_critical_stretch`]) instead of this model's separate
+    /// pass over the bonds. `None` (the default) keeps the separate pass.
+    fn fusable_critical_stretch(&self) -> Option<f64> {
+        None
+    }
 
     /// Updates the damage of the bonds in the rows of `points` (strictly increasing global
     /// indices) from the current positions `current_position` (all points). `bond_damage` is

@@ -24,7 +24,7 @@ const FILTER_SAFETY: f64 = 1.0 - 1.0 / (1u64 << 30) as f64;
 
 /// A critical stretch s_c with the factor of the squared-length filter.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct StretchLimit {
+pub(crate) struct StretchLimit {
     /// s_c (positive, finite).
     pub stretch: f64,
     /// k = fl(fl(fl(1 + s_c)²)·(1 − m)), or −∞ when that overflows (the filter is then off).
@@ -32,7 +32,7 @@ pub(super) struct StretchLimit {
 }
 
 impl StretchLimit {
-    pub fn new(stretch: f64) -> Self {
+    pub(crate) fn new(stretch: f64) -> Self {
         let w = 1.0 + stretch;
         let k = w * w * FILTER_SAFETY;
         Self {
@@ -44,14 +44,14 @@ impl StretchLimit {
     /// True when the filter proves the bond intact: squared length `length_squared` at most
     /// fl(fl(ζ²)·k) with fl(ζ²) normal (see [`StretchLimit::breaks`] for the proof).
     #[inline(always)]
-    fn certainly_intact(self, length_squared: f64, zeta: f64) -> bool {
+    pub(crate) fn certainly_intact(self, length_squared: f64, zeta: f64) -> bool {
         let z2 = zeta * zeta;
         length_squared <= z2 * self.intact_factor && z2 >= f64::MIN_POSITIVE
     }
 
     /// The exact test `(fl(√q) − ζ)/ζ > s_c`, the expression the models have always used.
     #[inline(always)]
-    fn exceeded(self, length_squared: f64, zeta: f64) -> bool {
+    pub(crate) fn exceeded(self, length_squared: f64, zeta: f64) -> bool {
         (length_squared.sqrt() - zeta) / zeta > self.stretch
     }
 
@@ -84,7 +84,7 @@ impl StretchLimit {
     /// decision is always the exact test's. (No multiply-add is fused: Rust does not contract
     /// floating-point expressions, and FMA is not enabled for these loops.)
     #[inline(always)]
-    pub fn breaks(self, length_squared: f64, zeta: f64) -> bool {
+    pub(crate) fn breaks(self, length_squared: f64, zeta: f64) -> bool {
         !self.certainly_intact(length_squared, zeta) && self.exceeded(length_squared, zeta)
     }
 }

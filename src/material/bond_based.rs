@@ -35,6 +35,7 @@ use super::{
     assert_point_set, checked_tangent_method, positive, CurrentView, Damaged, Integrity, Material,
     MaterialError, PointCoefficients, ReferenceView, Undamaged,
 };
+use crate::damage::StretchLimit;
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -65,6 +66,9 @@ pub struct BondBased {
     closed: bool,
     /// Pair-once evaluation plan, when the block is closed and its rows are sorted.
     pairs: Option<PairPlan>,
+    /// The pair-once plan exists and every bond of the block has its reverse, so the plan can
+    /// break a pair in both directions ([`Material::fuses_critical_stretch`]).
+    fuses_breaking: bool,
     /// How the tangent is computed (default analytic).
     tangent: TangentMethod,
 }
@@ -87,6 +91,7 @@ impl BondBased {
             points: Vec::new(),
             closed: false,
             pairs: None,
+            fuses_breaking: false,
             tangent: TangentMethod::Analytic,
         })
     }
@@ -155,6 +160,19 @@ struct Rows<'a> {
 #[inline(always)]
 fn bond_scale(pair: f64, zeta: f64, dx: f64, dy: f64, dz: f64) -> f64 {
     let length = (dx * dx + dy * dy + dz * dz).sqrt();
+    let scale = pair * (length - zeta) / (zeta * length);
+    if length > 0.0 {
+        scale
+    } else {
+        0.0
+    }
+}
+
+/// [`bond_scale`] from the squared length q = `dx*dx + dy*dy + dz*dz` (the same operations,
+/// so the same result).
+#[inline(always)]
+fn bond_scale_squared(pair: f64, zeta: f64, squared: f64) -> f64 {
+    let length = squared.sqrt();
     let scale = pair * (length - zeta) / (zeta * length);
     if length > 0.0 {
         scale
@@ -404,36 +422,45 @@ impl PairPlan {
         })
     }
 
-    /// Adds the force density of every pair of the block to `force_density`.
-    fn run<D: Integrity>(
+    /// Adds the force density of every pair of the block to `force_density`, breaking first
+    /// the bonds `breaker` breaks; returns the directed bonds broken.
+    fn run<D: Integrity, B: Breaker>(
         &self,
         points: &[u32],
         force_density: &mut [[f64; 3]],
         rows: PairRows<'_>,
         damage: D,
+        breaker: B,
         wide: bool,
-    ) {
+    ) -> usize {
         use rayon::prelude::*;
         assert!(force_density.len() >= rows.y.len());
         let out = SharedForce(force_density.as_mut_ptr());
+        let mut broken = 0;
         for colour in &self.colours {
-            colour.par_iter().for_each(|chunk| {
-                // SAFETY: `out` points to `force_density`, which is borrowed mutably for this
-                // whole call and has an entry for every point. The chunks of one colour write
-                // disjoint sets of entries (the colouring in `new`), colours run one after
-                // another (`for_each` returns only when all its tasks are done), and nothing
-                // else reads or writes the array meanwhile.
-                unsafe {
-                    rows.chunk_dispatch(
-                        &points[chunk.clone()],
-                        &self.upper_start[chunk.clone()],
-                        out,
-                        damage,
-                        wide,
-                    )
-                }
-            });
+            broken += colour
+                .par_iter()
+                .map(|chunk| {
+                    // SAFETY: `out` points to `force_density`, which is borrowed mutably for
+                    // this whole call and has an entry for every point. The chunks of one
+                    // colour write disjoint sets of entries (the colouring in `new`), colours
+                    // run one after another (`sum` returns only when all its tasks are done),
+                    // and nothing else reads or writes the array meanwhile. The breaker's
+                    // contract is the caller's.
+                    unsafe {
+                        rows.chunk_dispatch(
+                            &points[chunk.clone()],
+                            &self.upper_start[chunk.clone()],
+                            out,
+                            damage,
+                            breaker,
+                            wide,
+                        )
+                    }
+                })
+                .sum::<usize>();
         }
+        broken
     }
 }
 
@@ -464,23 +491,23 @@ impl PairRows<'_> {
     /// # Safety
     /// As [`PairRows::chunk`].
     #[inline(always)]
-    unsafe fn chunk_dispatch<D: Integrity>(
+    unsafe fn chunk_dispatch<D: Integrity, B: Breaker>(
         self,
         points: &[u32],
         upper_start: &[usize],
         out: SharedForce,
         damage: D,
+        breaker: B,
         wide: bool,
-    ) {
+    ) -> usize {
         #[cfg(target_arch = "x86_64")]
         if wide {
             // SAFETY: AVX2 was detected at run time; the rest as the caller guarantees.
-            unsafe { self.chunk_avx2(points, upper_start, out, damage) };
-            return;
+            return unsafe { self.chunk_avx2(points, upper_start, out, damage, breaker) };
         }
         let _ = wide;
         // SAFETY: as the caller guarantees.
-        unsafe { self.chunk(points, upper_start, out, damage) }
+        unsafe { self.chunk(points, upper_start, out, damage, breaker) }
     }
 
     /// [`PairRows::chunk`] with AVX2 enabled.
@@ -489,40 +516,50 @@ impl PairRows<'_> {
     /// As [`PairRows::chunk`], and the CPU supports AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn chunk_avx2<D: Integrity>(
+    unsafe fn chunk_avx2<D: Integrity, B: Breaker>(
         self,
         points: &[u32],
         upper_start: &[usize],
         out: SharedForce,
         damage: D,
-    ) {
+        breaker: B,
+    ) -> usize {
         // SAFETY: as the caller guarantees.
-        unsafe { self.chunk(points, upper_start, out, damage) }
+        unsafe { self.chunk(points, upper_start, out, damage, breaker) }
     }
 
-    /// For every point i of the chunk and every upper neighbour j > i:
-    /// `s = c (1−d) (|Y| − ζ)/(ζ|Y|)`, `F_i += s V_j (Y_j − Y_i)`, `F_j −= s V_i (Y_j − Y_i)`.
+    /// For every point i of the chunk and every upper neighbour j > i: first the critical
+    /// stretch test of `breaker` (if any), then `s = c (1−d) (|Y| − ζ)/(ζ|Y|)`,
+    /// `F_i += s V_j (Y_j − Y_i)`, `F_j −= s V_i (Y_j − Y_i)`. Returns the directed bonds
+    /// broken.
     ///
     /// # Safety
     /// `out` must point to an array with an entry for every point that no one else accesses
-    /// while this runs, except tasks whose entries are disjoint from i's and the j's here.
+    /// while this runs, except tasks whose entries are disjoint from i's and the j's here; and
+    /// the contract of `breaker` ([`Breaker`]) must hold.
     #[inline(always)]
-    unsafe fn chunk<D: Integrity>(
+    unsafe fn chunk<D: Integrity, B: Breaker>(
         self,
         points: &[u32],
         upper_start: &[usize],
         out: SharedForce,
         damage: D,
-    ) {
+        breaker: B,
+    ) -> usize {
         let bonds = self.bonds;
         let (y, volume) = (self.y, self.volume);
-        // Per block of a row's upper bonds: gather the differences (scalar), compute every
-        // bond's scale in a loop over plain arrays (which the compiler vectorizes: the square
-        // roots and divisions dominate), then accumulate F_i and scatter into F_j (scalar, in
-        // bond order, so the result does not depend on the vector width).
+        // Per block of a row's upper bonds: gather the differences (scalar); if bonds may
+        // break, filter them (vectorized) and give the few the filter cannot clear the exact
+        // test; then compute every bond's scale in a loop over plain arrays (which the
+        // compiler vectorizes: the square roots and divisions dominate), then accumulate F_i
+        // and scatter into F_j (scalar, in bond order, so the result does not depend on the
+        // vector width).
         let mut d = [[0.0; PAIR_BLOCK]; 3];
+        let mut squared = [0.0; PAIR_BLOCK];
         let mut pair = [0.0; PAIR_BLOCK];
         let mut scale = [0.0; PAIR_BLOCK];
+        let mut suspect = [false; PAIR_BLOCK];
+        let mut broken = 0;
         for (&i, &first) in points.iter().zip(upper_start) {
             let i = i as usize;
             let end = bonds.offsets[i + 1];
@@ -539,10 +576,39 @@ impl PairRows<'_> {
                     for k in 0..3 {
                         d[k][n] = yj[k] - yi[k];
                     }
-                    pair[n] = self.micromodulus * damage.intact(block_start + n);
+                }
+                // q = dx*dx + dy*dy + dz*dz: the very number the damage models test and whose
+                // square root the force uses.
+                for n in 0..count {
+                    squared[n] = d[0][n] * d[0][n] + d[1][n] * d[1][n] + d[2][n] * d[2][n];
+                }
+                if let Some(limit) = breaker.limit() {
+                    let mut any = false;
+                    for n in 0..count {
+                        suspect[n] = !limit.certainly_intact(squared[n], lengths[n]);
+                        any |= suspect[n];
+                    }
+                    if any {
+                        for n in (0..count).filter(|&n| suspect[n]) {
+                            let b = block_start + n;
+                            // SAFETY: b is an upper pair of a point of this chunk (the
+                            // breaker's contract).
+                            if unsafe { breaker.damage(b) } < 1.0
+                                && limit.exceeded(squared[n], lengths[n])
+                            {
+                                // SAFETY: as above.
+                                broken += unsafe {
+                                    breaker.break_pair(bonds, i, neighbors[n] as usize, b)
+                                };
+                            }
+                        }
+                    }
+                }
+                for (n, pair) in pair[..count].iter_mut().enumerate() {
+                    *pair = self.micromodulus * damage.intact(block_start + n);
                 }
                 for n in 0..count {
-                    scale[n] = bond_scale(pair[n], lengths[n], d[0][n], d[1][n], d[2][n]);
+                    scale[n] = bond_scale_squared(pair[n], lengths[n], squared[n]);
                 }
                 for (n, &j) in neighbors.iter().enumerate() {
                     let j = j as usize;
@@ -560,6 +626,120 @@ impl PairRows<'_> {
             for k in 0..3 {
                 out_i[k] += fi[k];
             }
+        }
+        broken
+    }
+}
+
+/// The bond breaking a pair loop does before its forces (see [`PairRows::chunk`]).
+///
+/// # Contract of an implementation that breaks bonds
+/// `damage` and `break_pair` access the bond-damage array of the loop's bond list through a
+/// pointer; the pair loop only calls them for upper bonds i→j (i < j) of the points of the
+/// running chunk, whose entries (and those of their reverse bonds j→i) no other task reads or
+/// writes meanwhile; the damage reads of the force loop go through the same pointer.
+trait Breaker: Copy + Send + Sync {
+    /// The critical stretch to test, `None` when the loop breaks nothing.
+    fn limit(self) -> Option<StretchLimit>;
+
+    /// d of bond `b`.
+    ///
+    /// # Safety
+    /// See the trait.
+    unsafe fn damage(self, b: usize) -> f32;
+
+    /// Breaks the pair (i, j) through bond `b` (i→j): d = 1 in both directions. Returns the
+    /// directed bonds that changed.
+    ///
+    /// # Safety
+    /// See the trait.
+    unsafe fn break_pair(
+        self,
+        bonds: &crate::model::BondList,
+        i: usize,
+        j: usize,
+        b: usize,
+    ) -> usize;
+}
+
+/// The force loop alone (damage already up to date, or no damage).
+#[derive(Clone, Copy)]
+struct NoBreaking;
+
+impl Breaker for NoBreaking {
+    #[inline(always)]
+    fn limit(self) -> Option<StretchLimit> {
+        None
+    }
+
+    unsafe fn damage(self, _b: usize) -> f32 {
+        unreachable!("NoBreaking has no limit")
+    }
+
+    unsafe fn break_pair(
+        self,
+        _bonds: &crate::model::BondList,
+        _i: usize,
+        _j: usize,
+        _b: usize,
+    ) -> usize {
+        unreachable!("NoBreaking has no limit")
+    }
+}
+
+/// A constant critical stretch tested inside the pair loop, with the damage array it writes
+/// (also the loop's [`Integrity`], read through the same pointer).
+#[derive(Clone, Copy)]
+struct FusedCriticalStretch {
+    limit: StretchLimit,
+    damage: *mut f32,
+}
+
+// SAFETY: tasks only touch disjoint entries through the pointer (the `Breaker` contract).
+unsafe impl Send for FusedCriticalStretch {}
+unsafe impl Sync for FusedCriticalStretch {}
+
+impl Integrity for FusedCriticalStretch {
+    #[inline(always)]
+    fn intact(self, bond: usize) -> f64 {
+        // SAFETY: the pair loop reads only entries of its own chunk's upper bonds, which no
+        // other task writes (the `Breaker` contract); the pointer covers every bond.
+        1.0 - f64::from(unsafe { *self.damage.add(bond) })
+    }
+}
+
+impl Breaker for FusedCriticalStretch {
+    #[inline(always)]
+    fn limit(self) -> Option<StretchLimit> {
+        Some(self.limit)
+    }
+
+    #[inline(always)]
+    unsafe fn damage(self, b: usize) -> f32 {
+        // SAFETY: as the caller guarantees.
+        unsafe { *self.damage.add(b) }
+    }
+
+    #[inline(never)]
+    unsafe fn break_pair(
+        self,
+        bonds: &crate::model::BondList,
+        i: usize,
+        j: usize,
+        b: usize,
+    ) -> usize {
+        let back = bonds.offsets[j]
+            + bonds
+                .family(j)
+                .binary_search(&(i as u32))
+                .expect("fused blocks have symmetric families (checked in setup)");
+        // SAFETY: both entries belong to the running chunk (the caller's contract).
+        unsafe {
+            *self.damage.add(b) = 1.0;
+            let reverse = self.damage.add(back);
+            let changed = usize::from(*reverse < 1.0);
+            *reverse = 1.0;
+            1 + changed
         }
     }
 }
@@ -672,6 +852,14 @@ impl Material for BondBased {
         } else {
             None
         };
+        // Rows are sorted (the plan checked), so reverse bonds are found by binary search.
+        self.fuses_breaking = self.pairs.is_some()
+            && points.iter().all(|&i| {
+                bonds
+                    .family(i as usize)
+                    .iter()
+                    .all(|&j| bonds.family(j as usize).binary_search(&i).is_ok())
+            });
         self.points = points;
         Ok(())
     }
@@ -723,9 +911,23 @@ impl Material for BondBased {
                 micromodulus: uniform.0,
             };
             match current.bond_damage {
-                None => plan.run(&self.points, force_density, pairs, Undamaged, wide),
-                Some(d) => plan.run(&self.points, force_density, pairs, Damaged(d), wide),
-            }
+                None => plan.run(
+                    &self.points,
+                    force_density,
+                    pairs,
+                    Undamaged,
+                    NoBreaking,
+                    wide,
+                ),
+                Some(d) => plan.run(
+                    &self.points,
+                    force_density,
+                    pairs,
+                    Damaged(d),
+                    NoBreaking,
+                    wide,
+                ),
+            };
             return;
         }
         let closed = self.closed;
@@ -739,6 +941,54 @@ impl Material for BondBased {
             (Some(d), false) => rows.add_force_dispatch(chunk, base, out, Damaged(d), mixed, wide),
         };
         for_each_chunk(&self.points, force_density, &|i| i as usize, &run);
+    }
+
+    fn fuses_critical_stretch(&self) -> bool {
+        self.fuses_breaking
+    }
+
+    /// The pair-once loop tests each pair just before its force: same q, same exact test
+    /// (behind the filter of [`StretchLimit::breaks`]), both directions written at once, as the
+    /// pair-once `Critical Stretch` update; the force then reads the updated damage, so forces
+    /// and damage are bitwise those of the separate update followed by the force.
+    fn add_force_density_breaking_bonds(
+        &self,
+        reference: &ReferenceView<'_>,
+        position: &[[f64; 3]],
+        critical_stretch: f64,
+        bond_damage: &mut [f32],
+        _coefficients: &[PointCoefficients],
+        force_density: &mut [[f64; 3]],
+    ) -> usize {
+        let plan = self
+            .pairs
+            .as_ref()
+            .filter(|_| self.fuses_breaking)
+            .expect("called only when fuses_critical_stretch() is true");
+        assert_eq!(bond_damage.len(), reference.bonds.num_bonds());
+        let pairs = PairRows {
+            bonds: reference.bonds,
+            volume: reference.volume,
+            y: position,
+            // As `add_force_density` (c/2 doubled: exactly c).
+            micromodulus: 2.0 * self.half(),
+        };
+        let fused = FusedCriticalStretch {
+            limit: StretchLimit::new(critical_stretch),
+            damage: bond_damage.as_mut_ptr(),
+        };
+        // The `Breaker` contract holds: `bond_damage` is borrowed mutably for this call and
+        // covers every bond; the chunk of point i reads and writes only the entries of i's
+        // upper bonds and of their reverses, which belong to no other chunk (each pair has
+        // one lower point, and the block is closed with symmetric families).
+        plan.run(
+            &self.points,
+            force_density,
+            pairs,
+            fused,
+            fused,
+            wide_vectors_available(),
+        )
     }
 
     fn tangent_is_bond_local(&self) -> bool {
@@ -985,6 +1235,75 @@ mod tests {
             "every point in exactly one chunk"
         );
         assert!(plan.colours.len() > 1);
+    }
+
+    #[test]
+    fn fused_breaking_matches_the_separate_update_bitwise() {
+        // Two evaluations, at half and then at the full random displacement, so that the
+        // second meets bonds already broken by the first. Fused or separate, the same bonds
+        // must break (same count, same damage array) and the forces must be the same bits:
+        // the fused loop takes the exact test on the same q and reads the updated damage.
+        let (x, v, bonds, y, _) = body();
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let mut m = material();
+        m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
+        assert!(m.fuses_critical_stretch());
+        let all: Vec<u32> = (0..x.len() as u32).collect();
+        let model = CriticalStretch::new(0.02).unwrap();
+        let mut coefficients = vec![PointCoefficients::default(); x.len()];
+        let current = CurrentView {
+            position: &x,
+            bond_damage: None,
+        };
+        m.compute_point_coefficients(&reference, &current, &mut coefficients);
+        let mut separate = vec![0.0f32; bonds.num_bonds()];
+        let mut fused = vec![0.0f32; bonds.num_bonds()];
+        let mut total = 0;
+        for fraction in [0.5, 1.0] {
+            let at: Vec<[f64; 3]> = x
+                .iter()
+                .zip(&y)
+                .map(|(p, q)| [0, 1, 2].map(|k| p[k] + fraction * (q[k] - p[k])))
+                .collect();
+            let broken = model.update(&reference, &at, &all, &mut separate);
+            let expected = force(&[&m], &reference, &at, &separate);
+            let mut f = vec![[0.0; 3]; x.len()];
+            let fused_broken = m.add_force_density_breaking_bonds(
+                &reference,
+                &at,
+                0.02,
+                &mut fused,
+                &coefficients,
+                &mut f,
+            );
+            assert_eq!(fused_broken, broken);
+            assert_eq!(fused, separate);
+            assert_eq!(f, expected);
+            total += broken;
+        }
+        assert!(total > 0 && total < bonds.num_bonds(), "{total}");
+    }
+
+    #[test]
+    fn open_blocks_do_not_fuse() {
+        // A block with bonds to another block leaves its damage to the damage model (the
+        // physics symmetrises interface bonds between the update and the force).
+        let (x, v, bonds, _, _) = body();
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let left: Vec<u32> = (0..x.len() as u32)
+            .filter(|&i| x[i as usize][0] < 3.5)
+            .collect();
+        let mut m = material();
+        m.setup(&reference, left).unwrap();
+        assert!(!m.fuses_critical_stretch());
     }
 
     #[test]

@@ -25,10 +25,12 @@ use super::{
     Damaged, Integrity, Material, MaterialError, PointCoefficients, ReferenceView, StoredWeights,
     Undamaged, UnitWeights,
 };
+use crate::damage::StretchLimit;
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
 };
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Deck parameters of `Elastic`.
 #[derive(Debug, Clone)]
@@ -58,6 +60,9 @@ pub struct LinearPeridynamicSolid {
     weighted_volume: Vec<f64>,
     /// How the tangent is computed (default analytic).
     tangent: TangentMethod,
+    /// Every neighbour of every block point is a block point (decided in `setup`), so the
+    /// block has no bond to another block ([`Material::fuses_critical_stretch`]).
+    closed: bool,
 }
 
 impl LinearPeridynamicSolid {
@@ -74,6 +79,7 @@ impl LinearPeridynamicSolid {
             weights: None,
             weighted_volume: Vec::new(),
             tangent: TangentMethod::Analytic,
+            closed: false,
         })
     }
 
@@ -126,32 +132,95 @@ impl Rows<'_> {
         self.points.partition_point(|&p| p < chunk[0])
     }
 
-    /// θ_i and the published coefficients of the chunk's points.
-    fn dilatation<W: BondWeights, D: Integrity>(
+    /// θ_i and the published coefficients of the chunk's points, after the bonds `breaker`
+    /// breaks (if any) in their rows; returns the directed bonds broken.
+    ///
+    /// Each row is taken [`LANES`] bonds at a time: the per-bond terms are computed lane by
+    /// lane (vectorized: the square roots dominate), then added one by one in bond order, so
+    /// θ is bitwise the plain running sum `Σ_j ω (1−d) ζ e V_j` whatever the vector width.
+    ///
+    /// # Safety
+    /// The contract of `breaker` ([`RowBreaker`]) for the rows of `chunk`.
+    #[inline(always)]
+    unsafe fn dilatation<W: BondWeights, D: Integrity, B: RowBreaker>(
         &self,
         chunk: &[u32],
         base: usize,
         out: &mut [PointCoefficients],
         weights: W,
         damage: D,
-    ) {
+        breaker: B,
+    ) -> usize {
         let bonds = self.reference.bonds;
         let volume = self.reference.volume;
         let y = self.current.position;
         let k0 = self.first_local(chunk);
+        let mut broken = 0;
         for (k, &i) in (k0..).zip(chunk) {
             let i = i as usize;
             let yi = y[i];
             let range = bonds.range(i);
             let local = self.local_offsets[k];
+            let neighbors = &bonds.neighbor[range.clone()];
+            let lengths = &bonds.reference_length[range.clone()];
             let mut sum = 0.0;
-            for (n, b) in range.enumerate() {
-                let j = bonds.neighbor[b] as usize;
-                let yj = y[j];
-                let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
-                let zeta = bonds.reference_length[b];
-                let extension = (dx * dx + dy * dy + dz * dz).sqrt() - zeta;
-                sum += weights.weight(local + n) * damage.intact(b) * zeta * extension * volume[j];
+            // Lane arrays stay in registers (written and read within one group of LANES); the
+            // tail bonds are groups of one.
+            macro_rules! group {
+                ($start:expr, $width:expr) => {{
+                    let start: usize = $start;
+                    let width: usize = $width;
+                    let mut squared = [0.0; LANES];
+                    let mut zeta = [0.0; LANES];
+                    let mut neighbor_volume = [0.0; LANES];
+                    for lane in 0..width {
+                        let j = neighbors[start + lane] as usize;
+                        let yj = y[j];
+                        let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
+                        // q = dx*dx + dy*dy + dz*dz, the number the damage models test.
+                        squared[lane] = dx * dx + dy * dy + dz * dz;
+                        zeta[lane] = lengths[start + lane];
+                        neighbor_volume[lane] = volume[j];
+                    }
+                    if let Some(limit) = breaker.limit() {
+                        for lane in 0..width {
+                            if !limit.certainly_intact(squared[lane], zeta[lane]) {
+                                let b = range.start + start + lane;
+                                // SAFETY: b is in the row of a point of this chunk (the caller's
+                                // contract).
+                                if unsafe { breaker.damage(b) } < 1.0
+                                    && limit.exceeded(squared[lane], zeta[lane])
+                                {
+                                    // SAFETY: as above.
+                                    unsafe { breaker.break_bond(b) };
+                                    broken += 1;
+                                }
+                            }
+                        }
+                    }
+                    // Read after the breaking above, and apart from the arithmetic below so
+                    // that it has no indexing (bounds checks would keep it scalar).
+                    let mut weight = [0.0; LANES];
+                    for lane in 0..width {
+                        weight[lane] = weights.weight(local + start + lane)
+                            * damage.intact(range.start + start + lane);
+                    }
+                    let mut term = [0.0; LANES];
+                    for lane in 0..width {
+                        let extension = squared[lane].sqrt() - zeta[lane];
+                        term[lane] = weight[lane] * zeta[lane] * extension * neighbor_volume[lane];
+                    }
+                    for &t in &term[..width] {
+                        sum += t;
+                    }
+                }};
+            }
+            let full = neighbors.len() - neighbors.len() % LANES;
+            for start in (0..full).step_by(LANES) {
+                group!(start, LANES);
+            }
+            for start in full..neighbors.len() {
+                group!(start, 1);
             }
             let m = self.weighted_volume[k];
             out[i - base] = if m > 0.0 {
@@ -165,10 +234,87 @@ impl Rows<'_> {
                 PointCoefficients::default()
             };
         }
+        broken
+    }
+
+    /// [`Rows::dilatation`] built for AVX2 when `wide` ([`wide_vectors_available`]), else for
+    /// the baseline target; bitwise the same result (same IEEE operations in the same order,
+    /// no fused multiply-add).
+    ///
+    /// # Safety
+    /// As [`Rows::dilatation`].
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    unsafe fn dilatation_dispatch<W: BondWeights, D: Integrity, B: RowBreaker>(
+        &self,
+        chunk: &[u32],
+        base: usize,
+        out: &mut [PointCoefficients],
+        weights: W,
+        damage: D,
+        breaker: B,
+        wide: bool,
+    ) -> usize {
+        #[cfg(target_arch = "x86_64")]
+        if wide {
+            // SAFETY: AVX2 was detected at run time; the rest as the caller guarantees.
+            return unsafe { self.dilatation_avx2(chunk, base, out, weights, damage, breaker) };
+        }
+        let _ = wide;
+        // SAFETY: as the caller guarantees.
+        unsafe { self.dilatation(chunk, base, out, weights, damage, breaker) }
+    }
+
+    /// [`Rows::dilatation`] with AVX2 enabled.
+    ///
+    /// # Safety
+    /// As [`Rows::dilatation`], and the CPU supports AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn dilatation_avx2<W: BondWeights, D: Integrity, B: RowBreaker>(
+        &self,
+        chunk: &[u32],
+        base: usize,
+        out: &mut [PointCoefficients],
+        weights: W,
+        damage: D,
+        breaker: B,
+    ) -> usize {
+        // SAFETY: as the caller guarantees.
+        unsafe { self.dilatation(chunk, base, out, weights, damage, breaker) }
+    }
+
+    /// The dilatation pass over every block point with the bond breaking of `fused`; returns
+    /// the directed bonds broken.
+    fn fused_dilatation<W: BondWeights>(
+        &self,
+        coefficients: &mut [PointCoefficients],
+        weights: W,
+        fused: FusedCriticalStretch,
+        wide: bool,
+    ) -> usize {
+        let broken = AtomicUsize::new(0);
+        for_each_chunk(
+            self.points,
+            coefficients,
+            &|i| i as usize,
+            &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
+                // SAFETY: the caller gives `fused` a pointer to the whole bond-damage array,
+                // borrowed mutably for this call; each chunk touches only the rows of its own
+                // points (the `RowBreaker` contract).
+                let newly = unsafe {
+                    self.dilatation_dispatch(chunk, base, out, weights, fused, fused, wide)
+                };
+                broken.fetch_add(newly, Ordering::Relaxed);
+            },
+        );
+        broken.into_inner()
     }
 
     /// `F_i += Σ_j (1−d) ω [(A_i + A_j) ζ + (1−d)(B_i + B_j) e] V_j M_ij` with A = isotropic,
-    /// B = deviatoric coefficients; coincident deformed points contribute nothing.
+    /// B = deviatoric coefficients; coincident deformed points contribute nothing. Grouped as
+    /// [`Rows::dilatation`]: the bond terms are computed lane by lane and added in bond order,
+    /// so F is bitwise the plain running sum.
     #[inline(always)]
     fn add_force<W: BondWeights, D: Integrity>(
         &self,
@@ -192,32 +338,112 @@ impl Rows<'_> {
             let neighbors = &bonds.neighbor[range.clone()];
             let lengths = &bonds.reference_length[range.clone()];
             let (mut fx, mut fy, mut fz) = (0.0, 0.0, 0.0);
-            for (n, (&j, &zeta)) in neighbors.iter().zip(lengths).enumerate() {
-                let j = j as usize;
-                let yj = y[j];
-                let other = coefficients[j];
-                let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
-                let length = (dx * dx + dy * dy + dz * dz).sqrt();
-                let extension = length - zeta;
-                let intact = damage.intact(range.start + n);
-                let t = intact
-                    * weights.weight(local + n)
-                    * ((own.isotropic + other.isotropic) * zeta
-                        + intact * (own.deviatoric + other.deviatoric) * extension);
-                let scale = if length > 0.0 {
-                    t * volume[j] / length
-                } else {
-                    0.0
-                };
-                fx += scale * dx;
-                fy += scale * dy;
-                fz += scale * dz;
+            // Lane arrays stay in registers (written and read within one group of LANES); the
+            // tail bonds are groups of one.
+            macro_rules! group {
+                ($start:expr, $width:expr) => {{
+                    let start: usize = $start;
+                    let width: usize = $width;
+                    let mut d = [[0.0; LANES]; 3];
+                    let mut zeta = [0.0; LANES];
+                    let mut neighbor_volume = [0.0; LANES];
+                    let mut other_isotropic = [0.0; LANES];
+                    let mut other_deviatoric = [0.0; LANES];
+                    // Read here, in the gather, so that the arithmetic below has no indexing
+                    // (bounds checks would keep it scalar).
+                    let mut intact = [0.0; LANES];
+                    let mut omega = [0.0; LANES];
+                    for lane in 0..width {
+                        let j = neighbors[start + lane] as usize;
+                        let yj = y[j];
+                        for c in 0..3 {
+                            d[c][lane] = yj[c] - yi[c];
+                        }
+                        zeta[lane] = lengths[start + lane];
+                        neighbor_volume[lane] = volume[j];
+                        let other = coefficients[j];
+                        other_isotropic[lane] = other.isotropic;
+                        other_deviatoric[lane] = other.deviatoric;
+                        intact[lane] = damage.intact(range.start + start + lane);
+                        omega[lane] = weights.weight(local + start + lane);
+                    }
+                    let mut part = [[0.0; LANES]; 3];
+                    for lane in 0..width {
+                        let (dx, dy, dz) = (d[0][lane], d[1][lane], d[2][lane]);
+                        let length = (dx * dx + dy * dy + dz * dz).sqrt();
+                        let extension = length - zeta[lane];
+                        let t = intact[lane]
+                            * omega[lane]
+                            * ((own.isotropic + other_isotropic[lane]) * zeta[lane]
+                                + intact[lane]
+                                    * (own.deviatoric + other_deviatoric[lane])
+                                    * extension);
+                        // Divided unconditionally so that the lanes need no branch (the inf/NaN
+                        // of a zero length is discarded).
+                        let scale = t * neighbor_volume[lane] / length;
+                        let scale = if length > 0.0 { scale } else { 0.0 };
+                        part[0][lane] = scale * dx;
+                        part[1][lane] = scale * dy;
+                        part[2][lane] = scale * dz;
+                    }
+                    for lane in 0..width {
+                        fx += part[0][lane];
+                        fy += part[1][lane];
+                        fz += part[2][lane];
+                    }
+                }};
+            }
+            let full = neighbors.len() - neighbors.len() % LANES;
+            for start in (0..full).step_by(LANES) {
+                group!(start, LANES);
+            }
+            for start in full..neighbors.len() {
+                group!(start, 1);
             }
             let f = &mut out[i - base];
             f[0] += fx;
             f[1] += fy;
             f[2] += fz;
         }
+    }
+
+    /// [`Rows::add_force`] built for AVX2 when `wide`, else for the baseline target (bitwise
+    /// the same result, as [`Rows::dilatation_dispatch`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn add_force_dispatch<W: BondWeights, D: Integrity>(
+        &self,
+        coefficients: &[PointCoefficients],
+        chunk: &[u32],
+        base: usize,
+        out: &mut [[f64; 3]],
+        weights: W,
+        damage: D,
+        wide: bool,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if wide {
+            // SAFETY: AVX2 was detected at run time.
+            unsafe { self.add_force_avx2(coefficients, chunk, base, out, weights, damage) };
+            return;
+        }
+        let _ = wide;
+        self.add_force(coefficients, chunk, base, out, weights, damage);
+    }
+
+    /// [`Rows::add_force`] with AVX2 enabled.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn add_force_avx2<W: BondWeights, D: Integrity>(
+        &self,
+        coefficients: &[PointCoefficients],
+        chunk: &[u32],
+        base: usize,
+        out: &mut [[f64; 3]],
+        weights: W,
+        damage: D,
+    ) {
+        self.add_force(coefficients, chunk, base, out, weights, damage);
     }
 
     /// `W_i = K θ²/2 + (α/2) Σ_j (1−d) ω (e − θζ/3)² V_j`, α = 15μ/m.
@@ -254,6 +480,110 @@ impl Rows<'_> {
             }
             out[i - base] = 0.5 * self.bulk * theta * theta + 0.5 * alpha * sum;
         }
+    }
+}
+
+/// Bonds of a row evaluated together in the LPS loops (the width of an AVX2 vector of f64; the
+/// result does not depend on it, since the terms are summed in bond order).
+const LANES: usize = 4;
+
+/// True when the bond loops may use their AVX2 build (x86-64 CPUs that report AVX2; cached by
+/// the standard library). `PERIDYN_NO_WIDE_VECTORS` in the environment forces the baseline
+/// build (for comparisons).
+fn wide_vectors_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx2")
+            && std::env::var_os("PERIDYN_NO_WIDE_VECTORS").is_none()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// The bond breaking the dilatation pass does before it uses each bond.
+///
+/// # Contract of an implementation that breaks bonds
+/// `damage` and `break_bond` access the bond-damage array through a pointer; the pass only
+/// calls them for bonds in the rows of the running chunk's points, which no other task reads
+/// or writes meanwhile (each point's row belongs to one chunk); the damage reads of the pass
+/// go through the same pointer.
+trait RowBreaker: Copy + Send + Sync {
+    /// The critical stretch to test, `None` when the pass breaks nothing.
+    fn limit(self) -> Option<StretchLimit>;
+
+    /// d of bond `b`.
+    ///
+    /// # Safety
+    /// See the trait.
+    unsafe fn damage(self, b: usize) -> f32;
+
+    /// Sets d = 1 on bond `b` (this direction only: the other end's row takes the same
+    /// decision from the same numbers).
+    ///
+    /// # Safety
+    /// See the trait.
+    unsafe fn break_bond(self, b: usize);
+}
+
+/// The dilatation pass alone (damage already up to date, or no damage).
+#[derive(Clone, Copy)]
+struct NoBreaking;
+
+impl RowBreaker for NoBreaking {
+    #[inline(always)]
+    fn limit(self) -> Option<StretchLimit> {
+        None
+    }
+
+    unsafe fn damage(self, _b: usize) -> f32 {
+        unreachable!("NoBreaking has no limit")
+    }
+
+    unsafe fn break_bond(self, _b: usize) {
+        unreachable!("NoBreaking has no limit")
+    }
+}
+
+/// A constant critical stretch tested in the dilatation pass, with the damage array it writes
+/// (also the pass's [`Integrity`], read through the same pointer).
+#[derive(Clone, Copy)]
+struct FusedCriticalStretch {
+    limit: StretchLimit,
+    damage: *mut f32,
+}
+
+// SAFETY: tasks only touch the rows of their own points through the pointer (the
+// `RowBreaker` contract).
+unsafe impl Send for FusedCriticalStretch {}
+unsafe impl Sync for FusedCriticalStretch {}
+
+impl Integrity for FusedCriticalStretch {
+    #[inline(always)]
+    fn intact(self, bond: usize) -> f64 {
+        // SAFETY: the pass reads only its own rows, which no other task writes (the
+        // `RowBreaker` contract); the pointer covers every bond.
+        1.0 - f64::from(unsafe { *self.damage.add(bond) })
+    }
+}
+
+impl RowBreaker for FusedCriticalStretch {
+    #[inline(always)]
+    fn limit(self) -> Option<StretchLimit> {
+        Some(self.limit)
+    }
+
+    #[inline(always)]
+    unsafe fn damage(self, b: usize) -> f32 {
+        // SAFETY: as the caller guarantees.
+        unsafe { *self.damage.add(b) }
+    }
+
+    #[inline(always)]
+    unsafe fn break_bond(self, b: usize) {
+        // SAFETY: as the caller guarantees.
+        unsafe { *self.damage.add(b) = 1.0 };
     }
 }
 
@@ -466,6 +796,13 @@ impl Material for LinearPeridynamicSolid {
                     .sum()
             })
             .collect();
+        let mut member = vec![false; bonds.num_points()];
+        for &i in &points {
+            member[i as usize] = true;
+        }
+        self.closed = points
+            .iter()
+            .all(|&i| bonds.family(i as usize).iter().all(|&j| member[j as usize]));
         self.points = points;
         self.weights = weights;
         self.local_offsets = local_offsets;
@@ -484,16 +821,57 @@ impl Material for LinearPeridynamicSolid {
         coefficients: &mut [PointCoefficients],
     ) {
         let rows = self.rows(reference, current);
+        let wide = wide_vectors_available();
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             for_each_chunk(
                 &self.points,
                 coefficients,
                 &|i| i as usize,
                 &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
-                    rows.dilatation(chunk, base, out, w, d)
+                    // SAFETY: `NoBreaking` touches no damage.
+                    unsafe { rows.dilatation_dispatch(chunk, base, out, w, d, NoBreaking, wide) };
                 },
             )
         })
+    }
+
+    fn fuses_critical_stretch(&self) -> bool {
+        self.closed
+    }
+
+    /// The dilatation pass tests each bond of a row just before it enters θ: the same q and
+    /// the same exact test (behind the filter of [`StretchLimit::breaks`]) as the directed
+    /// `Critical Stretch` update, each row deciding its own bonds (both ends of a pair decide
+    /// alike, see [`crate::damage::CriticalStretch`]).
+    fn compute_point_coefficients_breaking_bonds(
+        &self,
+        reference: &ReferenceView<'_>,
+        position: &[[f64; 3]],
+        critical_stretch: f64,
+        bond_damage: &mut [f32],
+        coefficients: &mut [PointCoefficients],
+    ) -> usize {
+        assert!(
+            self.closed,
+            "called only when fuses_critical_stretch() is true"
+        );
+        assert_eq!(bond_damage.len(), reference.bonds.num_bonds());
+        let current = CurrentView {
+            position,
+            bond_damage: None,
+        };
+        let rows = self.rows(reference, &current);
+        let wide = wide_vectors_available();
+        let fused = FusedCriticalStretch {
+            limit: StretchLimit::new(critical_stretch),
+            damage: bond_damage.as_mut_ptr(),
+        };
+        match self.weights.as_deref() {
+            None => rows.fused_dilatation(coefficients, UnitWeights, fused, wide),
+            Some(weights) => {
+                rows.fused_dilatation(coefficients, StoredWeights(weights), fused, wide)
+            }
+        }
     }
 
     fn add_force_density(
@@ -504,13 +882,14 @@ impl Material for LinearPeridynamicSolid {
         force_density: &mut [[f64; 3]],
     ) {
         let rows = self.rows(reference, current);
+        let wide = wide_vectors_available();
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             for_each_chunk(
                 &self.points,
                 force_density,
                 &|i| i as usize,
                 &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
-                    rows.add_force(coefficients, chunk, base, out, w, d)
+                    rows.add_force_dispatch(coefficients, chunk, base, out, w, d, wide)
                 },
             )
         })
@@ -574,5 +953,135 @@ impl Material for LinearPeridynamicSolid {
                 },
             )
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::damage::{CriticalStretch, DamageModel};
+    use crate::material::test_support::{brute_force_bonds, random_cloud, Rng};
+
+    #[test]
+    fn fused_breaking_matches_the_separate_update_bitwise() {
+        // 500 random points (rows longer than a group of lanes, with tails), displaced at half
+        // and then at the full random field so that the second pass meets broken bonds, with
+        // ω = 1 and a stored ω. The dilatation pass that breaks bonds itself must break the
+        // same bonds as the `Critical Stretch` update (same count, same damage array) and give
+        // the same coefficients bit for bit, and so the same forces.
+        let mut rng = Rng::new(5);
+        let (x, v) = random_cloud(&mut rng, 500, 6.0);
+        let bonds = brute_force_bonds(&x, 1.7);
+        let y: Vec<[f64; 3]> = x
+            .iter()
+            .map(|p| p.map(|c| c + 0.08 * (2.0 * rng.uniform() - 1.0)))
+            .collect();
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let all: Vec<u32> = (0..x.len() as u32).collect();
+        for influence in [InfluenceFunction::One, InfluenceFunction::ParabolicDecay] {
+            let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
+                density: 1.0,
+                bulk_modulus: 3.0,
+                shear_modulus: 1.3,
+                horizon: 1.7,
+                influence,
+            })
+            .unwrap();
+            m.setup(&reference, all.clone()).unwrap();
+            assert!(m.fuses_critical_stretch());
+            let model = CriticalStretch::new(0.02).unwrap();
+            let mut separate = vec![0.0f32; bonds.num_bonds()];
+            let mut fused = vec![0.0f32; bonds.num_bonds()];
+            let mut total = 0;
+            for fraction in [0.5, 1.0] {
+                let at: Vec<[f64; 3]> = x
+                    .iter()
+                    .zip(&y)
+                    .map(|(p, q)| [0, 1, 2].map(|k| p[k] + fraction * (q[k] - p[k])))
+                    .collect();
+                let broken = model.update(&reference, &at, &all, &mut separate);
+                let mut expected = vec![PointCoefficients::default(); x.len()];
+                let current = CurrentView {
+                    position: &at,
+                    bond_damage: Some(&separate),
+                };
+                m.compute_point_coefficients(&reference, &current, &mut expected);
+                let mut coefficients = vec![PointCoefficients::default(); x.len()];
+                let fused_broken = m.compute_point_coefficients_breaking_bonds(
+                    &reference,
+                    &at,
+                    0.02,
+                    &mut fused,
+                    &mut coefficients,
+                );
+                assert_eq!(fused_broken, broken);
+                assert_eq!(fused, separate);
+                assert_eq!(coefficients, expected);
+                total += broken;
+            }
+            assert!(total > 0 && total < bonds.num_bonds(), "{total}");
+        }
+    }
+
+    #[test]
+    fn grouped_force_loop_sums_in_bond_order() {
+        // The lanes only compute the bond terms; the sums run in bond order, so the force is
+        // bitwise the plain running sum written out here (the module docs' formula).
+        let mut rng = Rng::new(9);
+        let (x, v) = random_cloud(&mut rng, 300, 5.0);
+        let bonds = brute_force_bonds(&x, 1.6);
+        let y: Vec<[f64; 3]> = x
+            .iter()
+            .map(|p| p.map(|c| c + 0.05 * (2.0 * rng.uniform() - 1.0)))
+            .collect();
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
+            density: 1.0,
+            bulk_modulus: 3.0,
+            shear_modulus: 1.3,
+            horizon: 1.6,
+            influence: InfluenceFunction::One,
+        })
+        .unwrap();
+        m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
+        let current = CurrentView {
+            position: &y,
+            bond_damage: None,
+        };
+        let mut c = vec![PointCoefficients::default(); x.len()];
+        m.compute_point_coefficients(&reference, &current, &mut c);
+        let mut f = vec![[0.0; 3]; x.len()];
+        m.add_force_density(&reference, &current, &c, &mut f);
+        for i in 0..x.len() {
+            let mut sum = 0.0;
+            let mut expected = [0.0; 3];
+            for b in bonds.range(i) {
+                let j = bonds.neighbor[b] as usize;
+                let d = [0, 1, 2].map(|k| y[j][k] - y[i][k]);
+                let zeta = bonds.reference_length[b];
+                let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                // ω = 1 and 1 − d = 1: the kernels' factors of 1 are exact, so left out here.
+                sum += zeta * (length - zeta) * v[j];
+                let t = (c[i].isotropic + c[j].isotropic) * zeta
+                    + (c[i].deviatoric + c[j].deviatoric) * (length - zeta);
+                let scale = t * v[j] / length;
+                for k in 0..3 {
+                    expected[k] += scale * d[k];
+                }
+            }
+            let m_i = m.weighted_volume()[i];
+            if m_i > 0.0 {
+                assert_eq!(c[i].dilatation, 3.0 * sum / m_i, "θ of point {i}");
+            }
+            assert_eq!(f[i], expected, "force of point {i}");
+        }
     }
 }

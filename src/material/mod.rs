@@ -183,6 +183,72 @@ pub trait Material: Send + Sync {
         force_density: &mut [[f64; 3]],
     );
 
+    /// True when this block can take the decisions of a constant critical stretch
+    /// ([`crate::damage::DamageModel::fusable_critical_stretch`]) inside its first bond pass —
+    /// [`Material::compute_point_coefficients_breaking_bonds`] when
+    /// [`Material::needs_dilatation`], else [`Material::add_force_density_breaking_bonds`] —
+    /// saving the damage model's own pass over the bonds. Only blocks whose bonds all stay
+    /// inside the block qualify (no bond to another block, whose damage the physics makes
+    /// symmetric between the damage update and the bond passes). Default false.
+    fn fuses_critical_stretch(&self) -> bool {
+        false
+    }
+
+    /// [`Material::compute_point_coefficients`] with the damage update folded in: every intact
+    /// bond of the block whose stretch exceeds `critical_stretch` breaks (d = 1) before its
+    /// bond is used, with exactly the decisions of the separate `Critical Stretch` update, and
+    /// the coefficients are those that the update followed by
+    /// [`Material::compute_point_coefficients`] would give (bitwise). Returns the directed
+    /// bonds broken. Called only when [`Material::fuses_critical_stretch`] and
+    /// [`Material::needs_dilatation`] are true (a broken internal invariant otherwise).
+    fn compute_point_coefficients_breaking_bonds(
+        &self,
+        reference: &ReferenceView<'_>,
+        position: &[[f64; 3]],
+        critical_stretch: f64,
+        bond_damage: &mut [f32],
+        coefficients: &mut [PointCoefficients],
+    ) -> usize {
+        let _ = (
+            reference,
+            position,
+            critical_stretch,
+            bond_damage,
+            coefficients,
+        );
+        unreachable!(
+            "{} does not fuse the critical-stretch test",
+            self.model_name()
+        )
+    }
+
+    /// [`Material::add_force_density`] with the damage update folded in, as
+    /// [`Material::compute_point_coefficients_breaking_bonds`] for materials without a
+    /// dilatation pass. Called only when [`Material::fuses_critical_stretch`] is true and
+    /// [`Material::needs_dilatation`] false.
+    fn add_force_density_breaking_bonds(
+        &self,
+        reference: &ReferenceView<'_>,
+        position: &[[f64; 3]],
+        critical_stretch: f64,
+        bond_damage: &mut [f32],
+        coefficients: &[PointCoefficients],
+        force_density: &mut [[f64; 3]],
+    ) -> usize {
+        let _ = (
+            reference,
+            position,
+            critical_stretch,
+            bond_damage,
+            coefficients,
+            force_density,
+        );
+        unreachable!(
+            "{} does not fuse the critical-stretch test",
+            self.model_name()
+        )
+    }
+
     /// Writes the stored elastic energy density W_i (energy/length³) of every block point
     /// (Peridigm's `Stored_Elastic_Energy_Density`; `Stored_Elastic_Energy` is W_i·V_i).
     fn stored_energy_density(

@@ -48,6 +48,9 @@ pub struct VelocityVerlet {
     settings: VerletSettings,
     /// Bit k set when component k of the point is prescribed.
     constrained: Vec<u8>,
+    /// The points with a prescribed component (their drift waits for the prescribed
+    /// velocities).
+    constrained_points: Vec<u32>,
 }
 
 impl VelocityVerlet {
@@ -57,9 +60,13 @@ impl VelocityVerlet {
         for dof in model.boundary.constrained_dofs() {
             constrained[dof / 3] |= 1 << (dof % 3);
         }
+        let constrained_points = (0..constrained.len() as u32)
+            .filter(|&p| constrained[p as usize] != 0)
+            .collect();
         Self {
             settings,
             constrained,
+            constrained_points,
         }
     }
 
@@ -110,13 +117,31 @@ impl VelocityVerlet {
             contact.scheduled_search(step, model, &state.current_position);
         }
 
+        // Half kick everywhere and, at points without a prescribed component, the drift in the
+        // same pass over memory; the drift of the other points waits for the velocities the
+        // kinematic conditions prescribe (they touch only those points).
+        // Y = (X + u) + Δt v and u += Δt v, in this order of operations, as Peridigm does:
+        // the extension e = |Y| − ζ cancels most digits, so the rounding of Y shows in forces.
+        let drift = |u: &mut [f64; 3], v: &[f64; 3], y: &mut [f64; 3], x: &[f64; 3]| {
+            for k in 0..3 {
+                y[k] = x[k] + u[k] + dt * v[k];
+                u[k] += dt * v[k];
+            }
+        };
         state
             .velocity
             .par_iter_mut()
             .zip(state.acceleration.par_iter())
-            .for_each(|(v, a)| {
+            .zip(state.displacement.par_iter_mut())
+            .zip(state.current_position.par_iter_mut())
+            .zip(positions.par_iter())
+            .zip(self.constrained.par_iter())
+            .for_each(|(((((v, a), u), y), x), &fixed)| {
                 for k in 0..3 {
                     v[k] += 0.5 * dt * a[k];
+                }
+                if fixed == 0 {
+                    drift(u, v, y, x);
                 }
             });
         {
@@ -129,42 +154,43 @@ impl VelocityVerlet {
                 |p, c, du| velocity[p][c] = du / dt,
             )?;
         }
-        // Y = (X + u) + Δt v and u += Δt v, in this order of operations, as Peridigm does:
-        // the extension e = |Y| − ζ cancels most digits, so the rounding of Y shows in forces.
-        state
-            .displacement
-            .par_iter_mut()
-            .zip(state.velocity.par_iter())
-            .zip(state.current_position.par_iter_mut())
-            .zip(positions.par_iter())
-            .for_each(|(((u, v), y), x)| {
-                for k in 0..3 {
-                    y[k] = x[k] + u[k] + dt * v[k];
-                    u[k] += dt * v[k];
-                }
-            });
+        for &p in &self.constrained_points {
+            let p = p as usize;
+            drift(
+                &mut state.displacement[p],
+                &state.velocity[p],
+                &mut state.current_position[p],
+                &positions[p],
+            );
+        }
         state.time = t_to;
         if let Some(b) = &mut state.external_force_density {
             model.boundary.body_force(positions, t_to, b)?;
         }
         set_damage_time(physics, t_to)?;
-        let broken_bonds = evaluate_acceleration(model, physics, state);
+        let broken_bonds = internal_and_contact_force(model, physics, state);
 
+        // a = (f_int + f_contact + b)/ρ (as `evaluate_acceleration`), the work, the second half
+        // kick and the kinetic energy in one pass.
         let volume = &model.points.volume;
         let constrained = &self.constrained;
         let external = state.external_force_density.as_deref();
+        let contact = physics.contact.as_ref().map(|c| c.force_density());
+        let density = &physics.density;
         let force = &state.force_density;
         let (free_kinetic_energy, supplied_work) = state
             .velocity
             .par_iter_mut()
-            .zip(state.acceleration.par_iter())
+            .zip(state.acceleration.par_iter_mut())
             .enumerate()
             .map(|(i, (v, a))| {
                 let mut kinetic = 0.0;
                 let mut work = 0.0;
                 for k in 0..3 {
-                    let drift = dt * v[k];
                     let b = external.map_or(0.0, |b| b[i][k]);
+                    let c = contact.map_or(0.0, |c| c[i][k]);
+                    a[k] = (force[i][k] + c + b) / density[i];
+                    let drift = dt * v[k];
                     work += (b * drift * volume[i]).abs();
                     if constrained[i] & (1 << k) != 0 {
                         work += ((force[i][k] + b) * drift * volume[i]).abs();
@@ -174,7 +200,7 @@ impl VelocityVerlet {
                         kinetic += v[k] * v[k];
                     }
                 }
-                (0.5 * physics.density[i] * volume[i] * kinetic, work)
+                (0.5 * density[i] * volume[i] * kinetic, work)
             })
             .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
         Ok(StepReport {
@@ -183,6 +209,21 @@ impl VelocityVerlet {
             broken_bonds,
         })
     }
+}
+
+/// Internal force density at `state.current_position` into `state.force_density`, then the
+/// contact force (if any, kept by the contact model). Returns broken bonds.
+fn internal_and_contact_force(model: &Model, physics: &mut Physics, state: &mut State) -> usize {
+    let broken = physics.internal_force(
+        &model.bonds,
+        &model.points,
+        &state.current_position,
+        &mut state.force_density,
+    );
+    if let Some(contact) = &mut physics.contact {
+        contact.compute_force(model, &state.current_position, &state.velocity);
+    }
+    broken
 }
 
 /// Passes the time to time-dependent damage models; a failing expression is reported like a
@@ -200,15 +241,7 @@ fn set_damage_time(physics: &mut Physics, time: f64) -> Result<(), BoundaryError
 /// Internal force at the current positions `state.current_position`, then the contact force
 /// (if any), and `a = (f_int + f_contact + b)/ρ`. Returns broken bonds.
 pub fn evaluate_acceleration(model: &Model, physics: &mut Physics, state: &mut State) -> usize {
-    let broken = physics.internal_force(
-        &model.bonds,
-        &model.points,
-        &state.current_position,
-        &mut state.force_density,
-    );
-    if let Some(contact) = &mut physics.contact {
-        contact.compute_force(model, &state.current_position, &state.velocity);
-    }
+    let broken = internal_and_contact_force(model, physics, state);
     let contact = physics.contact.as_ref().map(|c| c.force_density());
     let external = state.external_force_density.as_deref();
     let density = &physics.density;
