@@ -438,14 +438,25 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
                 .sum(),
         ),
     ];
-    if implicit {
+    let assembled = deck.solvers.iter().any(|s| {
+        s.integrator.is_implicit() && crate::solver::linear::matrix_free_preconditioner(s).is_none()
+    });
+    if assembled {
         let blocks = if state_based {
             two_hop_nonzero_blocks(model)
         } else {
             bonds + n
         };
-        // CSR of 3×3 blocks: 9 values (8 B) + 9 column indices (4 B) per block, plus row starts.
-        memory.push(("tangent matrix (CSR)", blocks * 9 * 12 + 8 * (3 * n + 1)));
+        // The block tangent (a 3×3 block of 8-byte values and a 4-byte column per block) and
+        // its scalar CSR copy over the free dofs (9 entries of an 8-byte value and an 8-byte
+        // column per block) that the linear solver receives, plus their row starts.
+        memory.push((
+            "tangent matrix (blocks + CSR)",
+            blocks * (9 * 8 + 4) + blocks * 9 * 16 + 8 * (4 * n + 2),
+        ));
+    } else if implicit {
+        // Jacobian-free Newton–Krylov keeps only the 3×3 diagonal blocks.
+        memory.push(("block-diagonal tangent (Jacobian-free)", n * 9 * 8));
     }
     plan.memory = memory
         .into_iter()

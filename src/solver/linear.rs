@@ -31,6 +31,25 @@ use crate::solver::newton::LinearStrategy;
 /// iterations.
 pub const MATRIX_FREE_TOLERANCE_FLOOR: f64 = 1e-7;
 
+/// The preconditioner of a Jacobian-free Newton–Krylov solve when `solver` asks for one
+/// (`NOXQuasiStatic` with `Jacobian Operator: "Matrix-Free"` and `Peridigm Preconditioner`
+/// `Block 3x3` or `None`), `None` when the solver assembles its tangent.
+pub fn matrix_free_preconditioner(solver: &Solver) -> Option<LinearPreconditioner> {
+    let Integrator::NoxQuasiStatic(nox) = &solver.integrator else {
+        return None;
+    };
+    let matrix_free = nox_string(
+        &nox.nox,
+        &["Direction", "Newton", "Linear Solver", "Jacobian Operator"],
+    )
+    .is_some_and(|s| s == "Matrix-Free");
+    match (matrix_free, solver.peridigm_preconditioner) {
+        (true, PeridigmPreconditioner::Block3x3) => Some(LinearPreconditioner::Block3x3),
+        (true, PeridigmPreconditioner::None) => Some(LinearPreconditioner::None),
+        _ => None,
+    }
+}
+
 /// The linear strategy of `solver` (see the module docs).
 pub fn strategy(
     solver: &Solver,
@@ -43,34 +62,22 @@ pub fn strategy(
         max_iterations: settings.maximum_iterations.map(|m| m as usize),
         ..KrylovSettings::default()
     };
-    if let Integrator::NoxQuasiStatic(nox) = &solver.integrator {
-        let matrix_free = nox_string(
-            &nox.nox,
-            &["Direction", "Newton", "Linear Solver", "Jacobian Operator"],
-        )
-        .is_some_and(|s| s == "Matrix-Free");
-        let preconditioner = match solver.peridigm_preconditioner {
-            PeridigmPreconditioner::Block3x3 => Some(LinearPreconditioner::Block3x3),
-            PeridigmPreconditioner::None => Some(LinearPreconditioner::None),
-            PeridigmPreconditioner::FullTangent => None,
-        };
-        if let (true, Some(preconditioner)) = (matrix_free, preconditioner) {
-            if matches!(settings.backend, LinearBackend::Trilinos { .. }) {
-                return Err(RunError::Unsupported(format!(
-                    "solver \"{}\": Backend \"Trilinos\" with Jacobian Operator \"Matrix-Free\" needs NOX's \
-                     Jacobian-free Newton–Krylov, which is not available yet; use Backend \"Native\" for \
-                     Jacobian-free solves or an assembled tangent (Peridigm Preconditioner \"Full Tangent\") with Trilinos",
-                    solver.name
-                )));
-            }
-            return Ok(LinearStrategy::MatrixFree {
-                krylov: KrylovSettings {
-                    relative_tolerance: krylov.relative_tolerance.max(MATRIX_FREE_TOLERANCE_FLOOR),
-                    ..krylov
-                },
-                preconditioner,
-            });
+    if let Some(preconditioner) = matrix_free_preconditioner(solver) {
+        if matches!(settings.backend, LinearBackend::Trilinos { .. }) {
+            return Err(RunError::Unsupported(format!(
+                "solver \"{}\": Backend \"Trilinos\" with Jacobian Operator \"Matrix-Free\" needs NOX's \
+                 Jacobian-free Newton–Krylov, which is not available yet; use Backend \"Native\" for \
+                 Jacobian-free solves or an assembled tangent (Peridigm Preconditioner \"Full Tangent\") with Trilinos",
+                solver.name
+            )));
         }
+        return Ok(LinearStrategy::MatrixFree {
+            krylov: KrylovSettings {
+                relative_tolerance: krylov.relative_tolerance.max(MATRIX_FREE_TOLERANCE_FLOOR),
+                ..krylov
+            },
+            preconditioner,
+        });
     }
     if let LinearBackend::Trilinos {
         preconditioner,
