@@ -948,7 +948,7 @@ impl Material for BondBased {
     }
 
     /// The pair-once loop tests each pair just before its force: same q, same exact test
-    /// (behind the filter of [`StretchLimit::breaks`]), both directions written at once, as the
+    /// (behind the filter of `StretchLimit::breaks`), both directions written at once, as the
     /// pair-once `Critical Stretch` update; the force then reads the updated damage, so forces
     /// and damage are bitwise those of the separate update followed by the force.
     fn add_force_density_breaking_bonds(

@@ -840,7 +840,7 @@ impl Material for LinearPeridynamicSolid {
     }
 
     /// The dilatation pass tests each bond of a row just before it enters θ: the same q and
-    /// the same exact test (behind the filter of [`StretchLimit::breaks`]) as the directed
+    /// the same exact test (behind the filter of `StretchLimit::breaks`) as the directed
     /// `Critical Stretch` update, each row deciding its own bonds (both ends of a pair decide
     /// alike, see [`crate::damage::CriticalStretch`]).
     fn compute_point_coefficients_breaking_bonds(

@@ -1,6 +1,6 @@
 //! Chooses how an implicit solver solves its Newton corrections, from the deck.
 //!
-//! * `QuasiStatic` and `Implicit`: the peridyn `Linear Solver` keys ([`LinearSolve`](crate::io::deck::LinearSolve)) on the
+//! * `QuasiStatic` and `Implicit`: the peridyn `Linear Solver` keys ([`LinearSolve`]) on the
 //!   native backend; `Direct` is sparse Cholesky, with sparse LU taking over for good once the
 //!   stiffness is found not positive definite.
 //! * `NOXQuasiStatic` on the native backend: `Direction → Newton → Linear Solver → Jacobian
@@ -9,7 +9,7 @@
 //!   `Full Tangent` still assembles); anything else is Newton with the assembled tangent and the
 //!   `Linear Solver` keys.
 //! * `Backend: "Trilinos"` (feature `trilinos`): the assembled tangent goes to Belos
-//!   ([`TrilinosLinearSolver`](crate::backend::trilinos::TrilinosLinearSolver)) with the
+//!   (`TrilinosLinearSolver`) with the
 //!   Ifpack/ML preconditioner of the deck; Jacobian-free Newton–Krylov through NOX is not
 //!   available yet, so `Matrix-Free` with that backend is refused rather than silently run
 //!   natively.

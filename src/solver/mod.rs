@@ -2,6 +2,7 @@
 
 pub mod explicit;
 pub mod implicit;
+pub mod jfnk;
 pub mod linear;
 pub mod monitor;
 pub mod newmark;
