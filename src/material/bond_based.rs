@@ -30,7 +30,7 @@
 //! `W_i = Σ_j ¼·c·s²·ζ·(1−d)·V_j` makes `Σ_i W_i V_i = E` exactly. (The `(1−d)` factor is
 //! exact for 0/1 damage; for fractional damage it is the energy of the softened spring.)
 
-use super::point_chunks::for_each_chunk;
+use super::point_chunks::{for_each_chunk, WriteColouring};
 use super::{
     assert_point_set, checked_tangent_method, positive, CurrentView, Damaged, Integrity, Material,
     MaterialError, PointCoefficients, ReferenceView, Undamaged,
@@ -386,8 +386,7 @@ impl PairPlan {
             chunk_of[i as usize] = (k / PAIR_CHUNK) as u32;
         }
         let mut colours: Vec<Vec<std::ops::Range<usize>>> = Vec::new();
-        // taken[colour][chunk]: some chunk of that colour writes into `chunk`.
-        let mut taken: Vec<Vec<bool>> = Vec::new();
+        let mut colouring = WriteColouring::new(chunks);
         for c in 0..chunks {
             let mut writes = vec![c as u32];
             for k in range(c) {
@@ -400,19 +399,9 @@ impl PairPlan {
             }
             writes.sort_unstable();
             writes.dedup();
-            let colour = match taken
-                .iter()
-                .position(|t| writes.iter().all(|&w| !t[w as usize]))
-            {
-                Some(colour) => colour,
-                None => {
-                    taken.push(vec![false; chunks]);
-                    colours.push(Vec::new());
-                    taken.len() - 1
-                }
-            };
-            for &w in &writes {
-                taken[colour][w as usize] = true;
+            let colour = colouring.assign(&writes);
+            if colour == colours.len() {
+                colours.push(Vec::new());
             }
             colours[colour].push(range(c));
         }

@@ -72,6 +72,47 @@ where
     );
 }
 
+/// Greedy first-fit colouring of work items by the chunks (of some array) they write: items of
+/// one colour write disjoint chunks, so each colour can run in parallel and the colours one
+/// after the other, with a fixed order of every sum (the result is the same for any thread
+/// count).
+pub(crate) struct WriteColouring {
+    /// `taken[colour][chunk]`: an item of that colour writes into `chunk`.
+    taken: Vec<Vec<bool>>,
+    chunks: usize,
+}
+
+impl WriteColouring {
+    /// No colours yet, over an array of `chunks` chunks.
+    pub(crate) fn new(chunks: usize) -> Self {
+        Self {
+            taken: Vec::new(),
+            chunks,
+        }
+    }
+
+    /// The first colour none of whose items writes any of `writes` (chunk numbers below
+    /// `chunks`), opening a new colour when every existing one conflicts; marks `writes` as
+    /// written by that colour. A new colour's number equals the number of colours before it.
+    pub(crate) fn assign(&mut self, writes: &[u32]) -> usize {
+        let colour = match self
+            .taken
+            .iter()
+            .position(|t| writes.iter().all(|&w| !t[w as usize]))
+        {
+            Some(colour) => colour,
+            None => {
+                self.taken.push(vec![false; self.chunks]);
+                self.taken.len() - 1
+            }
+        };
+        for &w in writes {
+            self.taken[colour][w as usize] = true;
+        }
+        colour
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -120,5 +161,18 @@ mod tests {
                 assert_eq!(v, expected);
             }
         }
+    }
+
+    #[test]
+    fn write_colouring_separates_items_that_write_the_same_chunk() {
+        let mut colouring = WriteColouring::new(4);
+        // {0,1} and {2} share nothing: one colour; {1,2} meets both: a second colour; {3}
+        // fits the first again (first fit); {0,3} meets the first (which now writes 0–3) but
+        // not the second ({1,2}).
+        assert_eq!(colouring.assign(&[0, 1]), 0);
+        assert_eq!(colouring.assign(&[2]), 0);
+        assert_eq!(colouring.assign(&[1, 2]), 1);
+        assert_eq!(colouring.assign(&[3]), 0);
+        assert_eq!(colouring.assign(&[0, 3]), 1);
     }
 }

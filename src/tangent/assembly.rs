@@ -37,6 +37,7 @@ use num_dual::{Dual64, DualNum};
 use rayon::prelude::*;
 
 use super::{Block, BlockTangent, TangentError, TangentMethod};
+use crate::material::point_chunks::WriteColouring;
 use crate::material::{CurrentView, ReferenceView};
 use crate::model::BondList;
 
@@ -179,7 +180,7 @@ struct Group {
 fn plan(bonds: &BondList, points: &[u32]) -> Vec<Vec<Group>> {
     let num_chunks = bonds.num_points().div_ceil(CHUNK);
     let mut colours: Vec<Vec<Group>> = Vec::new();
-    let mut taken: Vec<Vec<bool>> = Vec::new();
+    let mut colouring = WriteColouring::new(num_chunks);
     let mut start = 0;
     while start < points.len() {
         let chunk = points[start] as usize / CHUNK;
@@ -191,19 +192,9 @@ fn plan(bonds: &BondList, points: &[u32]) -> Vec<Vec<Group>> {
         }
         writes.sort_unstable();
         writes.dedup();
-        let colour = match taken
-            .iter()
-            .position(|t| writes.iter().all(|&w| !t[w as usize]))
-        {
-            Some(c) => c,
-            None => {
-                taken.push(vec![false; num_chunks]);
-                colours.push(Vec::new());
-                taken.len() - 1
-            }
-        };
-        for &w in &writes {
-            taken[colour][w as usize] = true;
+        let colour = colouring.assign(&writes);
+        if colour == colours.len() {
+            colours.push(Vec::new());
         }
         colours[colour].push(Group {
             points: start..end,
