@@ -31,6 +31,7 @@
 //! exact for 0/1 damage; for fractional damage it is the energy of the softened spring.)
 
 use super::point_chunks::{for_each_chunk, WriteColouring};
+use super::FusedCriticalStretch;
 use super::{
     assert_point_set, checked_tangent_method, positive, CurrentView, Damaged, Integrity, Material,
     MaterialError, PointCoefficients, ReferenceView, Undamaged,
@@ -676,27 +677,6 @@ impl Breaker for NoBreaking {
     }
 }
 
-/// A constant critical stretch tested inside the pair loop, with the damage array it writes
-/// (also the loop's [`Integrity`], read through the same pointer).
-#[derive(Clone, Copy)]
-struct FusedCriticalStretch {
-    limit: StretchLimit,
-    damage: *mut f32,
-}
-
-// SAFETY: tasks only touch disjoint entries through the pointer (the `Breaker` contract).
-unsafe impl Send for FusedCriticalStretch {}
-unsafe impl Sync for FusedCriticalStretch {}
-
-impl Integrity for FusedCriticalStretch {
-    #[inline(always)]
-    fn intact(self, bond: usize) -> f64 {
-        // SAFETY: the pair loop reads only entries of its own chunk's upper bonds, which no
-        // other task writes (the `Breaker` contract); the pointer covers every bond.
-        1.0 - f64::from(unsafe { *self.damage.add(bond) })
-    }
-}
-
 impl Breaker for FusedCriticalStretch {
     #[inline(always)]
     fn limit(self) -> Option<StretchLimit> {
@@ -706,7 +686,7 @@ impl Breaker for FusedCriticalStretch {
     #[inline(always)]
     unsafe fn damage(self, b: usize) -> f32 {
         // SAFETY: as the caller guarantees.
-        unsafe { *self.damage.add(b) }
+        unsafe { self.read(b) }
     }
 
     #[inline(never)]
@@ -724,11 +704,8 @@ impl Breaker for FusedCriticalStretch {
                 .expect("fused blocks have symmetric families (checked in setup)");
         // SAFETY: both entries belong to the running chunk (the caller's contract).
         unsafe {
-            *self.damage.add(b) = 1.0;
-            let reverse = self.damage.add(back);
-            let changed = usize::from(*reverse < 1.0);
-            *reverse = 1.0;
-            1 + changed
+            self.break_bond(b);
+            1 + usize::from(self.break_bond(back))
         }
     }
 }

@@ -20,6 +20,7 @@
 
 use super::influence::InfluenceFunction;
 use super::point_chunks::for_each_chunk;
+use super::FusedCriticalStretch;
 use super::{
     assert_point_set, checked_tangent_method, local_offsets, positive, BondWeights, CurrentView,
     Damaged, Integrity, Material, MaterialError, PointCoefficients, ReferenceView, StoredWeights,
@@ -546,28 +547,6 @@ impl RowBreaker for NoBreaking {
     }
 }
 
-/// A constant critical stretch tested in the dilatation pass, with the damage array it writes
-/// (also the pass's [`Integrity`], read through the same pointer).
-#[derive(Clone, Copy)]
-struct FusedCriticalStretch {
-    limit: StretchLimit,
-    damage: *mut f32,
-}
-
-// SAFETY: tasks only touch the rows of their own points through the pointer (the
-// `RowBreaker` contract).
-unsafe impl Send for FusedCriticalStretch {}
-unsafe impl Sync for FusedCriticalStretch {}
-
-impl Integrity for FusedCriticalStretch {
-    #[inline(always)]
-    fn intact(self, bond: usize) -> f64 {
-        // SAFETY: the pass reads only its own rows, which no other task writes (the
-        // `RowBreaker` contract); the pointer covers every bond.
-        1.0 - f64::from(unsafe { *self.damage.add(bond) })
-    }
-}
-
 impl RowBreaker for FusedCriticalStretch {
     #[inline(always)]
     fn limit(self) -> Option<StretchLimit> {
@@ -577,13 +556,13 @@ impl RowBreaker for FusedCriticalStretch {
     #[inline(always)]
     unsafe fn damage(self, b: usize) -> f32 {
         // SAFETY: as the caller guarantees.
-        unsafe { *self.damage.add(b) }
+        unsafe { self.read(b) }
     }
 
     #[inline(always)]
     unsafe fn break_bond(self, b: usize) {
         // SAFETY: as the caller guarantees.
-        unsafe { *self.damage.add(b) = 1.0 };
+        unsafe { FusedCriticalStretch::break_bond(self, b) };
     }
 }
 

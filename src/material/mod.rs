@@ -418,6 +418,60 @@ impl Integrity for Damaged<'_> {
     }
 }
 
+/// A constant critical stretch tested inside a material's bond loop (PMB's pair-once force
+/// loop, LPS's dilatation pass), with the bond-damage array the loop both reads (as its
+/// [`Integrity`]) and writes, through one pointer. Each material's breaking trait states which
+/// entries a task may touch; tasks touch disjoint entries, which is what makes sharing the
+/// pointer across threads sound.
+#[derive(Clone, Copy)]
+pub(crate) struct FusedCriticalStretch {
+    /// The critical stretch test.
+    pub(crate) limit: crate::damage::StretchLimit,
+    /// The bond-damage array (global bond numbering).
+    pub(crate) damage: *mut f32,
+}
+
+// SAFETY: tasks only touch disjoint entries through the pointer (the contract of the
+// material's breaking trait).
+unsafe impl Send for FusedCriticalStretch {}
+unsafe impl Sync for FusedCriticalStretch {}
+
+impl FusedCriticalStretch {
+    /// d of bond `b`.
+    ///
+    /// # Safety
+    /// No other task writes entry `b` meanwhile, and `b` is a bond of the array.
+    #[inline(always)]
+    pub(crate) unsafe fn read(self, b: usize) -> f32 {
+        // SAFETY: as the caller guarantees.
+        unsafe { *self.damage.add(b) }
+    }
+
+    /// Sets d = 1 on bond `b`; returns whether it was intact or partly damaged before.
+    ///
+    /// # Safety
+    /// No other task reads or writes entry `b` meanwhile, and `b` is a bond of the array.
+    #[inline(always)]
+    pub(crate) unsafe fn break_bond(self, b: usize) -> bool {
+        // SAFETY: as the caller guarantees.
+        unsafe {
+            let entry = self.damage.add(b);
+            let changed = *entry < 1.0;
+            *entry = 1.0;
+            changed
+        }
+    }
+}
+
+impl Integrity for FusedCriticalStretch {
+    #[inline(always)]
+    fn intact(self, bond: usize) -> f64 {
+        // SAFETY: the bond loops read only entries of their own task's bonds, which no other
+        // task writes (the breaking traits' contracts); the pointer covers every bond.
+        1.0 - f64::from(unsafe { self.read(bond) })
+    }
+}
+
 /// Block-local bond offsets: `local[k]` is where point `points[k]`'s row starts in arrays
 /// that store only the block's bonds (length `points.len() + 1`).
 pub(crate) fn local_offsets(bonds: &BondList, points: &[u32]) -> Vec<usize> {
