@@ -1,7 +1,7 @@
 //! Build script: nothing to do unless a C++ backend feature is enabled.
 //!
-//! With feature `trilinos` it compiles the cxx bridge `src/backend/trilinos/ffi.rs` and the
-//! shim `cpp/src/trilinos_linear.cpp` with `cxx_build`, against the Trilinos and MPI found by
+//! With feature `trilinos` it compiles the cxx bridges `src/backend/trilinos/{ffi,nox_ffi}.rs`
+//! and the shims `cpp/src/trilinos_{linear,nox}.cpp` with `cxx_build`, against the Trilinos and MPI found by
 //! [`trilinos::discover`].
 
 fn main() {
@@ -18,6 +18,8 @@ mod trilinos {
     /// would need). `trilinos_epetraext` is there because ML's inline destructors reference
     /// EpetraExt symbols (a release link fails without it).
     const LIBRARIES: &[&str] = &[
+        "noxepetra",
+        "nox",
         "belosepetra",
         "belos",
         "ml",
@@ -46,16 +48,25 @@ mod trilinos {
     }
 
     pub fn build() {
-        for path in ["src/backend/trilinos/ffi.rs", "cpp", "cmake"] {
+        for path in [
+            "src/backend/trilinos/ffi.rs",
+            "src/backend/trilinos/nox_ffi.rs",
+            "cpp",
+            "cmake",
+        ] {
             println!("cargo:rerun-if-changed={path}");
         }
         for var in ["Trilinos_DIR", "PERIDYN_TRILINOS_CMAKE"] {
             println!("cargo:rerun-if-env-changed={var}");
         }
         let found = discover();
-        let mut build = cxx_build::bridge("src/backend/trilinos/ffi.rs");
+        let mut build = cxx_build::bridges([
+            "src/backend/trilinos/ffi.rs",
+            "src/backend/trilinos/nox_ffi.rs",
+        ]);
         build
             .file("cpp/src/trilinos_linear.cpp")
+            .file("cpp/src/trilinos_nox.cpp")
             .std("c++17")
             .include("cpp/include")
             // OpenMPI's and MPICH's C++ bindings would need libmpi_cxx; the shim uses the C API.

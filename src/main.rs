@@ -35,6 +35,11 @@ enum Command {
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+        /// Backend of the implicit solver lists that do not name one with their `Backend`
+        /// key: `native` (the default for QuasiStatic and Implicit) or `trilinos` (the default
+        /// for NOXQuasiStatic in a build with the feature).
+        #[arg(long, value_enum)]
+        backend: Option<BackendChoice>,
     },
     /// Validate a deck and print the run plan: sizes, physics, fields, memory, time step.
     Check {
@@ -60,6 +65,15 @@ enum Command {
     },
     /// Time the explicit-dynamics speed check (the LAMMPS PERI problem); optionally run LAMMPS.
     Bench(peridyn::bench::BenchArgs),
+}
+
+/// `peridyn run --backend`.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum BackendChoice {
+    /// faer factorizations and peridyn's own Krylov methods.
+    Native,
+    /// Belos, and NOX for NOXQuasiStatic (Cargo feature `trilinos`).
+    Trilinos,
 }
 
 /// Failure classes that decide the exit code.
@@ -98,14 +112,30 @@ fn check(path: &Path, json: bool) -> Result<()> {
     }
 }
 
-fn run(path: &Path, output_dir: &Path, threads: Option<usize>) -> Result<()> {
+fn run(
+    path: &Path,
+    output_dir: &Path,
+    threads: Option<usize>,
+    backend: Option<BackendChoice>,
+) -> Result<()> {
     if let Some(threads) = threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build_global()
             .context("cannot set up the thread pool")?;
     }
-    let deck = load(path)?;
+    let mut deck = load(path)?;
+    if let Some(choice) = backend {
+        let backend = match choice {
+            BackendChoice::Native => deck::LinearBackend::Native,
+            BackendChoice::Trilinos => deck::LinearBackend::TRILINOS_DEFAULT,
+        };
+        for solver in &mut deck.solvers {
+            solver
+                .choose_backend(backend)
+                .map_err(|e| invalid(format!("{}: --backend: {e}", path.display())))?;
+        }
+    }
     let model = build(&deck)?;
     let unsupported = setup::unsupported_features(&deck);
     if !unsupported.is_empty() {
@@ -186,7 +216,8 @@ fn main() -> ExitCode {
             deck,
             output_dir,
             threads,
-        } => run(deck, output_dir, *threads),
+            backend,
+        } => run(deck, output_dir, *threads, *backend),
         Command::Check { deck, json } => check(deck, *json),
         Command::Diff { a, b, comp, then } => diff(a, then, b, comp.as_deref()),
         Command::Bench(args) => peridyn::bench::main(args).map_err(Into::into),

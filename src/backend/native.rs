@@ -29,7 +29,9 @@ pub use krylov::{
     cg_matrix_free, gmres_matrix_free, ConjugateGradient, Gmres, KrylovSettings, Operator,
     PreconditionerApply,
 };
-pub use preconditioner::{Preconditioner, PreconditionerKind, PreconditionerOperator};
+pub use preconditioner::{
+    invert_dense, Preconditioner, PreconditionerKind, PreconditionerOperator,
+};
 
 use super::{Csr, KrylovReport, LinearSolver, SolveError};
 

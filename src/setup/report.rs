@@ -145,9 +145,13 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
             note(format!("solver {name}"));
         }
         if let crate::io::deck::Integrator::NoxQuasiStatic(nox) = &solver.integrator {
-            if nox.direction_method != "Newton" {
+            let on_nox = matches!(
+                solver.linear_solve.backend,
+                crate::io::deck::LinearBackend::Trilinos { .. }
+            );
+            if nox.direction_method != "Newton" && !on_nox {
                 note(format!(
-                    "NOXQuasiStatic Direction Method \"{}\" (NOX decks run on peridyn's own Newton)",
+                    "NOXQuasiStatic Direction Method \"{}\" on the native backend (it needs Trilinos NOX: a build with feature `trilinos`, Backend \"Trilinos\")",
                     nox.direction_method
                 ));
             }

@@ -434,13 +434,13 @@ impl Run<'_> {
         state: &mut State,
     ) -> Result<(), RunError> {
         let settings = quasi_static_settings(solver, predecessor)?;
-        let mut linear = linear::strategy(solver, self.model, physics)?;
+        let mut nonlinear = linear::nonlinear_solver(solver, self.model, physics)?;
         eprintln!(
             "{}: {}, {} load steps, linear solver: {}",
             solver.name,
             solver.integrator.deck_name(),
             settings.times.len() - 1,
-            linear.describe()
+            nonlinear.describe()
         );
         state.time = solver.initial_time;
         self.nonlinear_iterations = None;
@@ -456,7 +456,7 @@ impl Run<'_> {
             physics,
             state,
             &settings,
-            &mut linear,
+            nonlinear.as_mut(),
             |physics, state, report| -> Result<(), RunError> {
                 self.nonlinear_iterations = Some(report.newton.iterations as f64);
                 self.summary.broken_bonds += report.newton.broken_bonds;
@@ -579,9 +579,13 @@ fn quasi_static_settings(
             q.adaptive_load_stepping.clone(),
         ),
         Integrator::NoxQuasiStatic(n) => {
-            if n.direction_method != "Newton" {
+            let on_nox = matches!(
+                solver.linear_solve.backend,
+                crate::io::deck::LinearBackend::Trilinos { .. }
+            );
+            if n.direction_method != "Newton" && !on_nox {
                 return Err(RunError::Unsupported(format!(
-                        "solver \"{}\": NOXQuasiStatic Direction → Method \"{}\" is not available; this build runs NOX decks with its own Newton (use Method: \"Newton\")",
+                        "solver \"{}\": NOXQuasiStatic Direction → Method \"{}\" needs Trilinos NOX (a build with feature `trilinos` and Backend \"Trilinos\"); the native backend has Newton only",
                         solver.name, n.direction_method
                     )));
             }

@@ -88,7 +88,7 @@ pub fn solve(
 }
 
 /// A CSR matrix holding only the dense diagonal blocks (row-major per group).
-fn block_diagonal_csr(groups: &[usize], blocks: &[f64]) -> Csr {
+pub(crate) fn block_diagonal_csr(groups: &[usize], blocks: &[f64]) -> Csr {
     let n = *groups.last().unwrap_or(&0);
     let mut matrix = Csr {
         nrows: n,

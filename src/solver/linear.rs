@@ -8,11 +8,10 @@
 //!   selects Jacobian-free Newton–Krylov (Peridigm's rule, reference §4.2: `Matrix-Free` with
 //!   `Full Tangent` still assembles); anything else is Newton with the assembled tangent and the
 //!   `Linear Solver` keys.
-//! * `Backend: "Trilinos"` (feature `trilinos`): the assembled tangent goes to Belos
-//!   (`TrilinosLinearSolver`) with the
-//!   Ifpack/ML preconditioner of the deck; Jacobian-free Newton–Krylov through NOX is not
-//!   available yet, so `Matrix-Free` with that backend is refused rather than silently run
-//!   natively.
+//! * `Backend: "Trilinos"` (feature `trilinos`): `NOXQuasiStatic` is solved by NOX itself
+//!   ([`super::nox_newton`]; the default for `NOXQuasiStatic` in a build with the feature);
+//!   `QuasiStatic` and `Implicit` hand their assembled tangent to Belos
+//!   (`TrilinosLinearSolver`) with the Ifpack/ML preconditioner of the deck.
 
 use crate::backend::native::{
     KrylovSettings, NativeLinearSolver, NativeMethod, NativeSolverSettings, PreconditionerKind,
@@ -24,7 +23,7 @@ use crate::io::deck::{
 use crate::physics::Physics;
 use crate::setup::Model;
 use crate::simulation::RunError;
-use crate::solver::newton::LinearStrategy;
+use crate::solver::newton::{LinearStrategy, NonlinearSolver};
 
 /// The smallest Krylov tolerance Jacobian-free solves use: a finite-difference directional
 /// derivative is accurate to about √ε ≈ 1e-8 relative, so asking for less only wastes
@@ -50,6 +49,35 @@ pub fn matrix_free_preconditioner(solver: &Solver) -> Option<LinearPreconditione
     }
 }
 
+/// The nonlinear solver of a quasi-static `solver` list: NOX for `NOXQuasiStatic` on the
+/// Trilinos backend, otherwise peridyn's Newton with [`strategy`].
+pub fn nonlinear_solver(
+    solver: &Solver,
+    model: &Model,
+    physics: &Physics,
+) -> Result<Box<dyn NonlinearSolver>, RunError> {
+    if matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
+        && matches!(solver.linear_solve.backend, LinearBackend::Trilinos { .. })
+    {
+        return nox_solver(solver);
+    }
+    Ok(Box::new(strategy(solver, model, physics)?))
+}
+
+#[cfg(feature = "trilinos")]
+fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, RunError> {
+    Ok(Box::new(super::nox_newton::NoxNewton::from_deck(solver)?))
+}
+
+#[cfg(not(feature = "trilinos"))]
+fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, RunError> {
+    Err(RunError::Unsupported(format!(
+        "solver \"{}\": Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
+         (cargo build --release --features trilinos; see .ci/trilinos.sh)",
+        solver.name
+    )))
+}
+
 /// The linear strategy of `solver` (see the module docs).
 pub fn strategy(
     solver: &Solver,
@@ -63,14 +91,6 @@ pub fn strategy(
         ..KrylovSettings::default()
     };
     if let Some(preconditioner) = matrix_free_preconditioner(solver) {
-        if matches!(settings.backend, LinearBackend::Trilinos { .. }) {
-            return Err(RunError::Unsupported(format!(
-                "solver \"{}\": Backend \"Trilinos\" with Jacobian Operator \"Matrix-Free\" needs NOX's \
-                 Jacobian-free Newton–Krylov, which is not available yet; use Backend \"Native\" for \
-                 Jacobian-free solves or an assembled tangent (Peridigm Preconditioner \"Full Tangent\") with Trilinos",
-                solver.name
-            )));
-        }
         return Ok(LinearStrategy::MatrixFree {
             krylov: KrylovSettings {
                 relative_tolerance: krylov.relative_tolerance.max(MATRIX_FREE_TOLERANCE_FLOOR),

@@ -7,6 +7,8 @@ pub mod linear;
 pub mod monitor;
 pub mod newmark;
 pub mod newton;
+#[cfg(feature = "trilinos")]
+pub mod nox_newton;
 pub mod quasistatic;
 
 pub use explicit::{VelocityVerlet, VerletSettings};

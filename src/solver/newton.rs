@@ -388,3 +388,48 @@ fn line_search(
     let broken = system.residual(model, physics, state, residual)?;
     Ok((broken, settings.measure.of(residual, &system.dofs, volume)))
 }
+
+/// A nonlinear solver for one load step: from the state on entry (prescribed dofs set, the
+/// predictor applied) to an equilibrium of `system`, leaving the state at its last iterate with
+/// consistent forces and damage.
+pub trait NonlinearSolver {
+    /// A short description for the log.
+    fn describe(&self) -> String;
+
+    /// True when the solver logs the residual after each iteration (NOX, as Peridigm prints
+    /// it), so the load-step driver does not add the closing `iteration i: residual` line
+    /// that peridyn's Newton, which logs at the top of each iteration, needs.
+    fn logs_after_each_iteration(&self) -> bool {
+        false
+    }
+
+    /// Solves `system`; a solve that stops unconverged is a report with `converged == false`.
+    fn solve(
+        &mut self,
+        system: &mut ImplicitSystem,
+        model: &Model,
+        physics: &mut Physics,
+        state: &mut State,
+        settings: &NewtonSettings,
+        constrained: &[usize],
+    ) -> Result<NewtonReport, SolveError>;
+}
+
+/// peridyn's own Newton iteration ([`solve`]) with this linear strategy.
+impl NonlinearSolver for LinearStrategy {
+    fn describe(&self) -> String {
+        LinearStrategy::describe(self)
+    }
+
+    fn solve(
+        &mut self,
+        system: &mut ImplicitSystem,
+        model: &Model,
+        physics: &mut Physics,
+        state: &mut State,
+        settings: &NewtonSettings,
+        constrained: &[usize],
+    ) -> Result<NewtonReport, SolveError> {
+        solve(system, model, physics, state, self, settings, constrained)
+    }
+}

@@ -27,7 +27,7 @@ use crate::physics::Physics;
 use crate::setup::Model;
 use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem};
 use crate::solver::newton::{
-    self, norm2, ConvergenceMeasure, LinearStrategy, NewtonReport, NewtonSettings,
+    norm2, ConvergenceMeasure, NewtonReport, NewtonSettings, NonlinearSolver,
 };
 use crate::state::State;
 use std::time::Instant;
@@ -138,7 +138,7 @@ pub fn run<E: From<QuasiStaticError>>(
     physics: &mut Physics,
     state: &mut State,
     settings: &QuasiStaticSettings,
-    linear: &mut LinearStrategy,
+    nonlinear: &mut dyn NonlinearSolver,
     mut on_step: impl FnMut(&Physics, &State, &LoadStepReport) -> Result<(), E>,
 ) -> Result<Vec<LoadStepReport>, E> {
     let constrained = model.boundary.constrained_dofs();
@@ -179,12 +179,11 @@ pub fn run<E: From<QuasiStaticError>>(
             print_iterations: true,
             verbose: settings.verbose,
         };
-        let report = newton::solve(
+        let report = nonlinear.solve(
             &mut system,
             model,
             physics,
             state,
-            linear,
             &newton_settings,
             &constrained,
         );
@@ -246,10 +245,12 @@ pub fn run<E: From<QuasiStaticError>>(
                 .into());
             }
         }
-        eprintln!(
-            "  iteration {}: residual = {measure:e}",
-            report.iterations + 1
-        );
+        if !nonlinear.logs_after_each_iteration() {
+            eprintln!(
+                "  iteration {}: residual = {measure:e}",
+                report.iterations + 1
+            );
+        }
         for (v, (u, u0)) in state
             .velocity
             .iter_mut()

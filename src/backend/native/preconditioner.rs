@@ -282,7 +282,7 @@ fn block_inverses(
 /// Inverse of a small row-major dense matrix by Gauss–Jordan elimination with partial
 /// pivoting; `None` when a pivot is below 1e-14 × the block's largest entry (numerically
 /// singular: the inverse would amplify rounding by more than 10¹⁴).
-fn invert_dense(matrix: &[f64], size: usize) -> Option<Vec<f64>> {
+pub fn invert_dense(matrix: &[f64], size: usize) -> Option<Vec<f64>> {
     let scale = matrix.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     if scale == 0.0 {
         return None;

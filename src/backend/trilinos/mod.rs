@@ -21,6 +21,8 @@
 //! meaningful on one process, so it refuses a larger world until distributed assembly exists.
 
 mod ffi;
+pub mod nox;
+mod nox_ffi;
 
 use std::sync::Mutex;
 
@@ -101,7 +103,7 @@ pub struct TrilinosLinearSolver {
 
 /// MPI is initialised with `MPI_THREAD_SERIALIZED`: solves from several threads (cargo's test
 /// harness) take turns.
-static MPI_TURN: Mutex<()> = Mutex::new(());
+pub(crate) static MPI_TURN: Mutex<()> = Mutex::new(());
 
 impl TrilinosLinearSolver {
     /// A solver with these settings; nothing is allocated until the first solve.
@@ -278,9 +280,33 @@ impl LinearSolver for TrilinosLinearSolver {
                 matrix.nnz()
             ))
         })?;
+        let guess = x.to_vec();
         let outcome = {
             let _turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
-            self.run_belos(&indexed, rhs, x)?
+            match self.run_belos(&indexed, rhs, x) {
+                // CG needs a positive definite (preconditioned) operator. A stiffness without
+                // enough kinematic conditions is only semidefinite, and an incomplete
+                // factorization of it can make the preconditioned operator indefinite; GMRES
+                // does not need definiteness, so it takes over for the rest of the run, as
+                // sparse LU takes over from Cholesky on the native backend.
+                Err(SolveError::Breakdown { reason, .. })
+                    if self.settings.method == BelosMethod::BlockCg =>
+                {
+                    eprintln!(
+                        "  note: {}: {}; switching to Belos BlockGMRES",
+                        self.method_name(),
+                        reason
+                            .lines()
+                            .rev()
+                            .find(|l| !l.trim().is_empty())
+                            .unwrap_or("breakdown")
+                    );
+                    self.settings.method = BelosMethod::BlockGmres;
+                    x.copy_from_slice(&guess);
+                    self.run_belos(&indexed, rhs, x)?
+                }
+                other => other?,
+            }
         };
         if !x.iter().all(|v| v.is_finite()) {
             return Err(SolveError::NonFinite {

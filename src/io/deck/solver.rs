@@ -59,6 +59,8 @@ pub struct Solver {
 pub struct LinearSolve {
     /// `Backend` (and the Trilinos backend's own preconditioner settings).
     pub backend: LinearBackend,
+    /// The deck gave `Backend` (otherwise `peridyn run --backend` may choose it).
+    pub backend_given: bool,
     /// `Linear Solver`.
     pub method: LinearMethod,
     /// `Linear Solver Preconditioner` of the native Krylov methods (with `Backend:
@@ -104,6 +106,41 @@ pub enum LinearBackend {
         /// `Linear Solver ILU Level Of Fill` (default 0).
         ilu_fill_level: u32,
     },
+}
+
+impl LinearBackend {
+    /// `Backend: "Trilinos"` with its default preconditioner (ILU(0)).
+    pub const TRILINOS_DEFAULT: LinearBackend = LinearBackend::Trilinos {
+        preconditioner: AlgebraicPreconditioner::Ilu,
+        ilu_fill_level: 0,
+    };
+}
+
+impl Solver {
+    /// Chooses the backend of an implicit solver list whose deck did not (`peridyn run
+    /// --backend`). Direct methods exist on the native backend only, so a list asking for one
+    /// cannot move to Trilinos.
+    pub fn choose_backend(&mut self, backend: LinearBackend) -> Result<(), String> {
+        if self.linear_solve.backend_given || matches!(self.integrator, Integrator::Verlet(_)) {
+            return Ok(());
+        }
+        if matches!(backend, LinearBackend::Trilinos { .. }) {
+            if !cfg!(feature = "trilinos") {
+                return Err(TRILINOS_NOT_BUILT.to_string());
+            }
+            if matches!(
+                self.linear_solve.method,
+                LinearMethod::Direct | LinearMethod::Cholesky | LinearMethod::Lu
+            ) {
+                return Err(format!(
+                    "solver \"{}\" asks for a direct linear solver, which only Backend \"Native\" has",
+                    self.name
+                ));
+            }
+        }
+        self.linear_solve.backend = backend;
+        Ok(())
+    }
 }
 
 /// `Linear Solver Preconditioner` values of the Trilinos backend.
@@ -488,6 +525,7 @@ fn read_linear_solve(
             _ => LinearMethod::Direct,
         },
     };
+    let backend_given = list.peek("Backend").is_some();
     let trilinos = match list.get("Backend") {
         None => false,
         Some(f) => match f.choice(ctx, &["Native", "Trilinos"])? {
@@ -573,6 +611,7 @@ fn read_linear_solve(
     };
     Ok(LinearSolve {
         backend,
+        backend_given,
         method,
         preconditioner,
         relative_tolerance,
@@ -833,7 +872,14 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, 
         Integrator::QuasiStatic(q) => Some((&q.belos, belos_given)),
         _ => None,
     };
-    let linear_solve = read_linear_solve(ctx, &mut list, belos)?;
+    let mut linear_solve = read_linear_solve(ctx, &mut list, belos)?;
+    // A Peridigm deck that names NOX gets NOX when this build has it.
+    if matches!(integrator, Integrator::NoxQuasiStatic(_))
+        && !linear_solve.backend_given
+        && cfg!(feature = "trilinos")
+    {
+        linear_solve.backend = LinearBackend::TRILINOS_DEFAULT;
+    }
     let solver = Solver {
         name: field.key().to_string(),
         initial_time,

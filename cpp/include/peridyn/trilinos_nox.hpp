@@ -1,0 +1,29 @@
+// C++ side of the cxx bridge in src/backend/trilinos/nox_ffi.rs: NOX's Epetra Newton solver
+// with the residual, the tangent and the preconditioner supplied by Rust callbacks.
+// Adaptation only: what to solve, with which parameters and what the results mean is decided
+// in Rust (src/backend/trilinos/nox.rs).
+#pragma once
+
+#include <cstdint>
+
+#include "rust/cxx.h"
+
+namespace peridyn {
+namespace trilinos {
+
+struct NoxProblem;
+struct NoxLayout;
+struct NoxParameter;
+struct NoxOutcome;
+
+// Builds the NOX group (assembled or matrix-free Jacobian, optional preconditioner matrix),
+// the status tests Combo(OR: FiniteValue, NormF(tolerance, unscaled), MaxIters) and the solver
+// from `parameters`, then steps it until a status test ends it, reporting each iteration to
+// `problem`. `x` is the initial guess on entry and NOX's solution on return. A failing Rust
+// callback makes the fill return false; NOX's exception is rethrown as std::runtime_error.
+NoxOutcome nox_solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows,
+                     const NoxLayout &layout, rust::Slice<const NoxParameter> parameters,
+                     rust::Slice<double> x);
+
+} // namespace trilinos
+} // namespace peridyn

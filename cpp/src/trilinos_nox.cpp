@@ -1,0 +1,281 @@
+// See cpp/include/peridyn/trilinos_nox.hpp. The Rust callbacks return Result; their errors
+// arrive here as rust::Error and become a `false` fill, which NOX turns into its own
+// exception; nox_solve rethrows every exception as std::runtime_error for cxx to hand to Rust.
+#include "peridyn/trilinos_nox.hpp"
+#include "peridyn/src/backend/trilinos/nox_ffi.rs.h"
+
+#include <mpi.h>
+
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include <Epetra_CrsMatrix.h>
+#include <Epetra_Map.h>
+#include <Epetra_MpiComm.h>
+#include <Epetra_Operator.h>
+#include <Epetra_Vector.h>
+#include <NOX.H>
+#include <NOX_Epetra.H>
+#include <NOX_Epetra_Interface_Jacobian.H>
+#include <NOX_Epetra_Interface_Preconditioner.H>
+#include <NOX_Epetra_Interface_Required.H>
+#include <NOX_Epetra_LinearSystem_AztecOO.H>
+#include <NOX_Epetra_MatrixFree.H>
+#include <Teuchos_ParameterList.hpp>
+#include <Teuchos_RCP.hpp>
+
+namespace peridyn {
+namespace trilinos {
+
+namespace {
+
+using Teuchos::RCP;
+using Teuchos::rcp;
+
+void check(int code, const char *what) {
+  if (code < 0) {
+    throw std::runtime_error(std::string(what) + " failed with Epetra error code " +
+                             std::to_string(code));
+  }
+}
+
+Teuchos::ParameterList &sublist_at(Teuchos::ParameterList &top, const rust::Vec<rust::String> &path) {
+  Teuchos::ParameterList *list = &top;
+  for (const auto &name : path) {
+    list = &list->sublist(std::string(name));
+  }
+  return *list;
+}
+
+RCP<Teuchos::ParameterList> parameter_list(rust::Slice<const NoxParameter> parameters) {
+  auto top = rcp(new Teuchos::ParameterList("NOX"));
+  for (const auto &p : parameters) {
+    Teuchos::ParameterList &list = sublist_at(*top, p.path);
+    const std::string name(p.name);
+    switch (p.kind) {
+    case NoxValueKind::Text:
+      list.set(name, std::string(p.text));
+      break;
+    case NoxValueKind::Double:
+      list.set(name, p.number);
+      break;
+    case NoxValueKind::Int:
+      list.set(name, static_cast<int>(p.integer));
+      break;
+    case NoxValueKind::Bool:
+      list.set(name, p.flag);
+      break;
+    }
+  }
+  return top;
+}
+
+// A matrix with the CSR pattern (global row ids `rows`, `offsets` into `columns`), all zero.
+RCP<Epetra_CrsMatrix> pattern_matrix(const Epetra_Map &map, rust::Slice<const std::int32_t> rows,
+                                     const rust::Vec<std::int32_t> &offsets,
+                                     const rust::Vec<std::int32_t> &columns) {
+  int longest_row = 0;
+  for (std::size_t r = 0; r + 1 < offsets.size(); ++r) {
+    longest_row = std::max(longest_row, offsets[r + 1] - offsets[r]);
+  }
+  auto matrix = rcp(new Epetra_CrsMatrix(Copy, map, longest_row));
+  std::vector<double> zeros(longest_row, 0.0);
+  for (std::size_t r = 0; r + 1 < offsets.size(); ++r) {
+    check(matrix->InsertGlobalValues(rows[r], offsets[r + 1] - offsets[r], zeros.data(),
+                                     columns.data() + offsets[r]),
+          "Epetra_CrsMatrix::InsertGlobalValues");
+  }
+  check(matrix->FillComplete(), "Epetra_CrsMatrix::FillComplete");
+  return matrix;
+}
+
+// Writes CSR-ordered `values` into the matrix built by pattern_matrix.
+void replace_values(Epetra_CrsMatrix &matrix, rust::Slice<const std::int32_t> rows,
+                    const rust::Vec<std::int32_t> &offsets, const rust::Vec<std::int32_t> &columns,
+                    const std::vector<double> &values) {
+  for (std::size_t r = 0; r + 1 < offsets.size(); ++r) {
+    check(matrix.ReplaceGlobalValues(rows[r], offsets[r + 1] - offsets[r],
+                                     values.data() + offsets[r], columns.data() + offsets[r]),
+          "Epetra_CrsMatrix::ReplaceGlobalValues");
+  }
+}
+
+rust::Slice<const double> view(const Epetra_Vector &v) {
+  return rust::Slice<const double>(v.Values(), static_cast<std::size_t>(v.MyLength()));
+}
+
+// A matrix that already holds a preconditioner's inverse, applied as AztecOO's "User Defined"
+// preconditioner: AztecOO calls ApplyInverse, which here is the product with the matrix.
+// AztecOO preconditions in place (x and y view the same array), so the input is copied first.
+class InverseByProduct : public Epetra_Operator {
+public:
+  explicit InverseByProduct(RCP<Epetra_CrsMatrix> inverse) : inverse_(std::move(inverse)) {}
+  int SetUseTranspose(bool) override { return -1; }
+  int Apply(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
+  int ApplyInverse(const Epetra_MultiVector &x, Epetra_MultiVector &y) const override {
+    const Epetra_MultiVector input(x);
+    return inverse_->Multiply(false, input, y);
+  }
+  double NormInf() const override { return inverse_->NormInf(); }
+  const char *Label() const override { return "peridyn preconditioner (inverse by product)"; }
+  bool UseTranspose() const override { return false; }
+  bool HasNormInf() const override { return true; }
+  const Epetra_Comm &Comm() const override { return inverse_->Comm(); }
+  const Epetra_Map &OperatorDomainMap() const override { return inverse_->OperatorDomainMap(); }
+  const Epetra_Map &OperatorRangeMap() const override { return inverse_->OperatorRangeMap(); }
+
+private:
+  RCP<Epetra_CrsMatrix> inverse_;
+};
+
+// The NOX interfaces, each forwarding to the Rust problem.
+class Callbacks : public NOX::Epetra::Interface::Required,
+                  public NOX::Epetra::Interface::Jacobian,
+                  public NOX::Epetra::Interface::Preconditioner {
+public:
+  Callbacks(NoxProblem &problem, rust::Slice<const std::int32_t> rows, const NoxLayout &layout)
+      : problem_(problem), rows_(rows), layout_(layout) {}
+
+  RCP<Epetra_CrsMatrix> jacobian;
+  RCP<Epetra_CrsMatrix> preconditioner;
+
+  bool computeF(const Epetra_Vector &x, Epetra_Vector &f, FillType fill) override {
+    try {
+      problem_.residual(view(x),
+                        rust::Slice<double>(f.Values(), static_cast<std::size_t>(f.MyLength())),
+                        fill != NOX::Epetra::Interface::Required::Residual);
+      return true;
+    } catch (const rust::Error &) {
+      return false;
+    }
+  }
+
+  bool computeJacobian(const Epetra_Vector &x, Epetra_Operator &) override {
+    return refill(x, *jacobian, layout_.jacobian_offsets, layout_.jacobian_columns, false);
+  }
+
+  bool computePreconditioner(const Epetra_Vector &x, Epetra_Operator &,
+                             Teuchos::ParameterList *) override {
+    return refill(x, *preconditioner, layout_.preconditioner_offsets,
+                  layout_.preconditioner_columns, true);
+  }
+
+private:
+  bool refill(const Epetra_Vector &x, Epetra_CrsMatrix &matrix,
+              const rust::Vec<std::int32_t> &offsets, const rust::Vec<std::int32_t> &columns,
+              bool is_preconditioner) {
+    values_.resize(columns.size());
+    rust::Slice<double> out(values_.data(), values_.size());
+    try {
+      const bool fresh = is_preconditioner ? problem_.preconditioner(view(x), out)
+                                           : problem_.jacobian(view(x), out);
+      if (fresh) {
+        replace_values(matrix, rows_, offsets, columns, values_);
+      }
+      return true;
+    } catch (const rust::Error &) {
+      return false;
+    }
+  }
+
+  NoxProblem &problem_;
+  rust::Slice<const std::int32_t> rows_;
+  const NoxLayout &layout_;
+  std::vector<double> values_;
+};
+
+int total_linear_iterations(const Teuchos::ParameterList &linear_solver) {
+  if (!linear_solver.isSublist("Output")) {
+    return 0;
+  }
+  const Teuchos::ParameterList &output = linear_solver.sublist("Output");
+  const char *key = "Total Number of Linear Iterations";
+  return output.isParameter(key) ? output.get<int>(key) : 0;
+}
+
+NoxOutcome solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows,
+                 const NoxLayout &layout, rust::Slice<const NoxParameter> parameters,
+                 rust::Slice<double> x) {
+  Epetra_MpiComm comm(MPI_COMM_SELF);
+  Epetra_Map map(-1, static_cast<int>(owned_rows.size()), owned_rows.data(), 0, comm);
+  RCP<Teuchos::ParameterList> params = parameter_list(parameters);
+  Teuchos::ParameterList &printing = params->sublist("Printing");
+  Teuchos::ParameterList &linear_solver = sublist_at(*params, layout.linear_solver_path);
+
+  auto callbacks = rcp(new Callbacks(problem, owned_rows, layout));
+  // Typed handles: the LinearSystemAztecOO constructors overload on the interface type.
+  RCP<NOX::Epetra::Interface::Required> required = callbacks;
+  RCP<NOX::Epetra::Interface::Jacobian> jacobian_fill = callbacks;
+  RCP<NOX::Epetra::Interface::Preconditioner> preconditioner_fill = callbacks;
+  auto guess = rcp(new Epetra_Vector(Copy, map, x.data()));
+  NOX::Epetra::Vector clone(guess, NOX::Epetra::Vector::CreateView);
+  RCP<NOX::Epetra::LinearSystemAztecOO> linear_system;
+  if (!layout.matrix_free) {
+    callbacks->jacobian =
+        pattern_matrix(map, owned_rows, layout.jacobian_offsets, layout.jacobian_columns);
+    RCP<Epetra_Operator> jacobian = callbacks->jacobian;
+    linear_system = rcp(new NOX::Epetra::LinearSystemAztecOO(printing, linear_solver, required,
+                                                             jacobian_fill, jacobian, clone));
+  } else {
+    auto matrix_free = rcp(new NOX::Epetra::MatrixFree(printing, required, clone));
+    RCP<NOX::Epetra::Interface::Jacobian> directional = matrix_free;
+    RCP<Epetra_Operator> jacobian = matrix_free;
+    if (layout.preconditioner_offsets.empty()) {
+      linear_system = rcp(new NOX::Epetra::LinearSystemAztecOO(printing, linear_solver, required,
+                                                               directional, jacobian, clone));
+    } else {
+      callbacks->preconditioner = pattern_matrix(map, owned_rows, layout.preconditioner_offsets,
+                                                 layout.preconditioner_columns);
+      RCP<Epetra_Operator> operator_m = callbacks->preconditioner;
+      if (layout.preconditioner_is_inverse) {
+        operator_m = rcp(new InverseByProduct(callbacks->preconditioner));
+      }
+      linear_system = rcp(new NOX::Epetra::LinearSystemAztecOO(
+          printing, linear_solver, directional, jacobian, preconditioner_fill, operator_m, clone));
+    }
+  }
+  auto group = rcp(new NOX::Epetra::Group(printing, required, clone, linear_system));
+
+  auto tests = rcp(new NOX::StatusTest::Combo(NOX::StatusTest::Combo::OR));
+  tests->addStatusTest(rcp(new NOX::StatusTest::FiniteValue));
+  tests->addStatusTest(
+      rcp(new NOX::StatusTest::NormF(layout.tolerance, NOX::StatusTest::NormF::Unscaled)));
+  tests->addStatusTest(rcp(new NOX::StatusTest::MaxIters(layout.max_iterations)));
+  RCP<NOX::Solver::Generic> solver = NOX::Solver::buildSolver(group, tests, params);
+
+  NOX::StatusTest::StatusType status = NOX::StatusTest::Unevaluated;
+  int iterations = 0;
+  while (status != NOX::StatusTest::Converged && status != NOX::StatusTest::Failed) {
+    status = solver->step();
+    ++iterations;
+    problem.iteration_done(iterations, solver->getSolutionGroup().getF().norm());
+  }
+  const auto &solution =
+      dynamic_cast<const NOX::Epetra::Vector &>(solver->getSolutionGroup().getX()).getEpetraVector();
+  std::copy(solution.Values(), solution.Values() + solution.MyLength(), x.data());
+  return NoxOutcome{status == NOX::StatusTest::Converged, iterations,
+                    total_linear_iterations(linear_solver),
+                    solver->getSolutionGroup().getF().norm()};
+}
+
+} // namespace
+
+NoxOutcome nox_solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows,
+                     const NoxLayout &layout, rust::Slice<const NoxParameter> parameters,
+                     rust::Slice<double> x) {
+  try {
+    return solve(problem, owned_rows, layout, parameters, x);
+  } catch (const std::exception &e) {
+    throw std::runtime_error(e.what());
+  } catch (const char *message) {
+    throw std::runtime_error(message);
+  } catch (const std::string &message) {
+    throw std::runtime_error(message);
+  } catch (...) {
+    throw std::runtime_error("NOX stopped with an exception of unknown type");
+  }
+}
+
+} // namespace trilinos
+} // namespace peridyn

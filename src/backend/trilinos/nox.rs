@@ -1,0 +1,254 @@
+//! NOX's Newton solver (`NOX::Epetra`, linear solves by AztecOO) driven by Rust callbacks,
+//! through the bridge in [`super::nox_ffi`] and the shim `cpp/src/trilinos_nox.cpp`.
+//!
+//! The backend knows nothing of peridynamics: a [`NonlinearCallbacks`] gives F(x), the values
+//! of an assembled Jacobian ∂F/∂x in a fixed CSR pattern, and the values of a preconditioner
+//! matrix; [`solve`] hands them to NOX with the deck's NOX parameter list and returns what NOX
+//! did. An error in a callback is kept here, the fill reports failure to NOX, NOX throws, and
+//! [`solve`] returns the callback's own [`SolveError`] — no panic or C++ exception crosses the
+//! boundary.
+
+use super::nox_ffi::bridge;
+use super::{ffi::bridge as linear_bridge, MPI_TURN};
+use crate::backend::SolveError;
+use crate::io::deck::ParameterValue;
+
+/// What NOX asks of the problem.
+pub trait NonlinearCallbacks {
+    /// F(x) into `f`. `probe` is true when NOX evaluates F for a finite-difference or
+    /// matrix-free directional derivative rather than at an iterate.
+    fn residual(&mut self, x: &[f64], f: &mut [f64], probe: bool) -> Result<(), SolveError>;
+    /// The values of ∂F/∂x at x, in the order of [`NoxLayout::jacobian`]; `Ok(false)` keeps
+    /// the previous values.
+    fn jacobian(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, SolveError>;
+    /// The values of the preconditioner matrix at x, in the order of
+    /// [`NoxLayout::preconditioner`]; `Ok(false)` keeps the previous values.
+    fn preconditioner(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, SolveError>;
+    /// Called after every nonlinear iteration (1-based) with ‖F‖₂.
+    fn iteration_done(&mut self, iteration: usize, residual_norm: f64);
+}
+
+/// A CSR sparsity pattern over the unknowns (global column ids).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Pattern {
+    /// Row starts, `rows + 1` entries.
+    pub offsets: Vec<usize>,
+    /// Column of every entry.
+    pub columns: Vec<usize>,
+}
+
+/// How the preconditioner matrix of a matrix-free solve is used.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PreconditionerMatrix {
+    /// Its pattern.
+    pub pattern: Pattern,
+    /// The matrix is the preconditioner's inverse and is applied by a product (NOX
+    /// `Preconditioner: "User Defined"`); otherwise the NOX linear-solver `Preconditioner`
+    /// (`AztecOO`, `Ifpack`, `New Ifpack`, `ML`) factors it.
+    pub is_inverse: bool,
+}
+
+/// The Newton system NOX builds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoxLayout {
+    /// Sublists holding the linear-solver parameters of the chosen direction, e.g.
+    /// `["Direction", "Newton", "Linear Solver"]`.
+    pub linear_solver_path: Vec<String>,
+    /// `Some`: the assembled Jacobian's pattern. `None`: `NOX::Epetra::MatrixFree`
+    /// directional derivatives of F.
+    pub jacobian: Option<Pattern>,
+    /// Preconditioner matrix of a matrix-free solve.
+    pub preconditioner: Option<PreconditionerMatrix>,
+    /// Converged when ‖F‖₂ ≤ this (NOX `NormF`, absolute, unscaled).
+    pub tolerance: f64,
+    /// NOX `MaxIters`.
+    pub max_iterations: u64,
+}
+
+/// What NOX did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoxReport {
+    /// The status tests ended with `Converged`.
+    pub converged: bool,
+    /// Nonlinear iterations.
+    pub iterations: usize,
+    /// Krylov iterations summed over the solve.
+    pub linear_iterations: usize,
+    /// ‖F‖₂ at the returned x.
+    pub residual_norm: f64,
+}
+
+/// The Rust object the C++ side calls back; it keeps the first callback error so that the
+/// caller sees the real cause rather than NOX's generic fill failure.
+pub struct NoxProblem<'a> {
+    callbacks: &'a mut dyn NonlinearCallbacks,
+    error: Option<SolveError>,
+}
+
+impl NoxProblem<'_> {
+    fn keep<T>(&mut self, result: Result<T, SolveError>) -> Result<T, String> {
+        result.map_err(|e| {
+            let message = e.to_string();
+            self.error.get_or_insert(e);
+            message
+        })
+    }
+
+    pub(super) fn residual(&mut self, x: &[f64], f: &mut [f64], probe: bool) -> Result<(), String> {
+        let result = self.callbacks.residual(x, f, probe);
+        self.keep(result)
+    }
+
+    pub(super) fn jacobian(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, String> {
+        let result = self.callbacks.jacobian(x, values);
+        self.keep(result)
+    }
+
+    pub(super) fn preconditioner(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, String> {
+        let result = self.callbacks.preconditioner(x, values);
+        self.keep(result)
+    }
+
+    pub(super) fn iteration_done(&mut self, iteration: i32, residual_norm: f64) {
+        self.callbacks
+            .iteration_done(usize::try_from(iteration).unwrap_or(0), residual_norm);
+    }
+}
+
+fn failure(reason: impl Into<String>) -> SolveError {
+    SolveError::Breakdown {
+        method: "NOX",
+        reason: reason.into(),
+    }
+}
+
+fn narrow(values: &[usize], what: &str) -> Result<Vec<i32>, SolveError> {
+    values
+        .iter()
+        .map(|&v| i32::try_from(v))
+        .collect::<Result<_, _>>()
+        .map_err(|_| failure(format!("{what} exceed Epetra's 32-bit indices (2³¹ − 1)")))
+}
+
+/// The NOX parameter list as flat entries (sublist path, name, typed value).
+pub fn flatten_parameters(tree: &[(String, ParameterValue)]) -> Vec<bridge::NoxParameter> {
+    let mut out = Vec::new();
+    flatten_into(tree, &mut Vec::new(), &mut out);
+    out
+}
+
+fn flatten_into(
+    tree: &[(String, ParameterValue)],
+    path: &mut Vec<String>,
+    out: &mut Vec<bridge::NoxParameter>,
+) {
+    use bridge::NoxValueKind as Kind;
+    for (name, value) in tree {
+        let mut entry = bridge::NoxParameter {
+            path: path.clone(),
+            name: name.clone(),
+            kind: Kind::Text,
+            text: String::new(),
+            number: 0.0,
+            integer: 0,
+            flag: false,
+        };
+        match value {
+            ParameterValue::List(children) => {
+                path.push(name.clone());
+                flatten_into(children, path, out);
+                path.pop();
+                continue;
+            }
+            ParameterValue::String(s) => entry.text = s.clone(),
+            ParameterValue::Double(d) => {
+                entry.kind = Kind::Double;
+                entry.number = *d;
+            }
+            // Teuchos stores these as `int`; a deck integer beyond its range is a deck error
+            // NOX would reject anyway, so it saturates.
+            ParameterValue::Int(i) => {
+                entry.kind = Kind::Int;
+                entry.integer = (*i).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+            }
+            ParameterValue::Bool(b) => {
+                entry.kind = Kind::Bool;
+                entry.flag = *b;
+            }
+        }
+        out.push(entry);
+    }
+}
+
+/// Runs NOX on `callbacks` from `x` (the initial guess; NOX's last iterate on return) with
+/// the parameter list `parameters` (the deck's NOX keys) and the system `layout`. A solve
+/// that stops unconverged is a report with `converged == false`; errors are callback errors
+/// (returned as they were raised) and failures inside Trilinos.
+pub fn solve(
+    callbacks: &mut dyn NonlinearCallbacks,
+    layout: &NoxLayout,
+    parameters: &[(String, ParameterValue)],
+    x: &mut [f64],
+) -> Result<NoxReport, SolveError> {
+    let n = x.len();
+    let rows: Vec<i32> = narrow(&(0..n).collect::<Vec<_>>(), "the unknowns")?;
+    let csr = |pattern: &Pattern, what: &str| -> Result<(Vec<i32>, Vec<i32>), SolveError> {
+        if pattern.offsets.len() != n + 1 || pattern.offsets.last() != Some(&pattern.columns.len())
+        {
+            return Err(failure(format!(
+                "the {what} pattern has {} row offsets and {} entries for {n} unknowns",
+                pattern.offsets.len(),
+                pattern.columns.len()
+            )));
+        }
+        if pattern.columns.iter().any(|&c| c >= n) {
+            return Err(failure(format!(
+                "the {what} pattern has a column beyond {n}"
+            )));
+        }
+        Ok((
+            narrow(&pattern.offsets, "the entries")?,
+            narrow(&pattern.columns, "the columns")?,
+        ))
+    };
+    let (jacobian_offsets, jacobian_columns) = match &layout.jacobian {
+        Some(p) => csr(p, "Jacobian")?,
+        None => Default::default(),
+    };
+    let (preconditioner_offsets, preconditioner_columns) = match &layout.preconditioner {
+        Some(p) => csr(&p.pattern, "preconditioner")?,
+        None => Default::default(),
+    };
+    let bridge_layout = bridge::NoxLayout {
+        linear_solver_path: layout.linear_solver_path.clone(),
+        matrix_free: layout.jacobian.is_none(),
+        jacobian_offsets,
+        jacobian_columns,
+        preconditioner_offsets,
+        preconditioner_columns,
+        preconditioner_is_inverse: layout.preconditioner.as_ref().is_some_and(|p| p.is_inverse),
+        tolerance: layout.tolerance,
+        max_iterations: i32::try_from(layout.max_iterations).unwrap_or(i32::MAX),
+    };
+    let parameters = flatten_parameters(parameters);
+    let mut problem = NoxProblem {
+        callbacks,
+        error: None,
+    };
+    let outcome = {
+        let _turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
+        linear_bridge::mpi_initialize()
+            .map_err(|e| failure(format!("MPI initialisation: {}", e.what())))?;
+        bridge::nox_solve(&mut problem, &rows, &bridge_layout, &parameters, x)
+    };
+    if let Some(error) = problem.error {
+        return Err(error);
+    }
+    let outcome = outcome.map_err(|e| failure(e.what().to_string()))?;
+    Ok(NoxReport {
+        converged: outcome.converged,
+        iterations: usize::try_from(outcome.iterations).unwrap_or(0),
+        linear_iterations: usize::try_from(outcome.linear_iterations).unwrap_or(0),
+        residual_norm: outcome.residual_norm,
+    })
+}

@@ -1,0 +1,436 @@
+//! `NOXQuasiStatic` through Trilinos NOX (feature `trilinos`): each load step is solved by
+//! NOX's Newton or nonlinear-CG solver with the deck's NOX parameter list, on the same
+//! residual the native solvers use (the one-residual rule, DESIGN §5).
+//!
+//! What NOX sees (Peridigm's configuration, reference §4.2, with the differences noted):
+//! * unknowns: the current coordinates y = X + u of the free dofs (the first guess has the
+//!   prescribed increments and the predictor applied); prescribed dofs are eliminated rather
+//!   than zeroed rows. Peridigm's unknowns are the increments of the load step, which start at
+//!   0; NOX's matrix-free probe is x + ηv with η = λ(λ + ‖x‖/‖v‖), λ = 10⁻⁶, so at x = 0 it
+//!   is 10⁻¹²·v, and with a preconditioned v (of size ‖r‖/stiffness) it falls below the
+//!   round-off of the coordinates and GMRES breaks down. With coordinates as unknowns the probe
+//!   moves them by about λ‖y‖, the scale [`super::jfnk`] uses; F, its norm and the Newton steps
+//!   are unchanged;
+//! * F = −r = −V ⊙ (f_int + b) over the unknowns (force units), so that ∂F/∂x = K, the
+//!   symmetric stiffness; ‖F‖₂ is Peridigm's NOX measure;
+//! * status tests: `Combo(OR)` of `FiniteValue`, `NormF(tolerance, unscaled)` and
+//!   `MaxIters(Max Solver Iterations)`, as Peridigm builds them;
+//! * the Jacobian: the assembled tangent (values refreshed on each `computeJacobian`, every
+//!   `Update Jacobian`-th call for nonlinear CG), or with `Jacobian Operator: "Matrix-Free"`
+//!   and `Peridigm Preconditioner` `Block 3x3`/`None`, `NOX::Epetra::MatrixFree` directional
+//!   derivatives of F with damage frozen during the probes;
+//! * the matrix-free preconditioner follows the linear solver's `Preconditioner`: `None`
+//!   assembles nothing; `User Defined` applies the inverted 3×3 diagonal blocks of the tangent
+//!   by a product; `AztecOO`, `Ifpack`, `New Ifpack` and `ML` factor the (uninverted) blocks.
+//!   Peridigm fills its matrix with the inverted blocks and hands it to AztecOO's ILU in both
+//!   cases, which for `User Defined` preconditions with the blocks themselves instead of their
+//!   inverses — its `NOX_QS_MatrixFree_3x3Prec` regression needs 12 Newton iterations where the
+//!   block-Jacobi preconditioner needs 3. The blocks are refreshed after `Max Age Of Prec`
+//!   reuses.
+
+use crate::backend::native::invert_dense;
+use crate::backend::trilinos::nox::{
+    self, NonlinearCallbacks, NoxLayout, Pattern, PreconditionerMatrix,
+};
+use crate::backend::SolveError;
+use crate::io::deck::{Integrator, ParameterValue, PeridigmPreconditioner, Solver};
+use crate::physics::Physics;
+use crate::setup::Model;
+use crate::simulation::RunError;
+use crate::solver::implicit::{rank_deficient_points, DofMap, ImplicitSystem};
+use crate::solver::jfnk::block_diagonal_csr;
+use crate::solver::newton::{NewtonReport, NewtonSettings, NonlinearSolver};
+use crate::state::State;
+use std::time::Instant;
+
+/// The preconditioner of a matrix-free NOX solve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MatrixFreePreconditioner {
+    /// NOX `Preconditioner: "None"`: nothing is assembled.
+    None,
+    /// `User Defined`: the inverted diagonal blocks, applied by a product.
+    InvertedBlocks,
+    /// `AztecOO`, `Ifpack`, `New Ifpack`, `ML`: the diagonal blocks, factored by the library.
+    Blocks,
+}
+
+/// How the Newton system is formed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NoxJacobian {
+    /// The assembled tangent, recomputed on every `update_every`-th request.
+    Assembled {
+        /// `Direction → Nonlinear CG → Update Jacobian` (1 for Newton).
+        update_every: u64,
+    },
+    /// `NOX::Epetra::MatrixFree`.
+    MatrixFree {
+        /// Its preconditioner.
+        preconditioner: MatrixFreePreconditioner,
+        /// `Max Age Of Prec`: reuses of the preconditioner before it is recomputed.
+        max_age: u64,
+    },
+}
+
+/// `NOXQuasiStatic` on the Trilinos backend.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoxNewton {
+    parameters: Vec<(String, ParameterValue)>,
+    linear_solver_path: Vec<String>,
+    jacobian: NoxJacobian,
+}
+
+impl NoxNewton {
+    /// The NOX solver of a `NOXQuasiStatic` list (see the module docs for the rules).
+    pub fn from_deck(solver: &Solver) -> Result<Self, RunError> {
+        let Integrator::NoxQuasiStatic(deck) = &solver.integrator else {
+            return Err(RunError::Unsupported(format!(
+                "solver \"{}\": NOX runs NOXQuasiStatic lists only",
+                solver.name
+            )));
+        };
+        let direction = match deck.direction_method.as_str() {
+            "Newton" => "Newton",
+            "NonlinearCG" => "Nonlinear CG",
+            other => {
+                return Err(RunError::Unsupported(format!(
+                    "solver \"{}\": NOXQuasiStatic → Direction → Method \"{other}\": use \"Newton\" or \"NonlinearCG\" (Peridigm's two)",
+                    solver.name
+                )))
+            }
+        };
+        let linear_solver_path: Vec<String> = ["Direction", direction, "Linear Solver"]
+            .map(String::from)
+            .to_vec();
+        let path: Vec<&str> = linear_solver_path.iter().map(String::as_str).collect();
+        let linear_key = |key: &str| {
+            let mut full = path.clone();
+            full.push(key);
+            lookup(&deck.nox, &full).cloned()
+        };
+        let text = |v: Option<ParameterValue>| match v {
+            Some(ParameterValue::String(s)) => Some(s),
+            _ => None,
+        };
+        let matrix_free = text(linear_key("Jacobian Operator")).as_deref() == Some("Matrix-Free")
+            && solver.peridigm_preconditioner != PeridigmPreconditioner::FullTangent;
+        let jacobian = if matrix_free {
+            let preconditioner = match text(linear_key("Preconditioner")).as_deref() {
+                None | Some("None") => MatrixFreePreconditioner::None,
+                Some("User Defined") => MatrixFreePreconditioner::InvertedBlocks,
+                Some("AztecOO" | "Ifpack" | "New Ifpack" | "ML") => {
+                    MatrixFreePreconditioner::Blocks
+                }
+                Some(other) => {
+                    return Err(RunError::Unsupported(format!(
+                        "solver \"{}\": NOXQuasiStatic → Direction → {direction} → Linear Solver → Preconditioner \"{other}\": \
+                         use \"None\", \"User Defined\" (the inverted 3×3 blocks), \"AztecOO\", \"Ifpack\", \"New Ifpack\" or \"ML\"",
+                        solver.name
+                    )))
+                }
+            };
+            NoxJacobian::MatrixFree {
+                preconditioner,
+                max_age: deck.max_age_of_prec.max(1),
+            }
+        } else {
+            let update_every =
+                match lookup(&deck.nox, &["Direction", "Nonlinear CG", "Update Jacobian"]) {
+                    Some(ParameterValue::Int(n)) if *n >= 1 => *n as u64,
+                    _ => 1,
+                };
+            NoxJacobian::Assembled { update_every }
+        };
+        let mut parameters = deck.nox.clone();
+        if lookup(&parameters, &["Printing", "Output Information"]).is_none() {
+            set_printing(&mut parameters, solver.verbose || deck.verbose);
+        }
+        Ok(Self {
+            parameters,
+            linear_solver_path,
+            jacobian,
+        })
+    }
+
+    /// How the Newton system is formed.
+    pub fn jacobian(&self) -> NoxJacobian {
+        self.jacobian
+    }
+}
+
+/// NOX's `Printing → Output Information` when the deck gives none: errors only, or with
+/// `Verbose` the iterations, their status tests, the linear solves and warnings (bits of
+/// `NOX::Utils::MsgType`: Warning 1, OuterIteration 2, InnerIteration 4,
+/// OuterIterationStatusTest 32, LinearSolverDetails 64).
+fn set_printing(parameters: &mut Vec<(String, ParameterValue)>, verbose: bool) {
+    let level = if verbose { 1 + 2 + 4 + 32 + 64 } else { 0 };
+    let entry = ("Output Information".to_string(), ParameterValue::Int(level));
+    match parameters.iter_mut().find(|(k, _)| k == "Printing") {
+        Some((_, ParameterValue::List(list))) => list.push(entry),
+        _ => parameters.push(("Printing".to_string(), ParameterValue::List(vec![entry]))),
+    }
+}
+
+/// The value at `path` in a NOX parameter tree.
+fn lookup<'a>(tree: &'a [(String, ParameterValue)], path: &[&str]) -> Option<&'a ParameterValue> {
+    let (first, rest) = path.split_first()?;
+    let (_, value) = tree.iter().find(|(k, _)| k == first)?;
+    match (value, rest.is_empty()) {
+        (v, true) => Some(v),
+        (ParameterValue::List(children), false) => lookup(children, rest),
+        _ => None,
+    }
+}
+
+impl NonlinearSolver for NoxNewton {
+    fn logs_after_each_iteration(&self) -> bool {
+        true
+    }
+
+    fn describe(&self) -> String {
+        let direction = &self.linear_solver_path[1];
+        match self.jacobian {
+            NoxJacobian::Assembled { .. } => {
+                format!("Trilinos NOX ({direction}, assembled tangent, AztecOO)")
+            }
+            NoxJacobian::MatrixFree { preconditioner, .. } => format!(
+                "Trilinos NOX ({direction}, Jacobian-free, AztecOO, preconditioner {})",
+                match preconditioner {
+                    MatrixFreePreconditioner::None => "none",
+                    MatrixFreePreconditioner::InvertedBlocks => "inverted 3x3 blocks",
+                    MatrixFreePreconditioner::Blocks => "3x3 blocks factored by the library",
+                }
+            ),
+        }
+    }
+
+    fn solve(
+        &mut self,
+        system: &mut ImplicitSystem,
+        model: &Model,
+        physics: &mut Physics,
+        state: &mut State,
+        settings: &NewtonSettings,
+        constrained: &[usize],
+    ) -> Result<NewtonReport, SolveError> {
+        let start = Instant::now();
+        let evaluations_before = system.residual_evaluations;
+        // Points with too few bonds for a stiffness are held for the whole NOX solve (NOX
+        // cannot change its unknowns mid-solve).
+        let held = rank_deficient_points(model, physics);
+        for &p in &held {
+            eprintln!(
+                "  note: point {} has too few intact bonds for a stiffness; its displacement is held (RANK_DEFICIENT_NODES)",
+                model.points.original_id[p as usize] + 1
+            );
+        }
+        system.dofs = DofMap::new(model.points.len(), constrained, &held);
+        let n = system.dofs.len();
+        let mut reference = vec![0.0; n];
+        system.dofs.gather(&model.points.position, &mut reference);
+        let mut x = vec![0.0; n];
+        system.dofs.gather(&state.displacement, &mut x);
+        for (x, reference) in x.iter_mut().zip(&reference) {
+            *x += reference;
+        }
+        let jacobian_pattern = match self.jacobian {
+            NoxJacobian::Assembled { .. } => {
+                let matrix = system.stiffness(model, physics, state)?;
+                Some(Pattern {
+                    offsets: matrix.offsets,
+                    columns: matrix.columns,
+                })
+            }
+            NoxJacobian::MatrixFree { .. } => None,
+        };
+        let preconditioner = match self.jacobian {
+            NoxJacobian::MatrixFree {
+                preconditioner:
+                    kind @ (MatrixFreePreconditioner::Blocks | MatrixFreePreconditioner::InvertedBlocks),
+                ..
+            } => {
+                let blocks = block_diagonal_csr(
+                    &system.dofs.groups,
+                    &vec![0.0; block_entries(&system.dofs.groups)],
+                );
+                Some(PreconditionerMatrix {
+                    pattern: Pattern {
+                        offsets: blocks.offsets,
+                        columns: blocks.columns,
+                    },
+                    is_inverse: kind == MatrixFreePreconditioner::InvertedBlocks,
+                })
+            }
+            _ => None,
+        };
+        let layout = NoxLayout {
+            linear_solver_path: self.linear_solver_path.clone(),
+            jacobian: jacobian_pattern,
+            preconditioner,
+            tolerance: settings.tolerance,
+            max_iterations: settings.max_iterations,
+        };
+        let mut callbacks = StepCallbacks {
+            system,
+            model,
+            physics,
+            state,
+            reference: &reference,
+            jacobian: self.jacobian,
+            jacobian_requests: 0,
+            preconditioner_age: None,
+            broken_bonds: 0,
+            history: Vec::new(),
+            print_iterations: settings.print_iterations,
+        };
+        let outcome = nox::solve(&mut callbacks, &layout, &self.parameters, &mut x)?;
+        // The state ends at NOX's solution with its own forces and damage (NOX's last
+        // evaluation may have been a line-search trial or a probe).
+        let mut residual = vec![0.0; n];
+        callbacks.residual(&x, &mut residual, false)?;
+        let mut report = NewtonReport {
+            converged: outcome.converged,
+            iterations: outcome.iterations,
+            linear_iterations: outcome.linear_iterations,
+            residual_history: std::mem::take(&mut callbacks.history),
+            broken_bonds: callbacks.broken_bonds,
+            linear_method: "AztecOO (NOX)".to_string(),
+            ..NewtonReport::default()
+        };
+        report.residual_evaluations = system.residual_evaluations - evaluations_before;
+        report.tangent_bytes = system.tangent_bytes;
+        report.held_points = held
+            .iter()
+            .map(|&p| model.points.original_id[p as usize] + 1)
+            .collect();
+        report.seconds = start.elapsed().as_secs_f64();
+        Ok(report)
+    }
+}
+
+/// Entries of the dense diagonal blocks of `groups`.
+fn block_entries(groups: &[usize]) -> usize {
+    groups.windows(2).map(|g| (g[1] - g[0]).pow(2)).sum()
+}
+
+/// The callbacks of one load step.
+struct StepCallbacks<'a> {
+    system: &'a mut ImplicitSystem,
+    model: &'a Model,
+    physics: &'a mut Physics,
+    state: &'a mut State,
+    /// Reference coordinate X of every unknown (x is the current coordinate X + u).
+    reference: &'a [f64],
+    jacobian: NoxJacobian,
+    jacobian_requests: u64,
+    /// Reuses of the current preconditioner (`None`: not computed yet).
+    preconditioner_age: Option<u64>,
+    broken_bonds: usize,
+    /// ‖F‖₂ of the first residual, then after each iteration.
+    history: Vec<f64>,
+    print_iterations: bool,
+}
+
+impl StepCallbacks<'_> {
+    /// Moves the state to the coordinates `x`.
+    fn move_to(&mut self, x: &[f64]) {
+        let moved: Vec<f64> = x.iter().zip(self.reference).map(|(x, r)| x - r).collect();
+        self.system
+            .dofs
+            .scatter(&moved, &mut self.state.displacement);
+        self.state
+            .update_current_position(&self.model.points.position);
+    }
+}
+
+impl NonlinearCallbacks for StepCallbacks<'_> {
+    fn residual(&mut self, x: &[f64], f: &mut [f64], probe: bool) -> Result<(), SolveError> {
+        self.move_to(x);
+        if probe {
+            self.system
+                .residual_keeping_damage(self.model, self.physics, self.state, f, false)?;
+        } else {
+            self.broken_bonds = self
+                .system
+                .residual(self.model, self.physics, self.state, f)?;
+        }
+        f.iter_mut().for_each(|v| *v = -*v);
+        if self.history.is_empty() && !probe {
+            self.history
+                .push(f.iter().map(|v| v * v).sum::<f64>().sqrt());
+        }
+        Ok(())
+    }
+
+    fn jacobian(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, SolveError> {
+        let NoxJacobian::Assembled { update_every } = self.jacobian else {
+            return Ok(false);
+        };
+        self.jacobian_requests += 1;
+        if (self.jacobian_requests - 1) % update_every != 0 {
+            return Ok(false);
+        }
+        self.move_to(x);
+        let matrix = self
+            .system
+            .stiffness(self.model, self.physics, self.state)?;
+        if matrix.values.len() != values.len() {
+            return Err(SolveError::Breakdown {
+                method: "NOX",
+                reason: format!(
+                    "the tangent has {} entries, its pattern {}",
+                    matrix.values.len(),
+                    values.len()
+                ),
+            });
+        }
+        values.copy_from_slice(&matrix.values);
+        Ok(true)
+    }
+
+    fn preconditioner(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, SolveError> {
+        let NoxJacobian::MatrixFree {
+            preconditioner,
+            max_age,
+        } = self.jacobian
+        else {
+            return Ok(false);
+        };
+        match self.preconditioner_age {
+            Some(age) if age < max_age => {
+                self.preconditioner_age = Some(age + 1);
+                return Ok(false);
+            }
+            _ => self.preconditioner_age = Some(0),
+        }
+        self.move_to(x);
+        let blocks = self
+            .system
+            .block_diagonal(self.model, self.physics, self.state)?;
+        if preconditioner != MatrixFreePreconditioner::InvertedBlocks {
+            values.copy_from_slice(&blocks);
+            return Ok(true);
+        }
+        let mut at = 0;
+        for g in self.system.dofs.groups.windows(2) {
+            let size = g[1] - g[0];
+            let block = &blocks[at..at + size * size];
+            let inverse = invert_dense(block, size).ok_or_else(|| SolveError::Breakdown {
+                method: "Block 3x3 preconditioner",
+                reason: format!(
+                    "the diagonal block of point {} is singular",
+                    self.model.points.original_id[self.system.dofs.free[g[0]] / 3] + 1
+                ),
+            })?;
+            values[at..at + size * size].copy_from_slice(&inverse);
+            at += size * size;
+        }
+        Ok(true)
+    }
+
+    fn iteration_done(&mut self, iteration: usize, residual_norm: f64) {
+        self.history.push(residual_norm);
+        if self.print_iterations {
+            eprintln!("  iteration {iteration}: residual L2 norm = {residual_norm:e}");
+        }
+    }
+}
