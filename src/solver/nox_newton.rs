@@ -21,7 +21,9 @@
 //!   derivatives of F with damage frozen during the probes;
 //! * the matrix-free preconditioner follows the linear solver's `Preconditioner`: `None`
 //!   assembles nothing; `User Defined` applies the inverted 3×3 diagonal blocks of the tangent
-//!   by a product; `AztecOO`, `Ifpack`, `New Ifpack` and `ML` factor the (uninverted) blocks.
+//!   by a product; `AztecOO`, `Ifpack`, `New Ifpack` and `ML` factor the (uninverted) blocks;
+//!   without the key, `Peridigm Preconditioner: "Block 3x3"` means `User Defined` (NOX's
+//!   default would be none, and unpreconditioned JFNK stalls on real problems).
 //!   Peridigm fills its matrix with the inverted blocks and hands it to AztecOO's ILU in both
 //!   cases, which for `User Defined` preconditions with the blocks themselves instead of their
 //!   inverses — its `NOX_QS_MatrixFree_3x3Prec` regression needs 12 Newton iterations where the
@@ -115,6 +117,12 @@ impl NoxNewton {
             && solver.peridigm_preconditioner != PeridigmPreconditioner::FullTangent;
         let jacobian = if matrix_free {
             let preconditioner = match text(linear_key("Preconditioner")).as_deref() {
+                // Without the key NOX would run unpreconditioned, which stalls on anything
+                // real (ffi.md gotcha 9); `Block 3x3` then means what it says, as on the
+                // native backend.
+                None if solver.peridigm_preconditioner == PeridigmPreconditioner::Block3x3 => {
+                    MatrixFreePreconditioner::InvertedBlocks
+                }
                 None | Some("None") => MatrixFreePreconditioner::None,
                 Some("User Defined") => MatrixFreePreconditioner::InvertedBlocks,
                 Some("AztecOO" | "Ifpack" | "New Ifpack" | "ML") => {
@@ -141,6 +149,20 @@ impl NoxNewton {
             NoxJacobian::Assembled { update_every }
         };
         let mut parameters = deck.nox.clone();
+        if let NoxJacobian::MatrixFree {
+            preconditioner: MatrixFreePreconditioner::InvertedBlocks,
+            ..
+        } = jacobian
+        {
+            set_at(
+                &mut parameters,
+                &path,
+                (
+                    "Preconditioner",
+                    ParameterValue::String("User Defined".into()),
+                ),
+            );
+        }
         if lookup(&parameters, &["Printing", "Output Information"]).is_none() {
             set_printing(&mut parameters, solver.verbose || deck.verbose);
         }
@@ -157,17 +179,45 @@ impl NoxNewton {
     }
 }
 
+/// Sets `name = value` in the sublist at `path`, creating the sublists that are missing.
+fn set_at(
+    tree: &mut Vec<(String, ParameterValue)>,
+    path: &[&str],
+    (name, value): (&str, ParameterValue),
+) {
+    let Some((first, rest)) = path.split_first() else {
+        match tree.iter_mut().find(|(k, _)| k == name) {
+            Some((_, slot)) => *slot = value,
+            None => tree.push((name.to_string(), value)),
+        }
+        return;
+    };
+    let index = match tree
+        .iter()
+        .position(|(k, v)| k == first && matches!(v, ParameterValue::List(_)))
+    {
+        Some(i) => i,
+        None => {
+            tree.push((first.to_string(), ParameterValue::List(Vec::new())));
+            tree.len() - 1
+        }
+    };
+    if let ParameterValue::List(children) = &mut tree[index].1 {
+        set_at(children, rest, (name, value));
+    }
+}
+
 /// NOX's `Printing → Output Information` when the deck gives none: errors only, or with
 /// `Verbose` the iterations, their status tests, the linear solves and warnings (bits of
 /// `NOX::Utils::MsgType`: Warning 1, OuterIteration 2, InnerIteration 4,
 /// OuterIterationStatusTest 32, LinearSolverDetails 64).
 fn set_printing(parameters: &mut Vec<(String, ParameterValue)>, verbose: bool) {
     let level = if verbose { 1 + 2 + 4 + 32 + 64 } else { 0 };
-    let entry = ("Output Information".to_string(), ParameterValue::Int(level));
-    match parameters.iter_mut().find(|(k, _)| k == "Printing") {
-        Some((_, ParameterValue::List(list))) => list.push(entry),
-        _ => parameters.push(("Printing".to_string(), ParameterValue::List(vec![entry]))),
-    }
+    set_at(
+        parameters,
+        &["Printing"],
+        ("Output Information", ParameterValue::Int(level)),
+    );
 }
 
 /// The value at `path` in a NOX parameter tree.
@@ -432,5 +482,97 @@ impl NonlinearCallbacks for StepCallbacks<'_> {
         if self.print_iterations {
             eprintln!("  iteration {iteration}: residual L2 norm = {residual_norm:e}");
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::deck::{parse_str, DeckFormat};
+    use std::path::Path;
+
+    /// The NOX solver of a one-block deck whose `Solver` list has `solver_keys` and whose
+    /// NOXQuasiStatic `Linear Solver` list has `linear_keys`.
+    fn nox_of(solver_keys: &str, linear_keys: &str) -> NoxNewton {
+        let text = format!(
+            r#"Discretization:
+  Type: "PdQuickGrid"
+  NeighborhoodType: "Spherical"
+  TensorProduct3DMeshGenerator: {{X Origin: 0.0, Y Origin: 0.0, Z Origin: 0.0, X Length: 3.0, Y Length: 1.0, Z Length: 1.0, Number Points X: 3, Number Points Y: 1, Number Points Z: 1}}
+Materials:
+  M: {{Material Model: "Elastic", Density: 1.0, Bulk Modulus: 1.0, Shear Modulus: 1.0}}
+Blocks:
+  B: {{Block Names: "block_1", Material: "M", Horizon: 1.5}}
+Solver:
+  Final Time: 1.0
+{solver_keys}
+  NOXQuasiStatic:
+    Number of Load Steps: 1
+    Direction:
+      Method: "Newton"
+      Newton:
+        Linear Solver:
+{linear_keys}
+"#
+        );
+        let deck = parse_str(&text, DeckFormat::Yaml, Path::new("nox.yaml")).expect("deck");
+        NoxNewton::from_deck(&deck.solvers[0]).expect("NOX settings")
+    }
+
+    #[test]
+    fn peridigm_rules_choose_matrix_free_only_with_a_block_preconditioner() {
+        // Reference §4.2: Matrix-Free with Full Tangent still assembles.
+        let full = nox_of(
+            "  Peridigm Preconditioner: \"Full Tangent\"",
+            "          Jacobian Operator: \"Matrix-Free\"",
+        );
+        assert_eq!(full.jacobian(), NoxJacobian::Assembled { update_every: 1 });
+        let none = nox_of(
+            "  Peridigm Preconditioner: \"None\"",
+            "          Jacobian Operator: \"Matrix-Free\"",
+        );
+        assert!(matches!(
+            none.jacobian(),
+            NoxJacobian::MatrixFree {
+                preconditioner: MatrixFreePreconditioner::None,
+                max_age: 200
+            }
+        ));
+        let library = nox_of(
+            "  Peridigm Preconditioner: \"Block 3x3\"",
+            "          Jacobian Operator: \"Matrix-Free\"\n          Preconditioner: \"AztecOO\"",
+        );
+        assert!(matches!(
+            library.jacobian(),
+            NoxJacobian::MatrixFree {
+                preconditioner: MatrixFreePreconditioner::Blocks,
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn block_3x3_without_a_nox_preconditioner_key_is_user_defined() {
+        let solver = nox_of(
+            "  Peridigm Preconditioner: \"Block 3x3\"",
+            "          Jacobian Operator: \"Matrix-Free\"",
+        );
+        assert!(matches!(
+            solver.jacobian(),
+            NoxJacobian::MatrixFree {
+                preconditioner: MatrixFreePreconditioner::InvertedBlocks,
+                ..
+            }
+        ));
+        let path = ["Direction", "Newton", "Linear Solver", "Preconditioner"];
+        assert_eq!(
+            lookup(&solver.parameters, &path),
+            Some(&ParameterValue::String("User Defined".into()))
+        );
+        // Quiet NOX unless the deck asks (Output Information 0: errors only).
+        assert_eq!(
+            lookup(&solver.parameters, &["Printing", "Output Information"]),
+            Some(&ParameterValue::Int(0))
+        );
     }
 }
