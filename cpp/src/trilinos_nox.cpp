@@ -194,6 +194,52 @@ int total_linear_iterations(const Teuchos::ParameterList &linear_solver) {
   return output.isParameter(key) ? output.get<int>(key) : 0;
 }
 
+// The AztecOO linear system NOX solves with: the assembled Jacobian, or NOX's matrix-free
+// operator with an optional preconditioner matrix (applied as an inverse by product, or
+// factored by the library the linear-solver list names).
+RCP<NOX::Epetra::LinearSystemAztecOO>
+linear_system(const RCP<Callbacks> &callbacks, const Epetra_Map &map,
+              rust::Slice<const std::int32_t> rows, const NoxLayout &layout,
+              Teuchos::ParameterList &printing, Teuchos::ParameterList &linear_solver,
+              const NOX::Epetra::Vector &clone) {
+  // Typed handles: the LinearSystemAztecOO constructors overload on the interface type.
+  RCP<NOX::Epetra::Interface::Required> required = callbacks;
+  if (!layout.matrix_free) {
+    callbacks->jacobian =
+        pattern_matrix(map, rows, layout.jacobian_offsets, layout.jacobian_columns);
+    RCP<NOX::Epetra::Interface::Jacobian> jacobian_fill = callbacks;
+    RCP<Epetra_Operator> jacobian = callbacks->jacobian;
+    return rcp(new NOX::Epetra::LinearSystemAztecOO(printing, linear_solver, required,
+                                                    jacobian_fill, jacobian, clone));
+  }
+  auto matrix_free = rcp(new NOX::Epetra::MatrixFree(printing, required, clone));
+  RCP<NOX::Epetra::Interface::Jacobian> directional = matrix_free;
+  RCP<Epetra_Operator> jacobian = matrix_free;
+  if (layout.preconditioner_offsets.empty()) {
+    return rcp(new NOX::Epetra::LinearSystemAztecOO(printing, linear_solver, required,
+                                                    directional, jacobian, clone));
+  }
+  callbacks->preconditioner =
+      pattern_matrix(map, rows, layout.preconditioner_offsets, layout.preconditioner_columns);
+  RCP<NOX::Epetra::Interface::Preconditioner> preconditioner_fill = callbacks;
+  RCP<Epetra_Operator> preconditioner = callbacks->preconditioner;
+  if (layout.preconditioner_is_inverse) {
+    preconditioner = rcp(new InverseByProduct(callbacks->preconditioner));
+  }
+  return rcp(new NOX::Epetra::LinearSystemAztecOO(printing, linear_solver, directional, jacobian,
+                                                  preconditioner_fill, preconditioner, clone));
+}
+
+// Peridigm's status tests: finite values, ‖F‖₂ ≤ tolerance (absolute, unscaled), MaxIters.
+RCP<NOX::StatusTest::Combo> status_tests(const NoxLayout &layout) {
+  auto tests = rcp(new NOX::StatusTest::Combo(NOX::StatusTest::Combo::OR));
+  tests->addStatusTest(rcp(new NOX::StatusTest::FiniteValue));
+  tests->addStatusTest(
+      rcp(new NOX::StatusTest::NormF(layout.tolerance, NOX::StatusTest::NormF::Unscaled)));
+  tests->addStatusTest(rcp(new NOX::StatusTest::MaxIters(layout.max_iterations)));
+  return tests;
+}
+
 NoxOutcome solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows,
                  const NoxLayout &layout, rust::Slice<const NoxParameter> parameters,
                  rust::Slice<double> x) {
@@ -202,47 +248,13 @@ NoxOutcome solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows
   RCP<Teuchos::ParameterList> params = parameter_list(parameters);
   Teuchos::ParameterList &printing = params->sublist("Printing");
   Teuchos::ParameterList &linear_solver = sublist_at(*params, layout.linear_solver_path);
-
   auto callbacks = rcp(new Callbacks(problem, owned_rows, layout));
-  // Typed handles: the LinearSystemAztecOO constructors overload on the interface type.
-  RCP<NOX::Epetra::Interface::Required> required = callbacks;
-  RCP<NOX::Epetra::Interface::Jacobian> jacobian_fill = callbacks;
-  RCP<NOX::Epetra::Interface::Preconditioner> preconditioner_fill = callbacks;
   auto guess = rcp(new Epetra_Vector(Copy, map, x.data()));
   NOX::Epetra::Vector clone(guess, NOX::Epetra::Vector::CreateView);
-  RCP<NOX::Epetra::LinearSystemAztecOO> linear_system;
-  if (!layout.matrix_free) {
-    callbacks->jacobian =
-        pattern_matrix(map, owned_rows, layout.jacobian_offsets, layout.jacobian_columns);
-    RCP<Epetra_Operator> jacobian = callbacks->jacobian;
-    linear_system = rcp(new NOX::Epetra::LinearSystemAztecOO(printing, linear_solver, required,
-                                                             jacobian_fill, jacobian, clone));
-  } else {
-    auto matrix_free = rcp(new NOX::Epetra::MatrixFree(printing, required, clone));
-    RCP<NOX::Epetra::Interface::Jacobian> directional = matrix_free;
-    RCP<Epetra_Operator> jacobian = matrix_free;
-    if (layout.preconditioner_offsets.empty()) {
-      linear_system = rcp(new NOX::Epetra::LinearSystemAztecOO(printing, linear_solver, required,
-                                                               directional, jacobian, clone));
-    } else {
-      callbacks->preconditioner = pattern_matrix(map, owned_rows, layout.preconditioner_offsets,
-                                                 layout.preconditioner_columns);
-      RCP<Epetra_Operator> operator_m = callbacks->preconditioner;
-      if (layout.preconditioner_is_inverse) {
-        operator_m = rcp(new InverseByProduct(callbacks->preconditioner));
-      }
-      linear_system = rcp(new NOX::Epetra::LinearSystemAztecOO(
-          printing, linear_solver, directional, jacobian, preconditioner_fill, operator_m, clone));
-    }
-  }
-  auto group = rcp(new NOX::Epetra::Group(printing, required, clone, linear_system));
-
-  auto tests = rcp(new NOX::StatusTest::Combo(NOX::StatusTest::Combo::OR));
-  tests->addStatusTest(rcp(new NOX::StatusTest::FiniteValue));
-  tests->addStatusTest(
-      rcp(new NOX::StatusTest::NormF(layout.tolerance, NOX::StatusTest::NormF::Unscaled)));
-  tests->addStatusTest(rcp(new NOX::StatusTest::MaxIters(layout.max_iterations)));
-  RCP<NOX::Solver::Generic> solver = NOX::Solver::buildSolver(group, tests, params);
+  auto linear = linear_system(callbacks, map, owned_rows, layout, printing, linear_solver, clone);
+  RCP<NOX::Epetra::Interface::Required> required = callbacks;
+  auto group = rcp(new NOX::Epetra::Group(printing, required, clone, linear));
+  RCP<NOX::Solver::Generic> solver = NOX::Solver::buildSolver(group, status_tests(layout), params);
 
   NOX::StatusTest::StatusType status = NOX::StatusTest::Unevaluated;
   int iterations = 0;
