@@ -78,9 +78,11 @@ enum Failure {
     #[error("{0}")]
     Solver(String),
     /// Another rank reports this failure; exit with its code without printing.
+    #[cfg_attr(not(feature = "mpi"), allow(dead_code))]
     #[error("")]
     Quiet(u8),
     /// A failure with its own exit code (distributed runs).
+    #[cfg_attr(not(feature = "mpi"), allow(dead_code))]
     #[error("{1}")]
     WithCode(u8, String),
 }

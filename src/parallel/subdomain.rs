@@ -185,6 +185,12 @@ mod tests {
 
     fn deck(material: &str) -> (tempfile::TempDir, Deck) {
         let dir = tempfile::tempdir().unwrap();
+        // Bond-based materials take no shear modulus (ν is fixed).
+        let shear = if material == "Elastic" {
+            ", Shear Modulus: 0.5"
+        } else {
+            ""
+        };
         let text = format!(
             r#"Peridigm:
   Discretization:
@@ -201,7 +207,7 @@ mod tests {
       Number Points Y: 2
       Number Points Z: 2
   Materials:
-    M: {{Material Model: "{material}", Density: 1.0, Bulk Modulus: 1.0, Shear Modulus: 0.5}}
+    M: {{Material Model: "{material}", Density: 1.0, Bulk Modulus: 1.0{shear}}}
   Damage Models:
     D: {{Damage Model: "Critical Stretch", Critical Stretch: 0.01}}
   Blocks:
