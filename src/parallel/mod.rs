@@ -14,8 +14,9 @@
 //!    per-point sum its order of operations).
 //!
 //! # Ghost depth, and why no dilatation exchange is needed
-//! The materials and damage models are set up over all local points (owned and ghosts), each
-//! ghost's row holding the bonds to other local points. Before each force evaluation the
+//! The materials and damage models are set up over the owned points and the ghosts (at depth 2
+//! the outer layer only when blocks differ in damage model, see
+//! [`outer_ghosts_need_physics`]), each ghost's row holding the bonds to other local points. Before each force evaluation the
 //! current positions of the ghosts are exchanged (owner → ghosts); everything else a ghost
 //! needs is recomputed locally, from the same inputs in the same order as on its owner, so it
 //! is bitwise the owner's value:
@@ -49,7 +50,7 @@ pub use halo::{HaloPlan, HaloValue, HaloVolume};
 #[cfg(feature = "mpi")]
 pub use mpi::{initialize, MpiCommunicator};
 pub use partition::Partition;
-pub use subdomain::{halo_depth, Subdomain};
+pub use subdomain::{halo_depth, outer_ghosts_need_physics, Subdomain};
 
 /// The collective operations a distributed run uses. Every method except [`Communicator::rank`],
 /// [`Communicator::size`] and [`Communicator::abort`] is collective: all ranks call it, in

@@ -35,14 +35,27 @@ pub fn halo_depth(deck: &Deck) -> usize {
     }
 }
 
+/// True when the outermost ghost layer must run the damage models too: when blocks use
+/// different damage models, the interface rule of [`crate::physics`] (`max(d_ij, d_ji)` on
+/// bonds between blocks) reads the reverse bonds of the layer-1 ghosts' rows, which live in
+/// the outer layer's rows. With one damage model (or none) everywhere both directions of a
+/// bond are decided alike, and at depth 2 the outer layer only supplies positions, so it
+/// stays out of the blocks (less redundant work: its rows are neither damaged nor forced).
+pub fn outer_ghosts_need_physics(deck: &Deck) -> bool {
+    let first = deck.blocks.first().map(|b| &b.damage_model);
+    !deck.blocks.iter().all(|b| Some(&b.damage_model) == first)
+}
+
 /// One rank's share of a distributed run.
 ///
 /// `model` holds the rank's owned points and ghosts in the global run order (so rows keep
 /// their bond order and sorted neighbours); each row holds the bonds to other local points,
 /// which for owned points (and for layer-1 ghosts at depth 2) is the whole family. Every block
-/// lists all its local points, so materials and damage models work on ghosts exactly as their
-/// owners do. Boundary conditions and node sets list owned points only (ghost values come from
+/// lists its owned points and ghosts, so materials and damage models work on ghosts exactly as
+/// their owners do. Boundary conditions and node sets list owned points only (ghost values come from
 /// the exchange). `model.run_index` is empty: output geometry comes from the global model.
+/// At depth 2 the outer ghost layer joins the blocks only when
+/// [`outer_ghosts_need_physics`]; otherwise it holds positions only.
 #[derive(Debug, Clone)]
 pub struct Subdomain {
     /// The partition of all points (the same on every rank).
@@ -55,11 +68,18 @@ pub struct Subdomain {
 
 impl Subdomain {
     /// Cuts `global` into `ranks` parts by weighted RCB and builds rank `rank`'s share with
-    /// ghosts `depth` bonds deep.
-    pub fn new(global: &Model, ranks: usize, rank: usize, depth: usize) -> Self {
+    /// ghosts `depth` bonds deep ([`halo_depth`]); `outer_layer_in_blocks` as
+    /// [`outer_ghosts_need_physics`] (ignored at depth 1, where the one layer always joins).
+    pub fn new(
+        global: &Model,
+        ranks: usize,
+        rank: usize,
+        depth: usize,
+        outer_layer_in_blocks: bool,
+    ) -> Self {
         let partition = Partition::of_bonds(&global.points.position, &global.bonds, ranks);
         let plan = HaloPlan::build(&global.bonds, &partition, rank, depth);
-        let model = local_model(global, &plan);
+        let model = local_model(global, &plan, depth == 1 || outer_layer_in_blocks);
         Self {
             partition,
             plan,
@@ -79,7 +99,7 @@ impl Subdomain {
 }
 
 /// The model over the plan's local points.
-fn local_model(global: &Model, plan: &HaloPlan) -> Model {
+fn local_model(global: &Model, plan: &HaloPlan, outer_layer_in_blocks: bool) -> Model {
     let local_points = plan.global();
     let n_global = global.points.len();
     let mut local_of = vec![u32::MAX; n_global];
@@ -153,7 +173,11 @@ fn local_model(global: &Model, plan: &HaloPlan) -> Model {
                 .points
                 .iter()
                 .map(|&g| local_of[g as usize])
-                .filter(|&l| l != u32::MAX)
+                .filter(|&l| {
+                    l != u32::MAX
+                        && (outer_layer_in_blocks
+                            || usize::from(plan.layer()[l as usize]) < plan.depth())
+                })
                 .collect(),
         })
         .collect();
@@ -228,6 +252,8 @@ mod tests {
     fn depth_follows_the_materials() {
         assert_eq!(halo_depth(&deck("Elastic Bond Based").1), 1);
         assert_eq!(halo_depth(&deck("Elastic").1), 2);
+        // One damage model on every block: the outer layer holds positions only.
+        assert!(!outer_ghosts_need_physics(&deck("Elastic").1));
     }
 
     #[test]
@@ -237,7 +263,7 @@ mod tests {
         let ranks = 3;
         let mut conditioned = 0;
         for rank in 0..ranks {
-            let sub = Subdomain::new(&global, ranks, rank, 2);
+            let sub = Subdomain::new(&global, ranks, rank, 2, false);
             let local = &sub.model;
             let g = sub.plan.global();
             for (l, &layer) in sub.plan.layer().iter().enumerate() {

@@ -24,7 +24,9 @@ use super::{energy_floor_of, prepare_compute_classes, Fields, PreparedComputeCla
 use super::{RunError, RunSummary};
 use crate::io::deck::{Deck, Integrator, Solver};
 use crate::io::output::{kind_of, FieldSource, OutputFile, Schedule, VariableKind};
-use crate::parallel::{halo_depth, Communicator, HaloPlan, Partition, Subdomain};
+use crate::parallel::{
+    halo_depth, outer_ghosts_need_physics, Communicator, HaloPlan, Partition, Subdomain,
+};
 use crate::physics::Physics;
 use crate::setup::{self, Model};
 use crate::solver::explicit::Halo;
@@ -425,7 +427,13 @@ pub fn run_distributed(
     let compute_classes = prepare_compute_classes(&deck.compute_classes, global)
         .map_err(|e| collective(comm, RunError::Unsupported(e)))?;
     let rank = comm.rank();
-    let mut sub = Subdomain::new(global, comm.size(), rank, halo_depth(deck));
+    let mut sub = Subdomain::new(
+        global,
+        comm.size(),
+        rank,
+        halo_depth(deck),
+        outer_ghosts_need_physics(deck),
+    );
     // From here on, failures may differ between ranks: every step agrees.
     let prepared = (|| -> Result<_, RunError> {
         let physics = setup::build_physics(deck, &sub.model)
