@@ -39,6 +39,7 @@
 //! | [`simulation`] | a run from start to end: solvers in order, outputs, progress |
 //! | [`io::exodus`], [`io::output`], [`io::history`] | results in Exodus II and CSV, and exodiff-style comparison |
 //! | [`plan`] | what `peridyn check` reports |
+//! | [`parallel`] | who owns which point on N MPI ranks: RCB partition, ghost (halo) plan, communicators |
 //!
 //! ## Life of an explicit step (velocity Verlet, Peridigm's order)
 //! 1. half kick `v += ½Δt a`;
@@ -85,6 +86,7 @@ pub mod io;
 pub mod material;
 pub mod model;
 pub mod neighbors;
+pub mod parallel;
 pub mod physics;
 pub mod plan;
 pub mod setup;

@@ -2,6 +2,10 @@
 //!
 //! Exit codes: 0 success, 2 invalid input (deck, mesh, node sets), 3 solver failure or
 //! instability, 1 anything else (including deck features this build cannot run yet).
+//!
+//! Built with the `mpi` feature, `mpirun -np N peridyn run deck.yaml` runs explicit decks on
+//! N ranks ([`peridyn::simulation::run_distributed`]); every rank reads the deck, only rank 0
+//! prints and writes files. One rank (with or without mpirun) takes the serial path.
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -87,6 +91,26 @@ enum Failure {
     Differs(String),
     #[error("{0}")]
     Solver(String),
+    /// Another rank reports this failure; exit with its code without printing.
+    #[cfg_attr(not(feature = "mpi"), allow(dead_code))]
+    #[error("")]
+    Quiet(u8),
+    /// A failure with its own exit code (distributed runs).
+    #[cfg_attr(not(feature = "mpi"), allow(dead_code))]
+    #[error("{1}")]
+    WithCode(u8, String),
+}
+
+/// The exit code of an error (see the crate docs).
+fn exit_code(error: &anyhow::Error) -> u8 {
+    match error.downcast_ref::<Failure>() {
+        Some(Failure::InvalidInput(_)) => 2,
+        Some(Failure::Differs(_)) => 1,
+        Some(Failure::Unsupported(_)) => 1,
+        Some(Failure::Solver(_)) => 3,
+        Some(Failure::Quiet(code)) | Some(Failure::WithCode(code, _)) => *code,
+        None => 1,
+    }
 }
 
 fn invalid(error: impl std::fmt::Display) -> anyhow::Error {
@@ -95,6 +119,23 @@ fn invalid(error: impl std::fmt::Display) -> anyhow::Error {
 
 fn load(path: &Path) -> Result<deck::Deck> {
     deck::load(path).map_err(|e: DeckError| invalid(e))
+}
+
+/// Loads a deck and applies `peridyn run --backend` to its implicit solver lists.
+fn load_with_backend(path: &Path, backend: Option<BackendChoice>) -> Result<deck::Deck> {
+    let mut deck = load(path)?;
+    if let Some(choice) = backend {
+        let backend = match choice {
+            BackendChoice::Native => deck::LinearBackend::Native,
+            BackendChoice::Trilinos => deck::LinearBackend::TRILINOS_DEFAULT,
+        };
+        for solver in &mut deck.solvers {
+            solver
+                .choose_backend(backend)
+                .map_err(|e| invalid(format!("{}: --backend: {e}", path.display())))?;
+        }
+    }
+    Ok(deck)
 }
 
 fn build(deck: &deck::Deck) -> Result<setup::Model> {
@@ -124,18 +165,17 @@ fn run(
             .build_global()
             .context("cannot set up the thread pool")?;
     }
-    let mut deck = load(path)?;
-    if let Some(choice) = backend {
-        let backend = match choice {
-            BackendChoice::Native => deck::LinearBackend::Native,
-            BackendChoice::Trilinos => deck::LinearBackend::TRILINOS_DEFAULT,
-        };
-        for solver in &mut deck.solvers {
-            solver
-                .choose_backend(backend)
-                .map_err(|e| invalid(format!("{}: --backend: {e}", path.display())))?;
+    // The universe lives to the end of the run: dropping it finalizes MPI.
+    #[cfg(feature = "mpi")]
+    let mpi = peridyn::parallel::initialize();
+    #[cfg(feature = "mpi")]
+    if let Some((_, comm)) = &mpi {
+        use peridyn::parallel::Communicator;
+        if comm.size() > 1 {
+            return run_on_ranks(path, output_dir, backend, comm);
         }
     }
+    let deck = load_with_backend(path, backend)?;
     let model = build(&deck)?;
     let unsupported = setup::unsupported_features(&deck);
     if !unsupported.is_empty() {
@@ -167,6 +207,92 @@ fn run(
         }
         Err(error) if error.exit_code() == 3 => Err(Failure::Solver(error.to_string()).into()),
         Err(error) => Err(error.into()),
+    }
+}
+
+/// `run` on N > 1 MPI ranks. Every rank reads the deck and builds the model, so bad input
+/// fails on every rank alike before any message is sent; rank 0 alone prints it.
+#[cfg(feature = "mpi")]
+fn run_on_ranks(
+    path: &Path,
+    output_dir: &Path,
+    backend: Option<BackendChoice>,
+    comm: &dyn peridyn::parallel::Communicator,
+) -> Result<()> {
+    use peridyn::simulation::RunError;
+    let rank = comm.rank();
+    // Errors all ranks share are printed by rank 0 only.
+    let shared = |error: anyhow::Error| -> anyhow::Error {
+        if rank == 0 {
+            error
+        } else {
+            Failure::Quiet(exit_code(&error)).into()
+        }
+    };
+    let deck = load_with_backend(path, backend).map_err(shared)?;
+    let model = build(&deck).map_err(shared)?;
+    let unsupported = setup::unsupported_features(&deck);
+    if !unsupported.is_empty() {
+        return Err(shared(
+            Failure::Unsupported(format!(
+                "{}: this build cannot run this deck yet; missing: {}",
+                path.display(),
+                unsupported.join(", ")
+            ))
+            .into(),
+        ));
+    }
+    // Only rank 0 writes; the others learn of a failure through the sum.
+    let created = if rank == 0 {
+        std::fs::create_dir_all(output_dir).err()
+    } else {
+        None
+    };
+    let mut failed = [f64::from(u8::from(created.is_some()))];
+    comm.sum(&mut failed);
+    if let Some(error) = created {
+        return Err(anyhow::Error::new(error).context(format!(
+            "cannot create the output folder {}",
+            output_dir.display()
+        )));
+    }
+    if failed[0] > 0.0 {
+        return Err(Failure::Quiet(1).into());
+    }
+    if rank == 0 {
+        eprintln!(
+            "{}: {} points, {} bonds, {} ranks",
+            path.display(),
+            model.points.len(),
+            model.bonds.num_bonds(),
+            comm.size()
+        );
+    }
+    match simulation::run_distributed(&deck, &model, output_dir, comm) {
+        Ok(summary) => {
+            if rank == 0 {
+                eprintln!(
+                    "done: {} steps in {:.2} s (+ {:.2} s output), {} bonds broken",
+                    summary.steps,
+                    summary.solve_seconds,
+                    summary.output_seconds,
+                    summary.broken_bonds
+                );
+                for file in &summary.files {
+                    eprintln!("wrote {}", file.display());
+                }
+            }
+            Ok(())
+        }
+        Err(error @ RunError::OtherRank { .. }) if rank != 0 => {
+            Err(Failure::Quiet(error.exit_code()).into())
+        }
+        Err(error) if rank == 0 => {
+            Err(Failure::WithCode(error.exit_code(), error.to_string()).into())
+        }
+        Err(error) => {
+            Err(Failure::WithCode(error.exit_code(), format!("rank {rank}: {error}")).into())
+        }
     }
 }
 
@@ -225,15 +351,10 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            let code = match error.downcast_ref::<Failure>() {
-                Some(Failure::InvalidInput(_)) => 2,
-                Some(Failure::Differs(_)) => 1,
-                Some(Failure::Unsupported(_)) => 1,
-                Some(Failure::Solver(_)) => 3,
-                None => 1,
-            };
-            eprintln!("error: {error:#}");
-            ExitCode::from(code)
+            if !matches!(error.downcast_ref::<Failure>(), Some(Failure::Quiet(_))) {
+                eprintln!("error: {error:#}");
+            }
+            ExitCode::from(exit_code(&error))
         }
     }
 }

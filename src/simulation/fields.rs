@@ -144,18 +144,6 @@ impl<'a> Fields<'a> {
         );
         w
     }
-
-    fn reduce(values: impl Iterator<Item = f64>, calculation: CalculationType) -> f64 {
-        match calculation {
-            CalculationType::Sum => values.sum(),
-            CalculationType::Minimum => values.fold(f64::INFINITY, f64::min),
-            CalculationType::Maximum => values.fold(f64::NEG_INFINITY, f64::max),
-        }
-    }
-
-    fn class(&self, label: &str) -> Option<&PreparedComputeClass> {
-        self.compute_classes.iter().find(|c| c.label == label)
-    }
 }
 
 impl FieldSource for Fields<'_> {
@@ -298,44 +286,74 @@ impl FieldSource for Fields<'_> {
     }
 
     fn global(&self, name: &str) -> Option<f64> {
-        match name {
-            "Global_Kinetic_Energy" => Some(self.scalar("Kinetic_Energy")?.iter().sum()),
-            "Global_Stored_Elastic_Energy" => {
-                Some(self.scalar("Stored_Elastic_Energy")?.iter().sum())
-            }
-            // Zero for explicit solvers, as Peridigm writes it.
-            "Nonlinear_Solver_Iterations" => Some(self.nonlinear_iterations.unwrap_or(0.0)),
-            _ => {
-                let class = self.class(name)?;
-                let values = self.scalar(&class.variable)?;
-                let selected = class.points.iter().map(|&p| values[p as usize]);
-                Some(match class.calculation {
-                    Some(calculation) => Self::reduce(selected, calculation),
-                    None => selected.into_iter().next().unwrap_or(0.0),
-                })
-            }
-        }
+        global_value(self, self.compute_classes, self.nonlinear_iterations, name)
     }
 
     fn global_vector(&self, name: &str) -> Option<[f64; 3]> {
-        if let Some(field) = match name {
-            "Global_Linear_Momentum" => Some("Linear_Momentum"),
-            "Global_Angular_Momentum" => Some("Angular_Momentum"),
-            _ => None,
-        } {
-            let momentum = self.vector(field)?;
-            return Some([0, 1, 2].map(|k| momentum.iter().map(|m| m[k]).sum()));
-        }
-        let class = self.class(name)?;
-        let values = self.vector(&class.variable)?;
-        Some([0, 1, 2].map(|k| {
-            let selected = class.points.iter().map(|&p| values[p as usize][k]);
-            match class.calculation {
-                Some(calculation) => Self::reduce(selected, calculation),
-                None => selected.into_iter().next().unwrap_or(0.0),
-            }
-        }))
+        global_vector_value(self, self.compute_classes, name)
     }
+}
+
+fn reduce(values: impl Iterator<Item = f64>, calculation: CalculationType) -> f64 {
+    match calculation {
+        CalculationType::Sum => values.sum(),
+        CalculationType::Minimum => values.fold(f64::INFINITY, f64::min),
+        CalculationType::Maximum => values.fold(f64::NEG_INFINITY, f64::max),
+    }
+}
+
+/// A global output from the point fields of `source` (run order): energies summed over the
+/// points in run order, compute classes reduced over their points in the order listed. Shared
+/// by the serial [`Fields`] and the gathered fields of a distributed run, so both add the same
+/// numbers in the same order.
+pub(crate) fn global_value(
+    source: &dyn FieldSource,
+    classes: &[PreparedComputeClass],
+    nonlinear_iterations: Option<f64>,
+    name: &str,
+) -> Option<f64> {
+    match name {
+        "Global_Kinetic_Energy" => Some(source.scalar("Kinetic_Energy")?.iter().sum()),
+        "Global_Stored_Elastic_Energy" => {
+            Some(source.scalar("Stored_Elastic_Energy")?.iter().sum())
+        }
+        // Zero for explicit solvers, as Peridigm writes it.
+        "Nonlinear_Solver_Iterations" => Some(nonlinear_iterations.unwrap_or(0.0)),
+        _ => {
+            let class = classes.iter().find(|c| c.label == name)?;
+            let values = source.scalar(&class.variable)?;
+            let selected = class.points.iter().map(|&p| values[p as usize]);
+            Some(match class.calculation {
+                Some(calculation) => reduce(selected, calculation),
+                None => selected.into_iter().next().unwrap_or(0.0),
+            })
+        }
+    }
+}
+
+/// A global vector output from the point fields of `source` (see [`global_value`]).
+pub(crate) fn global_vector_value(
+    source: &dyn FieldSource,
+    classes: &[PreparedComputeClass],
+    name: &str,
+) -> Option<[f64; 3]> {
+    if let Some(field) = match name {
+        "Global_Linear_Momentum" => Some("Linear_Momentum"),
+        "Global_Angular_Momentum" => Some("Angular_Momentum"),
+        _ => None,
+    } {
+        let momentum = source.vector(field)?;
+        return Some([0, 1, 2].map(|k| momentum.iter().map(|m| m[k]).sum()));
+    }
+    let class = classes.iter().find(|c| c.label == name)?;
+    let values = source.vector(&class.variable)?;
+    Some([0, 1, 2].map(|k| {
+        let selected = class.points.iter().map(|&p| values[p as usize][k]);
+        match class.calculation {
+            Some(calculation) => reduce(selected, calculation),
+            None => selected.into_iter().next().unwrap_or(0.0),
+        }
+    }))
 }
 
 #[cfg(test)]

@@ -1,8 +1,10 @@
 //! A run from start to finish: initial conditions, the deck's solvers in order, outputs, the
 //! stability monitor and progress reporting.
 
+mod distributed;
 mod fields;
 
+pub use distributed::{check_distributable, run_distributed};
 pub use fields::{prepare_compute_classes, Fields, PreparedComputeClass};
 
 use crate::boundary::BoundaryError;
@@ -57,13 +59,24 @@ pub enum RunError {
         /// The stable estimate.
         estimate: Option<f64>,
     },
+    /// Another rank of a distributed run failed (or reports an error all ranks share); that
+    /// rank prints the message, this one stops quietly with the same exit code.
+    #[error("rank {rank} stopped the run; its message is above")]
+    OtherRank {
+        /// The rank that reports the failure.
+        rank: usize,
+        /// Its exit code.
+        code: u8,
+    },
 }
 
 impl RunError {
-    /// Process exit code: 3 for solver failures and instabilities, 1 otherwise.
+    /// Process exit code: 3 for solver failures and instabilities, 1 otherwise (for
+    /// [`RunError::OtherRank`], the code of the rank that failed).
     pub fn exit_code(&self) -> u8 {
         match self {
             RunError::Unstable { .. } | RunError::QuasiStatic(_) | RunError::Newmark(_) => 3,
+            RunError::OtherRank { code, .. } => *code,
             _ => 1,
         }
     }
@@ -211,16 +224,17 @@ impl Outputs {
 /// Energy scale below which the monitor treats changes as round-off: the strain energy of the
 /// whole body at a uniform strain of 1e-6 (½ K ε² V summed).
 fn energy_floor(model: &Model, physics: &Physics) -> f64 {
+    energy_floor_of(physics, |p| model.points.volume[p as usize])
+}
+
+/// [`energy_floor`] with the volume each point counts with (zero for the ghosts of a
+/// distributed run, whose ranks sum their shares).
+fn energy_floor_of(physics: &Physics, volume: impl Fn(u32) -> f64) -> f64 {
     physics
         .blocks
         .iter()
         .map(|b| {
-            let volume: f64 = b
-                .material
-                .points()
-                .iter()
-                .map(|&p| model.points.volume[p as usize])
-                .sum();
+            let volume: f64 = b.material.points().iter().map(|&p| volume(p)).sum();
             0.5 * b.material.bulk_modulus() * 1e-12 * volume
         })
         .sum()

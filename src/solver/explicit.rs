@@ -13,6 +13,14 @@
 //! proximity search with the positions at the start of the step (Peridigm's
 //! `rebalance(step)`); the skin rule may add one before the contact force (see
 //! [`crate::contact`]).
+//!
+//! # Distributed runs
+//! On one rank of a distributed run the model holds owned points and ghosts
+//! ([`crate::parallel::Subdomain`]). The integrator is told which points are ghosts
+//! ([`VelocityVerlet::with_ghosts`]) and refreshes their current positions through a
+//! [`Halo`] just before each force evaluation; ghosts get zero acceleration (their own forces
+//! come from truncated rows and mean nothing) and count in no energy or work sum, so the
+//! [`StepReport`] is this rank's share, to be summed over ranks.
 
 use crate::boundary::BoundaryError;
 use crate::physics::Physics;
@@ -42,10 +50,28 @@ pub struct StepReport {
     pub broken_bonds: usize,
 }
 
+/// Refreshes the ghost entries of the current positions before a force evaluation (the halo
+/// exchange of a distributed run). Serial runs use [`NoHalo`].
+pub trait Halo {
+    /// Overwrites the ghost entries of `current_position` with their owners' values.
+    fn refresh(&mut self, current_position: &mut [[f64; 3]]);
+}
+
+/// No ghosts: nothing to refresh.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoHalo;
+
+impl Halo for NoHalo {
+    #[inline(always)]
+    fn refresh(&mut self, _current_position: &mut [[f64; 3]]) {}
+}
+
 /// Velocity-Verlet integrator with its own scratch.
 #[derive(Debug, Clone)]
 pub struct VelocityVerlet {
     settings: VerletSettings,
+    /// `ghost[i]`: point i is a ghost of a distributed run (`None` in serial runs).
+    ghost: Option<Vec<bool>>,
     /// Bit k set when component k of the point is prescribed.
     constrained: Vec<u8>,
     /// The points with a prescribed component (their drift waits for the prescribed
@@ -65,9 +91,17 @@ impl VelocityVerlet {
             .collect();
         Self {
             settings,
+            ghost: None,
             constrained,
             constrained_points,
         }
+    }
+
+    /// Marks the ghosts of a distributed run (`ghost[i]` for every point of the model): they
+    /// get zero acceleration and count in no energy or work sum.
+    pub fn with_ghosts(mut self, ghost: Vec<bool>) -> Self {
+        self.ghost = Some(ghost);
+        self
     }
 
     /// The settings.
@@ -89,6 +123,18 @@ impl VelocityVerlet {
         physics: &mut Physics,
         state: &mut State,
     ) -> Result<(), BoundaryError> {
+        self.initialize_with(model, physics, state, &mut NoHalo)
+    }
+
+    /// [`VelocityVerlet::initialize`] with the ghost positions refreshed by `halo` before the
+    /// force evaluation.
+    pub fn initialize_with(
+        &self,
+        model: &Model,
+        physics: &mut Physics,
+        state: &mut State,
+        halo: &mut impl Halo,
+    ) -> Result<(), BoundaryError> {
         let t0 = self.settings.initial_time;
         state.time = t0;
         let positions = &model.points.position;
@@ -96,8 +142,14 @@ impl VelocityVerlet {
             model.boundary.body_force(positions, t0, b)?;
         }
         state.update_current_position(positions);
+        halo.refresh(&mut state.current_position);
         set_damage_time(physics, t0)?;
         evaluate_acceleration(model, physics, state);
+        if let Some(ghost) = &self.ghost {
+            for (a, _) in state.acceleration.iter_mut().zip(ghost).filter(|(_, &g)| g) {
+                *a = [0.0; 3];
+            }
+        }
         Ok(())
     }
 
@@ -108,6 +160,19 @@ impl VelocityVerlet {
         physics: &mut Physics,
         state: &mut State,
         step: u64,
+    ) -> Result<StepReport, BoundaryError> {
+        self.step_with(model, physics, state, step, &mut NoHalo)
+    }
+
+    /// [`VelocityVerlet::step`] with the ghost positions refreshed by `halo` before the force
+    /// evaluation (after the drift and the kinematic conditions).
+    pub fn step_with(
+        &mut self,
+        model: &Model,
+        physics: &mut Physics,
+        state: &mut State,
+        step: u64,
+        halo: &mut impl Halo,
     ) -> Result<StepReport, BoundaryError> {
         let dt = self.settings.time_step;
         let t_from = state.time;
@@ -168,6 +233,7 @@ impl VelocityVerlet {
             model.boundary.body_force(positions, t_to, b)?;
         }
         set_damage_time(physics, t_to)?;
+        halo.refresh(&mut state.current_position);
         let broken_bonds = internal_and_contact_force(model, physics, state);
 
         // a = (f_int + f_contact + b)/ρ (as `evaluate_acceleration`), the work, the second half
@@ -178,12 +244,17 @@ impl VelocityVerlet {
         let contact = physics.contact.as_ref().map(|c| c.force_density());
         let density = &physics.density;
         let force = &state.force_density;
+        let ghost = self.ghost.as_deref();
         let (free_kinetic_energy, supplied_work) = state
             .velocity
             .par_iter_mut()
             .zip(state.acceleration.par_iter_mut())
             .enumerate()
             .map(|(i, (v, a))| {
+                if ghost.is_some_and(|g| g[i]) {
+                    *a = [0.0; 3];
+                    return (0.0, 0.0);
+                }
                 let mut kinetic = 0.0;
                 let mut work = 0.0;
                 for k in 0..3 {

@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Distributed explicit runs (feature `mpi`): build with MPI and run the 1-vs-N-ranks tests.
+#
+# Needs OpenMPI (mpirun, mpicc and headers) and libclang (mpi-sys generates its bindings with
+# bindgen); installs them with apt when mpirun is missing. Every mpirun in the tests is wrapped
+# in `timeout 300`, so a hang fails instead of blocking CI.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if ! command -v mpirun >/dev/null 2>&1 || ! command -v mpicc >/dev/null 2>&1 \
+    || ! ls /usr/lib/llvm-*/lib/libclang.so* >/dev/null 2>&1; then
+    apt-get update -o DPkg::Lock::Timeout=600
+    apt-get install -y -o DPkg::Lock::Timeout=600 libopenmpi-dev openmpi-bin libclang-dev
+fi
+
+# OpenMPI refuses to run as root without these; -np 3 on a 2-core machine needs oversubscription
+# (the tests also pass --oversubscribe).
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+export OMPI_MCA_rmaps_base_oversubscribe=1
+
+cargo build --locked --features mpi
+timeout 900 cargo test --locked --features mpi --lib parallel
+timeout 1200 cargo test --locked --features mpi --test mpi_explicit

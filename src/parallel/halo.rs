@@ -1,0 +1,424 @@
+//! The ghost points of one rank and the messages that refresh them.
+
+use super::{Communicator, Partition};
+use crate::model::BondList;
+
+/// A per-point value that travels in a halo exchange as `WIDTH` f64 numbers.
+pub trait HaloValue: Copy {
+    /// Numbers per point.
+    const WIDTH: usize;
+    /// Writes the value into `out` (length `WIDTH`).
+    fn pack(&self, out: &mut [f64]);
+    /// Reads a value from `input` (length `WIDTH`).
+    fn unpack(input: &[f64]) -> Self;
+}
+
+impl HaloValue for f64 {
+    const WIDTH: usize = 1;
+    fn pack(&self, out: &mut [f64]) {
+        out[0] = *self;
+    }
+    fn unpack(input: &[f64]) -> Self {
+        input[0]
+    }
+}
+
+impl HaloValue for [f64; 3] {
+    const WIDTH: usize = 3;
+    fn pack(&self, out: &mut [f64]) {
+        out.copy_from_slice(self);
+    }
+    fn unpack(input: &[f64]) -> Self {
+        [input[0], input[1], input[2]]
+    }
+}
+
+/// The points one rank exchanges with one other rank.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Neighbor {
+    rank: usize,
+    /// Local indices, in increasing global index (the order both sides agree on).
+    points: Vec<u32>,
+}
+
+/// Points and bytes one exchange moves, for the run log and the scaling report.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct HaloVolume {
+    /// Ghost points this rank receives.
+    pub received_points: usize,
+    /// Owned points this rank sends (a point counts once per rank it goes to).
+    pub sent_points: usize,
+    /// Ranks this rank exchanges with.
+    pub neighbor_ranks: usize,
+}
+
+impl HaloVolume {
+    /// Bytes received for a field of `width` f64 per point.
+    pub fn received_bytes(&self, width: usize) -> usize {
+        self.received_points * width * 8
+    }
+}
+
+/// Rank `rank`'s share of the points: owned points and ghosts (local numbering = the global run
+/// order restricted to them), and the send and receive lists of its exchanges.
+///
+/// Ghost layers: layer 1 are the off-rank points in the rows of owned points; layer 2 (with
+/// depth 2) the off-rank points in the rows of layer-1 ghosts that are not already ghosts. Rows
+/// are read as stored (directed), so one-way bonds of variable horizons are followed the way
+/// the gather loops read them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HaloPlan {
+    rank: usize,
+    depth: usize,
+    /// Global index of every local point, strictly increasing.
+    global: Vec<u32>,
+    /// Layer of every local point: 0 owned, 1 or 2 ghost.
+    layer: Vec<u8>,
+    /// Local indices of the owned points, increasing.
+    owned: Vec<u32>,
+    sends: Vec<Neighbor>,
+    receives: Vec<Neighbor>,
+    send_buffers: Vec<Vec<f64>>,
+    receive_buffers: Vec<Vec<f64>>,
+}
+
+/// Ghosts of rank `rank` as (global index, layer), sorted by global index. `mark` has one
+/// entry per point and is all zero on entry and on return.
+fn ghosts_of(
+    bonds: &BondList,
+    partition: &Partition,
+    rank: usize,
+    depth: usize,
+    mark: &mut [u8],
+) -> Vec<(u32, u8)> {
+    let mine = |p: u32| partition.owner[p as usize] as usize == rank;
+    let mut first = Vec::new();
+    for &i in &partition.owned[rank] {
+        for &j in bonds.family(i as usize) {
+            if !mine(j) && mark[j as usize] == 0 {
+                mark[j as usize] = 1;
+                first.push(j);
+            }
+        }
+    }
+    let mut second = Vec::new();
+    if depth >= 2 {
+        for &j in &first {
+            for &k in bonds.family(j as usize) {
+                if !mine(k) && mark[k as usize] == 0 {
+                    mark[k as usize] = 2;
+                    second.push(k);
+                }
+            }
+        }
+    }
+    let mut ghosts: Vec<(u32, u8)> = first
+        .iter()
+        .map(|&j| (j, 1))
+        .chain(second.iter().map(|&k| (k, 2)))
+        .collect();
+    for &(p, _) in &ghosts {
+        mark[p as usize] = 0;
+    }
+    ghosts.sort_unstable();
+    ghosts
+}
+
+impl HaloPlan {
+    /// The plan of rank `rank` for `partition` with ghosts `depth` (1 or 2) bonds deep.
+    ///
+    /// Every rank computes the ghost sets of all ranks from the global bond list (no
+    /// messages), so the send list to rank r is r's ghosts that this rank owns, in the same
+    /// (global) order as r's receive list. Cost: one pass over the bonds of every rank's
+    /// owned and layer-1 points.
+    pub fn build(bonds: &BondList, partition: &Partition, rank: usize, depth: usize) -> Self {
+        assert!(
+            (1..=2).contains(&depth),
+            "ghost depth must be 1 or 2, got {depth}"
+        );
+        assert!(rank < partition.parts());
+        let n = bonds.num_points();
+        let mut mark = vec![0u8; n];
+        let mut all_ghosts = Vec::with_capacity(partition.parts());
+        for r in 0..partition.parts() {
+            all_ghosts.push(ghosts_of(bonds, partition, r, depth, &mut mark));
+        }
+        // Local numbering: owned and own ghosts merged in global order.
+        let mut members: Vec<(u32, u8)> = partition.owned[rank]
+            .iter()
+            .map(|&p| (p, 0u8))
+            .chain(all_ghosts[rank].iter().copied())
+            .collect();
+        members.sort_unstable();
+        let global: Vec<u32> = members.iter().map(|m| m.0).collect();
+        let layer: Vec<u8> = members.iter().map(|m| m.1).collect();
+        let local_of = |p: u32| -> u32 {
+            global
+                .binary_search(&p)
+                .expect("every exchanged point is local") as u32
+        };
+        let owned: Vec<u32> = (0..global.len() as u32)
+            .filter(|&l| layer[l as usize] == 0)
+            .collect();
+        let mut receives = Vec::new();
+        let mut sends = Vec::new();
+        for r in 0..partition.parts() {
+            if r == rank {
+                continue;
+            }
+            let from_r: Vec<u32> = all_ghosts[rank]
+                .iter()
+                .filter(|&&(p, _)| partition.owner[p as usize] as usize == r)
+                .map(|&(p, _)| local_of(p))
+                .collect();
+            if !from_r.is_empty() {
+                receives.push(Neighbor {
+                    rank: r,
+                    points: from_r,
+                });
+            }
+            let to_r: Vec<u32> = all_ghosts[r]
+                .iter()
+                .filter(|&&(p, _)| partition.owner[p as usize] as usize == rank)
+                .map(|&(p, _)| local_of(p))
+                .collect();
+            if !to_r.is_empty() {
+                sends.push(Neighbor {
+                    rank: r,
+                    points: to_r,
+                });
+            }
+        }
+        Self {
+            rank,
+            depth,
+            global,
+            layer,
+            owned,
+            send_buffers: vec![Vec::new(); sends.len()],
+            receive_buffers: vec![Vec::new(); receives.len()],
+            sends,
+            receives,
+        }
+    }
+
+    /// This plan's rank.
+    pub fn rank(&self) -> usize {
+        self.rank
+    }
+
+    /// Ghost depth (1 or 2 bonds).
+    pub fn depth(&self) -> usize {
+        self.depth
+    }
+
+    /// Global (run-order) index of every local point, strictly increasing.
+    pub fn global(&self) -> &[u32] {
+        &self.global
+    }
+
+    /// Layer of every local point: 0 owned, 1 one bond from an owned point, 2 two bonds.
+    pub fn layer(&self) -> &[u8] {
+        &self.layer
+    }
+
+    /// Local indices of the owned points, increasing.
+    pub fn owned(&self) -> &[u32] {
+        &self.owned
+    }
+
+    /// Global indices of the ghosts, increasing.
+    pub fn ghosts(&self) -> Vec<u32> {
+        self.global
+            .iter()
+            .zip(&self.layer)
+            .filter(|(_, &l)| l > 0)
+            .map(|(&g, _)| g)
+            .collect()
+    }
+
+    /// Points and ranks one exchange involves.
+    pub fn volume(&self) -> HaloVolume {
+        HaloVolume {
+            received_points: self.receives.iter().map(|n| n.points.len()).sum(),
+            sent_points: self.sends.iter().map(|n| n.points.len()).sum(),
+            neighbor_ranks: self.receives.len().max(self.sends.len()),
+        }
+    }
+
+    /// Owner → ghosts: copies every owned point's value of `field` (local numbering) into the
+    /// ghost entries of the ranks that hold it as a ghost. Collective over the neighbour ranks;
+    /// the messages are posted non-blocking and waited for together.
+    pub fn exchange<T: HaloValue>(&mut self, comm: &dyn Communicator, field: &mut [T]) {
+        assert_eq!(field.len(), self.global.len());
+        if self.sends.is_empty() && self.receives.is_empty() {
+            return;
+        }
+        let w = T::WIDTH;
+        for (neighbor, buffer) in self.sends.iter().zip(&mut self.send_buffers) {
+            buffer.resize(neighbor.points.len() * w, 0.0);
+            for (k, &p) in neighbor.points.iter().enumerate() {
+                field[p as usize].pack(&mut buffer[k * w..(k + 1) * w]);
+            }
+        }
+        for (neighbor, buffer) in self.receives.iter().zip(&mut self.receive_buffers) {
+            buffer.resize(neighbor.points.len() * w, 0.0);
+        }
+        {
+            let sends: Vec<(usize, &[f64])> = self
+                .sends
+                .iter()
+                .zip(&self.send_buffers)
+                .map(|(n, b)| (n.rank, b.as_slice()))
+                .collect();
+            let mut receives: Vec<(usize, &mut [f64])> = self
+                .receives
+                .iter()
+                .zip(&mut self.receive_buffers)
+                .map(|(n, b)| (n.rank, b.as_mut_slice()))
+                .collect();
+            comm.exchange(&sends, &mut receives);
+        }
+        for (neighbor, buffer) in self.receives.iter().zip(&self.receive_buffers) {
+            for (k, &p) in neighbor.points.iter().enumerate() {
+                field[p as usize] = T::unpack(&buffer[k * w..(k + 1) * w]);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::test_support::brute_force_bonds;
+    use std::collections::BTreeSet;
+
+    /// A 10 × 4 × 1 lattice with unit spacing and bonds within 1.5 (the 8 planar neighbours).
+    fn lattice() -> (Vec<[f64; 3]>, BondList) {
+        let mut x = Vec::new();
+        for j in 0..4 {
+            for i in 0..10 {
+                x.push([i as f64, j as f64, 0.0]);
+            }
+        }
+        let bonds = brute_force_bonds(&x, 1.5);
+        (x, bonds)
+    }
+
+    /// Brute force: the points within `depth` bonds of `owned` that are not owned.
+    fn expected_ghosts(bonds: &BondList, owned: &BTreeSet<u32>, depth: usize) -> BTreeSet<u32> {
+        let mut reached = owned.clone();
+        for _ in 0..depth {
+            let next: Vec<u32> = reached
+                .iter()
+                .flat_map(|&i| bonds.family(i as usize).to_vec())
+                .collect();
+            reached.extend(next);
+        }
+        reached.difference(owned).copied().collect()
+    }
+
+    #[test]
+    fn ghost_sets_are_the_points_within_depth_bonds() {
+        let (x, bonds) = lattice();
+        let partition = Partition::of_bonds(&x, &bonds, 3);
+        for depth in 1..=2 {
+            for rank in 0..3 {
+                let plan = HaloPlan::build(&bonds, &partition, rank, depth);
+                let owned: BTreeSet<u32> = partition.owned[rank].iter().copied().collect();
+                let ghosts: BTreeSet<u32> = plan.ghosts().into_iter().collect();
+                assert_eq!(ghosts, expected_ghosts(&bonds, &owned, depth));
+                // Local numbering: the global order, owned points first-class members.
+                assert!(plan.global().windows(2).all(|w| w[0] < w[1]));
+                let owned_globals: Vec<u32> = plan
+                    .owned()
+                    .iter()
+                    .map(|&l| plan.global()[l as usize])
+                    .collect();
+                assert_eq!(owned_globals, partition.owned[rank]);
+            }
+        }
+    }
+
+    #[test]
+    fn a_strip_cut_in_two_has_one_column_of_ghosts_per_bond() {
+        // Two ranks cut the 10-wide strip at x = 5; bonds reach one column (horizon 1.5), so
+        // rank 0's ghosts are column x = 5 (4 points) at depth 1 and columns 5 and 6 at depth 2.
+        let (x, bonds) = lattice();
+        let partition = Partition::of_bonds(&x, &bonds, 2);
+        let columns = |plan: &HaloPlan| -> BTreeSet<i64> {
+            plan.ghosts()
+                .iter()
+                .map(|&g| x[g as usize][0] as i64)
+                .collect()
+        };
+        let depth1 = HaloPlan::build(&bonds, &partition, 0, 1);
+        assert_eq!(depth1.ghosts().len(), 4);
+        assert_eq!(columns(&depth1), BTreeSet::from([5]));
+        let depth2 = HaloPlan::build(&bonds, &partition, 0, 2);
+        assert_eq!(columns(&depth2), BTreeSet::from([5, 6]));
+        assert_eq!(depth2.volume().received_points, 8);
+        assert_eq!(depth2.volume().sent_points, 8);
+    }
+
+    /// Runs every rank's `exchange` in one process: rank r's sends are copied into the
+    /// matching receives of the other ranks (a serial stand-in for MPI with the same pairing).
+    fn exchange_all(plans: &mut [HaloPlan], fields: &mut [Vec<[f64; 3]>]) {
+        let w = 3;
+        let mut mailbox: std::collections::BTreeMap<(usize, usize), Vec<f64>> = Default::default();
+        for (plan, field) in plans.iter().zip(fields.iter()) {
+            for neighbor in &plan.sends {
+                let mut buffer = vec![0.0; neighbor.points.len() * w];
+                for (k, &p) in neighbor.points.iter().enumerate() {
+                    field[p as usize].pack(&mut buffer[k * w..(k + 1) * w]);
+                }
+                mailbox.insert((plan.rank, neighbor.rank), buffer);
+            }
+        }
+        for (plan, field) in plans.iter().zip(fields.iter_mut()) {
+            for neighbor in &plan.receives {
+                let buffer = &mailbox[&(neighbor.rank, plan.rank)];
+                assert_eq!(buffer.len(), neighbor.points.len() * w);
+                for (k, &p) in neighbor.points.iter().enumerate() {
+                    field[p as usize] = <[f64; 3]>::unpack(&buffer[k * w..(k + 1) * w]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn an_exchange_gives_every_ghost_its_owners_value() {
+        let (x, bonds) = lattice();
+        let partition = Partition::of_bonds(&x, &bonds, 3);
+        let mut plans: Vec<HaloPlan> = (0..3)
+            .map(|r| HaloPlan::build(&bonds, &partition, r, 2))
+            .collect();
+        // Owned entries hold the global coordinates; ghosts start as NaN.
+        let mut fields: Vec<Vec<[f64; 3]>> = plans
+            .iter()
+            .map(|plan| {
+                plan.global()
+                    .iter()
+                    .zip(plan.layer())
+                    .map(|(&g, &l)| if l == 0 { x[g as usize] } else { [f64::NAN; 3] })
+                    .collect()
+            })
+            .collect();
+        exchange_all(&mut plans, &mut fields);
+        for (plan, field) in plans.iter().zip(&fields) {
+            for (&g, value) in plan.global().iter().zip(field) {
+                assert_eq!(*value, x[g as usize]);
+            }
+        }
+    }
+
+    #[test]
+    fn one_rank_has_no_ghosts_and_exchanges_nothing() {
+        let (x, bonds) = lattice();
+        let mut plan = HaloPlan::build(&bonds, &Partition::single(x.len()), 0, 2);
+        assert!(plan.ghosts().is_empty());
+        let mut field = x.clone();
+        plan.exchange(&super::super::Serial, &mut field);
+        assert_eq!(field, x);
+    }
+}

@@ -1,0 +1,118 @@
+//! Who owns which point: the partition of the points over MPI ranks, the ghost (halo) points
+//! each rank reads, and the communicator that moves data between ranks.
+//!
+//! # How a distributed explicit run is laid out
+//! Every rank reads the deck and builds the whole [`crate::setup::Model`] (discretization,
+//! node sets, families), so bad input fails on every rank the same way before any message is
+//! sent. Then, without communicating:
+//! 1. [`Partition::of_bonds`] cuts the points by recursive coordinate bisection, weighted by
+//!    family size (every rank computes the same cut);
+//! 2. [`HaloPlan::build`] lists the rank's ghosts: the off-rank points one bond away from an
+//!    owned point and, when [`halo_depth`] is 2, one more bond away from those;
+//! 3. [`Subdomain::new`] builds the rank's own [`crate::setup::Model`] over owned + ghost
+//!    points, numbered in the global run order (so every row keeps its bond order and every
+//!    per-point sum its order of operations).
+//!
+//! # Ghost depth, and why no dilatation exchange is needed
+//! The materials and damage models are set up over the owned points and the ghosts (at depth 2
+//! the outer layer only when blocks differ in damage model, see
+//! [`outer_ghosts_need_physics`]), each ghost's row holding the bonds to other local points. Before each force evaluation the
+//! current positions of the ghosts are exchanged (owner → ghosts); everything else a ghost
+//! needs is recomputed locally, from the same inputs in the same order as on its owner, so it
+//! is bitwise the owner's value:
+//! * bond damage of a row is a function of the two end positions only (critical stretch), so
+//!   ghost rows break exactly when the owner's rows do, and the reverse bond that the
+//!   multi-block interface rule reads (`max(d_ij, d_ji)`) is present locally;
+//! * a state-based (LPS) force on an owned point i reads the dilatation θ_j of every
+//!   neighbour j. With depth 2, the one-hop ghosts' rows are complete (their neighbours are
+//!   local), so θ_j is computed locally — a second ghost layer of positions instead of a
+//!   second exchange per step (the force path of [`crate::physics`] has no hook between its
+//!   dilatation and force passes, and one exchange per step costs one latency instead of two);
+//! * a bond-based (PMB) force reads only the neighbours' positions and the constant c/2 they
+//!   publish, so depth 1 suffices.
+//!
+//! Forces and accelerations of ghosts are never used (their rows may be truncated).
+//! No force is accumulated from ghosts to owners: every owned point's force is the gather over
+//! its complete row, so [`HaloPlan`] has no `accumulate` step.
+//!
+//! # Serial runs
+//! [`Serial`] is the one-rank [`Communicator`]: reductions return their argument, exchanges
+//! have no neighbours. A one-rank run (with or without `mpirun -np 1`) takes the ordinary
+//! serial path of [`crate::simulation::run`] and never touches this module.
+
+mod halo;
+#[cfg(feature = "mpi")]
+mod mpi;
+mod partition;
+mod subdomain;
+
+pub use halo::{HaloPlan, HaloValue, HaloVolume};
+#[cfg(feature = "mpi")]
+pub use mpi::{initialize, MpiCommunicator};
+pub use partition::Partition;
+pub use subdomain::{halo_depth, outer_ghosts_need_physics, Subdomain};
+
+/// The collective operations a distributed run uses. Every method except [`Communicator::rank`],
+/// [`Communicator::size`] and [`Communicator::abort`] is collective: all ranks call it, in
+/// the same order, or the run hangs.
+pub trait Communicator {
+    /// This rank, 0-based.
+    fn rank(&self) -> usize;
+
+    /// Number of ranks.
+    fn size(&self) -> usize;
+
+    /// Element-wise sum over all ranks, in place (every rank gets the result).
+    fn sum(&self, values: &mut [f64]);
+
+    /// Minimum over all ranks (every rank gets the result).
+    fn min(&self, value: f64) -> f64;
+
+    /// Point-to-point exchange: sends `sends[k].1` to rank `sends[k].0` and receives
+    /// `receives[k].1` (whose length the caller knows) from rank `receives[k].0`, all posted
+    /// non-blocking and waited for together. Both sides list the same pairs.
+    fn exchange(&self, sends: &[(usize, &[f64])], receives: &mut [(usize, &mut [f64])]);
+
+    /// Gathers `local` of every rank on rank 0: `counts[r]` values from rank r, concatenated
+    /// in rank order. Rank 0 gets `Some`, the others `None`.
+    fn gather(&self, local: &[f64], counts: &[usize]) -> Option<Vec<f64>>;
+
+    /// Ends every rank at once (MPI_Abort): the last resort when ranks can no longer agree.
+    fn abort(&self, code: i32) -> !;
+}
+
+/// The one-rank communicator: no messages, no overhead.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Serial;
+
+impl Communicator for Serial {
+    fn rank(&self) -> usize {
+        0
+    }
+
+    fn size(&self) -> usize {
+        1
+    }
+
+    fn sum(&self, _values: &mut [f64]) {}
+
+    fn min(&self, value: f64) -> f64 {
+        value
+    }
+
+    fn exchange(&self, sends: &[(usize, &[f64])], receives: &mut [(usize, &mut [f64])]) {
+        assert!(
+            sends.is_empty() && receives.is_empty(),
+            "a one-rank run has no neighbours to exchange with"
+        );
+    }
+
+    fn gather(&self, local: &[f64], counts: &[usize]) -> Option<Vec<f64>> {
+        assert_eq!(counts, [local.len()]);
+        Some(local.to_vec())
+    }
+
+    fn abort(&self, code: i32) -> ! {
+        std::process::exit(code)
+    }
+}
