@@ -21,3 +21,9 @@ export OMPI_MCA_rmaps_base_oversubscribe=1
 cargo build --locked --features mpi
 timeout 900 cargo test --locked --features mpi --lib parallel
 timeout 1200 cargo test --locked --features mpi --test mpi_explicit
+
+# Quasi-static on 1, 2 and 3 ranks through Trilinos NOX (needs the Trilinos packages that
+# .ci/trilinos.sh installs).
+if [ -d /usr/include/trilinos ]; then
+  timeout 1200 cargo test --locked --features mpi,trilinos --test mpi_implicit
+fi

@@ -98,6 +98,7 @@ fn layout(jacobian: Option<Pattern>, preconditioner: Option<PreconditionerMatrix
         preconditioner,
         tolerance: 1e-12,
         max_iterations: 30,
+        global_rows: None,
     }
 }
 

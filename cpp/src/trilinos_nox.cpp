@@ -243,7 +243,7 @@ RCP<NOX::StatusTest::Combo> status_tests(const NoxLayout &layout) {
 NoxOutcome solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows,
                  const NoxLayout &layout, rust::Slice<const NoxParameter> parameters,
                  rust::Slice<double> x) {
-  Epetra_MpiComm comm(MPI_COMM_SELF);
+  Epetra_MpiComm comm(layout.mpi_world ? MPI_COMM_WORLD : MPI_COMM_SELF);
   Epetra_Map map(-1, static_cast<int>(owned_rows.size()), owned_rows.data(), 0, comm);
   RCP<Teuchos::ParameterList> params = parameter_list(parameters);
   Teuchos::ParameterList &printing = params->sublist("Printing");

@@ -37,6 +37,10 @@ pub enum SolveError {
         /// What went wrong, for the log.
         reason: String,
     },
+    /// A collective solve stopped because the solve failed on another MPI rank, which reports
+    /// the reason.
+    #[error("the solve failed on another rank")]
+    OtherRank,
     /// A residual, matrix entry or solution component is NaN or infinite.
     #[error("non-finite value in {what}")]
     NonFinite {

@@ -22,6 +22,7 @@
 
 use super::{energy_floor_of, prepare_compute_classes, Fields, PreparedComputeClass, Progress};
 use super::{RunError, RunSummary};
+use crate::backend::SolveError;
 use crate::io::deck::{Deck, Integrator, Solver};
 use crate::io::output::{kind_of, FieldSource, OutputFile, Schedule, VariableKind};
 use crate::parallel::{
@@ -29,7 +30,10 @@ use crate::parallel::{
 };
 use crate::physics::Physics;
 use crate::setup::{self, Model};
+use crate::solver::collective::Collective;
 use crate::solver::explicit::Halo;
+use crate::solver::newton::NonlinearSolver;
+use crate::solver::quasistatic::QuasiStaticError;
 use crate::solver::{EnergyMonitor, VelocityVerlet, VerletSettings};
 use crate::state::State;
 use std::borrow::Cow;
@@ -41,9 +45,16 @@ use std::time::Instant;
 /// solvers (they need the distributed Trilinos backend) and contact.
 pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), RunError> {
     for solver in &deck.solvers {
-        if !matches!(solver.integrator, Integrator::Verlet(_)) {
+        let on_nox = matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
+            && matches!(
+                solver.linear_solve.backend,
+                crate::io::deck::LinearBackend::Trilinos { .. }
+            )
+            && cfg!(feature = "trilinos");
+        if !matches!(solver.integrator, Integrator::Verlet(_)) && !on_nox {
             return Err(RunError::Unsupported(format!(
-                "solver \"{}\": {} on {ranks} ranks needs the distributed Trilinos backend, not yet available; run on one rank",
+                "solver \"{}\": {} on {ranks} ranks needs Trilinos NOX (NOXQuasiStatic with Backend \"Trilinos\" in a build with the features mpi and trilinos); \
+                 the native backend and peridyn's own Newton run on one rank",
                 solver.name,
                 solver.integrator.deck_name()
             )));
@@ -126,6 +137,7 @@ impl Shape {
 
 /// Point fields gathered on rank 0 in the global run order.
 struct Gathered<'a> {
+    nonlinear_iterations: Option<f64>,
     vectors: BTreeMap<String, Vec<[f64; 3]>>,
     scalars: BTreeMap<String, Vec<f64>>,
     tensors: BTreeMap<String, Vec<[f64; 9]>>,
@@ -146,7 +158,7 @@ impl FieldSource for Gathered<'_> {
     }
 
     fn global(&self, name: &str) -> Option<f64> {
-        super::fields::global_value(self, self.classes, None, name)
+        super::fields::global_value(self, self.classes, self.nonlinear_iterations, name)
     }
 
     fn global_vector(&self, name: &str) -> Option<[f64; 3]> {
@@ -197,6 +209,8 @@ fn fields_to_gather(
 
 /// The results files of a distributed run: open on rank 0; every rank counts the calls.
 struct DistributedOutputs<'a> {
+    /// `Nonlinear_Solver_Iterations` of the last implicit step (none in explicit runs).
+    nonlinear_iterations: Option<f64>,
     files: Vec<OutputFile>,
     schedules: Vec<Schedule>,
     calls: i64,
@@ -231,6 +245,7 @@ impl<'a> DistributedOutputs<'a> {
             Vec::new()
         };
         Ok(Self {
+            nonlinear_iterations: None,
             files,
             schedules,
             calls: 0,
@@ -255,6 +270,7 @@ impl<'a> DistributedOutputs<'a> {
         self.calls += 1;
         let frame = self.schedules.iter().any(|s| s.writes(self.calls));
         let mut gathered = Gathered {
+            nonlinear_iterations: self.nonlinear_iterations,
             vectors: BTreeMap::new(),
             scalars: BTreeMap::new(),
             tensors: BTreeMap::new(),
@@ -465,23 +481,35 @@ pub fn run_distributed(
     }
     let broken_at_start = broken_bonds(comm, &sub, &physics);
     let mut summary = RunSummary::default();
-    for solver in &deck.solvers {
-        let Integrator::Verlet(verlet) = &solver.integrator else {
-            unreachable!("check_distributable admits Verlet solvers only")
-        };
+    for (index, solver) in deck.solvers.iter().enumerate() {
         let start = Instant::now();
-        let estimate = critical_time_step(comm, &sub, &physics);
-        let result = verlet_on_ranks(
-            comm,
-            &mut sub,
-            solver,
-            verlet,
-            estimate,
-            &mut physics,
-            &mut state,
-            &mut outputs,
-            &mut summary,
-        );
+        let result = match &solver.integrator {
+            Integrator::Verlet(verlet) => {
+                let estimate = critical_time_step(comm, &sub, &physics);
+                verlet_on_ranks(
+                    comm,
+                    &mut sub,
+                    solver,
+                    verlet,
+                    estimate,
+                    &mut physics,
+                    &mut state,
+                    &mut outputs,
+                    &mut summary,
+                )
+            }
+            _ => quasi_static_on_ranks(
+                comm,
+                &mut sub,
+                global,
+                solver,
+                index > 0,
+                &mut physics,
+                &mut state,
+                &mut outputs,
+                &mut summary,
+            ),
+        };
         summary.solve_seconds += start.elapsed().as_secs_f64();
         if let Err(error) = result {
             // Frames written so far stay readable.
@@ -634,4 +662,161 @@ fn verlet_on_ranks(
     agree(comm, pending.map_or(Ok(()), Err))?;
     summary.steps += steps;
     Ok(())
+}
+
+/// The halo exchange, the sums and the ownership queries of an implicit solve on this rank.
+struct RankCollective<'a> {
+    plan: &'a mut HaloPlan,
+    comm: &'a dyn Communicator,
+    ghost: Vec<bool>,
+    global_points: usize,
+    ghost_constrained: Vec<usize>,
+}
+
+impl Collective for RankCollective<'_> {
+    fn rank(&self) -> usize {
+        self.comm.rank()
+    }
+
+    fn ranks(&self) -> usize {
+        self.comm.size()
+    }
+
+    fn refresh(&mut self, field: &mut [[f64; 3]]) {
+        self.plan.exchange(self.comm, field);
+    }
+
+    fn sum(&mut self, values: &mut [f64]) {
+        self.comm.sum(values);
+    }
+
+    fn is_ghost(&self, p: usize) -> bool {
+        self.ghost[p]
+    }
+
+    fn global_point(&self, p: usize) -> usize {
+        self.plan.global()[p] as usize
+    }
+
+    fn global_points(&self) -> usize {
+        self.global_points
+    }
+
+    fn ghost_constrained_dofs(&self) -> Vec<usize> {
+        self.ghost_constrained.clone()
+    }
+}
+
+/// One `NOXQuasiStatic` solver list on every rank: the load steps of
+/// [`crate::solver::quasistatic`] with Trilinos NOX over the owned unknowns, the ghosts
+/// refreshed inside every residual evaluation.
+#[allow(clippy::too_many_arguments)]
+fn quasi_static_on_ranks(
+    comm: &dyn Communicator,
+    sub: &mut Subdomain,
+    global: &Model,
+    solver: &Solver,
+    predecessor: bool,
+    physics: &mut Physics,
+    state: &mut State,
+    outputs: &mut DistributedOutputs<'_>,
+    summary: &mut RunSummary,
+) -> Result<(), RunError> {
+    let settings =
+        super::quasi_static_settings(solver, predecessor).map_err(|e| collective(comm, e))?;
+    let mut nonlinear = nox_solver(solver).map_err(|e| collective(comm, e))?;
+    let root = comm.rank() == 0;
+    if root {
+        eprintln!(
+            "{}: {}, {} load steps on {} ranks, linear solver: {}",
+            solver.name,
+            solver.integrator.deck_name(),
+            settings.times.len() - 1,
+            comm.size(),
+            nonlinear.describe()
+        );
+    }
+    let ghost = sub.ghost_mask();
+    let Subdomain {
+        partition,
+        plan,
+        model,
+    } = sub;
+    let (partition, model) = (&*partition, &*model);
+    // The prescribed dofs of the ghosts, from the run-wide conditions.
+    let global_constrained = global.boundary.constrained_dofs();
+    let ghost_constrained: Vec<usize> = (0..model.points.len())
+        .filter(|&p| ghost[p])
+        .flat_map(|p| {
+            let g = plan.global()[p] as usize;
+            (0..3).map(move |c| (p, c, 3 * g + c))
+        })
+        .filter(|(_, _, dof)| global_constrained.binary_search(dof).is_ok())
+        .map(|(p, c, _)| 3 * p + c)
+        .collect();
+    let owned = plan.owned().to_vec();
+    state.time = solver.initial_time;
+    outputs.nonlinear_iterations = None;
+    let initial = (|| -> Result<(), RunError> {
+        if let Some(b) = &mut state.external_force_density {
+            model
+                .boundary
+                .body_force(&model.points.position, state.time, b)?;
+        }
+        Ok(())
+    })();
+    let pending = {
+        let fields = Fields::new(model, physics, state, &[]);
+        initial.and(outputs.call(comm, partition, &owned, &fields, state.time))
+    };
+    agree(comm, pending)?;
+    let mut collective_ops = RankCollective {
+        plan,
+        comm,
+        ghost,
+        global_points: global.points.len(),
+        ghost_constrained,
+    };
+    let result = crate::solver::quasistatic::run(
+        model,
+        physics,
+        state,
+        &settings,
+        nonlinear.as_mut(),
+        &mut collective_ops,
+        |physics, state, report| -> Result<(), RunError> {
+            summary.steps += 1;
+            outputs.nonlinear_iterations = Some(report.newton.iterations as f64);
+            let fields = Fields::new(model, physics, state, &[]);
+            let written = outputs.call(comm, partition, &owned, &fields, report.time);
+            agree(comm, written)
+        },
+    );
+    match result {
+        Ok(_) => Ok(()),
+        // Every rank stops at the same call; the rank whose evaluation failed reports why.
+        Err(RunError::QuasiStatic(QuasiStaticError::Solve {
+            source: SolveError::OtherRank,
+            ..
+        })) => Err(RunError::OtherRank { rank: 0, code: 3 }),
+        Err(error @ RunError::QuasiStatic(QuasiStaticError::NotConverged { .. })) => {
+            Err(collective(comm, error))
+        }
+        Err(error) => Err(error),
+    }
+}
+
+#[cfg(feature = "trilinos")]
+fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, RunError> {
+    Ok(Box::new(crate::solver::nox_newton::NoxNewton::from_deck(
+        solver,
+    )?))
+}
+
+#[cfg(not(feature = "trilinos"))]
+fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, RunError> {
+    Err(RunError::Unsupported(format!(
+        "solver \"{}\": NOXQuasiStatic on several ranks needs a build with the feature `trilinos`",
+        solver.name
+    )))
 }

@@ -13,6 +13,7 @@ use crate::io::history::HistoryWriter;
 use crate::io::output::{FieldSource, OutputError, OutputFile, OutputGeometry, Schedule};
 use crate::physics::Physics;
 use crate::setup::{self, Model};
+use crate::solver::collective::SerialRun;
 use crate::solver::newmark::{self, NewmarkError, NewmarkSettings};
 use crate::solver::newton::{ConvergenceMeasure, NewtonReport};
 use crate::solver::quasistatic::{self, QuasiStaticError, QuasiStaticSettings};
@@ -471,6 +472,9 @@ impl Run<'_> {
             state,
             &settings,
             nonlinear.as_mut(),
+            &mut SerialRun {
+                points: self.model.points.len(),
+            },
             |physics, state, report| -> Result<(), RunError> {
                 self.nonlinear_iterations = Some(report.newton.iterations as f64);
                 self.summary.broken_bonds += report.newton.broken_bonds;

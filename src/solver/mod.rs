@@ -1,5 +1,6 @@
 //! How time advances. Every solver calls the one internal-force path in [`crate::physics`].
 
+pub mod collective;
 pub mod explicit;
 pub mod implicit;
 pub mod jfnk;

@@ -13,6 +13,7 @@ use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
 use crate::io::deck::LinearPreconditioner;
 use crate::physics::Physics;
 use crate::setup::Model;
+use crate::solver::collective::Collective;
 use crate::solver::implicit::{rank_deficient_points, DofMap, ImplicitSystem};
 use crate::solver::jfnk;
 use crate::state::State;
@@ -404,6 +405,8 @@ pub trait NonlinearSolver {
     }
 
     /// Solves `system`; a solve that stops unconverged is a report with `converged == false`.
+    /// On several ranks, `collective` holds the halo exchange and the reductions.
+    #[allow(clippy::too_many_arguments)]
     fn solve(
         &mut self,
         system: &mut ImplicitSystem,
@@ -412,6 +415,7 @@ pub trait NonlinearSolver {
         state: &mut State,
         settings: &NewtonSettings,
         constrained: &[usize],
+        collective: &mut dyn Collective,
     ) -> Result<NewtonReport, SolveError>;
 }
 
@@ -429,7 +433,14 @@ impl NonlinearSolver for LinearStrategy {
         state: &mut State,
         settings: &NewtonSettings,
         constrained: &[usize],
+        collective: &mut dyn Collective,
     ) -> Result<NewtonReport, SolveError> {
+        if collective.ranks() > 1 {
+            return Err(SolveError::Breakdown {
+                method: "Newton",
+                reason: "peridyn's own Newton runs on one rank; on several ranks use NOXQuasiStatic with Backend \"Trilinos\"".into(),
+            });
+        }
         solve(system, model, physics, state, self, settings, constrained)
     }
 }

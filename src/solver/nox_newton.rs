@@ -39,6 +39,7 @@ use crate::io::deck::{Integrator, ParameterValue, PeridigmPreconditioner, Solver
 use crate::physics::Physics;
 use crate::setup::Model;
 use crate::simulation::RunError;
+use crate::solver::collective::Collective;
 use crate::solver::implicit::{rank_deficient_points, DofMap, ImplicitSystem};
 use crate::solver::jfnk::block_diagonal_csr;
 use crate::solver::newton::{NewtonReport, NewtonSettings, NonlinearSolver};
@@ -261,20 +262,33 @@ impl NonlinearSolver for NoxNewton {
         state: &mut State,
         settings: &NewtonSettings,
         constrained: &[usize],
+        collective: &mut dyn Collective,
     ) -> Result<NewtonReport, SolveError> {
         let start = Instant::now();
         let evaluations_before = system.residual_evaluations;
+        let distributed = collective.ranks() > 1;
         // Points with too few bonds for a stiffness are held for the whole NOX solve (NOX
-        // cannot change its unknowns mid-solve).
-        let held = rank_deficient_points(model, physics);
-        for &p in &held {
+        // cannot change its unknowns mid-solve); on several ranks every rank learns which.
+        let deficient = deficient_points(model, physics, collective);
+        for &p in deficient
+            .iter()
+            .filter(|&&p| !collective.is_ghost(p as usize))
+        {
             eprintln!(
                 "  note: point {} has too few intact bonds for a stiffness; its displacement is held (RANK_DEFICIENT_NODES)",
                 model.points.original_id[p as usize] + 1
             );
         }
+        // The unknowns are the free dofs of the points this rank owns.
+        let mut held = deficient.clone();
+        held.extend((0..model.points.len() as u32).filter(|&p| collective.is_ghost(p as usize)));
+        held.sort_unstable();
+        held.dedup();
         system.dofs = DofMap::new(model.points.len(), constrained, &held);
         let n = system.dofs.len();
+        let global_id = |dof: usize| 3 * collective.global_point(dof / 3) + dof % 3;
+        let global_rows: Option<Vec<usize>> =
+            distributed.then(|| system.dofs.free.iter().map(|&d| global_id(d)).collect());
         let mut reference = vec![0.0; n];
         system.dofs.gather(&model.points.position, &mut reference);
         let mut x = vec![0.0; n];
@@ -282,14 +296,46 @@ impl NonlinearSolver for NoxNewton {
         for (x, reference) in x.iter_mut().zip(&reference) {
             *x += reference;
         }
-        let jacobian_pattern = match self.jacobian {
-            NoxJacobian::Assembled { .. } => {
-                let matrix = system.stiffness(model, physics, state)?;
-                Some(Pattern {
-                    offsets: matrix.offsets,
-                    columns: matrix.columns,
+        // On several ranks the tangent's columns run over the ghosts' free dofs too.
+        let columns = match self.jacobian {
+            NoxJacobian::Assembled { .. } if distributed => {
+                let mut prescribed = constrained.to_vec();
+                prescribed.extend(collective.ghost_constrained_dofs());
+                prescribed.sort_unstable();
+                prescribed.dedup();
+                let dofs = DofMap::new(model.points.len(), &prescribed, &deficient);
+                let kept_rows = dofs
+                    .free
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &d)| !collective.is_ghost(d / 3))
+                    .map(|(row, _)| row)
+                    .collect();
+                let global: Vec<usize> = dofs.free.iter().map(|&d| global_id(d)).collect();
+                Some(ColumnMap {
+                    dofs,
+                    kept_rows,
+                    global,
                 })
             }
+            _ => None,
+        };
+        let jacobian_pattern = match self.jacobian {
+            NoxJacobian::Assembled { .. } => Some(match &columns {
+                None => {
+                    let matrix = system.stiffness(model, physics, state)?;
+                    Pattern {
+                        offsets: matrix.offsets,
+                        columns: matrix.columns,
+                    }
+                }
+                Some(map) => {
+                    let unknowns = std::mem::replace(&mut system.dofs, map.dofs.clone());
+                    let matrix = system.stiffness(model, physics, state);
+                    system.dofs = unknowns;
+                    map.owned_rows(&matrix?).0
+                }
+            }),
             NoxJacobian::MatrixFree { .. } => None,
         };
         let preconditioner = match self.jacobian {
@@ -302,10 +348,14 @@ impl NonlinearSolver for NoxNewton {
                     &system.dofs.groups,
                     &vec![0.0; block_entries(&system.dofs.groups)],
                 );
+                let columns = match &global_rows {
+                    Some(ids) => blocks.columns.iter().map(|&c| ids[c]).collect(),
+                    None => blocks.columns,
+                };
                 Some(PreconditionerMatrix {
                     pattern: Pattern {
                         offsets: blocks.offsets,
-                        columns: blocks.columns,
+                        columns,
                     },
                     is_inverse: kind == MatrixFreePreconditioner::InvertedBlocks,
                 })
@@ -318,13 +368,16 @@ impl NonlinearSolver for NoxNewton {
             preconditioner,
             tolerance: settings.tolerance,
             max_iterations: settings.max_iterations,
+            global_rows,
         };
         let mut callbacks = StepCallbacks {
             system,
             model,
             physics,
             state,
+            collective,
             reference: &reference,
+            columns,
             jacobian: self.jacobian,
             jacobian_requests: 0,
             preconditioner_age: None,
@@ -337,23 +390,77 @@ impl NonlinearSolver for NoxNewton {
         // evaluation may have been a line-search trial or a probe).
         let mut residual = vec![0.0; n];
         callbacks.residual(&x, &mut residual, false)?;
+        let mut broken = [callbacks.broken_bonds as f64];
+        callbacks.collective.sum(&mut broken);
         let mut report = NewtonReport {
             converged: outcome.converged,
             iterations: outcome.iterations,
             linear_iterations: outcome.linear_iterations,
             residual_history: std::mem::take(&mut callbacks.history),
-            broken_bonds: callbacks.broken_bonds,
+            broken_bonds: broken[0] as usize,
             linear_method: "AztecOO (NOX)".to_string(),
             ..NewtonReport::default()
         };
         report.residual_evaluations = system.residual_evaluations - evaluations_before;
         report.tangent_bytes = system.tangent_bytes;
-        report.held_points = held
+        report.held_points = deficient
             .iter()
             .map(|&p| model.points.original_id[p as usize] + 1)
             .collect();
         report.seconds = start.elapsed().as_secs_f64();
         Ok(report)
+    }
+}
+
+/// The rank-deficient points ([`rank_deficient_points`]) as local indices; on several ranks
+/// each rank judges the points it owns (ghost rows may be truncated) and the verdicts are
+/// shared, so that every rank holds the same points.
+fn deficient_points(model: &Model, physics: &Physics, collective: &mut dyn Collective) -> Vec<u32> {
+    let local = rank_deficient_points(model, physics);
+    if collective.ranks() == 1 {
+        return local;
+    }
+    let mut flags = vec![0.0; collective.global_points()];
+    for &p in local.iter().filter(|&&p| !collective.is_ghost(p as usize)) {
+        flags[collective.global_point(p as usize)] = 1.0;
+    }
+    collective.sum(&mut flags);
+    (0..model.points.len() as u32)
+        .filter(|&p| flags[collective.global_point(p as usize)] > 0.0)
+        .collect()
+}
+
+/// The tangent of a distributed solve: assembled over the free dofs of owned and ghost
+/// points, of which the rows of the owned unknowns are kept, with global column ids.
+struct ColumnMap {
+    /// Free dofs of all local points.
+    dofs: DofMap,
+    /// Rows of the local tangent that belong to this rank's unknowns, in order.
+    kept_rows: Vec<usize>,
+    /// Global id of every column.
+    global: Vec<usize>,
+}
+
+impl ColumnMap {
+    /// The kept rows of `matrix` (assembled over [`ColumnMap::dofs`]): their pattern with
+    /// global columns, and their values.
+    fn owned_rows(&self, matrix: &crate::backend::Csr) -> (Pattern, Vec<f64>) {
+        let mut pattern = Pattern {
+            offsets: vec![0],
+            columns: Vec::new(),
+        };
+        let mut values = Vec::new();
+        for &row in &self.kept_rows {
+            let range = matrix.offsets[row]..matrix.offsets[row + 1];
+            pattern.columns.extend(
+                matrix.columns[range.clone()]
+                    .iter()
+                    .map(|&c| self.global[c]),
+            );
+            values.extend_from_slice(&matrix.values[range]);
+            pattern.offsets.push(pattern.columns.len());
+        }
+        (pattern, values)
     }
 }
 
@@ -368,8 +475,11 @@ struct StepCallbacks<'a> {
     model: &'a Model,
     physics: &'a mut Physics,
     state: &'a mut State,
+    collective: &'a mut dyn Collective,
     /// Reference coordinate X of every unknown (x is the current coordinate X + u).
     reference: &'a [f64],
+    /// The tangent's columns on several ranks.
+    columns: Option<ColumnMap>,
     jacobian: NoxJacobian,
     jacobian_requests: u64,
     /// Reuses of the current preconditioner (`None`: not computed yet).
@@ -381,20 +491,33 @@ struct StepCallbacks<'a> {
 }
 
 impl StepCallbacks<'_> {
-    /// Moves the state to the coordinates `x`.
+    /// Moves the state to the coordinates `x` of this rank's unknowns and refreshes the
+    /// ghosts (collective).
     fn move_to(&mut self, x: &[f64]) {
         let moved: Vec<f64> = x.iter().zip(self.reference).map(|(x, r)| x - r).collect();
         self.system
             .dofs
             .scatter(&moved, &mut self.state.displacement);
+        self.collective.refresh(&mut self.state.displacement);
         self.state
             .update_current_position(&self.model.points.position);
     }
-}
 
-impl NonlinearCallbacks for StepCallbacks<'_> {
-    fn residual(&mut self, x: &[f64], f: &mut [f64], probe: bool) -> Result<(), SolveError> {
-        self.move_to(x);
+    /// On several ranks, every rank fails when one does (collective), so that NOX stops
+    /// everywhere at the same call instead of waiting for a rank that left.
+    fn agree<T>(&mut self, result: Result<T, SolveError>) -> Result<T, SolveError> {
+        if self.collective.ranks() == 1 {
+            return result;
+        }
+        let mut failed = [f64::from(u8::from(result.is_err()))];
+        self.collective.sum(&mut failed);
+        match result {
+            Ok(_) if failed[0] > 0.0 => Err(SolveError::OtherRank),
+            other => other,
+        }
+    }
+
+    fn evaluate(&mut self, f: &mut [f64], probe: bool) -> Result<(), SolveError> {
         if probe {
             self.system
                 .residual_keeping_damage(self.model, self.physics, self.state, f, false)?;
@@ -404,9 +527,78 @@ impl NonlinearCallbacks for StepCallbacks<'_> {
                 .residual(self.model, self.physics, self.state, f)?;
         }
         f.iter_mut().for_each(|v| *v = -*v);
+        Ok(())
+    }
+
+    fn tangent_values(&mut self, values: &mut [f64]) -> Result<(), SolveError> {
+        let matrix = match &self.columns {
+            None => self
+                .system
+                .stiffness(self.model, self.physics, self.state)?,
+            Some(map) => {
+                let unknowns = std::mem::replace(&mut self.system.dofs, map.dofs.clone());
+                let matrix = self.system.stiffness(self.model, self.physics, self.state);
+                self.system.dofs = unknowns;
+                let (_, owned) = map.owned_rows(&matrix?);
+                return copy_values(&owned, values);
+            }
+        };
+        copy_values(&matrix.values, values)
+    }
+
+    fn preconditioner_values(
+        &mut self,
+        kind: MatrixFreePreconditioner,
+        values: &mut [f64],
+    ) -> Result<(), SolveError> {
+        let blocks = self
+            .system
+            .block_diagonal(self.model, self.physics, self.state)?;
+        if kind != MatrixFreePreconditioner::InvertedBlocks {
+            return copy_values(&blocks, values);
+        }
+        let mut at = 0;
+        for g in self.system.dofs.groups.windows(2) {
+            let size = g[1] - g[0];
+            let block = &blocks[at..at + size * size];
+            let inverse = invert_dense(block, size).ok_or_else(|| SolveError::Breakdown {
+                method: "Block 3x3 preconditioner",
+                reason: format!(
+                    "the diagonal block of point {} is singular",
+                    self.model.points.original_id[self.system.dofs.free[g[0]] / 3] + 1
+                ),
+            })?;
+            values[at..at + size * size].copy_from_slice(&inverse);
+            at += size * size;
+        }
+        Ok(())
+    }
+}
+
+fn copy_values(from: &[f64], to: &mut [f64]) -> Result<(), SolveError> {
+    if from.len() != to.len() {
+        return Err(SolveError::Breakdown {
+            method: "NOX",
+            reason: format!(
+                "{} matrix values for a pattern of {} entries",
+                from.len(),
+                to.len()
+            ),
+        });
+    }
+    to.copy_from_slice(from);
+    Ok(())
+}
+
+impl NonlinearCallbacks for StepCallbacks<'_> {
+    fn residual(&mut self, x: &[f64], f: &mut [f64], probe: bool) -> Result<(), SolveError> {
+        self.move_to(x);
+        let result = self.evaluate(f, probe);
+        self.agree(result)?;
         if self.history.is_empty() && !probe {
-            self.history
-                .push(f.iter().map(|v| v * v).sum::<f64>().sqrt());
+            let mut squares = [f.iter().map(|v| v * v).sum::<f64>()];
+            self.collective.sum(&mut squares);
+            self.history.push(squares[0].sqrt());
         }
         Ok(())
     }
@@ -420,20 +612,8 @@ impl NonlinearCallbacks for StepCallbacks<'_> {
             return Ok(false);
         }
         self.move_to(x);
-        let matrix = self
-            .system
-            .stiffness(self.model, self.physics, self.state)?;
-        if matrix.values.len() != values.len() {
-            return Err(SolveError::Breakdown {
-                method: "NOX",
-                reason: format!(
-                    "the tangent has {} entries, its pattern {}",
-                    matrix.values.len(),
-                    values.len()
-                ),
-            });
-        }
-        values.copy_from_slice(&matrix.values);
+        let result = self.tangent_values(values);
+        self.agree(result)?;
         Ok(true)
     }
 
@@ -453,27 +633,8 @@ impl NonlinearCallbacks for StepCallbacks<'_> {
             _ => self.preconditioner_age = Some(0),
         }
         self.move_to(x);
-        let blocks = self
-            .system
-            .block_diagonal(self.model, self.physics, self.state)?;
-        if preconditioner != MatrixFreePreconditioner::InvertedBlocks {
-            values.copy_from_slice(&blocks);
-            return Ok(true);
-        }
-        let mut at = 0;
-        for g in self.system.dofs.groups.windows(2) {
-            let size = g[1] - g[0];
-            let block = &blocks[at..at + size * size];
-            let inverse = invert_dense(block, size).ok_or_else(|| SolveError::Breakdown {
-                method: "Block 3x3 preconditioner",
-                reason: format!(
-                    "the diagonal block of point {} is singular",
-                    self.model.points.original_id[self.system.dofs.free[g[0]] / 3] + 1
-                ),
-            })?;
-            values[at..at + size * size].copy_from_slice(&inverse);
-            at += size * size;
-        }
+        let result = self.preconditioner_values(preconditioner, values);
+        self.agree(result)?;
         Ok(true)
     }
 

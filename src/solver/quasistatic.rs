@@ -25,10 +25,9 @@ use crate::boundary::BoundaryError;
 use crate::io::deck::{AdaptiveLoadStepping, LoadSteps};
 use crate::physics::Physics;
 use crate::setup::Model;
+use crate::solver::collective::Collective;
 use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem};
-use crate::solver::newton::{
-    norm2, ConvergenceMeasure, NewtonReport, NewtonSettings, NonlinearSolver,
-};
+use crate::solver::newton::{ConvergenceMeasure, NewtonReport, NewtonSettings, NonlinearSolver};
 use crate::state::State;
 use std::time::Instant;
 
@@ -139,9 +138,12 @@ pub fn run<E: From<QuasiStaticError>>(
     state: &mut State,
     settings: &QuasiStaticSettings,
     nonlinear: &mut dyn NonlinearSolver,
+    collective: &mut dyn Collective,
     mut on_step: impl FnMut(&Physics, &State, &LoadStepReport) -> Result<(), E>,
 ) -> Result<Vec<LoadStepReport>, E> {
     let constrained = model.boundary.constrained_dofs();
+    // On several ranks every rank runs this loop in step; rank 0 alone writes the log.
+    let root = collective.rank() == 0;
     let mut reports = Vec::new();
     let mut times = settings.times.clone();
     let mut total_cuts = 0u64;
@@ -162,22 +164,33 @@ pub fn run<E: From<QuasiStaticError>>(
                 state.displacement[dof / 3][dof % 3] += predictor_velocity[dof / 3][dof % 3] * dt;
             }
         }
-        let tolerance = tolerance(&mut system, model, physics, state, settings, &constrained)
-            .map_err(|source| QuasiStaticError::Solve {
-                step: k,
-                time: to,
-                source,
-            })?;
-        eprintln!(
-            "Load step {k}, initial time = {from:e}, final time = {to:e}, convergence criterion = {tolerance:e}"
-        );
+        collective.refresh(&mut state.displacement);
+        let tolerance = tolerance(
+            &mut system,
+            model,
+            physics,
+            state,
+            settings,
+            &constrained,
+            collective,
+        )
+        .map_err(|source| QuasiStaticError::Solve {
+            step: k,
+            time: to,
+            source,
+        })?;
+        if root {
+            eprintln!(
+                "Load step {k}, initial time = {from:e}, final time = {to:e}, convergence criterion = {tolerance:e}"
+            );
+        }
         let newton_settings = NewtonSettings {
             max_iterations: settings.max_iterations,
             tolerance,
             measure: settings.measure,
             line_search: settings.line_search,
-            print_iterations: true,
-            verbose: settings.verbose,
+            print_iterations: root,
+            verbose: settings.verbose && root,
         };
         let report = nonlinear.solve(
             &mut system,
@@ -186,6 +199,7 @@ pub fn run<E: From<QuasiStaticError>>(
             state,
             &newton_settings,
             &constrained,
+            collective,
         );
         let failure = match &report {
             Err(source) => Some(source.to_string()),
@@ -198,7 +212,9 @@ pub fn run<E: From<QuasiStaticError>>(
         };
         if let Some(reason) = failure {
             if can_cut(settings, cuts_this_step, total_cuts) {
-                eprintln!("Warning: {reason}; cutting the load step in half and redoing it.");
+                if root {
+                    eprintln!("Warning: {reason}; cutting the load step in half and redoing it.");
+                }
                 cut(&mut times, k, settings);
                 (cuts_this_step, total_cuts) = (cuts_this_step + 1, total_cuts + 1);
                 restore(
@@ -245,7 +261,7 @@ pub fn run<E: From<QuasiStaticError>>(
                 .into());
             }
         }
-        if !nonlinear.logs_after_each_iteration() {
+        if root && !nonlinear.logs_after_each_iteration() {
             eprintln!(
                 "  iteration {}: residual = {measure:e}",
                 report.iterations + 1
@@ -260,11 +276,13 @@ pub fn run<E: From<QuasiStaticError>>(
         }
         state.time = to;
         system.commit_damage(physics);
-        eprintln!(
-            "  cpu time for load step = {:.3} sec., cumulative cpu time = {:.3} sec.",
-            step_start.elapsed().as_secs_f64(),
-            run_start.elapsed().as_secs_f64()
-        );
+        if root {
+            eprintln!(
+                "  cpu time for load step = {:.3} sec., cumulative cpu time = {:.3} sec.",
+                step_start.elapsed().as_secs_f64(),
+                run_start.elapsed().as_secs_f64()
+            );
+        }
         let accepted = LoadStepReport {
             step: reports.len() + 1,
             time: to,
@@ -301,7 +319,8 @@ fn set_loads(
     Ok(())
 }
 
-/// The step's tolerance (rule 3 of the module docs).
+/// The step's tolerance (rule 3 of the module docs). The norms are over the points this rank
+/// owns, summed over the ranks (the ghosts' positions must be current).
 fn tolerance(
     system: &mut ImplicitSystem,
     model: &Model,
@@ -309,6 +328,7 @@ fn tolerance(
     state: &mut State,
     settings: &QuasiStaticSettings,
     constrained: &[usize],
+    collective: &mut dyn Collective,
 ) -> Result<f64, SolveError> {
     if let Some(absolute) = settings.absolute_tolerance {
         return Ok(absolute);
@@ -316,20 +336,27 @@ fn tolerance(
     let mut residual = vec![0.0; system.dofs.len()];
     system.residual(model, physics, state, &mut residual)?;
     let volume = &model.points.volume;
-    let reaction: Vec<f64> = constrained
+    let owned = |dof: &usize| !collective.is_ghost(dof / 3);
+    let reaction: f64 = constrained
         .iter()
-        .map(|&dof| volume[dof / 3] * state.force_density[dof / 3][dof % 3])
-        .collect();
-    let mut reference = norm2(&reaction);
+        .filter(|dof| owned(dof))
+        .map(|&dof| (volume[dof / 3] * state.force_density[dof / 3][dof % 3]).powi(2))
+        .sum();
+    let applied: f64 = state.external_force_density.as_ref().map_or(0.0, |b| {
+        (0..3 * b.len())
+            .filter(|dof| owned(dof))
+            .map(|dof| (volume[dof / 3] * b[dof / 3][dof % 3]).powi(2))
+            .sum()
+    });
+    let mut squares = [reaction, applied];
+    collective.sum(&mut squares);
+    let mut reference = squares[0].sqrt();
     if reference == 0.0 {
-        if let Some(b) = &state.external_force_density {
-            let applied: Vec<f64> = (0..3 * b.len())
-                .map(|dof| volume[dof / 3] * b[dof / 3][dof % 3])
-                .collect();
-            reference = norm2(&applied);
-        }
+        reference = squares[1].sqrt();
     }
     if reference == 0.0 {
+        // Only reached with nothing prescribed and no body force; the measure of the first
+        // residual over the owned unknowns, for which a serial run is the case that matters.
         reference = settings.measure.of(&residual, &system.dofs, volume);
     }
     Ok(settings.relative_tolerance * reference)

@@ -1,4 +1,6 @@
 //! The quasi-static bar several implicit-solver test files share.
+// Each test crate that includes this module uses only part of it.
+#![allow(dead_code)]
 
 use peridyn::io::deck::{parse_str, DeckFormat};
 use peridyn::setup;

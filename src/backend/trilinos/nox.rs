@@ -63,6 +63,11 @@ pub struct NoxLayout {
     pub tolerance: f64,
     /// NOX `MaxIters`.
     pub max_iterations: u64,
+    /// The global id of each unknown of this rank when the system is distributed over the
+    /// ranks of `MPI_COMM_WORLD` (pattern columns are then global ids too); `None`: the whole
+    /// system is on this process (`MPI_COMM_SELF`, ids 0..n). Every callback is then
+    /// collective: NOX calls it on all ranks together.
+    pub global_rows: Option<Vec<usize>>,
 }
 
 /// What NOX did.
@@ -191,7 +196,17 @@ pub fn solve(
     x: &mut [f64],
 ) -> Result<NoxReport, SolveError> {
     let n = x.len();
-    let rows: Vec<i32> = narrow(&(0..n).collect::<Vec<_>>(), "the unknowns")?;
+    let rows: Vec<i32> = match &layout.global_rows {
+        Some(rows) if rows.len() != n => {
+            return Err(failure(format!(
+                "{} global row ids for {n} unknowns",
+                rows.len()
+            )))
+        }
+        Some(rows) => narrow(rows, "the global ids")?,
+        None => narrow(&(0..n).collect::<Vec<_>>(), "the unknowns")?,
+    };
+    let distributed = layout.global_rows.is_some();
     let csr = |pattern: &Pattern, what: &str| -> Result<(Vec<i32>, Vec<i32>), SolveError> {
         if pattern.offsets.len() != n + 1 || pattern.offsets.last() != Some(&pattern.columns.len())
         {
@@ -201,7 +216,7 @@ pub fn solve(
                 pattern.columns.len()
             )));
         }
-        if pattern.columns.iter().any(|&c| c >= n) {
+        if !distributed && pattern.columns.iter().any(|&c| c >= n) {
             return Err(failure(format!(
                 "the {what} pattern has a column beyond {n}"
             )));
@@ -220,6 +235,7 @@ pub fn solve(
         None => Default::default(),
     };
     let bridge_layout = bridge::NoxLayout {
+        mpi_world: distributed,
         linear_solver_path: layout.linear_solver_path.clone(),
         matrix_free: layout.jacobian.is_none(),
         jacobian_offsets,

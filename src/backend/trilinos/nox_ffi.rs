@@ -40,6 +40,9 @@ pub(crate) mod bridge {
 
     /// How the Newton system is built.
     struct NoxLayout {
+        /// The objects live on `MPI_COMM_WORLD` (the rows are this rank's share of a
+        /// distributed system) rather than `MPI_COMM_SELF`.
+        mpi_world: bool,
         /// Sublists leading to the linear-solver parameters of the chosen direction (e.g.
         /// `Direction`, `Newton`, `Linear Solver`).
         linear_solver_path: Vec<String>,
