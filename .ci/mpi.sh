@@ -26,4 +26,11 @@ timeout 1200 cargo test --locked --features mpi --test mpi_explicit
 # .ci/trilinos.sh installs).
 if [ -d /usr/include/trilinos ]; then
   timeout 1200 cargo test --locked --features mpi,trilinos --test mpi_implicit
+  # Peridigm's regression decks on 2 ranks with that build (target/debug/peridyn now has both
+  # features): the explicit and NOXQuasiStatic decks pass as on one rank; decks peridyn runs
+  # on one rank only are reported UNSUPPORTED with the reason. Fewer passes is a regression.
+  if [ -d ../shared/peridigm ]; then
+    cargo build --locked --features mpi,trilinos
+    scripts/peridigm-regression ../shared/peridigm --peridyn target/debug/peridyn --ranks 2 --min-pass 16
+  fi
 fi
