@@ -5,6 +5,7 @@
 use peridyn::io::deck::{parse_str, DeckFormat};
 use peridyn::io::exodus::ExodusFile;
 use peridyn::setup;
+use peridyn::solver::collective::SerialRun;
 use peridyn::solver::implicit::{DofMap, ImplicitSystem};
 use peridyn::solver::newton::{self, ConvergenceMeasure, NewtonSettings};
 use peridyn::state::State;
@@ -309,6 +310,9 @@ fn newton_converges_quadratically_on_a_large_stretch_and_shear() {
         &mut linear,
         &settings,
         &constrained,
+        &mut SerialRun {
+            points: model.points.len(),
+        },
     )
     .unwrap();
     let r = &report.residual_history;

@@ -1,6 +1,7 @@
 //! Quasi-static solves on several MPI ranks (features `mpi` and `trilinos`): Trilinos NOX over
 //! the owned unknowns, with the ghosts refreshed inside every residual evaluation, gives the
-//! one-rank answer on 2 and 3 ranks, with the assembled tangent and Jacobian-free.
+//! one-rank answer on 2 and 3 ranks, with the assembled tangent and Jacobian-free, and so does
+//! peridyn's own Newton (`QuasiStatic`) with distributed Belos solves.
 #![cfg(all(feature = "mpi", feature = "trilinos"))]
 
 mod quasi_static_bar;
@@ -106,6 +107,13 @@ fn jacobian_free_nox_gives_the_one_rank_answer_on_two_and_three_ranks() {
         "            Jacobian Operator: \"Matrix-Free\"\n            Preconditioner: \"User Defined\"",
     );
     same_answer_on_one_two_and_three_ranks("NOX JFNK", &text);
+}
+
+#[test]
+fn quasi_static_newton_with_belos_gives_the_one_rank_answer_on_two_and_three_ranks() {
+    let solver = "    Final Time: 1.0\n    Backend: \"Trilinos\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"ILU\"\n    Linear Solver Tolerance: 1.0e-12\n    QuasiStatic:\n      Number of Load Steps: {steps}\n      Absolute Tolerance: 1.0e-2\n      Maximum Solver Iterations: 20";
+    let text = quasi_static_bar::bar_deck(solver, 0.012, 0.004, 2);
+    same_answer_on_one_two_and_three_ranks("QuasiStatic + Belos", &text);
 }
 
 #[test]

@@ -76,4 +76,23 @@ pub trait LinearSolver {
         rhs: &[f64],
         x: &mut [f64],
     ) -> Result<KrylovReport, SolveError>;
+    /// Solves a system distributed over the MPI ranks (collective): this rank holds the rows
+    /// with global ids `rows` (`matrix` has one row per id, its columns are global ids) and
+    /// the matching entries of `rhs` and `x`. Solvers that run on one process only say so.
+    fn solve_distributed(
+        &mut self,
+        rows: &[usize],
+        matrix: &Csr,
+        rhs: &[f64],
+        x: &mut [f64],
+    ) -> Result<KrylovReport, SolveError> {
+        let _ = (rows, matrix, rhs, x);
+        Err(SolveError::Breakdown {
+            method: "linear solver",
+            reason: format!(
+                "{} solves on one process; on several ranks use Backend \"Trilinos\"",
+                self.describe()
+            ),
+        })
+    }
 }

@@ -32,7 +32,6 @@ use crate::physics::Physics;
 use crate::setup::{self, Model};
 use crate::solver::collective::Collective;
 use crate::solver::explicit::Halo;
-use crate::solver::newton::NonlinearSolver;
 use crate::solver::quasistatic::QuasiStaticError;
 use crate::solver::{EnergyMonitor, VelocityVerlet, VerletSettings};
 use crate::state::State;
@@ -45,16 +44,17 @@ use std::time::Instant;
 /// solvers (they need the distributed Trilinos backend) and contact.
 pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), RunError> {
     for solver in &deck.solvers {
-        let on_nox = matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
-            && matches!(
-                solver.linear_solve.backend,
-                crate::io::deck::LinearBackend::Trilinos { .. }
-            )
-            && cfg!(feature = "trilinos");
-        if !matches!(solver.integrator, Integrator::Verlet(_)) && !on_nox {
+        let on_trilinos = matches!(
+            solver.integrator,
+            Integrator::NoxQuasiStatic(_) | Integrator::QuasiStatic(_)
+        ) && matches!(
+            solver.linear_solve.backend,
+            crate::io::deck::LinearBackend::Trilinos { .. }
+        ) && cfg!(feature = "trilinos");
+        if !matches!(solver.integrator, Integrator::Verlet(_)) && !on_trilinos {
             return Err(RunError::Unsupported(format!(
-                "solver \"{}\": {} on {ranks} ranks needs Trilinos NOX (NOXQuasiStatic with Backend \"Trilinos\" in a build with the features mpi and trilinos); \
-                 the native backend and peridyn's own Newton run on one rank",
+                "solver \"{}\": {} on {ranks} ranks needs the Trilinos backend (QuasiStatic or NOXQuasiStatic with Backend \"Trilinos\", \
+                 or `peridyn run --backend trilinos`, in a build with the features mpi and trilinos); the native backend and Newmark-β run on one rank",
                 solver.name,
                 solver.integrator.deck_name()
             )));
@@ -690,6 +690,10 @@ impl Collective for RankCollective<'_> {
         self.comm.sum(values);
     }
 
+    fn max(&mut self, value: f64) -> f64 {
+        -self.comm.min(-value)
+    }
+
     fn is_ghost(&self, p: usize) -> bool {
         self.ghost[p]
     }
@@ -707,9 +711,10 @@ impl Collective for RankCollective<'_> {
     }
 }
 
-/// One `NOXQuasiStatic` solver list on every rank: the load steps of
-/// [`crate::solver::quasistatic`] with Trilinos NOX over the owned unknowns, the ghosts
-/// refreshed inside every residual evaluation.
+/// One quasi-static solver list on every rank: the load steps of
+/// [`crate::solver::quasistatic`] with Trilinos NOX (`NOXQuasiStatic`) or peridyn's Newton
+/// with distributed Belos solves (`QuasiStatic`) over the owned unknowns, the ghosts
+/// refreshed before every residual evaluation.
 #[allow(clippy::too_many_arguments)]
 fn quasi_static_on_ranks(
     comm: &dyn Communicator,
@@ -724,7 +729,8 @@ fn quasi_static_on_ranks(
 ) -> Result<(), RunError> {
     let settings =
         super::quasi_static_settings(solver, predecessor).map_err(|e| collective(comm, e))?;
-    let mut nonlinear = nox_solver(solver).map_err(|e| collective(comm, e))?;
+    let mut nonlinear = super::linear::nonlinear_solver(solver, &sub.model, physics)
+        .map_err(|e| collective(comm, e))?;
     let root = comm.rank() == 0;
     if root {
         eprintln!(
@@ -804,19 +810,4 @@ fn quasi_static_on_ranks(
         }
         Err(error) => Err(error),
     }
-}
-
-#[cfg(feature = "trilinos")]
-fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, RunError> {
-    Ok(Box::new(crate::solver::nox_newton::NoxNewton::from_deck(
-        solver,
-    )?))
-}
-
-#[cfg(not(feature = "trilinos"))]
-fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, RunError> {
-    Err(RunError::Unsupported(format!(
-        "solver \"{}\": NOXQuasiStatic on several ranks needs a build with the feature `trilinos`",
-        solver.name
-    )))
 }

@@ -19,6 +19,7 @@ use crate::backend::SolveError;
 use crate::boundary::BoundaryError;
 use crate::physics::Physics;
 use crate::setup::Model;
+use crate::solver::collective::SerialRun;
 use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem, Inertia};
 use crate::solver::newton::{
     self, ConvergenceMeasure, LinearStrategy, NewtonReport, NewtonSettings,
@@ -139,6 +140,9 @@ pub fn run<E: From<NewmarkError>>(
             linear,
             &newton_settings,
             &constrained,
+            &mut SerialRun {
+                points: model.points.len(),
+            },
         )
         .map_err(|source| NewmarkError::Solve {
             step,

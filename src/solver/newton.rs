@@ -13,8 +13,10 @@ use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
 use crate::io::deck::LinearPreconditioner;
 use crate::physics::Physics;
 use crate::setup::Model;
-use crate::solver::collective::Collective;
-use crate::solver::implicit::{rank_deficient_points, DofMap, ImplicitSystem};
+use crate::solver::collective::{
+    agree, deficient_points, global_dof, owned_unknowns, squared_norm, Collective, ColumnMap,
+};
+use crate::solver::implicit::{DofMap, ImplicitSystem};
 use crate::solver::jfnk;
 use crate::state::State;
 use std::time::Instant;
@@ -221,6 +223,12 @@ pub struct NewtonReport {
 /// Runs Newton from `state.displacement` (prescribed dofs already set); on return the state
 /// holds the last iterate, consistent forces and damage. A non-converged solve is a report with
 /// `converged == false`; errors are failures of the linear algebra or non-finite values.
+///
+/// On several ranks (`collective`), the unknowns are the free dofs of the points this rank
+/// owns, every residual evaluation first refreshes the ghosts, norms and decisions are
+/// global, and the correction comes from a distributed assembled solve
+/// ([`LinearSolver::solve_distributed`], the Trilinos backend).
+#[allow(clippy::too_many_arguments)]
 pub fn solve(
     system: &mut ImplicitSystem,
     model: &Model,
@@ -229,16 +237,33 @@ pub fn solve(
     linear: &mut LinearStrategy,
     settings: &NewtonSettings,
     constrained: &[usize],
+    collective: &mut dyn Collective,
 ) -> Result<NewtonReport, SolveError> {
     let start = Instant::now();
+    let distributed = collective.ranks() > 1;
+    if distributed && !matches!(linear, LinearStrategy::Assembled(_)) {
+        return Err(SolveError::Breakdown {
+            method: "Newton",
+            reason: "on several ranks peridyn's Newton solves its corrections with Backend \"Trilinos\" (Belos)".into(),
+        });
+    }
     let volume = &model.points.volume;
     let mut report = NewtonReport::default();
     let evaluations_before = system.residual_evaluations;
-    let mut residual = vec![0.0; system.dofs.len()];
-    report.broken_bonds = system.residual(model, physics, state, &mut residual)?;
-    let mut measure = settings.measure.of(&residual, &system.dofs, volume);
-    report.residual_history.push(measure);
     let mut held: Vec<u32> = Vec::new();
+    if distributed {
+        system.dofs = owned_unknowns(model, constrained, &held, collective);
+    }
+    let mut residual = vec![0.0; system.dofs.len()];
+    report.broken_bonds = evaluate(system, model, physics, state, &mut residual, collective)?;
+    let mut measure = measure_of(
+        settings.measure,
+        &residual,
+        &system.dofs,
+        volume,
+        collective,
+    );
+    report.residual_history.push(measure);
     while measure > settings.tolerance && (report.iterations as u64) < settings.max_iterations {
         // Peridigm's log: the residual at the top of every iteration, numbered from 1.
         if settings.print_iterations {
@@ -247,19 +272,29 @@ pub fn solve(
                 report.iterations + 1
             );
         }
-        let deficient = rank_deficient_points(model, physics);
+        let deficient = deficient_points(model, physics, collective);
         if deficient != held {
-            for &p in deficient.iter().filter(|p| held.binary_search(p).is_err()) {
+            for &p in deficient
+                .iter()
+                .filter(|p| held.binary_search(p).is_err() && !collective.is_ghost(**p as usize))
+            {
                 eprintln!(
                     "  note: point {} has too few intact bonds for a stiffness; its displacement is held (RANK_DEFICIENT_NODES)",
                     model.points.original_id[p as usize] + 1
                 );
             }
             held = deficient;
-            system.dofs = DofMap::new(model.points.len(), constrained, &held);
+            system.dofs = owned_unknowns(model, constrained, &held, collective);
             residual = vec![0.0; system.dofs.len()];
-            report.broken_bonds = system.residual(model, physics, state, &mut residual)?;
-            measure = settings.measure.of(&residual, &system.dofs, volume);
+            report.broken_bonds =
+                evaluate(system, model, physics, state, &mut residual, collective)?;
+            measure = measure_of(
+                settings.measure,
+                &residual,
+                &system.dofs,
+                volume,
+                collective,
+            );
             if measure <= settings.tolerance {
                 break;
             }
@@ -278,6 +313,24 @@ pub fn solve(
                     &residual,
                     &mut correction,
                 )?
+            }
+            LinearStrategy::Assembled(solver) if distributed => {
+                let columns = ColumnMap::new(model, constrained, &held, collective);
+                let matrix = columns.stiffness(system, model, physics, state, &*collective);
+                let matrix = agree(collective, matrix)?;
+                report.tangent_bytes = report.tangent_bytes.max(system.tangent_bytes);
+                let rows: Vec<usize> = system
+                    .dofs
+                    .free
+                    .iter()
+                    .map(|&d| global_dof(collective, d))
+                    .collect();
+                accept_inexact(solver.solve_distributed(
+                    &rows,
+                    &matrix,
+                    &residual,
+                    &mut correction,
+                ))?
             }
             LinearStrategy::Assembled(solver) => {
                 let matrix = system.stiffness(model, physics, state)?;
@@ -309,6 +362,7 @@ pub fn solve(
             &mut residual,
             &correction,
             settings,
+            collective,
         )?;
         report.broken_bonds = broken;
         measure = new_measure;
@@ -322,12 +376,59 @@ pub fn solve(
     }
     report.converged = measure <= settings.tolerance;
     report.residual_evaluations = system.residual_evaluations - evaluations_before;
+    let mut broken = [report.broken_bonds as f64];
+    collective.sum(&mut broken);
+    report.broken_bonds = broken[0] as usize;
     report.held_points = held
         .iter()
+        .filter(|&&p| !collective.is_ghost(p as usize))
         .map(|&p| model.points.original_id[p as usize] + 1)
         .collect();
     report.seconds = start.elapsed().as_secs_f64();
     Ok(report)
+}
+
+/// The residual at the state, the ghosts refreshed first and failures agreed (collective on
+/// several ranks); returns the bonds broken on this rank.
+fn evaluate(
+    system: &mut ImplicitSystem,
+    model: &Model,
+    physics: &mut Physics,
+    state: &mut State,
+    residual: &mut [f64],
+    collective: &mut dyn Collective,
+) -> Result<usize, SolveError> {
+    collective.refresh(&mut state.displacement);
+    let result = system.residual(model, physics, state, residual);
+    agree(collective, result)
+}
+
+/// The convergence measure over all ranks' unknowns.
+fn measure_of(
+    measure: ConvergenceMeasure,
+    residual: &[f64],
+    dofs: &DofMap,
+    volume: &[f64],
+    collective: &mut dyn Collective,
+) -> f64 {
+    if collective.ranks() == 1 {
+        return measure.of(residual, dofs, volume);
+    }
+    match measure {
+        ConvergenceMeasure::PeridigmQuasiStatic => {
+            let largest = collective.max(residual.iter().fold(0.0f64, |m, r| m.max(r.abs())));
+            squared_norm(residual, collective).sqrt() + 20.0 * largest
+        }
+        ConvergenceMeasure::TwoNorm => squared_norm(residual, collective).sqrt(),
+        ConvergenceMeasure::ForceDensity { scale } => {
+            let scaled: Vec<f64> = residual
+                .iter()
+                .zip(&dofs.free)
+                .map(|(r, &dof)| r / volume[dof / 3])
+                .collect();
+            scale * squared_norm(&scaled, collective).sqrt()
+        }
+    }
 }
 
 /// Moves the unknowns from u₀ to u₀ + αΔ with the line search of the module docs; leaves the
@@ -341,12 +442,13 @@ fn line_search(
     residual: &mut [f64],
     correction: &[f64],
     settings: &NewtonSettings,
+    collective: &mut dyn Collective,
 ) -> Result<(usize, f64), SolveError> {
     let volume = &model.points.volume;
     let n = system.dofs.len();
     let mut start = vec![0.0; n];
     system.dofs.gather(&state.displacement, &mut start);
-    let g0 = norm2(residual).powi(2);
+    let g0 = squared_norm(residual, collective);
     let mut trial = vec![0.0; n];
     let mut alpha = 1.0;
     let mut best: Option<(f64, f64)> = None;
@@ -360,10 +462,11 @@ fn line_search(
             *t = s + alpha * d;
         }
         system.dofs.scatter(&trial, &mut state.displacement);
-        let broken = system.residual(model, physics, state, residual)?;
-        let g = norm2(residual).powi(2);
+        let broken = evaluate(system, model, physics, state, residual, collective)?;
+        let g = squared_norm(residual, collective);
         if g <= (1.0 - 2.0 * ARMIJO * alpha) * g0 || attempt == backtracks && best.is_none() {
-            return Ok((broken, settings.measure.of(residual, &system.dofs, volume)));
+            let measure = measure_of(settings.measure, residual, &system.dofs, volume, collective);
+            return Ok((broken, measure));
         }
         if best.is_none_or(|(_, g_best)| g < g_best) {
             best = Some((alpha, g));
@@ -386,8 +489,9 @@ fn line_search(
         *t = s + alpha * d;
     }
     system.dofs.scatter(&trial, &mut state.displacement);
-    let broken = system.residual(model, physics, state, residual)?;
-    Ok((broken, settings.measure.of(residual, &system.dofs, volume)))
+    let broken = evaluate(system, model, physics, state, residual, collective)?;
+    let measure = measure_of(settings.measure, residual, &system.dofs, volume, collective);
+    Ok((broken, measure))
 }
 
 /// A nonlinear solver for one load step: from the state on entry (prescribed dofs set, the
@@ -435,12 +539,15 @@ impl NonlinearSolver for LinearStrategy {
         constrained: &[usize],
         collective: &mut dyn Collective,
     ) -> Result<NewtonReport, SolveError> {
-        if collective.ranks() > 1 {
-            return Err(SolveError::Breakdown {
-                method: "Newton",
-                reason: "peridyn's own Newton runs on one rank; on several ranks use NOXQuasiStatic with Backend \"Trilinos\"".into(),
-            });
-        }
-        solve(system, model, physics, state, self, settings, constrained)
+        solve(
+            system,
+            model,
+            physics,
+            state,
+            self,
+            settings,
+            constrained,
+            collective,
+        )
     }
 }

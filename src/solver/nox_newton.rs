@@ -39,8 +39,10 @@ use crate::io::deck::{Integrator, ParameterValue, PeridigmPreconditioner, Solver
 use crate::physics::Physics;
 use crate::setup::Model;
 use crate::simulation::RunError;
-use crate::solver::collective::Collective;
-use crate::solver::implicit::{rank_deficient_points, DofMap, ImplicitSystem};
+use crate::solver::collective::{
+    agree, deficient_points, global_dof, owned_unknowns, squared_norm, Collective, ColumnMap,
+};
+use crate::solver::implicit::ImplicitSystem;
 use crate::solver::jfnk::block_diagonal_csr;
 use crate::solver::newton::{NewtonReport, NewtonSettings, NonlinearSolver};
 use crate::state::State;
@@ -279,16 +281,16 @@ impl NonlinearSolver for NoxNewton {
                 model.points.original_id[p as usize] + 1
             );
         }
-        // The unknowns are the free dofs of the points this rank owns.
-        let mut held = deficient.clone();
-        held.extend((0..model.points.len() as u32).filter(|&p| collective.is_ghost(p as usize)));
-        held.sort_unstable();
-        held.dedup();
-        system.dofs = DofMap::new(model.points.len(), constrained, &held);
+        system.dofs = owned_unknowns(model, constrained, &deficient, collective);
         let n = system.dofs.len();
-        let global_id = |dof: usize| 3 * collective.global_point(dof / 3) + dof % 3;
-        let global_rows: Option<Vec<usize>> =
-            distributed.then(|| system.dofs.free.iter().map(|&d| global_id(d)).collect());
+        let global_rows: Option<Vec<usize>> = distributed.then(|| {
+            system
+                .dofs
+                .free
+                .iter()
+                .map(|&d| global_dof(collective, d))
+                .collect()
+        });
         let mut reference = vec![0.0; n];
         system.dofs.gather(&model.points.position, &mut reference);
         let mut x = vec![0.0; n];
@@ -299,24 +301,7 @@ impl NonlinearSolver for NoxNewton {
         // On several ranks the tangent's columns run over the ghosts' free dofs too.
         let columns = match self.jacobian {
             NoxJacobian::Assembled { .. } if distributed => {
-                let mut prescribed = constrained.to_vec();
-                prescribed.extend(collective.ghost_constrained_dofs());
-                prescribed.sort_unstable();
-                prescribed.dedup();
-                let dofs = DofMap::new(model.points.len(), &prescribed, &deficient);
-                let kept_rows = dofs
-                    .free
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, &d)| !collective.is_ghost(d / 3))
-                    .map(|(row, _)| row)
-                    .collect();
-                let global: Vec<usize> = dofs.free.iter().map(|&d| global_id(d)).collect();
-                Some(ColumnMap {
-                    dofs,
-                    kept_rows,
-                    global,
-                })
+                Some(ColumnMap::new(model, constrained, &deficient, collective))
             }
             _ => None,
         };
@@ -330,10 +315,11 @@ impl NonlinearSolver for NoxNewton {
                     }
                 }
                 Some(map) => {
-                    let unknowns = std::mem::replace(&mut system.dofs, map.dofs.clone());
-                    let matrix = system.stiffness(model, physics, state);
-                    system.dofs = unknowns;
-                    map.owned_rows(&matrix?).0
+                    let matrix = map.stiffness(system, model, physics, state, collective)?;
+                    Pattern {
+                        offsets: matrix.offsets,
+                        columns: matrix.columns,
+                    }
                 }
             }),
             NoxJacobian::MatrixFree { .. } => None,
@@ -412,58 +398,6 @@ impl NonlinearSolver for NoxNewton {
     }
 }
 
-/// The rank-deficient points ([`rank_deficient_points`]) as local indices; on several ranks
-/// each rank judges the points it owns (ghost rows may be truncated) and the verdicts are
-/// shared, so that every rank holds the same points.
-fn deficient_points(model: &Model, physics: &Physics, collective: &mut dyn Collective) -> Vec<u32> {
-    let local = rank_deficient_points(model, physics);
-    if collective.ranks() == 1 {
-        return local;
-    }
-    let mut flags = vec![0.0; collective.global_points()];
-    for &p in local.iter().filter(|&&p| !collective.is_ghost(p as usize)) {
-        flags[collective.global_point(p as usize)] = 1.0;
-    }
-    collective.sum(&mut flags);
-    (0..model.points.len() as u32)
-        .filter(|&p| flags[collective.global_point(p as usize)] > 0.0)
-        .collect()
-}
-
-/// The tangent of a distributed solve: assembled over the free dofs of owned and ghost
-/// points, of which the rows of the owned unknowns are kept, with global column ids.
-struct ColumnMap {
-    /// Free dofs of all local points.
-    dofs: DofMap,
-    /// Rows of the local tangent that belong to this rank's unknowns, in order.
-    kept_rows: Vec<usize>,
-    /// Global id of every column.
-    global: Vec<usize>,
-}
-
-impl ColumnMap {
-    /// The kept rows of `matrix` (assembled over [`ColumnMap::dofs`]): their pattern with
-    /// global columns, and their values.
-    fn owned_rows(&self, matrix: &crate::backend::Csr) -> (Pattern, Vec<f64>) {
-        let mut pattern = Pattern {
-            offsets: vec![0],
-            columns: Vec::new(),
-        };
-        let mut values = Vec::new();
-        for &row in &self.kept_rows {
-            let range = matrix.offsets[row]..matrix.offsets[row + 1];
-            pattern.columns.extend(
-                matrix.columns[range.clone()]
-                    .iter()
-                    .map(|&c| self.global[c]),
-            );
-            values.extend_from_slice(&matrix.values[range]);
-            pattern.offsets.push(pattern.columns.len());
-        }
-        (pattern, values)
-    }
-}
-
 /// Entries of the dense diagonal blocks of `groups`.
 fn block_entries(groups: &[usize]) -> usize {
     groups.windows(2).map(|g| (g[1] - g[0]).pow(2)).sum()
@@ -503,18 +437,8 @@ impl StepCallbacks<'_> {
             .update_current_position(&self.model.points.position);
     }
 
-    /// On several ranks, every rank fails when one does (collective), so that NOX stops
-    /// everywhere at the same call instead of waiting for a rank that left.
     fn agree<T>(&mut self, result: Result<T, SolveError>) -> Result<T, SolveError> {
-        if self.collective.ranks() == 1 {
-            return result;
-        }
-        let mut failed = [f64::from(u8::from(result.is_err()))];
-        self.collective.sum(&mut failed);
-        match result {
-            Ok(_) if failed[0] > 0.0 => Err(SolveError::OtherRank),
-            other => other,
-        }
+        agree(&mut *self.collective, result)
     }
 
     fn evaluate(&mut self, f: &mut [f64], probe: bool) -> Result<(), SolveError> {
@@ -535,13 +459,13 @@ impl StepCallbacks<'_> {
             None => self
                 .system
                 .stiffness(self.model, self.physics, self.state)?,
-            Some(map) => {
-                let unknowns = std::mem::replace(&mut self.system.dofs, map.dofs.clone());
-                let matrix = self.system.stiffness(self.model, self.physics, self.state);
-                self.system.dofs = unknowns;
-                let (_, owned) = map.owned_rows(&matrix?);
-                return copy_values(&owned, values);
-            }
+            Some(map) => map.stiffness(
+                self.system,
+                self.model,
+                self.physics,
+                self.state,
+                &*self.collective,
+            )?,
         };
         copy_values(&matrix.values, values)
     }
@@ -596,9 +520,8 @@ impl NonlinearCallbacks for StepCallbacks<'_> {
         let result = self.evaluate(f, probe);
         self.agree(result)?;
         if self.history.is_empty() && !probe {
-            let mut squares = [f.iter().map(|v| v * v).sum::<f64>()];
-            self.collective.sum(&mut squares);
-            self.history.push(squares[0].sqrt());
+            let squares = squared_norm(f, &mut *self.collective);
+            self.history.push(squares.sqrt());
         }
         Ok(())
     }

@@ -143,6 +143,41 @@ impl TrilinosLinearSolver {
         self.breakdown(format!("{stage}: {}", e.what()))
     }
 
+    /// [`Self::run_belos`]; when CG breaks down, BlockGMRES takes over for good. CG needs a
+    /// positive definite (preconditioned) operator: a stiffness without enough kinematic
+    /// conditions is only semidefinite, and an incomplete factorization of it can make the
+    /// preconditioned operator indefinite; GMRES does not need definiteness (as sparse LU
+    /// takes over from Cholesky on the native backend). On several ranks the breakdown is
+    /// seen by every rank alike (it follows from global inner products), so all switch.
+    fn run_belos_or_gmres(
+        &mut self,
+        matrix: &IndexedCsr,
+        rhs: &[f64],
+        x: &mut [f64],
+    ) -> Result<bridge::BelosOutcome, SolveError> {
+        let guess = x.to_vec();
+        let _turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
+        match self.run_belos(matrix, rhs, x) {
+            Err(SolveError::Breakdown { reason, .. })
+                if self.settings.method == BelosMethod::BlockCg =>
+            {
+                eprintln!(
+                    "  note: {}: {}; switching to Belos BlockGMRES",
+                    self.method_name(),
+                    reason
+                        .lines()
+                        .rev()
+                        .find(|l| !l.trim().is_empty())
+                        .unwrap_or("breakdown")
+                );
+                self.settings.method = BelosMethod::BlockGmres;
+                x.copy_from_slice(&guess);
+                self.run_belos(matrix, rhs, x)
+            }
+            other => other,
+        }
+    }
+
     /// Builds the Epetra system, the preconditioner and runs Belos; `x` holds the guess on
     /// entry and Belos' answer on return.
     fn run_belos(
@@ -151,9 +186,10 @@ impl TrilinosLinearSolver {
         rhs: &[f64],
         x: &mut [f64],
     ) -> Result<bridge::BelosOutcome, SolveError> {
-        let mpi_world = self.settings.communicator == Communicator::MpiWorld;
+        let distributed = matrix.distributed;
+        let mpi_world = distributed || self.settings.communicator == Communicator::MpiWorld;
         bridge::mpi_initialize().map_err(|e| self.cxx_failure("MPI initialisation", e))?;
-        if mpi_world {
+        if mpi_world && !distributed {
             let size = bridge::mpi_world_size();
             if size != 1 {
                 return Err(self.breakdown(format!(
@@ -185,7 +221,7 @@ impl TrilinosLinearSolver {
         }
         .map_err(|e| self.cxx_failure("building the preconditioner", e))?;
         let krylov = &self.settings.krylov;
-        let limit = krylov.max_iterations.unwrap_or(rhs.len()).max(1);
+        let limit = krylov.max_iterations.unwrap_or(matrix.unknowns).max(1);
         bridge::belos_solve(
             &system,
             self.settings.method == BelosMethod::BlockGmres,
@@ -201,6 +237,10 @@ impl TrilinosLinearSolver {
 
 /// A [`Csr`] with the 32-bit global ids Epetra's `int` maps take.
 struct IndexedCsr<'a> {
+    /// The rows are this rank's share of a system over `MPI_COMM_WORLD`.
+    distributed: bool,
+    /// Unknowns of the whole system (the default Krylov iteration limit).
+    unknowns: usize,
     rows: Vec<i32>,
     offsets: Vec<i32>,
     columns: Vec<i32>,
@@ -214,6 +254,8 @@ impl<'a> IndexedCsr<'a> {
             v.iter().map(|&i| i32::try_from(i).ok()).collect()
         };
         Some(Self {
+            distributed: false,
+            unknowns: matrix.nrows,
             rows: (0..i32::try_from(matrix.nrows).ok()?).collect(),
             offsets: narrow(&matrix.offsets)?,
             columns: narrow(&matrix.columns)?,
@@ -234,6 +276,55 @@ fn norm(v: &[f64]) -> f64 {
 impl LinearSolver for TrilinosLinearSolver {
     fn describe(&self) -> String {
         self.method_name().to_string()
+    }
+
+    /// Belos on `MPI_COMM_WORLD` with this rank's rows. The relative residual reported is
+    /// Belos' own (the true residual would need the other ranks' parts).
+    fn solve_distributed(
+        &mut self,
+        rows: &[usize],
+        matrix: &Csr,
+        rhs: &[f64],
+        x: &mut [f64],
+    ) -> Result<KrylovReport, SolveError> {
+        let n = rows.len();
+        if matrix.nrows != n || rhs.len() != n || x.len() != n {
+            return Err(self.breakdown(format!(
+                "{n} rows owned, a matrix of {} rows, right-hand side {}, solution {}",
+                matrix.nrows,
+                rhs.len(),
+                x.len()
+            )));
+        }
+        let narrow = |v: &[usize]| -> Option<Vec<i32>> {
+            v.iter().map(|&i| i32::try_from(i).ok()).collect()
+        };
+        let indexed = (|| {
+            Some(IndexedCsr {
+                distributed: true,
+                unknowns: matrix.ncols,
+                rows: narrow(rows)?,
+                offsets: narrow(&matrix.offsets)?,
+                columns: narrow(&matrix.columns)?,
+                values: &matrix.values,
+            })
+        })()
+        .ok_or_else(|| self.breakdown("the global ids exceed Epetra's 32-bit indices"))?;
+        let outcome = self.run_belos_or_gmres(&indexed, rhs, x)?;
+        let iterations = usize::try_from(outcome.iterations).unwrap_or(0);
+        if !outcome.converged {
+            return Err(SolveError::NotConverged {
+                method: self.method_name(),
+                iterations,
+                relative_residual: outcome.achieved_tolerance,
+                tolerance: self.settings.krylov.relative_tolerance,
+            });
+        }
+        Ok(KrylovReport {
+            method: self.method_name().to_string(),
+            iterations,
+            relative_residual: outcome.achieved_tolerance,
+        })
     }
 
     fn solve(
@@ -280,34 +371,7 @@ impl LinearSolver for TrilinosLinearSolver {
                 matrix.nnz()
             ))
         })?;
-        let guess = x.to_vec();
-        let outcome = {
-            let _turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
-            match self.run_belos(&indexed, rhs, x) {
-                // CG needs a positive definite (preconditioned) operator. A stiffness without
-                // enough kinematic conditions is only semidefinite, and an incomplete
-                // factorization of it can make the preconditioned operator indefinite; GMRES
-                // does not need definiteness, so it takes over for the rest of the run, as
-                // sparse LU takes over from Cholesky on the native backend.
-                Err(SolveError::Breakdown { reason, .. })
-                    if self.settings.method == BelosMethod::BlockCg =>
-                {
-                    eprintln!(
-                        "  note: {}: {}; switching to Belos BlockGMRES",
-                        self.method_name(),
-                        reason
-                            .lines()
-                            .rev()
-                            .find(|l| !l.trim().is_empty())
-                            .unwrap_or("breakdown")
-                    );
-                    self.settings.method = BelosMethod::BlockGmres;
-                    x.copy_from_slice(&guess);
-                    self.run_belos(&indexed, rhs, x)?
-                }
-                other => other?,
-            }
-        };
+        let outcome = self.run_belos_or_gmres(&indexed, rhs, x)?;
         if !x.iter().all(|v| v.is_finite()) {
             return Err(SolveError::NonFinite {
                 what: format!("the solution of {}", self.method_name()),
