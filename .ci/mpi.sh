@@ -19,13 +19,16 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export OMPI_MCA_rmaps_base_oversubscribe=1
 
 cargo build --locked --features mpi
-timeout 900 cargo test --locked --features mpi --lib parallel
-timeout 1200 cargo test --locked --features mpi --test mpi_explicit
+# Compile first, then run under `timeout`: the limits are for hangs, not for compiling.
+cargo test --locked --features mpi --no-run --lib --test mpi_explicit
+timeout 600 cargo test --locked --features mpi --lib parallel
+timeout 900 cargo test --locked --features mpi --test mpi_explicit
 
 # Quasi-static on 1, 2 and 3 ranks through Trilinos NOX (needs the Trilinos packages that
 # .ci/trilinos.sh installs).
 if [ -d /usr/include/trilinos ]; then
-  timeout 1200 cargo test --locked --features mpi,trilinos --test mpi_implicit
+  cargo test --locked --features mpi,trilinos --no-run --test mpi_implicit
+  timeout 900 cargo test --locked --features mpi,trilinos --test mpi_implicit
   # Peridigm's regression decks on 2 ranks with that build (target/debug/peridyn now has both
   # features) and the implicit solver lists on Trilinos: every deck that passes on one rank
   # passes on two, except those with contact and Newmark-β, which peridyn runs on one rank

@@ -25,7 +25,9 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export NUM_JOBS=1 CMAKE_BUILD_PARALLEL_LEVEL=1
 
 cargo build --release --locked --features trilinos
-timeout 900 cargo test --locked --features trilinos --test trilinos_backend --test trilinos_nox
+# Compile first, then run under `timeout`: the limits are for hangs, not for compiling.
+cargo test --locked --features trilinos --no-run --test trilinos_backend --test trilinos_nox --lib
+timeout 600 cargo test --locked --features trilinos --test trilinos_backend --test trilinos_nox
 timeout 300 cargo test --locked --features trilinos --lib -- io::deck::solver solver::linear solver::nox_newton
 
 # Peridigm's regression decks with the Trilinos build: NOXQuasiStatic decks run on NOX itself
