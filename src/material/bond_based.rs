@@ -45,7 +45,12 @@
 //! bitwise the same result as the baseline build). On the LAMMPS comparison lattice (30³,
 //! m = 3.015) the one-pass pair loop (which scattered −f into F_j) measured 3.4–4.2e8 directed
 //! bond evaluations per second on one core of the 2-vCPU EPYC test machine, against 2.4e8 for
-//! the earlier one-bond-at-a-time gather (`benches/material_kernels.rs`).
+//! the earlier one-bond-at-a-time gather (`benches/material_kernels.rs`). The two passes cost
+//! about a quarter more per step than that one-pass loop (`peridyn bench`, PMB on one thread:
+//! 13.3 against 10.8 ms/step, run back to back): the gather pass reads every bond's scale and
+//! neighbour again. Two alternatives measured slower: per-bond weights with the reverse weight
+//! scattered into the other row (27 ms/step; the scatter spans a megabyte of rows), and
+//! gathering each point inside the pair pass as soon as its pairs are known (17–23 ms/step).
 //!
 //! # Stored energy
 //! The PMB pair potential (energy per V_i·V_j) is `w = ½·c·s²·ζ`, since `∂w/∂|Y| = c·s` is the
