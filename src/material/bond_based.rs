@@ -11,16 +11,46 @@
 //! ends belong to blocks with different micromoduli.
 //!
 //! # Two force loops
-//! * A block whose families stay inside it (every single-block model) evaluates each pair once
-//!   and applies it to both ends ([`PairPlan`]: half the square roots and divisions, scatter
-//!   made safe by colouring chunks of the space-filling-curve order).
+//! * A block whose families stay inside it (every single-block model) with symmetric families
+//!   evaluates each pair once ([`PairPlan`]: half the square roots and divisions), then lets
+//!   every point gather its row.
 //! * Otherwise each point gathers its own row (`for_each_chunk`), reading c_j/2 per neighbour.
 //!
-//! Both vectorize the square roots and divisions (built for AVX2 when the CPU has it, with
+//! # Why a point's force depends only on its row
+//! A distributed run (see [`crate::parallel`]) builds on each rank a local model over its own
+//! points and one layer of ghosts, numbered in the global order, and must produce bitwise the
+//! forces of the one-rank model on the owned points. Floating-point sums depend on their order,
+//! so the force of a point must be a sum whose terms *and* order are fixed by data both models
+//! share: the point's row (an owned point's row is its whole family, in the global order) and
+//! the states of the two ends of each bond. Both loops are built so:
+//! * the gather adds the bonds of the row in row order, in four interleaved partial sums
+//!   combined `(0 + 1) + (2 + 3)`; each term reads only the bond and its two ends;
+//! * the pair-once plan first stores, for every pair, the scale
+//!   `s = c (1−d) (|Y| − ζ)/(ζ|Y|)` computed from the lower end i (the lower point of a pair
+//!   is the same in every model, since local numbering follows the global one) with
+//!   `d = Y_j − Y_i`, the bond i→j's ζ and damage — nothing else. Then every point gathers its
+//!   row as above, term `s V_j (Y_j − Y_i)`. Seen from j the difference `Y_i − Y_j` is exactly
+//!   `−(Y_j − Y_i)` (IEEE subtraction is antisymmetric) and q = |d|² is the same number, so
+//!   both ends use bitwise the same s and each end's force is a function of its row alone.
+//!
+//! Neither pass depends on how the points are cut into tasks, on the thread count or on
+//! which other points the model holds. The earlier plan added `−f` into F_j while visiting i,
+//! in an order set by chunks of the block's points, which differ between the global and a
+//! rank's model (about 2e-7 relative on a 2,560-point bar). A ghost's row may lack the bonds
+//! to points outside the rank (so its force is wrong and is never used), but every pair the
+//! local model holds has both bonds there (rows are cut to local points on both ends), so the
+//! plan is built as on one rank.
+//!
+//! The square roots and divisions are vectorized (built for AVX2 when the CPU has it, with
 //! bitwise the same result as the baseline build). On the LAMMPS comparison lattice (30³,
-//! m = 3.015) the pair loop measured 3.4–4.2e8 directed bond evaluations per second on one
-//! core of the 2-vCPU EPYC test machine, against 2.4e8 for the earlier one-bond-at-a-time
-//! gather (`benches/material_kernels.rs`).
+//! m = 3.015) the one-pass pair loop (which scattered −f into F_j) measured 3.4–4.2e8 directed
+//! bond evaluations per second on one core of the 2-vCPU EPYC test machine, against 2.4e8 for
+//! the earlier one-bond-at-a-time gather (`benches/material_kernels.rs`). The two passes cost
+//! about a quarter more per step than that one-pass loop (`peridyn bench`, PMB on one thread:
+//! 13.3 against 10.8 ms/step, run back to back): the gather pass reads every bond's scale and
+//! neighbour again. Two alternatives measured slower: per-bond weights with the reverse weight
+//! scattered into the other row (27 ms/step; the scatter spans a megabyte of rows), and
+//! gathering each point inside the pair pass as soon as its pairs are known (17–23 ms/step).
 //!
 //! # Stored energy
 //! The PMB pair potential (energy per V_i·V_j) is `w = ½·c·s²·ζ`, since `∂w/∂|Y| = c·s` is the
@@ -30,7 +60,7 @@
 //! `W_i = Σ_j ¼·c·s²·ζ·(1−d)·V_j` makes `Σ_i W_i V_i = E` exactly. (The `(1−d)` factor is
 //! exact for 0/1 damage; for fractional damage it is the energy of the softened spring.)
 
-use super::point_chunks::{for_each_chunk, WriteColouring};
+use super::point_chunks::for_each_chunk;
 use super::FusedCriticalStretch;
 use super::{
     assert_point_set, checked_tangent_method, positive, CurrentView, Damaged, Integrity, Material,
@@ -65,11 +95,13 @@ pub struct BondBased {
     /// Every neighbour of every block point is itself a block point, so every bond's
     /// micromodulus is this block's c (decided in `setup`).
     closed: bool,
-    /// Pair-once evaluation plan, when the block is closed and its rows are sorted.
+    /// Pair-once evaluation plan, when the block is closed, its rows strictly increasing and
+    /// every bond has its reverse; the plan then also breaks each pair in both directions
+    /// ([`Material::fuses_critical_stretch`]).
     pairs: Option<PairPlan>,
-    /// The pair-once plan exists and every bond of the block has its reverse, so the plan can
-    /// break a pair in both directions ([`Material::fuses_critical_stretch`]).
-    fuses_breaking: bool,
+    /// The pair plan's per-pair scale buffer, kept between calls (a model of 10⁶ bonds needs
+    /// 4 MB, which would otherwise be allocated and faulted in at every step).
+    pair_scratch: PairScratch,
     /// How the tangent is computed (default analytic).
     tangent: TangentMethod,
 }
@@ -92,7 +124,7 @@ impl BondBased {
             points: Vec::new(),
             closed: false,
             pairs: None,
-            fuses_breaking: false,
+            pair_scratch: PairScratch::default(),
             tangent: TangentMethod::Analytic,
         })
     }
@@ -343,80 +375,146 @@ impl Rows<'_> {
     }
 }
 
-/// Points per chunk of the pair-once plan: about (6.3 spacings)³ of a lattice, about two
-/// horizons at m = 3, so a chunk's pairs reach only its spatial neighbours' chunks. Fixed (not
-/// tied to the thread count) so that the summation order, hence the result, is the same for
-/// every number of threads.
+/// A reusable buffer behind a lock, so that `&self` force calls can keep it. Cloning a
+/// material gives the clone an empty buffer of its own.
+#[derive(Default)]
+struct PairScratch(std::sync::Mutex<Vec<f64>>);
+
+impl PairScratch {
+    /// The kept buffer (empty when another call holds it or a call panicked while holding it).
+    fn take(&self) -> Vec<f64> {
+        self.0
+            .try_lock()
+            .map(|mut kept| std::mem::take(&mut *kept))
+            .unwrap_or_default()
+    }
+
+    /// Keeps `buffer` for the next call.
+    fn keep(&self, buffer: Vec<f64>) {
+        if let Ok(mut kept) = self.0.try_lock() {
+            *kept = buffer;
+        }
+    }
+}
+
+impl Clone for PairScratch {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl std::fmt::Debug for PairScratch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("PairScratch")
+    }
+}
+
+/// Points per task of the pair pass: fixes only how the work is shared among threads, never a
+/// result (every pair's scale is written by exactly one task, into its own slot).
 const PAIR_CHUNK: usize = 256;
 
-/// Pair-once ("half list") evaluation of a closed block: every pair i < j is evaluated once,
-/// from i's row, and its force added to F_i and subtracted from F_j (Newton's third law), so
-/// each square root and division serves two directed bonds.
+/// Pair-once ("half list") evaluation of a closed block with symmetric families, in two
+/// passes that make every point's force a function of its own row (see the module docs):
 ///
-/// # Parallel scatter without atomics
-/// The block's points (in run order, which follows a space-filling curve) are cut into chunks
-/// of [`PAIR_CHUNK`]. A chunk writes F of its own points and of the chunks its upper
-/// neighbours (j > i) fall in: its *write set*. Chunks are coloured greedily so that two chunks
-/// of one colour have disjoint write sets; colours run one after another, the chunks of a
-/// colour in parallel. Every F entry is therefore written by one task at a time, in an order
-/// fixed by the plan.
+/// 1. *pair pass*: every pair i < j is evaluated once, from the row of its lower point i: the
+///    critical-stretch decision (when fused), then the scale
+///    `s_ij = c (1−d_ij) (|Y| − ζ)/(ζ|Y|)` into the pair's slot of a per-pair buffer. Each
+///    square root and division serves two directed bonds.
+/// 2. *gather pass*: every point i sums its row, in row order, `s_ij V_j (Y_j − Y_i)`, reading
+///    the slot of the pair each bond belongs to.
+///
+/// Neither pass writes an entry that another task reads or writes, so no colouring is
+/// needed: pass 1 writes the slots of its own points' upper pairs (and the damage of those
+/// pairs), pass 2 writes the force of its own points.
 #[derive(Debug, Clone)]
 struct PairPlan {
     /// For the k-th block point i: the first bond of i's row whose neighbour is > i (rows are
-    /// sorted, so the bonds from there to the row end are exactly the upper pairs).
+    /// strictly increasing, so the bonds from there to the row end are exactly the upper
+    /// pairs).
     upper_start: Vec<usize>,
-    /// Chunks (ranges of positions in the block's point list), grouped by colour.
-    colours: Vec<Vec<std::ops::Range<usize>>>,
+    /// Pairs are numbered by lower point (in block order), then by row position: the k-th
+    /// block point's upper pairs are `pair_start[k]..pair_start[k + 1]`.
+    pair_start: Vec<usize>,
+    /// Where the k-th block point's row starts in `pair_of_bond` (block-local bond offsets).
+    row_start: Vec<usize>,
+    /// The pair of every bond of the block's rows (block-local bond numbering): i→j and j→i
+    /// name the same pair.
+    pair_of_bond: Vec<u32>,
 }
 
 impl PairPlan {
-    /// The plan for a closed block, or `None` when some row is not sorted by neighbour index.
+    /// The plan for a closed block, or `None` when some row is not strictly increasing or some
+    /// bond lacks its reverse (then the block gathers, which needs neither).
     fn new(bonds: &crate::model::BondList, points: &[u32]) -> Option<Self> {
         let mut upper_start = Vec::with_capacity(points.len());
+        let mut pair_start = Vec::with_capacity(points.len() + 1);
+        pair_start.push(0);
         for &i in points {
             let row = bonds.family(i as usize);
-            if !row.is_sorted() {
+            if !row.windows(2).all(|w| w[0] < w[1]) {
                 return None;
             }
-            upper_start.push(bonds.offsets[i as usize] + row.partition_point(|&j| j <= i));
+            let upper = row.partition_point(|&j| j <= i);
+            upper_start.push(bonds.offsets[i as usize] + upper);
+            pair_start.push(pair_start.last().unwrap() + row.len() - upper);
         }
-        let chunks = points.len().div_ceil(PAIR_CHUNK);
-        let range = |c: usize| c * PAIR_CHUNK..((c + 1) * PAIR_CHUNK).min(points.len());
-        let mut chunk_of = vec![u32::MAX; bonds.num_points()];
+        let pairs = *pair_start.last().unwrap();
+        if u32::try_from(pairs).is_err() {
+            return None;
+        }
+        let mut position = vec![u32::MAX; bonds.num_points()];
         for (k, &i) in points.iter().enumerate() {
-            chunk_of[i as usize] = (k / PAIR_CHUNK) as u32;
+            position[i as usize] = k as u32;
         }
-        let mut colours: Vec<Vec<std::ops::Range<usize>>> = Vec::new();
-        let mut colouring = WriteColouring::new(chunks);
-        for c in 0..chunks {
-            let mut writes = vec![c as u32];
-            for k in range(c) {
-                let end = bonds.offsets[points[k] as usize + 1];
-                writes.extend(
-                    bonds.neighbor[upper_start[k]..end]
-                        .iter()
-                        .map(|&j| chunk_of[j as usize]),
-                );
+        let row_start = super::local_offsets(bonds, points);
+        let mut pair_of_bond = Vec::with_capacity(*row_start.last().unwrap());
+        let mut lower_bonds = 0;
+        for (k, &i) in points.iter().enumerate() {
+            let row = bonds.range(i as usize);
+            // Lower bonds j < i: the pair sits in j's upper part, at i's place in j's row.
+            for b in row.start..upper_start[k] {
+                let j = bonds.neighbor[b] as usize;
+                let kj = position[j];
+                if kj == u32::MAX {
+                    return None;
+                }
+                let kj = kj as usize;
+                let upper = upper_start[kj] - bonds.offsets[j];
+                let at = bonds.family(j).binary_search(&i).ok()?;
+                if at < upper {
+                    return None;
+                }
+                pair_of_bond.push((pair_start[kj] + at - upper) as u32);
+                lower_bonds += 1;
             }
-            writes.sort_unstable();
-            writes.dedup();
-            let colour = colouring.assign(&writes);
-            if colour == colours.len() {
-                colours.push(Vec::new());
-            }
-            colours[colour].push(range(c));
+            pair_of_bond.extend((pair_start[k]..pair_start[k + 1]).map(|p| p as u32));
+        }
+        // Each lower bond found a distinct upper bond (its reverse); as many lower as upper
+        // bonds means every upper bond has its reverse too.
+        if lower_bonds != pairs {
+            return None;
         }
         Some(Self {
             upper_start,
-            colours,
+            pair_start,
+            row_start,
+            pair_of_bond,
         })
     }
 
-    /// Adds the force density of every pair of the block to `force_density`, breaking first
-    /// the bonds `breaker` breaks; returns the directed bonds broken.
+    /// Number of pairs (slots of the scale buffer).
+    fn num_pairs(&self) -> usize {
+        *self.pair_start.last().unwrap()
+    }
+
+    /// Adds the force density of every point of the block to `force_density`, breaking first
+    /// the bonds `breaker` breaks; returns the directed bonds broken. `scale` is scratch
+    /// space (resized here).
+    #[allow(clippy::too_many_arguments)]
     fn run<D: Integrity, B: Breaker>(
         &self,
         points: &[u32],
+        scale: &mut Vec<f64>,
         force_density: &mut [[f64; 3]],
         rows: PairRows<'_>,
         damage: D,
@@ -425,44 +523,99 @@ impl PairPlan {
     ) -> usize {
         use rayon::prelude::*;
         assert!(force_density.len() >= rows.y.len());
-        let out = SharedForce(force_density.as_mut_ptr());
-        let mut broken = 0;
-        for colour in &self.colours {
-            broken += colour
-                .par_iter()
-                .map(|chunk| {
-                    // SAFETY: `out` points to `force_density`, which is borrowed mutably for
-                    // this whole call and has an entry for every point. The chunks of one
-                    // colour write disjoint sets of entries (the colouring in `new`), colours
-                    // run one after another (`sum` returns only when all its tasks are done),
-                    // and nothing else reads or writes the array meanwhile. The breaker's
-                    // contract is the caller's.
-                    unsafe {
-                        rows.chunk_dispatch(
-                            &points[chunk.clone()],
-                            &self.upper_start[chunk.clone()],
-                            out,
-                            damage,
-                            breaker,
-                            wide,
-                        )
-                    }
-                })
-                .sum::<usize>();
+        scale.resize(self.num_pairs(), 0.0);
+        // Pass 1: each task owns the scale slots of its points' upper pairs.
+        let mut tasks = Vec::with_capacity(points.len().div_ceil(PAIR_CHUNK));
+        let mut rest = &mut scale[..];
+        for first in (0..points.len()).step_by(PAIR_CHUNK) {
+            let end = (first + PAIR_CHUNK).min(points.len());
+            let (mine, tail) = rest.split_at_mut(self.pair_start[end] - self.pair_start[first]);
+            tasks.push((first..end, mine));
+            rest = tail;
         }
+        let broken = tasks
+            .into_par_iter()
+            .map(|(range, out)| {
+                // SAFETY: the breaker's contract is the caller's; each pair (and its two
+                // damage entries) belongs to the one task of its lower point.
+                unsafe {
+                    rows.chunk_dispatch(
+                        &points[range.clone()],
+                        &self.upper_start[range],
+                        out,
+                        damage,
+                        breaker,
+                        wide,
+                    )
+                }
+            })
+            .sum::<usize>();
+        // Pass 2: each point gathers its row.
+        let scale = &scale[..];
+        let gather = |chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
+            let first = points.partition_point(|&p| p < chunk[0]);
+            for (k, &i) in (first..).zip(chunk) {
+                let i = i as usize;
+                let f = gathered_row(
+                    rows.y[i],
+                    rows.bonds.family(i),
+                    &self.pair_of_bond[self.row_start[k]..self.row_start[k + 1]],
+                    scale,
+                    rows.y,
+                    rows.volume,
+                );
+                let out = &mut out[i - base];
+                for k in 0..3 {
+                    out[k] += f[k];
+                }
+            }
+        };
+        for_each_chunk(points, force_density, &|i| i as usize, &gather);
         broken
     }
 }
 
-/// The force array shared by the tasks of one colour (see [`PairPlan`] for why their writes
-/// never overlap).
-#[derive(Clone, Copy)]
-struct SharedForce(*mut [f64; 3]);
-
-// SAFETY: the pointer is only written through by tasks whose entries are disjoint (see
-// `PairPlan::run`).
-unsafe impl Send for SharedForce {}
-unsafe impl Sync for SharedForce {}
+/// `F_i = Σ_n s_n V_j (Y_j − Y_i)` over the row of point i in row order (`pairs[n]` is the
+/// scale slot of its n-th bond), in `LANES` partial sums added `(0 + 1) + (2 + 3)` as
+/// [`row_force`] does (independent sums keep the adds from waiting on each other).
+#[inline(always)]
+fn gathered_row(
+    yi: [f64; 3],
+    neighbors: &[u32],
+    pairs: &[u32],
+    scale: &[f64],
+    y: &[[f64; 3]],
+    volume: &[f64],
+) -> [f64; 3] {
+    let mut sum = [[0.0; LANES]; 3];
+    let term = |j: u32, p: u32| {
+        let j = j as usize;
+        let w = scale[p as usize] * volume[j];
+        let yj = y[j];
+        [0, 1, 2].map(|k| w * (yj[k] - yi[k]))
+    };
+    let mut neighbor_blocks = neighbors.chunks_exact(LANES);
+    let mut pair_blocks = pairs.chunks_exact(LANES);
+    for (js, ps) in (&mut neighbor_blocks).zip(&mut pair_blocks) {
+        for lane in 0..LANES {
+            let t = term(js[lane], ps[lane]);
+            for k in 0..3 {
+                sum[k][lane] += t[k];
+            }
+        }
+    }
+    let rest = neighbor_blocks
+        .remainder()
+        .iter()
+        .zip(pair_blocks.remainder());
+    for (lane, (&j, &p)) in rest.enumerate() {
+        let t = term(j, p);
+        for k in 0..3 {
+            sum[k][lane] += t[k];
+        }
+    }
+    sum.map(|s| (s[0] + s[1]) + (s[2] + s[3]))
+}
 
 /// What the pair loop reads.
 #[derive(Clone, Copy)]
@@ -485,7 +638,7 @@ impl PairRows<'_> {
         self,
         points: &[u32],
         upper_start: &[usize],
-        out: SharedForce,
+        out: &mut [f64],
         damage: D,
         breaker: B,
         wide: bool,
@@ -510,7 +663,7 @@ impl PairRows<'_> {
         self,
         points: &[u32],
         upper_start: &[usize],
-        out: SharedForce,
+        out: &mut [f64],
         damage: D,
         breaker: B,
     ) -> usize {
@@ -518,59 +671,49 @@ impl PairRows<'_> {
         unsafe { self.chunk(points, upper_start, out, damage, breaker) }
     }
 
-    /// For every point i of the chunk and every upper neighbour j > i: first the critical
-    /// stretch test of `breaker` (if any), then `s = c (1−d) (|Y| − ζ)/(ζ|Y|)`,
-    /// `F_i += s V_j (Y_j − Y_i)`, `F_j −= s V_i (Y_j − Y_i)`. Returns the directed bonds
-    /// broken.
+    /// For every point i of the chunk and every upper neighbour j > i, in order: first the
+    /// critical stretch test of `breaker` (if any), then `s = c (1−d) (|Y| − ζ)/(ζ|Y|)` into
+    /// `out` (the chunk's pair slots, consecutive). The inputs are those of the pair alone
+    /// (Y_i, Y_j, ζ and d of the bond i→j), so s does not depend on which points share the
+    /// chunk. Returns the directed bonds broken.
     ///
     /// # Safety
-    /// `out` must point to an array with an entry for every point that no one else accesses
-    /// while this runs, except tasks whose entries are disjoint from i's and the j's here; and
-    /// the contract of `breaker` ([`Breaker`]) must hold.
+    /// The contract of `breaker` ([`Breaker`]) must hold.
     #[inline(always)]
     unsafe fn chunk<D: Integrity, B: Breaker>(
         self,
         points: &[u32],
         upper_start: &[usize],
-        out: SharedForce,
+        out: &mut [f64],
         damage: D,
         breaker: B,
     ) -> usize {
         let bonds = self.bonds;
-        let (y, volume) = (self.y, self.volume);
-        // Per block of a row's upper bonds: gather the differences (scalar); if bonds may
+        let y = self.y;
+        // Per block of a row's upper bonds: gather the squared lengths (scalar); if bonds may
         // break, filter them (vectorized) and give the few the filter cannot clear the exact
-        // test; then compute every bond's scale in a loop over plain arrays (which the
-        // compiler vectorizes: the square roots and divisions dominate), then accumulate F_i
-        // and scatter into F_j (scalar, in bond order, so the result does not depend on the
-        // vector width).
-        let mut d = [[0.0; PAIR_BLOCK]; 3];
+        // test; then compute every bond's scale in a loop over plain arrays, which the
+        // compiler vectorizes (the square roots and divisions dominate).
         let mut squared = [0.0; PAIR_BLOCK];
         let mut pair = [0.0; PAIR_BLOCK];
-        let mut scale = [0.0; PAIR_BLOCK];
         let mut suspect = [false; PAIR_BLOCK];
         let mut broken = 0;
+        let mut slot = 0;
         for (&i, &first) in points.iter().zip(upper_start) {
             let i = i as usize;
             let end = bonds.offsets[i + 1];
             let yi = y[i];
-            let vi = volume[i];
-            let mut fi = [0.0; 3];
             for block_start in (first..end).step_by(PAIR_BLOCK) {
                 let block_end = (block_start + PAIR_BLOCK).min(end);
                 let count = block_end - block_start;
                 let neighbors = &bonds.neighbor[block_start..block_end];
                 let lengths = &bonds.reference_length[block_start..block_end];
+                // q = dx*dx + dy*dy + dz*dz with d = Y_j − Y_i: the very number the damage
+                // models test and whose square root the force uses.
                 for (n, &j) in neighbors.iter().enumerate() {
                     let yj = y[j as usize];
-                    for k in 0..3 {
-                        d[k][n] = yj[k] - yi[k];
-                    }
-                }
-                // q = dx*dx + dy*dy + dz*dz: the very number the damage models test and whose
-                // square root the force uses.
-                for n in 0..count {
-                    squared[n] = d[0][n] * d[0][n] + d[1][n] * d[1][n] + d[2][n] * d[2][n];
+                    let d = [yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]];
+                    squared[n] = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
                 }
                 if let Some(limit) = breaker.limit() {
                     let mut any = false;
@@ -597,26 +740,14 @@ impl PairRows<'_> {
                 for (n, pair) in pair[..count].iter_mut().enumerate() {
                     *pair = self.micromodulus * damage.intact(block_start + n);
                 }
+                let out = &mut out[slot..slot + count];
                 for n in 0..count {
-                    scale[n] = bond_scale_squared(pair[n], lengths[n], squared[n]);
+                    out[n] = bond_scale_squared(pair[n], lengths[n], squared[n]);
                 }
-                for (n, &j) in neighbors.iter().enumerate() {
-                    let j = j as usize;
-                    let (to_i, to_j) = (scale[n] * volume[j], scale[n] * vi);
-                    // SAFETY: j is a point of this chunk's write set (see the contract).
-                    let fj = unsafe { &mut *out.0.add(j) };
-                    for k in 0..3 {
-                        fi[k] += to_i * d[k][n];
-                        fj[k] -= to_j * d[k][n];
-                    }
-                }
-            }
-            // SAFETY: i is a point of this chunk.
-            let out_i = unsafe { &mut *out.0.add(i) };
-            for k in 0..3 {
-                out_i[k] += fi[k];
+                slot += count;
             }
         }
+        debug_assert_eq!(slot, out.len());
         broken
     }
 }
@@ -818,14 +949,6 @@ impl Material for BondBased {
         } else {
             None
         };
-        // Rows are sorted (the plan checked), so reverse bonds are found by binary search.
-        self.fuses_breaking = self.pairs.is_some()
-            && points.iter().all(|&i| {
-                bonds
-                    .family(i as usize)
-                    .iter()
-                    .all(|&j| bonds.family(j as usize).binary_search(&i).is_ok())
-            });
         self.points = points;
         Ok(())
     }
@@ -876,9 +999,11 @@ impl Material for BondBased {
                 y: current.position,
                 micromodulus: uniform.0,
             };
+            let scale = &mut self.pair_scratch.take();
             match current.bond_damage {
                 None => plan.run(
                     &self.points,
+                    scale,
                     force_density,
                     pairs,
                     Undamaged,
@@ -887,6 +1012,7 @@ impl Material for BondBased {
                 ),
                 Some(d) => plan.run(
                     &self.points,
+                    scale,
                     force_density,
                     pairs,
                     Damaged(d),
@@ -894,6 +1020,7 @@ impl Material for BondBased {
                     wide,
                 ),
             };
+            self.pair_scratch.keep(std::mem::take(scale));
             return;
         }
         let closed = self.closed;
@@ -910,7 +1037,7 @@ impl Material for BondBased {
     }
 
     fn fuses_critical_stretch(&self) -> bool {
-        self.fuses_breaking
+        self.pairs.is_some()
     }
 
     /// The pair-once loop tests each pair just before its force: same q, same exact test
@@ -929,7 +1056,6 @@ impl Material for BondBased {
         let plan = self
             .pairs
             .as_ref()
-            .filter(|_| self.fuses_breaking)
             .expect("called only when fuses_critical_stretch() is true");
         assert_eq!(bond_damage.len(), reference.bonds.num_bonds());
         let pairs = PairRows {
@@ -946,15 +1072,19 @@ impl Material for BondBased {
         // The `Breaker` contract holds: `bond_damage` is borrowed mutably for this call and
         // covers every bond; the chunk of point i reads and writes only the entries of i's
         // upper bonds and of their reverses, which belong to no other chunk (each pair has
-        // one lower point, and the block is closed with symmetric families).
-        plan.run(
+        // one lower point, and the block is closed with symmetric families: the plan exists).
+        let scale = &mut self.pair_scratch.take();
+        let broken = plan.run(
             &self.points,
+            scale,
             force_density,
             pairs,
             fused,
             fused,
             wide_vectors_available(),
-        )
+        );
+        self.pair_scratch.keep(std::mem::take(scale));
+        broken
     }
 
     fn tangent_is_bond_local(&self) -> bool {
@@ -1061,6 +1191,26 @@ mod tests {
     fn body() -> Body {
         let mut rng = Rng::new(11);
         let (x, v) = random_cloud(&mut rng, 600, 7.0);
+        displaced(rng, x, v)
+    }
+
+    /// 1,500 random points in a 30 × 3 × 3 bar numbered along x, like a run's space-filling
+    /// order: a chunk of 256 points then spans about 5 units of x (three horizons), so the
+    /// earlier one-pass plan gave neighbouring chunks different colours and summed each
+    /// point's force in an order set by where the chunk boundaries fall. Displaced and
+    /// damaged as [`body`].
+    fn bar() -> Body {
+        let mut rng = Rng::new(12);
+        let (cube, v) = random_cloud(&mut rng, 1500, 1.0);
+        let mut x: Vec<[f64; 3]> = cube
+            .iter()
+            .map(|p| [30.0 * p[0], 3.0 * p[1], 3.0 * p[2]])
+            .collect();
+        x.sort_by(|a, b| a[0].total_cmp(&b[0]));
+        displaced(rng, x, v)
+    }
+
+    fn displaced(mut rng: Rng, x: Vec<[f64; 3]>, v: Vec<f64>) -> Body {
         let bonds = brute_force_bonds(&x, 1.6);
         let y: Vec<[f64; 3]> = x
             .iter()
@@ -1142,7 +1292,7 @@ mod tests {
 
     #[test]
     fn pair_once_result_is_the_same_for_every_thread_count() {
-        // The plan fixes the summation order (chunks and colours do not depend on threads).
+        // Every point gathers its own row in row order, whatever the threads.
         let (x, v, bonds, y, damage) = body();
         let reference = ReferenceView {
             bonds: &bonds,
@@ -1164,43 +1314,225 @@ mod tests {
     }
 
     #[test]
-    fn chunks_of_one_colour_write_disjoint_points() {
-        let (x, v, bonds, _, _) = body();
+    fn every_bond_and_its_reverse_name_the_same_pair() {
+        let (x, _, bonds, _, _) = body();
+        let points: Vec<u32> = (0..x.len() as u32).collect();
+        let plan = PairPlan::new(&bonds, &points).unwrap();
+        let mut bonds_of_pair = vec![Vec::new(); plan.num_pairs()];
+        for i in 0..x.len() {
+            for (n, b) in bonds.range(i).enumerate() {
+                let p = plan.pair_of_bond[plan.row_start[i] + n] as usize;
+                let j = bonds.neighbor[b] as usize;
+                bonds_of_pair[p].push((i.min(j), i.max(j)));
+                // A point's own pairs are its upper bonds, numbered in row order.
+                if j > i {
+                    assert_eq!(p, plan.pair_start[i] + (b - plan.upper_start[i]));
+                }
+            }
+        }
+        // Every pair is named by exactly its two directed bonds.
+        for named in &bonds_of_pair {
+            assert_eq!(named.len(), 2);
+            assert_eq!(named[0], named[1]);
+        }
+        assert_eq!(2 * plan.num_pairs(), bonds.num_bonds());
+    }
+
+    /// The force of every point as the module docs define it, written plainly: row order, four
+    /// partial sums by position, each pair's scale from its lower end with the lower-to-upper
+    /// bond's ζ and damage.
+    fn row_ordered_reference(
+        bonds: &BondList,
+        v: &[f64],
+        y: &[[f64; 3]],
+        damage: &[f32],
+        c: f64,
+    ) -> Vec<[f64; 3]> {
+        (0..y.len())
+            .map(|i| {
+                let mut sum = [[0.0f64; 4]; 3];
+                for (n, b) in bonds.range(i).enumerate() {
+                    let j = bonds.neighbor[b] as usize;
+                    let (lower, upper) = (i.min(j), i.max(j));
+                    let upper_bond = bonds.offsets[lower]
+                        + bonds.family(lower).binary_search(&(upper as u32)).unwrap();
+                    let zeta = bonds.reference_length[upper_bond];
+                    let d = [0, 1, 2].map(|k| y[upper][k] - y[lower][k]);
+                    let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    let intact = 1.0 - f64::from(damage[upper_bond]);
+                    let s = if length > 0.0 {
+                        c * intact * (length - zeta) / (zeta * length)
+                    } else {
+                        0.0
+                    };
+                    for k in 0..3 {
+                        sum[k][n % 4] += s * v[j] * (y[j][k] - y[i][k]);
+                    }
+                }
+                sum.map(|s| (s[0] + s[1]) + (s[2] + s[3]))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn pair_once_force_is_the_row_ordered_sum_bitwise() {
+        let (x, v, bonds, y, damage) = body();
         let reference = ReferenceView {
             bonds: &bonds,
             position: &x,
             volume: &v,
         };
-        let points: Vec<u32> = (0..x.len() as u32).collect();
-        let plan = PairPlan::new(reference.bonds, &points).unwrap();
-        let mut covered = vec![0usize; points.len()];
-        for colour in &plan.colours {
-            let mut writer = vec![usize::MAX; x.len()];
-            for (c, chunk) in colour.iter().enumerate() {
-                for k in chunk.clone() {
-                    covered[k] += 1;
-                    let i = points[k] as usize;
-                    let upper = &bonds.neighbor[plan.upper_start[k]..bonds.offsets[i + 1]];
-                    assert!(upper.iter().all(|&j| j as usize > i));
-                    assert_eq!(
-                        upper.len(),
-                        bonds.family(i).iter().filter(|&&j| j as usize > i).count()
-                    );
-                    for p in std::iter::once(i).chain(upper.iter().map(|&j| j as usize)) {
-                        assert!(
-                            writer[p] == usize::MAX || writer[p] == c,
-                            "point {p} written by two chunks of one colour"
-                        );
-                        writer[p] = c;
-                    }
-                }
+        let mut m = material();
+        m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
+        assert!(m.pairs.is_some());
+        let expected = row_ordered_reference(&bonds, &v, &y, &damage, m.micromodulus());
+        assert_eq!(force(&[&m], &reference, &y, &damage), expected);
+    }
+
+    /// A rank's view of the bar: the points with 8 ≤ x < 20 ("owned") and their neighbours
+    /// ("ghosts"), numbered in increasing global order, every row cut to local points (a
+    /// ghost's row loses its bonds to points outside), as `parallel::Subdomain` builds it.
+    /// Returns the local points (global indices) and the local bond list; `bond_of[l]` is the
+    /// global bond of local bond l.
+    fn sub_selection(
+        x: &[[f64; 3]],
+        bonds: &BondList,
+    ) -> (Vec<u32>, Vec<bool>, BondList, Vec<usize>) {
+        let owned: Vec<bool> = x.iter().map(|p| (8.0..20.0).contains(&p[0])).collect();
+        let mut local = vec![false; x.len()];
+        for i in (0..x.len()).filter(|&i| owned[i]) {
+            local[i] = true;
+            for &j in bonds.family(i) {
+                local[j as usize] = true;
             }
         }
-        assert!(
-            covered.iter().all(|&n| n == 1),
-            "every point in exactly one chunk"
-        );
-        assert!(plan.colours.len() > 1);
+        let points: Vec<u32> = (0..x.len() as u32).filter(|&i| local[i as usize]).collect();
+        let mut local_of = vec![u32::MAX; x.len()];
+        for (l, &g) in points.iter().enumerate() {
+            local_of[g as usize] = l as u32;
+        }
+        let mut sub = BondList {
+            offsets: vec![0],
+            ..Default::default()
+        };
+        let mut bond_of = Vec::new();
+        for &g in &points {
+            for b in bonds.range(g as usize) {
+                let l = local_of[bonds.neighbor[b] as usize];
+                if l != u32::MAX {
+                    sub.neighbor.push(l);
+                    sub.reference_length.push(bonds.reference_length[b]);
+                    bond_of.push(b);
+                }
+            }
+            sub.offsets.push(sub.neighbor.len());
+        }
+        let owned_local = points.iter().map(|&g| owned[g as usize]).collect();
+        (points, owned_local, sub, bond_of)
+    }
+
+    #[test]
+    fn owned_forces_and_damage_are_those_of_the_whole_body_bitwise() {
+        // The sub-selection holds the owned rows whole and the ghost rows cut, and its plan
+        // cuts the points into other chunks than the whole body's (it has fewer points, and
+        // they are renumbered). The owned forces and damage must nevertheless be the same
+        // bits, with damage broken by the fused loop over two loadings (half, then the full
+        // random displacement) as in `fused_breaking_matches_the_separate_update_bitwise`.
+        let (x, v, bonds, y, _) = bar();
+        let (points, owned, sub_bonds, bond_of) = sub_selection(&x, &bonds);
+        let pick = |values: &[[f64; 3]]| -> Vec<[f64; 3]> {
+            points.iter().map(|&g| values[g as usize]).collect()
+        };
+        let sub_x = pick(&x);
+        let sub_v: Vec<f64> = points.iter().map(|&g| v[g as usize]).collect();
+        // More than one pair-pass task locally, and fewer points than the whole body.
+        assert!(points.len() > PAIR_CHUNK && points.len() < x.len());
+        assert!(owned.contains(&true) && owned.contains(&false));
+        let whole_reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let sub_reference = ReferenceView {
+            bonds: &sub_bonds,
+            position: &sub_x,
+            volume: &sub_v,
+        };
+        let mut whole = material();
+        whole
+            .setup(&whole_reference, (0..x.len() as u32).collect())
+            .unwrap();
+        let mut sub = material();
+        sub.setup(&sub_reference, (0..points.len() as u32).collect())
+            .unwrap();
+        assert!(whole.fuses_critical_stretch() && sub.fuses_critical_stretch());
+        let coefficients = vec![PointCoefficients::default(); x.len()];
+        let mut whole_damage = vec![0.0f32; bonds.num_bonds()];
+        let mut sub_damage = vec![0.0f32; sub_bonds.num_bonds()];
+        let mut broken = 0;
+        for fraction in [0.5, 1.0] {
+            let at: Vec<[f64; 3]> = x
+                .iter()
+                .zip(&y)
+                .map(|(p, q)| [0, 1, 2].map(|k| p[k] + fraction * (q[k] - p[k])))
+                .collect();
+            let sub_at = pick(&at);
+            let mut whole_force = vec![[0.0; 3]; x.len()];
+            broken += whole.add_force_density_breaking_bonds(
+                &whole_reference,
+                &at,
+                0.02,
+                &mut whole_damage,
+                &coefficients,
+                &mut whole_force,
+            );
+            let mut sub_force = vec![[0.0; 3]; points.len()];
+            sub.add_force_density_breaking_bonds(
+                &sub_reference,
+                &sub_at,
+                0.02,
+                &mut sub_damage,
+                &coefficients[..points.len()],
+                &mut sub_force,
+            );
+            for (l, &g) in points.iter().enumerate() {
+                if owned[l] {
+                    assert_eq!(sub_force[l], whole_force[g as usize], "point {g}");
+                }
+            }
+            // Every local bond (ghost rows too) is decided as in the whole body.
+            for (l, &b) in bond_of.iter().enumerate() {
+                assert_eq!(sub_damage[l], whole_damage[b]);
+            }
+            // The separate force call (damage already updated) gives the same bits again.
+            let again = force(&[&sub], &sub_reference, &sub_at, &sub_damage);
+            assert_eq!(again, sub_force);
+        }
+        assert!(broken > 0 && broken < bonds.num_bonds(), "{broken}");
+    }
+
+    #[test]
+    fn rows_without_their_reverse_fall_back_to_the_gather_loop() {
+        // 0 → 1 and 1 → 0, 2 → 0 without 0 → 2: the pair (0, 2) has one bond only.
+        let bonds = BondList {
+            offsets: vec![0, 1, 2, 3],
+            neighbor: vec![1, 0, 0],
+            reference_length: vec![1.0, 1.0, 2.0],
+        };
+        assert!(PairPlan::new(&bonds, &[0, 1, 2]).is_none());
+        // And the other way round: 0 → 2 without 2 → 0.
+        let bonds = BondList {
+            offsets: vec![0, 2, 3, 3],
+            neighbor: vec![1, 2, 0],
+            reference_length: vec![1.0, 2.0, 1.0],
+        };
+        assert!(PairPlan::new(&bonds, &[0, 1, 2]).is_none());
+        let symmetric = BondList {
+            offsets: vec![0, 2, 3, 4],
+            neighbor: vec![1, 2, 0, 0],
+            reference_length: vec![1.0, 2.0, 1.0, 2.0],
+        };
+        assert!(PairPlan::new(&symmetric, &[0, 1, 2]).is_some());
     }
 
     #[test]
