@@ -44,12 +44,14 @@ mod halo;
 #[cfg(feature = "mpi")]
 mod mpi;
 mod partition;
+mod partner;
 mod subdomain;
 
 pub use halo::{HaloPlan, HaloValue, HaloVolume};
 #[cfg(feature = "mpi")]
 pub use mpi::{initialize, MpiCommunicator};
 pub use partition::Partition;
+pub use partner::PartnerExchange;
 pub use subdomain::{halo_depth, outer_ghosts_need_physics, Subdomain};
 
 /// The collective operations a distributed run uses. Every method except [`Communicator::rank`],
@@ -76,6 +78,16 @@ pub trait Communicator {
     /// Gathers `local` of every rank on rank 0: `counts[r]` values from rank r, concatenated
     /// in rank order. Rank 0 gets `Some`, the others `None`.
     fn gather(&self, local: &[f64], counts: &[usize]) -> Option<Vec<f64>>;
+
+    /// Gathers `local` of every rank on every rank: `counts[r]` values from rank r,
+    /// concatenated in rank order (MPI_Allgatherv). `counts` is the same on every rank and
+    /// `counts[self.rank()] == local.len()`.
+    fn all_gather(&self, local: &[f64], counts: &[usize]) -> Vec<f64>;
+
+    /// Maximum over all ranks (every rank gets the result).
+    fn max(&self, value: f64) -> f64 {
+        -self.min(-value)
+    }
 
     /// Ends every rank at once (MPI_Abort): the last resort when ranks can no longer agree.
     fn abort(&self, code: i32) -> !;
@@ -110,6 +122,11 @@ impl Communicator for Serial {
     fn gather(&self, local: &[f64], counts: &[usize]) -> Option<Vec<f64>> {
         assert_eq!(counts, [local.len()]);
         Some(local.to_vec())
+    }
+
+    fn all_gather(&self, local: &[f64], counts: &[usize]) -> Vec<f64> {
+        assert_eq!(counts, [local.len()]);
+        local.to_vec()
     }
 
     fn abort(&self, code: i32) -> ! {

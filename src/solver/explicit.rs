@@ -23,6 +23,7 @@
 //! [`StepReport`] is this rank's share, to be summed over ranks.
 
 use crate::boundary::BoundaryError;
+use crate::parallel::Communicator;
 use crate::physics::Physics;
 use crate::setup::Model;
 use crate::state::State;
@@ -55,6 +56,12 @@ pub struct StepReport {
 pub trait Halo {
     /// Overwrites the ghost entries of `current_position` with their owners' values.
     fn refresh(&mut self, current_position: &mut [[f64; 3]]);
+
+    /// The ranks' communicator, for the collectives of contact on ranks (see
+    /// [`crate::contact::Contact::on_ranks`]); `None` in serial runs.
+    fn communicator(&self) -> Option<&dyn Communicator> {
+        None
+    }
 }
 
 /// No ghosts: nothing to refresh.
@@ -144,7 +151,7 @@ impl VelocityVerlet {
         state.update_current_position(positions);
         halo.refresh(&mut state.current_position);
         set_damage_time(physics, t0)?;
-        evaluate_acceleration(model, physics, state);
+        evaluate_acceleration_with(model, physics, state, halo);
         if let Some(ghost) = &self.ghost {
             for (a, _) in state.acceleration.iter_mut().zip(ghost).filter(|(_, &g)| g) {
                 *a = [0.0; 3];
@@ -179,7 +186,12 @@ impl VelocityVerlet {
         let t_to = self.time_after(step);
         let positions = &model.points.position;
         if let Some(contact) = &mut physics.contact {
-            contact.scheduled_search(step, model, &state.current_position);
+            match contact_communicator(contact, halo) {
+                Some(comm) => {
+                    contact.scheduled_search_on_ranks(comm, step, &state.current_position)
+                }
+                None => contact.scheduled_search(step, model, &state.current_position),
+            }
         }
 
         // Half kick everywhere and, at points without a prescribed component, the drift in the
@@ -234,7 +246,7 @@ impl VelocityVerlet {
         }
         set_damage_time(physics, t_to)?;
         halo.refresh(&mut state.current_position);
-        let broken_bonds = internal_and_contact_force(model, physics, state);
+        let broken_bonds = internal_and_contact_force(model, physics, state, halo);
 
         // a = (f_int + f_contact + b)/ρ (as `evaluate_acceleration`), the work, the second half
         // kick and the kinetic energy in one pass.
@@ -282,9 +294,29 @@ impl VelocityVerlet {
     }
 }
 
+/// The communicator of `halo` when `contact` is one rank's share of a distributed run
+/// (its searches and force evaluations are collective), `None` for serial contact.
+fn contact_communicator<'h>(
+    contact: &crate::contact::Contact,
+    halo: &'h impl Halo,
+) -> Option<&'h dyn Communicator> {
+    if !contact.is_on_ranks() {
+        return None;
+    }
+    Some(
+        halo.communicator()
+            .expect("contact on ranks is run with the ranks' halo"),
+    )
+}
+
 /// Internal force density at `state.current_position` into `state.force_density`, then the
 /// contact force (if any, kept by the contact model). Returns broken bonds.
-fn internal_and_contact_force(model: &Model, physics: &mut Physics, state: &mut State) -> usize {
+fn internal_and_contact_force(
+    model: &Model,
+    physics: &mut Physics,
+    state: &mut State,
+    halo: &impl Halo,
+) -> usize {
     let broken = physics.internal_force(
         &model.bonds,
         &model.points,
@@ -292,7 +324,14 @@ fn internal_and_contact_force(model: &Model, physics: &mut Physics, state: &mut 
         &mut state.force_density,
     );
     if let Some(contact) = &mut physics.contact {
-        contact.compute_force(model, &state.current_position, &state.velocity);
+        match contact_communicator(contact, halo) {
+            Some(comm) => {
+                contact.compute_force_on_ranks(comm, &state.current_position, &state.velocity);
+            }
+            None => {
+                contact.compute_force(model, &state.current_position, &state.velocity);
+            }
+        }
     }
     broken
 }
@@ -312,7 +351,17 @@ fn set_damage_time(physics: &mut Physics, time: f64) -> Result<(), BoundaryError
 /// Internal force at the current positions `state.current_position`, then the contact force
 /// (if any), and `a = (f_int + f_contact + b)/ρ`. Returns broken bonds.
 pub fn evaluate_acceleration(model: &Model, physics: &mut Physics, state: &mut State) -> usize {
-    let broken = internal_and_contact_force(model, physics, state);
+    evaluate_acceleration_with(model, physics, state, &NoHalo)
+}
+
+/// [`evaluate_acceleration`] with the communicator of `halo` for contact on ranks.
+fn evaluate_acceleration_with(
+    model: &Model,
+    physics: &mut Physics,
+    state: &mut State,
+    halo: &impl Halo,
+) -> usize {
+    let broken = internal_and_contact_force(model, physics, state, halo);
     let contact = physics.contact.as_ref().map(|c| c.force_density());
     let external = state.external_force_density.as_deref();
     let density = &physics.density;
