@@ -68,6 +68,8 @@ pub(super) struct OnRanks {
     current: Vec<[f64; 3]>,
     velocity: Vec<[f64; 3]>,
     partners: PartnerExchange,
+    /// Largest number of partners received from other ranks after any search.
+    max_received: usize,
     /// Scratch of the partner exchange: received (point, position, velocity).
     received: Vec<(u32, [f64; 6])>,
 }
@@ -160,6 +162,7 @@ impl Contact {
             current: vec![[0.0; 3]; n],
             velocity: vec![[0.0; 3]; n],
             partners: PartnerExchange::default(),
+            max_received: 0,
             received: Vec::new(),
         }));
         self
@@ -170,11 +173,12 @@ impl Contact {
         self.ranks.is_some()
     }
 
-    /// Partner points this rank receives at each force evaluation (0 in serial runs).
-    pub fn received_partners(&self) -> usize {
-        self.ranks
-            .as_ref()
-            .map_or(0, |r| r.partners.volume().received_points)
+    /// Partner points this rank receives at each force evaluation since the last search, and
+    /// the most after any search (0 in serial runs).
+    pub fn received_partners(&self) -> (usize, usize) {
+        self.ranks.as_ref().map_or((0, 0), |r| {
+            (r.partners.volume().received_points, r.max_received)
+        })
     }
 
     /// Searches now (collective): gathers the positions of all contact points from `current`
@@ -216,6 +220,9 @@ impl Contact {
                 .iter()
                 .map(|&g| (g, list.row(g as usize))),
         );
+        ranks.max_received = ranks
+            .max_received
+            .max(ranks.partners.volume().received_points);
         self.searched_at = ranks
             .owned_local
             .iter()

@@ -682,10 +682,11 @@ fn verlet_on_ranks(
     }
     if let (true, Some(contact)) = (root, &physics.contact) {
         eprintln!(
-            "{}: contact (rank 0's share): {}; {} partner points received per step",
+            "{}: contact (rank 0's share): {}; partner points received from other ranks per step: {} since the last search, at most {}",
             solver.name,
             contact.statistics(),
-            contact.received_partners()
+            contact.received_partners().0,
+            contact.received_partners().1
         );
     }
     agree(comm, pending.map_or(Ok(()), Err))?;
