@@ -48,6 +48,15 @@
 //! search; each point has moved at most d_max since, so they are now more than R − 2·d_max ≥
 //! r_c,max apart and carry no force. The check costs one pass over the contact points per step.
 //! The log reports how many searches ran (scheduled and early) and the candidate-pair count.
+//!
+//! # On N ranks
+//! [`Contact::on_ranks`] gives one rank of a distributed run the one-rank candidate rows of its
+//! owned points and bitwise the one-rank forces: every search gathers the positions of all
+//! contact points on every rank (O(N) messages per search; searches are rare), the skin rule
+//! takes the largest displacement over all ranks, and a per-step exchange rebuilt with each
+//! search brings the off-rank partners' positions and velocities. Each point's force is the
+//! sum of the pair law over its candidate row, in row (global run) order, on one rank and on
+//! N alike.
 
 mod ranks;
 mod search;

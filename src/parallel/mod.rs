@@ -35,6 +35,15 @@
 //! No force is accumulated from ghosts to owners: every owned point's force is the gather over
 //! its complete row, so [`HaloPlan`] has no `accumulate` step.
 //!
+//! # Contact
+//! Contact partners are the points within the contact radius in the *deformed*
+//! configuration, which the bond ghosts do not cover. Contact keeps its own exchange, rebuilt
+//! with every proximity search: the search gathers the positions of all contact points on
+//! every rank ([`Communicator::all_gather`]), each rank searches the rows of its owned points,
+//! and a [`PartnerExchange`] then moves the positions and velocities of the off-rank partners
+//! at every force evaluation until the next search (see [`crate::contact`], "On N ranks",
+//! and [`crate::contact::Contact::on_ranks`]).
+//!
 //! # Serial runs
 //! [`Serial`] is the one-rank [`Communicator`]: reductions return their argument, exchanges
 //! have no neighbours. A one-rank run (with or without `mpirun -np 1`) takes the ordinary
