@@ -145,19 +145,24 @@ impl VelocityVerlet {
         let t0 = self.settings.initial_time;
         state.time = t0;
         let positions = &model.points.position;
+        // A failure is reported after the force evaluation, whose exchanges and collectives
+        // every rank of a distributed run must join (see `step_with`).
+        let mut failure = None;
         if let Some(b) = &mut state.external_force_density {
-            model.boundary.body_force(positions, t0, b)?;
+            failure = model.boundary.body_force(positions, t0, b).err();
         }
         state.update_current_position(positions);
         halo.refresh(&mut state.current_position);
-        set_damage_time(physics, t0)?;
+        if let Err(error) = set_damage_time(physics, t0) {
+            failure.get_or_insert(error);
+        }
         evaluate_acceleration_with(model, physics, state, halo);
         if let Some(ghost) = &self.ghost {
             for (a, _) in state.acceleration.iter_mut().zip(ghost).filter(|(_, &g)| g) {
                 *a = [0.0; 3];
             }
         }
-        Ok(())
+        failure.map_or(Ok(()), Err)
     }
 
     /// Advances the state by one step; `step` is the 1-based step number in this solver.
@@ -221,16 +226,19 @@ impl VelocityVerlet {
                     drift(u, v, y, x);
                 }
             });
-        {
+        // A failing expression (it may fail at one rank's points only) is reported at the end
+        // of the step: every rank of a distributed run must still join the halo exchange and
+        // the collectives of contact, or the others wait for it forever. The state of a failed
+        // step is not used.
+        let mut failure = {
             let (displacement, velocity) = (&state.displacement, &mut state.velocity);
-            model.boundary.prescribed_increments(
-                positions,
-                displacement,
-                t_from,
-                t_to,
-                |p, c, du| velocity[p][c] = du / dt,
-            )?;
-        }
+            model
+                .boundary
+                .prescribed_increments(positions, displacement, t_from, t_to, |p, c, du| {
+                    velocity[p][c] = du / dt
+                })
+                .err()
+        };
         for &p in &self.constrained_points {
             let p = p as usize;
             drift(
@@ -242,9 +250,13 @@ impl VelocityVerlet {
         }
         state.time = t_to;
         if let Some(b) = &mut state.external_force_density {
-            model.boundary.body_force(positions, t_to, b)?;
+            if let Err(error) = model.boundary.body_force(positions, t_to, b) {
+                failure.get_or_insert(error);
+            }
         }
-        set_damage_time(physics, t_to)?;
+        if let Err(error) = set_damage_time(physics, t_to) {
+            failure.get_or_insert(error);
+        }
         halo.refresh(&mut state.current_position);
         let broken_bonds = internal_and_contact_force(model, physics, state, halo);
 
@@ -286,11 +298,14 @@ impl VelocityVerlet {
                 (0.5 * density[i] * volume[i] * kinetic, work)
             })
             .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
-        Ok(StepReport {
-            free_kinetic_energy,
-            supplied_work,
-            broken_bonds,
-        })
+        match failure {
+            Some(error) => Err(error),
+            None => Ok(StepReport {
+                free_kinetic_energy,
+                supplied_work,
+                broken_bonds,
+            }),
+        }
     }
 }
 
