@@ -48,11 +48,23 @@
 //! search; each point has moved at most d_max since, so they are now more than R − 2·d_max ≥
 //! r_c,max apart and carry no force. The check costs one pass over the contact points per step.
 //! The log reports how many searches ran (scheduled and early) and the candidate-pair count.
+//!
+//! # On N ranks
+//! [`Contact::on_ranks`] gives one rank of a distributed run the one-rank candidate rows of its
+//! owned points and bitwise the one-rank forces: every search gathers the positions of all
+//! contact points on every rank (O(N) messages per search; searches are rare), the skin rule
+//! takes the largest displacement over all ranks, and a per-step exchange rebuilt with each
+//! search brings the off-rank partners' positions and velocities. Each point's force is the
+//! sum of the pair law over its candidate row, in row (global run) order, on one rank and on
+//! N alike.
 
+mod ranks;
 mod search;
 mod short_range_force;
 
-pub use search::{find_candidates, max_displacement, CandidateList, OneWayBonds};
+pub use search::{
+    find_candidates, find_candidates_for, max_displacement, CandidateList, OneWayBonds,
+};
 pub use short_range_force::{PairPoint, ShortRangeForce};
 
 use crate::io::deck::{ContactInteraction, Deck, DeckError, Friction};
@@ -118,6 +130,80 @@ pub struct Contact {
     /// Contact force density of every point (force/length³).
     force_density: Vec<[f64; 3]>,
     statistics: ContactStatistics,
+    /// One rank's share of a distributed run (`None` in serial runs).
+    ranks: Option<Box<ranks::OnRanks>>,
+}
+
+/// The pair laws: which model acts between two blocks.
+#[derive(Clone, Copy)]
+struct PairLaws<'a> {
+    models: &'a [ShortRangeForce],
+    pair_model: &'a [Option<u16>],
+    blocks: usize,
+}
+
+/// Per-point data the pair law reads, indexed by point (run order, or global order on ranks).
+#[derive(Clone, Copy)]
+struct PointData<'a> {
+    block: &'a [u32],
+    horizon: &'a [f64],
+    volume: &'a [f64],
+    current: &'a [[f64; 3]],
+    velocity: &'a [[f64; 3]],
+}
+
+/// Contact force density on point `i` from the candidates `row` (ascending): the sum over the
+/// row in its order, so a point's force depends on its candidate row alone (the same on one
+/// rank and on N). Returns the force density and the number of candidates in contact.
+///
+/// Quick reject on the squared distance q = |y_j − y_i|² (the very number whose root the pair
+/// law takes): with t = fl(fl(r_c,max²)·(1 + 2⁻³⁰)) ≥ r_c,max²(1 − u)³(1 + 2⁻³⁰) > r_c,max²
+/// (u = 2⁻⁵³), q > t implies √q > r_c,max, so the law's fl(√q) ≥ r_c,max (rounding is monotone
+/// and r_c,max is a float) ≥ its r_c and it returns no force. Rejecting here only skips work:
+/// the forces are bitwise those of the law alone.
+#[inline(always)]
+fn force_on_point(
+    laws: PairLaws<'_>,
+    points: PointData<'_>,
+    reject_beyond: f64,
+    i: usize,
+    row: &[u32],
+) -> ([f64; 3], usize) {
+    let mut f = [0.0; 3];
+    if row.is_empty() {
+        return (f, 0);
+    }
+    let point = |p: usize| PairPoint {
+        position: points.current[p],
+        velocity: points.velocity[p],
+        horizon: points.horizon[p],
+        volume: points.volume[p],
+    };
+    let a = points.block[i] as usize;
+    let me = point(i);
+    let mut touching = 0;
+    for &j in row {
+        let j = j as usize;
+        let yj = points.current[j];
+        let d = [
+            yj[0] - me.position[0],
+            yj[1] - me.position[1],
+            yj[2] - me.position[2],
+        ];
+        if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > reject_beyond {
+            continue;
+        }
+        let b = points.block[j] as usize;
+        let law = &laws.models
+            [laws.pair_model[a * laws.blocks + b].expect("filtered by search") as usize];
+        if let Some(g) = law.force_density_on(&me, &point(j)) {
+            for k in 0..3 {
+                f[k] += g[k];
+            }
+            touching += 1;
+        }
+    }
+    (f, touching)
 }
 
 impl Contact {
@@ -249,6 +335,7 @@ impl Contact {
             backend: SearchBackend::Auto,
             force_density: vec![[0.0; 3]; model.points.len()],
             statistics: ContactStatistics::default(),
+            ranks: None,
         }))
     }
 
@@ -314,8 +401,17 @@ impl Contact {
         self.pair_model[a * self.blocks + b].is_some()
     }
 
+    /// Squared-distance bound beyond which no pair law acts (see [`force_on_point`]).
+    fn reject_beyond(&self) -> f64 {
+        self.max_contact_radius * self.max_contact_radius * (1.0 + 1.0 / (1u64 << 30) as f64)
+    }
+
     /// Searches now at `current` (positions of every point, run order).
     pub fn search(&mut self, model: &Model, current: &[[f64; 3]]) {
+        assert!(
+            self.ranks.is_none(),
+            "the contact of a distributed run searches through search_on_ranks"
+        );
         let start = Instant::now();
         let list = find_candidates(
             &self.points,
@@ -358,6 +454,10 @@ impl Contact {
         current: &[[f64; 3]],
         velocity: &[[f64; 3]],
     ) -> &[[f64; 3]] {
+        assert!(
+            self.ranks.is_none(),
+            "the contact of a distributed run computes through compute_force_on_ranks"
+        );
         if self.candidates.is_none() {
             self.search(model, current);
             self.statistics.initial_searches += 1;
@@ -366,55 +466,27 @@ impl Contact {
             self.statistics.early_searches += 1;
         }
         let candidates = self.candidates.as_ref().expect("searched above");
-        let blocks = self.blocks;
-        let (pair_model, models) = (&self.pair_model, &self.models);
-        let point = |p: usize| PairPoint {
-            position: current[p],
-            velocity: velocity[p],
-            horizon: model.horizon[p],
-            volume: model.points.volume[p],
+        let laws = PairLaws {
+            models: &self.models,
+            pair_model: &self.pair_model,
+            blocks: self.blocks,
         };
-        // Quick reject on the squared distance q = |y_j − y_i|² (the very number whose root
-        // the pair law takes): with t = fl(fl(r_c,max²)·(1 + 2⁻³⁰)) ≥ r_c,max²(1 − u)³(1 + 2⁻³⁰)
-        // > r_c,max² (u = 2⁻⁵³), q > t implies √q > r_c,max, so the law's fl(√q) ≥ r_c,max
-        // (rounding is monotone and r_c,max is a float) ≥ its r_c and it returns no force.
-        // Rejecting here only skips work: the forces are bitwise those of the law alone.
-        let reject_beyond =
-            self.max_contact_radius * self.max_contact_radius * (1.0 + 1.0 / (1u64 << 30) as f64);
+        let points = PointData {
+            block: &model.points.block,
+            horizon: &model.horizon,
+            volume: &model.points.volume,
+            current,
+            velocity,
+        };
+        let reject_beyond = self.reject_beyond();
         let in_contact: usize = self
             .force_density
             .par_iter_mut()
             .enumerate()
             .map(|(i, f)| {
-                *f = [0.0; 3];
-                let row = candidates.row(i);
-                if row.is_empty() {
-                    return 0;
-                }
-                let a = model.points.block[i] as usize;
-                let me = point(i);
-                let mut touching = 0;
-                for &j in row {
-                    let j = j as usize;
-                    let yj = current[j];
-                    let d = [
-                        yj[0] - me.position[0],
-                        yj[1] - me.position[1],
-                        yj[2] - me.position[2],
-                    ];
-                    if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > reject_beyond {
-                        continue;
-                    }
-                    let b = model.points.block[j] as usize;
-                    let law =
-                        &models[pair_model[a * blocks + b].expect("filtered by search") as usize];
-                    if let Some(g) = law.force_density_on(&me, &point(j)) {
-                        for k in 0..3 {
-                            f[k] += g[k];
-                        }
-                        touching += 1;
-                    }
-                }
+                let (force, touching) =
+                    force_on_point(laws, points, reject_beyond, i, candidates.row(i));
+                *f = force;
                 touching
             })
             .sum();

@@ -101,6 +101,15 @@ impl OneWayBonds {
         }
     }
 
+    /// No one-way bonds among `points` points (for a bond list whose rows already hold every
+    /// point bonded either way).
+    pub fn none(points: usize) -> Self {
+        Self {
+            offsets: vec![0; points + 1],
+            from: Vec::new(),
+        }
+    }
+
     /// The points j with a bond j → i but none i → j (ascending).
     pub fn into_point(&self, i: usize) -> &[u32] {
         &self.from[self.offsets[i]..self.offsets[i + 1]]
@@ -139,12 +148,31 @@ pub fn find_candidates(
     bonded: Option<(&BondList, &OneWayBonds)>,
     allowed: impl Fn(usize, usize) -> bool + Sync,
 ) -> CandidateList {
+    find_candidates_for(subset, subset, current, radius, backend, bonded, allowed)
+}
+
+/// [`find_candidates`] with rows only for the points `rows_for` (ascending, a part of
+/// `subset`): their candidates among all of `subset`, exactly the rows [`find_candidates`]
+/// gives them (the pair test reads only the two points). The other rows are empty. `bonded`
+/// is read only in the rows of `rows_for` (a bond list whose other rows are empty will do).
+/// One rank of a distributed run searches the rows of its owned points against every point.
+pub fn find_candidates_for(
+    subset: &[u32],
+    rows_for: &[u32],
+    current: &[[f64; 3]],
+    radius: f64,
+    backend: SearchBackend,
+    bonded: Option<(&BondList, &OneWayBonds)>,
+    allowed: impl Fn(usize, usize) -> bool + Sync,
+) -> CandidateList {
     let bonds = bonded.map(|(bonds, _)| bonds);
-    let searched: Vec<u32> = subset
-        .iter()
-        .copied()
-        .filter(|&p| current[p as usize].iter().all(|c| c.is_finite()))
-        .collect();
+    let finite = |p: &u32| current[*p as usize].iter().all(|c| c.is_finite());
+    let searched: Vec<u32> = subset.iter().copied().filter(finite).collect();
+    let row_points: Vec<u32> = if std::ptr::eq(subset, rows_for) {
+        searched.clone()
+    } else {
+        rows_for.iter().copied().filter(finite).collect()
+    };
     let not_bonded = |i: usize, j: usize| match bonds {
         Some(bonds) => {
             bonds.family(i).binary_search(&(j as u32)).is_err()
@@ -157,16 +185,16 @@ pub fn find_candidates(
         SearchBackend::Auto => CellGrid::new(&searched, current, radius, false),
         SearchBackend::CellGrid => CellGrid::new(&searched, current, radius, true),
     }
-    .map(|grid| grid.rows(&searched, current, radius, bonded, &allowed))
+    .map(|grid| grid.rows(&row_points, current, radius, bonded, &allowed))
     .unwrap_or_else(|| {
-        general_rows(&searched, current, radius, backend, |i, j| {
+        general_rows(&searched, &row_points, current, radius, backend, |i, j| {
             not_bonded(i, j) && allowed(i, j)
         })
     });
     let n = current.len();
     let mut offsets = vec![0usize; n + 1];
     for (a, row) in rows.iter().enumerate() {
-        offsets[searched[a] as usize + 1] = row.len();
+        offsets[row_points[a] as usize + 1] = row.len();
     }
     for k in 0..n {
         offsets[k + 1] += offsets[k];
@@ -178,9 +206,11 @@ pub fn find_candidates(
     CandidateList { offsets, neighbor }
 }
 
-/// The candidate rows of `searched` through the family search of [`crate::neighbors`].
+/// The candidate rows of `row_points` (a part of `searched`) among `searched`, through the
+/// family search of [`crate::neighbors`].
 fn general_rows(
     searched: &[u32],
+    row_points: &[u32],
     current: &[[f64; 3]],
     radius: f64,
     backend: SearchBackend,
@@ -201,10 +231,13 @@ fn general_rows(
         backend,
     )
     .unwrap_or_else(|e| panic!("contact search on validated positions failed: {e}"));
-    (0..searched.len())
-        .into_par_iter()
-        .map(|a| {
-            let i = searched[a] as usize;
+    row_points
+        .par_iter()
+        .map(|&i| {
+            let a = searched
+                .binary_search(&i)
+                .expect("row points are searched points");
+            let i = i as usize;
             found
                 .family(a)
                 .iter()
@@ -590,6 +623,47 @@ mod tests {
             );
             for (i, row) in expected.iter().enumerate() {
                 assert_eq!(list.row(i), &row[..], "{backend:?}, point {i}");
+            }
+            // Rows of a part only (one rank's points), with a bond list that holds only
+            // their rows, bonded either way (what a rank of a distributed run passes): the
+            // same rows for the part, empty rows elsewhere.
+            let part: Vec<u32> = subset.iter().copied().filter(|p| p % 3 == 1).collect();
+            let mut part_bonds = BondList {
+                offsets: vec![0],
+                ..Default::default()
+            };
+            for i in 0..n {
+                if part.binary_search(&(i as u32)).is_ok() {
+                    let mut row: Vec<u32> = bonds
+                        .family(i)
+                        .iter()
+                        .chain(one_way.into_point(i))
+                        .copied()
+                        .collect();
+                    row.sort_unstable();
+                    part_bonds
+                        .reference_length
+                        .resize(part_bonds.reference_length.len() + row.len(), 1.0);
+                    part_bonds.neighbor.extend(row);
+                }
+                part_bonds.offsets.push(part_bonds.neighbor.len());
+            }
+            let list = find_candidates_for(
+                &subset,
+                &part,
+                &current,
+                1.1,
+                backend,
+                Some((&part_bonds, &OneWayBonds::none(n))),
+                keep,
+            );
+            for (i, row) in expected.iter().enumerate() {
+                let expected_row: &[u32] = if part.binary_search(&(i as u32)).is_ok() {
+                    row
+                } else {
+                    &[]
+                };
+                assert_eq!(list.row(i), expected_row, "part, {backend:?}, point {i}");
             }
         }
     }

@@ -35,6 +35,15 @@
 //! No force is accumulated from ghosts to owners: every owned point's force is the gather over
 //! its complete row, so [`HaloPlan`] has no `accumulate` step.
 //!
+//! # Contact
+//! Contact partners are the points within the contact radius in the *deformed*
+//! configuration, which the bond ghosts do not cover. Contact keeps its own exchange, rebuilt
+//! with every proximity search: the search gathers the positions of all contact points on
+//! every rank ([`Communicator::all_gather`]), each rank searches the rows of its owned points,
+//! and a [`PartnerExchange`] then moves the positions and velocities of the off-rank partners
+//! at every force evaluation until the next search (see [`crate::contact`], "On N ranks",
+//! and [`crate::contact::Contact::on_ranks`]).
+//!
 //! # Serial runs
 //! [`Serial`] is the one-rank [`Communicator`]: reductions return their argument, exchanges
 //! have no neighbours. A one-rank run (with or without `mpirun -np 1`) takes the ordinary
@@ -44,12 +53,14 @@ mod halo;
 #[cfg(feature = "mpi")]
 mod mpi;
 mod partition;
+mod partner;
 mod subdomain;
 
 pub use halo::{HaloPlan, HaloValue, HaloVolume};
 #[cfg(feature = "mpi")]
 pub use mpi::{initialize, MpiCommunicator};
 pub use partition::Partition;
+pub use partner::PartnerExchange;
 pub use subdomain::{halo_depth, outer_ghosts_need_physics, Subdomain};
 
 /// The collective operations a distributed run uses. Every method except [`Communicator::rank`],
@@ -76,6 +87,16 @@ pub trait Communicator {
     /// Gathers `local` of every rank on rank 0: `counts[r]` values from rank r, concatenated
     /// in rank order. Rank 0 gets `Some`, the others `None`.
     fn gather(&self, local: &[f64], counts: &[usize]) -> Option<Vec<f64>>;
+
+    /// Gathers `local` of every rank on every rank: `counts[r]` values from rank r,
+    /// concatenated in rank order (MPI_Allgatherv). `counts` is the same on every rank and
+    /// `counts[self.rank()] == local.len()`.
+    fn all_gather(&self, local: &[f64], counts: &[usize]) -> Vec<f64>;
+
+    /// Maximum over all ranks (every rank gets the result).
+    fn max(&self, value: f64) -> f64 {
+        -self.min(-value)
+    }
 
     /// Ends every rank at once (MPI_Abort): the last resort when ranks can no longer agree.
     fn abort(&self, code: i32) -> !;
@@ -110,6 +131,11 @@ impl Communicator for Serial {
     fn gather(&self, local: &[f64], counts: &[usize]) -> Option<Vec<f64>> {
         assert_eq!(counts, [local.len()]);
         Some(local.to_vec())
+    }
+
+    fn all_gather(&self, local: &[f64], counts: &[usize]) -> Vec<f64> {
+        assert_eq!(counts, [local.len()]);
+        local.to_vec()
     }
 
     fn abort(&self, code: i32) -> ! {

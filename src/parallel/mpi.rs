@@ -99,6 +99,25 @@ impl Communicator for MpiCommunicator {
         Some(all)
     }
 
+    fn all_gather(&self, local: &[f64], counts: &[usize]) -> Vec<f64> {
+        assert_eq!(counts[self.rank()], local.len());
+        let counts_i: Vec<i32> = counts.iter().map(|&c| c as i32).collect();
+        let displacements: Vec<i32> = counts_i
+            .iter()
+            .scan(0, |acc, &c| {
+                let start = *acc;
+                *acc += c;
+                Some(start)
+            })
+            .collect();
+        let mut all = vec![0.0; counts.iter().sum()];
+        {
+            let mut partition = PartitionMut::new(&mut all[..], counts_i, displacements);
+            self.world.all_gather_varcount_into(local, &mut partition);
+        }
+        all
+    }
+
     fn abort(&self, code: i32) -> ! {
         self.world.abort(code)
     }

@@ -41,7 +41,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Refuses, before any message is sent, what a distributed run cannot do yet: implicit
-/// solvers (they need the distributed Trilinos backend) and contact.
+/// solvers (they need the distributed Trilinos backend), and contact in a deck with an implicit
+/// solver (contact acts only in `Verlet` steps, where [`crate::contact::Contact::on_ranks`]
+/// gives every rank the one-rank candidates and forces).
 pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), RunError> {
     for solver in &deck.solvers {
         let on_trilinos = matches!(
@@ -61,9 +63,17 @@ pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), RunError> {
         }
     }
     if deck.contact.is_some() {
-        return Err(RunError::Unsupported(format!(
-            "Contact on {ranks} ranks is not available yet (the proximity search would need ghosts in the deformed configuration); run on one rank"
-        )));
+        if let Some(solver) = deck
+            .solvers
+            .iter()
+            .find(|s| !matches!(s.integrator, Integrator::Verlet(_)))
+        {
+            return Err(RunError::Unsupported(format!(
+                "Contact with solver \"{}\" ({}) on {ranks} ranks is not available (contact on several ranks runs in Verlet steps only); run on one rank",
+                solver.name,
+                solver.integrator.deck_name()
+            )));
+        }
     }
     Ok(())
 }
@@ -114,6 +124,10 @@ struct PositionHalo<'a> {
 impl Halo for PositionHalo<'_> {
     fn refresh(&mut self, current_position: &mut [[f64; 3]]) {
         self.plan.exchange(self.comm, current_position);
+    }
+
+    fn communicator(&self) -> Option<&dyn Communicator> {
+        Some(self.comm)
     }
 }
 
@@ -452,8 +466,15 @@ pub fn run_distributed(
     );
     // From here on, failures may differ between ranks: every step agrees.
     let prepared = (|| -> Result<_, RunError> {
-        let physics = setup::build_physics(deck, &sub.model)
+        let mut physics = setup::build_physics(deck, &sub.model)
             .map_err(|e| RunError::Unsupported(e.to_string()))?;
+        // Contact searches the deformed configuration of the whole model: it is built on the
+        // global model (global bonds decide who may touch) and keeps its own exchange.
+        if physics.contact.is_some() {
+            physics.contact = crate::contact::Contact::from_deck(deck, global)
+                .map_err(|e| RunError::Unsupported(e.to_string()))?
+                .map(|contact| contact.on_ranks(global, &sub.partition, rank, sub.plan.global()));
+        }
         let t0 = deck.solvers.first().map_or(0.0, |s| s.initial_time);
         let model = &sub.model;
         let mut state = State::at_rest(&model.points.position, t0, model.boundary.has_body_force());
@@ -658,6 +679,15 @@ fn verlet_on_ranks(
     }
     if let Some(progress) = progress {
         progress.finish();
+    }
+    if let (true, Some(contact)) = (root, &physics.contact) {
+        eprintln!(
+            "{}: contact (rank 0's share): {}; partner points received from other ranks per step: {} since the last search, at most {}",
+            solver.name,
+            contact.statistics(),
+            contact.received_partners().0,
+            contact.received_partners().1
+        );
     }
     agree(comm, pending.map_or(Ok(()), Err))?;
     summary.steps += steps;

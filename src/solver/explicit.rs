@@ -23,6 +23,7 @@
 //! [`StepReport`] is this rank's share, to be summed over ranks.
 
 use crate::boundary::BoundaryError;
+use crate::parallel::Communicator;
 use crate::physics::Physics;
 use crate::setup::Model;
 use crate::state::State;
@@ -55,6 +56,12 @@ pub struct StepReport {
 pub trait Halo {
     /// Overwrites the ghost entries of `current_position` with their owners' values.
     fn refresh(&mut self, current_position: &mut [[f64; 3]]);
+
+    /// The ranks' communicator, for the collectives of contact on ranks (see
+    /// [`crate::contact::Contact::on_ranks`]); `None` in serial runs.
+    fn communicator(&self) -> Option<&dyn Communicator> {
+        None
+    }
 }
 
 /// No ghosts: nothing to refresh.
@@ -138,19 +145,24 @@ impl VelocityVerlet {
         let t0 = self.settings.initial_time;
         state.time = t0;
         let positions = &model.points.position;
+        // A failure is reported after the force evaluation, whose exchanges and collectives
+        // every rank of a distributed run must join (see `step_with`).
+        let mut failure = None;
         if let Some(b) = &mut state.external_force_density {
-            model.boundary.body_force(positions, t0, b)?;
+            failure = model.boundary.body_force(positions, t0, b).err();
         }
         state.update_current_position(positions);
         halo.refresh(&mut state.current_position);
-        set_damage_time(physics, t0)?;
-        evaluate_acceleration(model, physics, state);
+        if let Err(error) = set_damage_time(physics, t0) {
+            failure.get_or_insert(error);
+        }
+        evaluate_acceleration_with(model, physics, state, halo);
         if let Some(ghost) = &self.ghost {
             for (a, _) in state.acceleration.iter_mut().zip(ghost).filter(|(_, &g)| g) {
                 *a = [0.0; 3];
             }
         }
-        Ok(())
+        failure.map_or(Ok(()), Err)
     }
 
     /// Advances the state by one step; `step` is the 1-based step number in this solver.
@@ -179,7 +191,12 @@ impl VelocityVerlet {
         let t_to = self.time_after(step);
         let positions = &model.points.position;
         if let Some(contact) = &mut physics.contact {
-            contact.scheduled_search(step, model, &state.current_position);
+            match contact_communicator(contact, halo) {
+                Some(comm) => {
+                    contact.scheduled_search_on_ranks(comm, step, &state.current_position)
+                }
+                None => contact.scheduled_search(step, model, &state.current_position),
+            }
         }
 
         // Half kick everywhere and, at points without a prescribed component, the drift in the
@@ -209,16 +226,19 @@ impl VelocityVerlet {
                     drift(u, v, y, x);
                 }
             });
-        {
+        // A failing expression (it may fail at one rank's points only) is reported at the end
+        // of the step: every rank of a distributed run must still join the halo exchange and
+        // the collectives of contact, or the others wait for it forever. The state of a failed
+        // step is not used.
+        let mut failure = {
             let (displacement, velocity) = (&state.displacement, &mut state.velocity);
-            model.boundary.prescribed_increments(
-                positions,
-                displacement,
-                t_from,
-                t_to,
-                |p, c, du| velocity[p][c] = du / dt,
-            )?;
-        }
+            model
+                .boundary
+                .prescribed_increments(positions, displacement, t_from, t_to, |p, c, du| {
+                    velocity[p][c] = du / dt
+                })
+                .err()
+        };
         for &p in &self.constrained_points {
             let p = p as usize;
             drift(
@@ -230,11 +250,15 @@ impl VelocityVerlet {
         }
         state.time = t_to;
         if let Some(b) = &mut state.external_force_density {
-            model.boundary.body_force(positions, t_to, b)?;
+            if let Err(error) = model.boundary.body_force(positions, t_to, b) {
+                failure.get_or_insert(error);
+            }
         }
-        set_damage_time(physics, t_to)?;
+        if let Err(error) = set_damage_time(physics, t_to) {
+            failure.get_or_insert(error);
+        }
         halo.refresh(&mut state.current_position);
-        let broken_bonds = internal_and_contact_force(model, physics, state);
+        let broken_bonds = internal_and_contact_force(model, physics, state, halo);
 
         // a = (f_int + f_contact + b)/ρ (as `evaluate_acceleration`), the work, the second half
         // kick and the kinetic energy in one pass.
@@ -274,17 +298,40 @@ impl VelocityVerlet {
                 (0.5 * density[i] * volume[i] * kinetic, work)
             })
             .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
-        Ok(StepReport {
-            free_kinetic_energy,
-            supplied_work,
-            broken_bonds,
-        })
+        match failure {
+            Some(error) => Err(error),
+            None => Ok(StepReport {
+                free_kinetic_energy,
+                supplied_work,
+                broken_bonds,
+            }),
+        }
     }
+}
+
+/// The communicator of `halo` when `contact` is one rank's share of a distributed run
+/// (its searches and force evaluations are collective), `None` for serial contact.
+fn contact_communicator<'h>(
+    contact: &crate::contact::Contact,
+    halo: &'h impl Halo,
+) -> Option<&'h dyn Communicator> {
+    if !contact.is_on_ranks() {
+        return None;
+    }
+    Some(
+        halo.communicator()
+            .expect("contact on ranks is run with the ranks' halo"),
+    )
 }
 
 /// Internal force density at `state.current_position` into `state.force_density`, then the
 /// contact force (if any, kept by the contact model). Returns broken bonds.
-fn internal_and_contact_force(model: &Model, physics: &mut Physics, state: &mut State) -> usize {
+fn internal_and_contact_force(
+    model: &Model,
+    physics: &mut Physics,
+    state: &mut State,
+    halo: &impl Halo,
+) -> usize {
     let broken = physics.internal_force(
         &model.bonds,
         &model.points,
@@ -292,7 +339,14 @@ fn internal_and_contact_force(model: &Model, physics: &mut Physics, state: &mut 
         &mut state.force_density,
     );
     if let Some(contact) = &mut physics.contact {
-        contact.compute_force(model, &state.current_position, &state.velocity);
+        match contact_communicator(contact, halo) {
+            Some(comm) => {
+                contact.compute_force_on_ranks(comm, &state.current_position, &state.velocity);
+            }
+            None => {
+                contact.compute_force(model, &state.current_position, &state.velocity);
+            }
+        }
     }
     broken
 }
@@ -312,7 +366,17 @@ fn set_damage_time(physics: &mut Physics, time: f64) -> Result<(), BoundaryError
 /// Internal force at the current positions `state.current_position`, then the contact force
 /// (if any), and `a = (f_int + f_contact + b)/ρ`. Returns broken bonds.
 pub fn evaluate_acceleration(model: &Model, physics: &mut Physics, state: &mut State) -> usize {
-    let broken = internal_and_contact_force(model, physics, state);
+    evaluate_acceleration_with(model, physics, state, &NoHalo)
+}
+
+/// [`evaluate_acceleration`] with the communicator of `halo` for contact on ranks.
+fn evaluate_acceleration_with(
+    model: &Model,
+    physics: &mut Physics,
+    state: &mut State,
+    halo: &impl Halo,
+) -> usize {
+    let broken = internal_and_contact_force(model, physics, state, halo);
     let contact = physics.contact.as_ref().map(|c| c.force_density());
     let external = state.external_force_density.as_deref();
     let density = &physics.density;

@@ -1,0 +1,351 @@
+//! Contact on one rank of a distributed run: the same candidates and forces as one rank.
+//!
+//! # Design
+//! Contact partners are whatever points come within the search radius in the *deformed*
+//! configuration, not the bond ghosts of [`crate::parallel::HaloPlan`], so contact keeps its
+//! own proximity exchange, rebuilt with every search:
+//!
+//! * **Search** (collective): every rank sends the current positions of its owned contact
+//!   points to every rank ([`Communicator::all_gather`]), then searches the candidate rows of
+//!   its owned points against all contact points with the same pair test as one rank
+//!   ([`super::find_candidates_for`]). "May touch" reads, for each owned point, every point
+//!   bonded to it either way in the *global* bond list (its family and the one-way bonds into
+//!   it), so it is exact for owned points. Rows are ascending in the global run order, as on
+//!   one rank.
+//! * **Partner exchange**: from those rows each rank builds a [`PartnerExchange`]: it
+//!   receives the positions and velocities of the partners other ranks own and sends its own
+//!   points that are partners of theirs. No messages are needed to agree on the lists
+//!   because the candidate relation is symmetric (the distance test |y_j − y_i|² ≤ R² reads
+//!   the same squares either way round, the block-pair table is symmetric, and so is "bonded
+//!   either way").
+//! * **Every force evaluation**: one partner exchange (six numbers per partner: position and
+//!   the velocity friction reads), then each owned point sums the pair law over its candidate
+//!   row in row order ([`super::force_on_point`], shared with one rank), so its force is
+//!   bitwise the one-rank force.
+//! * **Skin rule**: the largest displacement since the last search is the maximum over ranks
+//!   of each rank's owned maximum ([`Communicator::max`]), so every rank searches early at the
+//!   same evaluation. Scheduled searches fall on the same steps everywhere.
+//!
+//! # Cost
+//! A search moves 3 numbers per contact point to every rank (O(N) received per rank, O(N·P)
+//! in all) and builds a cell grid over all contact points on every rank (O(N) work per rank).
+//! That is acceptable for now because searches are rare (every `Search Frequency` steps, or
+//! when a point has moved a quarter of the contact radius) and every rank already holds the
+//! whole model (O(N) memory), while the per-step work and messages scale with the owned
+//! points and their partners. A search against a halo of neighbouring subdomains' bounding
+//! boxes grown by R would make it O(N/P + surface).
+
+use super::{find_candidates_for, force_on_point, max_displacement, Contact, OneWayBonds};
+use super::{PairLaws, PointData};
+use crate::model::BondList;
+use crate::parallel::{Communicator, Partition, PartnerExchange};
+use crate::setup::Model;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// What the contact of one rank keeps besides the serial state (global numbering unless said).
+#[derive(Debug, Clone)]
+pub(super) struct OnRanks {
+    rank: usize,
+    /// Owning rank of every point.
+    owner: Vec<u32>,
+    /// Contact points owned here: global indices (ascending) and their local indices.
+    owned_global: Vec<u32>,
+    owned_local: Vec<u32>,
+    /// Contact points of every rank, rank after rank: the layout of the search gather.
+    gather_order: Vec<u32>,
+    /// Numbers each rank contributes to the search gather (3 per owned contact point).
+    gather_counts: Vec<usize>,
+    /// Block, horizon and volume of every point.
+    block: Vec<u32>,
+    horizon: Vec<f64>,
+    volume: Vec<f64>,
+    /// Rows of the owned contact points: every point bonded to them either way (ascending);
+    /// the other rows are empty.
+    bonded: BondList,
+    no_one_way: OneWayBonds,
+    /// Positions and velocities; valid at owned contact points and received partners.
+    current: Vec<[f64; 3]>,
+    velocity: Vec<[f64; 3]>,
+    partners: PartnerExchange,
+    /// Largest number of partners received from other ranks after any search.
+    max_received: usize,
+    /// Scratch of the partner exchange: received (point, position, velocity).
+    received: Vec<(u32, [f64; 6])>,
+}
+
+impl Contact {
+    /// Turns the contact of the *global* model (from [`Contact::from_deck`] with the model
+    /// every rank holds) into rank `rank`'s share: `partition` is the run's partition and
+    /// `local_points[l]` the global index of local point l of the rank's model (increasing).
+    /// Forces are then kept in the local numbering ([`Contact::force_density`]) and filled at
+    /// owned points only; the rank must call [`Contact::compute_force_on_ranks`] and
+    /// [`Contact::scheduled_search_on_ranks`] instead of the serial methods.
+    ///
+    /// Cost: a search moves 3 numbers per contact point to every rank and grids all contact
+    /// points on every rank (O(N) per rank, acceptable while searches are rare and every rank
+    /// holds the whole model anyway); each force evaluation moves 6 numbers per off-rank
+    /// partner and does the work of the owned points only. Memory: O(N) per rank (positions,
+    /// velocities, blocks, horizons and volumes of all points in global numbering).
+    pub fn on_ranks(
+        mut self,
+        global: &Model,
+        partition: &Partition,
+        rank: usize,
+        local_points: &[u32],
+    ) -> Self {
+        let n = global.points.len();
+        assert_eq!(partition.owner.len(), n, "partition of another model");
+        let mine = |g: u32| partition.owner[g as usize] as usize == rank;
+        let owned_global: Vec<u32> = self.points.iter().copied().filter(|&g| mine(g)).collect();
+        let owned_local: Vec<u32> = owned_global
+            .iter()
+            .map(|&g| {
+                local_points
+                    .binary_search(&g)
+                    .expect("owned points are local") as u32
+            })
+            .collect();
+        let mut is_contact = vec![false; n];
+        for &p in &self.points {
+            is_contact[p as usize] = true;
+        }
+        let per_rank: Vec<Vec<u32>> = partition
+            .owned
+            .iter()
+            .map(|points| {
+                let mut points: Vec<u32> = points
+                    .iter()
+                    .copied()
+                    .filter(|&g| is_contact[g as usize])
+                    .collect();
+                points.sort_unstable();
+                points
+            })
+            .collect();
+        let gather_counts = per_rank.iter().map(|p| 3 * p.len()).collect();
+        let gather_order = per_rank.concat();
+        let mut bonded = BondList {
+            offsets: Vec::with_capacity(n + 1),
+            neighbor: Vec::new(),
+            reference_length: Vec::new(),
+        };
+        bonded.offsets.push(0);
+        let mut cursor = owned_global.iter().peekable();
+        for i in 0..n {
+            if cursor.peek().is_some_and(|&&g| g as usize == i) {
+                cursor.next();
+                let mut row: Vec<u32> = global
+                    .bonds
+                    .family(i)
+                    .iter()
+                    .chain(self.one_way_bonds.into_point(i))
+                    .copied()
+                    .collect();
+                row.sort_unstable();
+                row.dedup();
+                bonded
+                    .reference_length
+                    .resize(bonded.reference_length.len() + row.len(), 0.0);
+                bonded.neighbor.extend(row);
+            }
+            bonded.offsets.push(bonded.neighbor.len());
+        }
+        self.one_way_bonds = OneWayBonds::none(0);
+        self.force_density = vec![[0.0; 3]; local_points.len()];
+        self.ranks = Some(Box::new(OnRanks {
+            rank,
+            owner: partition.owner.clone(),
+            owned_global,
+            owned_local,
+            gather_order,
+            gather_counts,
+            block: global.points.block.clone(),
+            horizon: global.horizon.clone(),
+            volume: global.points.volume.clone(),
+            bonded,
+            no_one_way: OneWayBonds::none(n),
+            current: vec![[0.0; 3]; n],
+            velocity: vec![[0.0; 3]; n],
+            partners: PartnerExchange::default(),
+            max_received: 0,
+            received: Vec::new(),
+        }));
+        self
+    }
+
+    /// True for the contact of one rank of a distributed run ([`Contact::on_ranks`]).
+    pub fn is_on_ranks(&self) -> bool {
+        self.ranks.is_some()
+    }
+
+    /// Partner points this rank receives at each force evaluation since the last search, and
+    /// the most after any search (0 in serial runs).
+    pub fn received_partners(&self) -> (usize, usize) {
+        self.ranks.as_ref().map_or((0, 0), |r| {
+            (r.partners.volume().received_points, r.max_received)
+        })
+    }
+
+    /// Searches now (collective): gathers the positions of all contact points from `current`
+    /// (this rank's local positions), searches the rows of the owned points and rebuilds the
+    /// partner exchange.
+    pub fn search_on_ranks(&mut self, comm: &dyn Communicator, current: &[[f64; 3]]) {
+        let start = Instant::now();
+        let (radius, backend) = (self.search_radius, self.backend);
+        let blocks = self.blocks;
+        let pair_model = &self.pair_model;
+        let points = &self.points;
+        let ranks = self
+            .ranks
+            .as_deref_mut()
+            .expect("the contact of a serial run has no ranks");
+        let mut mine = Vec::with_capacity(3 * ranks.owned_local.len());
+        for &l in &ranks.owned_local {
+            mine.extend_from_slice(&current[l as usize]);
+        }
+        let all = comm.all_gather(&mine, &ranks.gather_counts);
+        for (k, &g) in ranks.gather_order.iter().enumerate() {
+            ranks.current[g as usize] = [all[3 * k], all[3 * k + 1], all[3 * k + 2]];
+        }
+        let block = &ranks.block;
+        let list = find_candidates_for(
+            points,
+            &ranks.owned_global,
+            &ranks.current,
+            radius,
+            backend,
+            Some((&ranks.bonded, &ranks.no_one_way)),
+            |i, j| pair_model[block[i] as usize * blocks + block[j] as usize].is_some(),
+        );
+        ranks.partners = PartnerExchange::build(
+            ranks.rank,
+            &ranks.owner,
+            ranks
+                .owned_global
+                .iter()
+                .map(|&g| (g, list.row(g as usize))),
+        );
+        ranks.max_received = ranks
+            .max_received
+            .max(ranks.partners.volume().received_points);
+        self.searched_at = ranks
+            .owned_local
+            .iter()
+            .map(|&l| current[l as usize])
+            .collect();
+        self.statistics.candidate_pairs = list.pairs();
+        self.statistics.max_candidate_pairs = self.statistics.max_candidate_pairs.max(list.pairs());
+        self.statistics.search_seconds += start.elapsed().as_secs_f64();
+        self.candidates = Some(list);
+    }
+
+    /// [`Contact::scheduled_search`] on one rank (collective; the schedule is the same on
+    /// every rank).
+    pub fn scheduled_search_on_ranks(
+        &mut self,
+        comm: &dyn Communicator,
+        step: u64,
+        current: &[[f64; 3]],
+    ) {
+        if step % self.search_frequency == 0 {
+            self.search_on_ranks(comm, current);
+            self.statistics.scheduled_searches += 1;
+        }
+    }
+
+    /// The skin rule over all ranks (collective): true when no search ran yet or some contact
+    /// point of any rank moved more than (R − r_c,max)/2 since the last search.
+    pub fn needs_search_on_ranks(&mut self, comm: &dyn Communicator, current: &[[f64; 3]]) -> bool {
+        if self.candidates.is_none() {
+            return true;
+        }
+        let owned = &self
+            .ranks
+            .as_deref()
+            .expect("the contact of a serial run has no ranks")
+            .owned_local;
+        let local = max_displacement(owned, &self.searched_at, current);
+        2.0 * comm.max(local) > self.search_radius - self.max_contact_radius
+    }
+
+    /// [`Contact::compute_force`] on one rank (collective): searches first when the skin rule
+    /// asks any rank to, exchanges the partners' positions and velocities, and sums the force
+    /// of every owned contact point over its candidate row. `current` and `velocity` are the
+    /// local arrays (owned entries must be up to date; ghost entries are not read). Returns the
+    /// force density in local numbering (zero at ghosts).
+    pub fn compute_force_on_ranks(
+        &mut self,
+        comm: &dyn Communicator,
+        current: &[[f64; 3]],
+        velocity: &[[f64; 3]],
+    ) -> &[[f64; 3]] {
+        if self.candidates.is_none() {
+            self.search_on_ranks(comm, current);
+            self.statistics.initial_searches += 1;
+        } else if self.needs_search_on_ranks(comm, current) {
+            self.search_on_ranks(comm, current);
+            self.statistics.early_searches += 1;
+        }
+        let reject_beyond = self.reject_beyond();
+        let ranks = self
+            .ranks
+            .as_deref_mut()
+            .expect("the contact of a serial run has no ranks");
+        for (&g, &l) in ranks.owned_global.iter().zip(&ranks.owned_local) {
+            ranks.current[g as usize] = current[l as usize];
+            ranks.velocity[g as usize] = velocity[l as usize];
+        }
+        ranks.received.clear();
+        {
+            let (y, v, received) = (&ranks.current, &ranks.velocity, &mut ranks.received);
+            ranks.partners.exchange(
+                comm,
+                6,
+                |p, out| {
+                    out[..3].copy_from_slice(&y[p as usize]);
+                    out[3..].copy_from_slice(&v[p as usize]);
+                },
+                |p, values| received.push((p, std::array::from_fn(|k| values[k]))),
+            );
+        }
+        for &(p, values) in &ranks.received {
+            ranks.current[p as usize] = [values[0], values[1], values[2]];
+            ranks.velocity[p as usize] = [values[3], values[4], values[5]];
+        }
+        let candidates = self.candidates.as_ref().expect("searched above");
+        let laws = PairLaws {
+            models: &self.models,
+            pair_model: &self.pair_model,
+            blocks: self.blocks,
+        };
+        let points = PointData {
+            block: &ranks.block,
+            horizon: &ranks.horizon,
+            volume: &ranks.volume,
+            current: &ranks.current,
+            velocity: &ranks.velocity,
+        };
+        let forces: Vec<([f64; 3], usize)> = ranks
+            .owned_global
+            .par_iter()
+            .map(|&g| {
+                force_on_point(
+                    laws,
+                    points,
+                    reject_beyond,
+                    g as usize,
+                    candidates.row(g as usize),
+                )
+            })
+            .collect();
+        self.force_density.fill([0.0; 3]);
+        let mut touching = 0;
+        for (&l, (force, count)) in ranks.owned_local.iter().zip(forces) {
+            self.force_density[l as usize] = force;
+            touching += count;
+        }
+        self.statistics.pairs_in_contact = touching / 2;
+        &self.force_density
+    }
+}
