@@ -212,8 +212,35 @@ fn run(
 
 /// `run` on N > 1 MPI ranks. Every rank reads the deck and builds the model, so bad input
 /// fails on every rank alike before any message is sent; rank 0 alone prints it.
+///
+/// Every failure reaches all ranks together (the run agrees on failures at its
+/// collectives), so the reporting rank prints its message *before* the ranks meet once more
+/// and leave: mpirun ends the whole job as soon as one rank exits with an error, which could
+/// otherwise kill the reporting rank before it has printed.
 #[cfg(feature = "mpi")]
 fn run_on_ranks(
+    path: &Path,
+    output_dir: &Path,
+    backend: Option<BackendChoice>,
+    comm: &dyn peridyn::parallel::Communicator,
+) -> Result<()> {
+    let result = run_on_ranks_collectively(path, output_dir, backend, comm);
+    let code = match &result {
+        Ok(()) => return result,
+        Err(error) => {
+            if !matches!(error.downcast_ref::<Failure>(), Some(Failure::Quiet(_))) {
+                eprintln!("error: {error:#}");
+            }
+            exit_code(error)
+        }
+    };
+    // The meeting point: a one-number sum over the ranks.
+    comm.sum(&mut [0.0]);
+    Err(Failure::Quiet(code).into())
+}
+
+#[cfg(feature = "mpi")]
+fn run_on_ranks_collectively(
     path: &Path,
     output_dir: &Path,
     backend: Option<BackendChoice>,
