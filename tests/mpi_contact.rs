@@ -6,41 +6,13 @@
 //! hang fails the test instead of blocking it.
 #![cfg(feature = "mpi")]
 
+mod mpi_support;
+
+use mpi_support::{assert_success, mpirun, PERIDYN};
+
 use peridyn::io::exodus::ExodusFile;
 use std::path::Path;
-use std::process::{Command, Output};
-
-const PERIDYN: &str = env!("CARGO_BIN_EXE_peridyn");
-
-/// `timeout 300 mpirun -np <ranks> --oversubscribe peridyn <args>` in `dir`, as root if need
-/// be (OpenMPI refuses root without the two variables).
-fn mpirun(dir: &Path, ranks: usize, args: &[&str]) -> Output {
-    Command::new("timeout")
-        .args([
-            "300",
-            "mpirun",
-            "-np",
-            &ranks.to_string(),
-            "--oversubscribe",
-        ])
-        .arg(PERIDYN)
-        .args(args)
-        .current_dir(dir)
-        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-        .output()
-        .expect("mpirun starts (install openmpi-bin: see .ci/mpi.sh)")
-}
-
-fn assert_success(output: &Output, what: &str) {
-    assert!(
-        output.status.success(),
-        "{what} failed ({}):\n{}\n{}",
-        output.status,
-        String::from_utf8_lossy(&output.stdout),
-        String::from_utf8_lossy(&output.stderr)
-    );
-}
+use std::process::Command;
 
 /// Points of the target plate (block 1), numbered first in the mesh file.
 const TARGET_POINTS: usize = 10 * 10 * 3;

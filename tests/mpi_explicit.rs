@@ -5,31 +5,13 @@
 //! hang fails the test instead of blocking it.
 #![cfg(feature = "mpi")]
 
+mod mpi_support;
+
+use mpi_support::{assert_success, mpirun, PERIDYN};
+
 use peridyn::io::exodus::ExodusFile;
 use std::path::Path;
-use std::process::{Command, Output};
-
-const PERIDYN: &str = env!("CARGO_BIN_EXE_peridyn");
-
-/// `timeout 300 mpirun -np <ranks> --oversubscribe peridyn <args>` in `dir`, as root if need
-/// be (OpenMPI refuses root without the two variables).
-fn mpirun(dir: &Path, ranks: usize, args: &[&str]) -> Output {
-    Command::new("timeout")
-        .args([
-            "300",
-            "mpirun",
-            "-np",
-            &ranks.to_string(),
-            "--oversubscribe",
-        ])
-        .arg(PERIDYN)
-        .args(args)
-        .current_dir(dir)
-        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-        .output()
-        .expect("mpirun starts (install openmpi-bin: see .ci/mpi.sh)")
-}
+use std::process::Command;
 
 /// A steel-like bar on a 0.5 m lattice, horizon 1.6 m (3.2 spacings), pulled apart from
 /// two-column slabs at each end.
@@ -177,16 +159,6 @@ GLOBAL VARIABLES
 NODAL VARIABLES
 ELEMENT VARIABLES
 ";
-
-fn assert_success(output: &Output, what: &str) {
-    assert!(
-        output.status.success(),
-        "{what} failed ({}):\n{}\n{}",
-        output.status,
-        String::from_utf8_lossy(&output.stdout),
-        String::from_utf8_lossy(&output.stderr)
-    );
-}
 
 /// Runs the bar on 1, 2 and 3 ranks and compares 2 and 3 with 1 through `peridyn diff`.
 fn same_answer_on_any_rank_count(material: &str) {

@@ -4,30 +4,11 @@
 //! peridyn's own Newton (`QuasiStatic`) with distributed Belos solves.
 #![cfg(all(feature = "mpi", feature = "trilinos"))]
 
+mod mpi_support;
 mod quasi_static_bar;
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-const PERIDYN: &str = env!("CARGO_BIN_EXE_peridyn");
-
-fn mpirun(dir: &Path, ranks: usize, args: &[&str]) -> Output {
-    Command::new("timeout")
-        .args([
-            "300",
-            "mpirun",
-            "-np",
-            &ranks.to_string(),
-            "--oversubscribe",
-        ])
-        .arg(PERIDYN)
-        .args(args)
-        .current_dir(dir)
-        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-        .output()
-        .expect("mpirun starts (install openmpi-bin: see .ci/mpi.sh)")
-}
+use mpi_support::{mpirun, PERIDYN};
+use std::process::Command;
 
 /// exodiff command file: 1e-8 relative everywhere (the bar for implicit runs), with
 /// floors below which values are round-off: 1e-14 m for displacements (the pull is 0.012 m)
