@@ -278,12 +278,10 @@ fn an_iteration_limit_below_what_cg_needs_is_not_converged() {
 // ---- Through the deck: a quasi-static LPS bar, native direct against Belos ----
 
 use peridyn::io::deck::{parse_str, DeckFormat};
-use peridyn::io::exodus::ExodusFile;
-use std::path::Path;
 use std::process::Command;
 
 mod quasi_static_bar;
-use quasi_static_bar::run_deck;
+use quasi_static_bar::{final_displacement, run_deck};
 
 /// The shared quasi-static bar pulled by `PULL` and `SHEAR` in two load steps, with the
 /// `Solver`-level lines `solver` (backend and linear-solver keys).
@@ -292,23 +290,6 @@ fn bar_deck(solver: &str, pull: f64, shear: f64) -> String {
         "    Final Time: 1.0\n{solver}\n    QuasiStatic:\n      Number of Load Steps: {{steps}}\n      Absolute Tolerance: 1.0\n      Maximum Solver Iterations: 20"
     );
     quasi_static_bar::bar_deck(&solver_list, pull, shear, 2)
-}
-
-/// Final displacement of every point of a bar run.
-fn final_displacement(dir: &Path) -> Vec<f64> {
-    let file = ExodusFile::open(&dir.join("bar.e")).unwrap();
-    let last = file.times.len() - 1;
-    ["DisplacementX", "DisplacementY", "DisplacementZ"]
-        .iter()
-        .flat_map(|name| {
-            let index = file
-                .nodal_variable_names
-                .iter()
-                .position(|n| n == name)
-                .unwrap();
-            file.nodal_values(last, index).unwrap()
-        })
-        .collect()
 }
 
 const PULL: f64 = 0.012;

@@ -11,8 +11,7 @@ use peridyn::backend::trilinos::nox::{
 use peridyn::backend::SolveError;
 use peridyn::io::deck::ParameterValue;
 use peridyn::io::exodus::ExodusFile;
-use quasi_static_bar::run_deck;
-use std::path::Path;
+use quasi_static_bar::{final_displacement, run_deck};
 
 /// F(x) = (x₀³ + x₀ − 2, 2x₁ + x₀ − 5): the unique root is (1, 2) (x₀³ + x₀ = 2 holds at
 /// x₀ = 1 only, as the left side increases monotonically; then x₁ = (5 − 1)/2).
@@ -211,22 +210,6 @@ fn nox_quasi_static(linear_solver: &str) -> String {
     format!(
         "    NOXQuasiStatic:\n      Number of Load Steps: {{steps}}\n      Absolute Tolerance: 1.0e-3\n      Max Solver Iterations: 30\n      Printing:\n        Output Information: 0\n      Direction:\n        Method: \"Newton\"\n        Newton:\n          Linear Solver:\n{linear_solver}\n      Line Search:\n        Method: \"Polynomial\""
     )
-}
-
-fn final_displacement(dir: &Path) -> Vec<f64> {
-    let file = ExodusFile::open(&dir.join("bar.e")).unwrap();
-    let last = file.times.len() - 1;
-    ["DisplacementX", "DisplacementY", "DisplacementZ"]
-        .iter()
-        .flat_map(|name| {
-            let index = file
-                .nodal_variable_names
-                .iter()
-                .position(|n| n == name)
-                .unwrap();
-            file.nodal_values(last, index).unwrap()
-        })
-        .collect()
 }
 
 #[test]

@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 use peridyn::io::deck::{parse_str, DeckFormat};
+use peridyn::io::exodus::ExodusFile;
 use peridyn::setup;
 use peridyn::simulation::{self, RunError, RunSummary};
 use std::path::Path;
@@ -73,4 +74,22 @@ pub fn bar_deck(solver: &str, pull: f64, shear: f64, steps: usize) -> String {
         right = face(11),
         solver = solver.replace("{steps}", &steps.to_string()),
     )
+}
+
+/// The displacement of every point at the last frame of `dir/bar.e` (x components of all
+/// points, then y, then z).
+pub fn final_displacement(dir: &Path) -> Vec<f64> {
+    let file = ExodusFile::open(&dir.join("bar.e")).unwrap();
+    let last = file.times.len() - 1;
+    ["DisplacementX", "DisplacementY", "DisplacementZ"]
+        .iter()
+        .flat_map(|name| {
+            let index = file
+                .nodal_variable_names
+                .iter()
+                .position(|n| n == name)
+                .unwrap();
+            file.nodal_values(last, index).unwrap()
+        })
+        .collect()
 }
