@@ -199,13 +199,6 @@ mod tests {
     }
 
     #[test]
-    fn the_partition_is_deterministic() {
-        let x = lattice(7, 6, 5);
-        let w: Vec<f64> = (0..x.len()).map(|i| 1.0 + (i % 5) as f64).collect();
-        assert_eq!(Partition::bisect(&x, &w, 3), Partition::bisect(&x, &w, 3));
-    }
-
-    #[test]
     fn more_parts_than_points_leaves_ranks_idle() {
         let x = lattice(2, 1, 1);
         let p = Partition::bisect(&x, &[1.0, 1.0], 3);
