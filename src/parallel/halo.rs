@@ -264,27 +264,40 @@ impl HaloPlan {
         for (neighbor, buffer) in self.receives.iter().zip(&mut self.receive_buffers) {
             buffer.resize(neighbor.points.len() * w, 0.0);
         }
-        {
-            let sends: Vec<(usize, &[f64])> = self
-                .sends
-                .iter()
-                .zip(&self.send_buffers)
-                .map(|(n, b)| (n.rank, b.as_slice()))
-                .collect();
-            let mut receives: Vec<(usize, &mut [f64])> = self
-                .receives
-                .iter()
-                .zip(&mut self.receive_buffers)
-                .map(|(n, b)| (n.rank, b.as_mut_slice()))
-                .collect();
-            comm.exchange(&sends, &mut receives);
-        }
+        swap_buffers(
+            comm,
+            self.sends.iter().map(|n| n.rank),
+            &self.send_buffers,
+            self.receives.iter().map(|n| n.rank),
+            &mut self.receive_buffers,
+        );
         for (neighbor, buffer) in self.receives.iter().zip(&self.receive_buffers) {
             for (k, &p) in neighbor.points.iter().enumerate() {
                 field[p as usize] = T::unpack(&buffer[k * w..(k + 1) * w]);
             }
         }
     }
+}
+
+/// Sends each packed buffer to its rank and fills each receive buffer (sized by the caller)
+/// from its rank, all non-blocking and waited for together (collective). The bond halo and
+/// the contact partner exchange both move their points this way.
+pub(super) fn swap_buffers(
+    comm: &dyn Communicator,
+    send_ranks: impl Iterator<Item = usize>,
+    send_buffers: &[Vec<f64>],
+    receive_ranks: impl Iterator<Item = usize>,
+    receive_buffers: &mut [Vec<f64>],
+) {
+    let sends: Vec<(usize, &[f64])> = send_ranks
+        .zip(send_buffers)
+        .map(|(rank, b)| (rank, b.as_slice()))
+        .collect();
+    let mut receives: Vec<(usize, &mut [f64])> = receive_ranks
+        .zip(receive_buffers.iter_mut())
+        .map(|(rank, b)| (rank, b.as_mut_slice()))
+        .collect();
+    comm.exchange(&sends, &mut receives);
 }
 
 #[cfg(test)]

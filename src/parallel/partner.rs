@@ -117,21 +117,13 @@ impl PartnerExchange {
         for (peer, buffer) in self.receives.iter().zip(&mut self.receive_buffers) {
             buffer.resize(peer.points.len() * width, 0.0);
         }
-        {
-            let sends: Vec<(usize, &[f64])> = self
-                .sends
-                .iter()
-                .zip(&self.send_buffers)
-                .map(|(p, b)| (p.rank, b.as_slice()))
-                .collect();
-            let mut receives: Vec<(usize, &mut [f64])> = self
-                .receives
-                .iter()
-                .zip(&mut self.receive_buffers)
-                .map(|(p, b)| (p.rank, b.as_mut_slice()))
-                .collect();
-            comm.exchange(&sends, &mut receives);
-        }
+        super::halo::swap_buffers(
+            comm,
+            self.sends.iter().map(|p| p.rank),
+            &self.send_buffers,
+            self.receives.iter().map(|p| p.rank),
+            &mut self.receive_buffers,
+        );
         for (peer, buffer) in self.receives.iter().zip(&self.receive_buffers) {
             for (k, &p) in peer.points.iter().enumerate() {
                 unpack(p, &buffer[k * width..(k + 1) * width]);
