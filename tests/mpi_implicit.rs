@@ -1,7 +1,8 @@
 //! Quasi-static solves on several MPI ranks (features `mpi` and `trilinos`): Trilinos NOX over
 //! the owned unknowns, with the ghosts refreshed inside every residual evaluation, gives the
 //! one-rank answer on 2 and 3 ranks, with the assembled tangent and Jacobian-free, and so does
-//! peridyn's own Newton (`QuasiStatic`) with distributed Belos solves.
+//! peridyn's own Newton with distributed Belos solves, quasi-static (`QuasiStatic`) and
+//! Newmark-β (`Implicit`).
 #![cfg(all(feature = "mpi", feature = "trilinos"))]
 
 mod mpi_support;
@@ -25,6 +26,23 @@ NODAL VARIABLES
 ELEMENT VARIABLES
 ";
 
+/// exodiff command file for the Newmark-β runs: 1e-8 relative on displacements and velocities
+/// as in [`RELATIVE`]; forces to 0.01 N absolute. Inside the bar the force is no residual here
+/// but the inertial force ρVa (≈ 600 N), and two converged answers differ there by their Newton
+/// residuals: the residual stops at ≈ 2e-3 N (the log's measure 2e-11 over βΔt² = 1e-8), the
+/// round-off of terms ρV/(βΔt²)·u ≈ 8e8 N, so no solver gets these forces to 1e-8 relative.
+/// A wrong ghost or a missed row moves forces by 1e4 N and more.
+const NEWMARK: &str = "DEFAULT TOLERANCE relative 1.0E-8 floor 1.0E-14
+COORDINATES absolute 0.0
+TIME STEPS relative 1.0E-12 floor 0.0
+GLOBAL VARIABLES
+NODAL VARIABLES
+\tForceX absolute 1.0E-2
+\tForceY absolute 1.0E-2
+\tForceZ absolute 1.0E-2
+ELEMENT VARIABLES
+";
+
 /// The shared LPS bar (108 points, two load steps) as a NOXQuasiStatic deck on the Trilinos
 /// backend with `solver_keys` and the NOX `Linear Solver` keys `linear`.
 fn deck(solver_keys: &str, linear: &str) -> String {
@@ -34,10 +52,12 @@ fn deck(solver_keys: &str, linear: &str) -> String {
     quasi_static_bar::bar_deck(&solver, 0.012, 0.004, 2)
 }
 
-fn same_answer_on_one_two_and_three_ranks(name: &str, text: &str) {
+/// Runs `text` on 1, 2 and 3 ranks and compares the results files with the exodiff command
+/// file `comp`; `last_step` is the log line of the last step, which rank 0 alone prints.
+fn same_answer_on_one_two_and_three_ranks(name: &str, text: &str, comp: &str, last_step: &str) {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("bar.yaml"), text).unwrap();
-    std::fs::write(dir.path().join("relative.comp"), RELATIVE).unwrap();
+    std::fs::write(dir.path().join("relative.comp"), comp).unwrap();
     for ranks in 1..=3 {
         let out = format!("ranks{ranks}");
         let output = mpirun(
@@ -49,7 +69,7 @@ fn same_answer_on_one_two_and_three_ranks(name: &str, text: &str) {
         assert!(output.status.success(), "{name} on {ranks} ranks: {log}");
         // Only rank 0 reports.
         assert_eq!(log.matches("done:").count(), 1, "{log}");
-        assert_eq!(log.matches("Load step 2,").count(), 1, "{log}");
+        assert_eq!(log.matches(last_step).count(), 1, "{log}");
     }
     for ranks in 2..=3 {
         let output = Command::new(PERIDYN)
@@ -78,7 +98,7 @@ fn nox_newton_gives_the_one_rank_answer_on_two_and_three_ranks() {
         "",
         "            Preconditioner: \"Ifpack\"\n            Tolerance: 1.0e-10",
     );
-    same_answer_on_one_two_and_three_ranks("NOX Newton", &text);
+    same_answer_on_one_two_and_three_ranks("NOX Newton", &text, RELATIVE, "Load step 2,");
 }
 
 #[test]
@@ -87,14 +107,24 @@ fn jacobian_free_nox_gives_the_one_rank_answer_on_two_and_three_ranks() {
         "    Peridigm Preconditioner: \"Block 3x3\"",
         "            Jacobian Operator: \"Matrix-Free\"\n            Preconditioner: \"User Defined\"",
     );
-    same_answer_on_one_two_and_three_ranks("NOX JFNK", &text);
+    same_answer_on_one_two_and_three_ranks("NOX JFNK", &text, RELATIVE, "Load step 2,");
 }
 
 #[test]
 fn quasi_static_newton_with_belos_gives_the_one_rank_answer_on_two_and_three_ranks() {
     let solver = "    Final Time: 1.0\n    Backend: \"Trilinos\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"ILU\"\n    Linear Solver Tolerance: 1.0e-12\n    QuasiStatic:\n      Number of Load Steps: {steps}\n      Absolute Tolerance: 1.0e-2\n      Maximum Solver Iterations: 20";
     let text = quasi_static_bar::bar_deck(solver, 0.012, 0.004, 2);
-    same_answer_on_one_two_and_three_ranks("QuasiStatic + Belos", &text);
+    same_answer_on_one_two_and_three_ranks("QuasiStatic + Belos", &text, RELATIVE, "Load step 2,");
+}
+
+#[test]
+fn newmark_with_belos_gives_the_one_rank_answer_on_two_and_three_ranks() {
+    // Ten Newmark-β steps of 0.2 ms while the right end moves at 5 m/s along x and 2 m/s
+    // along y: the pull reaches the far end of the 12 m steel bar (wave speed ≈ 5.2 km/s)
+    // within the run, so inertia and stiffness both shape the answer.
+    let solver = "    Final Time: 0.002\n    Backend: \"Trilinos\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"ILU\"\n    Linear Solver Tolerance: 1.0e-12\n    Implicit:\n      Fixed dt: 0.0002\n      Absolute Tolerance: 1.0e-10\n      Maximum Solver Iterations: 10";
+    let text = quasi_static_bar::bar_deck(solver, 5.0, 2.0, 1);
+    same_answer_on_one_two_and_three_ranks("Newmark-β + Belos", &text, NEWMARK, "Time step 10,");
 }
 
 #[test]

@@ -1,9 +1,11 @@
-//! Explicit runs on N MPI ranks: the same answers as one rank, one results file.
+//! Runs on N MPI ranks: the same answers as one rank, one results file.
 //!
-//! Every rank holds the whole model (built from the deck by each rank) and runs velocity
-//! Verlet on its [`Subdomain`]: owned points plus ghosts whose current positions are refreshed
-//! by one halo exchange per step. Each rank evaluates damage and forces of its owned points
-//! from exactly the numbers one rank would use, in the same order (see [`crate::parallel`]).
+//! Every rank holds the whole model (built from the deck by each rank) and runs on its
+//! [`Subdomain`]: owned points plus ghosts whose current positions are refreshed by one halo
+//! exchange per step (velocity Verlet) or per residual evaluation (the implicit solvers, on
+//! the Trilinos backend: quasi-static load steps and Newmark-β). Each rank evaluates damage and
+//! forces of its owned points from exactly the numbers one rank would use, in the same order
+//! (see [`crate::parallel`]).
 //!
 //! Collectives per step: the halo exchange, one sum of (kinetic energy, supplied work, failure
 //! count) for the stability monitor and for failure agreement, and, on output steps, one gather
@@ -32,6 +34,7 @@ use crate::physics::Physics;
 use crate::setup::{self, Model};
 use crate::solver::collective::Collective;
 use crate::solver::explicit::Halo;
+use crate::solver::newmark::NewmarkError;
 use crate::solver::quasistatic::QuasiStaticError;
 use crate::solver::{EnergyMonitor, VelocityVerlet, VerletSettings};
 use crate::state::State;
@@ -41,22 +44,23 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Refuses, before any message is sent, what a distributed run cannot do yet: implicit
-/// solvers (they need the distributed Trilinos backend), and contact in a deck with an implicit
+/// solvers on the native backend (the distributed linear and nonlinear solves are
+/// Trilinos'), and contact in a deck with an implicit
 /// solver (contact acts only in `Verlet` steps, where [`crate::contact::Contact::on_ranks`]
 /// gives every rank the one-rank candidates and forces).
 pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), RunError> {
     for solver in &deck.solvers {
         let on_trilinos = matches!(
             solver.integrator,
-            Integrator::NoxQuasiStatic(_) | Integrator::QuasiStatic(_)
+            Integrator::NoxQuasiStatic(_) | Integrator::QuasiStatic(_) | Integrator::Implicit(_)
         ) && matches!(
             solver.linear_solve.backend,
             crate::io::deck::LinearBackend::Trilinos { .. }
         ) && cfg!(feature = "trilinos");
         if !matches!(solver.integrator, Integrator::Verlet(_)) && !on_trilinos {
             return Err(RunError::Unsupported(format!(
-                "solver \"{}\": {} on {ranks} ranks needs the Trilinos backend (QuasiStatic or NOXQuasiStatic with Backend \"Trilinos\", \
-                 or `peridyn run --backend trilinos`, in a build with the features mpi and trilinos); the native backend and Newmark-β run on one rank",
+                "solver \"{}\": {} on {ranks} ranks needs the Trilinos backend (QuasiStatic, NOXQuasiStatic or Implicit with Backend \"Trilinos\", \
+                 or `peridyn run --backend trilinos`, in a build with the features mpi and trilinos); the native backend runs on one rank",
                 solver.name,
                 solver.integrator.deck_name()
             )));
@@ -444,7 +448,7 @@ fn broken_bonds(comm: &dyn Communicator, sub: &Subdomain, physics: &Physics) -> 
     count[0] as usize
 }
 
-/// Runs every solver list of the deck (all `Verlet`; see [`check_distributable`]) on
+/// Runs every solver list of the deck (those [`check_distributable`] accepts) on
 /// `comm.size()` ranks. Every rank calls it with the same deck and global model; rank 0
 /// writes the outputs to `dir` and returns the summary with the files.
 pub fn run_distributed(
@@ -519,6 +523,17 @@ pub fn run_distributed(
                     &mut summary,
                 )
             }
+            Integrator::Implicit(implicit) => newmark_on_ranks(
+                comm,
+                &mut sub,
+                global,
+                solver,
+                implicit,
+                &mut physics,
+                &mut state,
+                &mut outputs,
+                &mut summary,
+            ),
             _ => quasi_static_on_ranks(
                 comm,
                 &mut sub,
@@ -741,6 +756,26 @@ impl Collective for RankCollective<'_> {
     }
 }
 
+/// The prescribed dofs of this rank's ghosts (local numbering `3p + c`), from the run-wide
+/// conditions: a ghost may sit in a node set whose points this rank does not own.
+fn ghost_constrained_dofs(
+    global: &Model,
+    model: &Model,
+    plan: &HaloPlan,
+    ghost: &[bool],
+) -> Vec<usize> {
+    let global_constrained = global.boundary.constrained_dofs();
+    (0..model.points.len())
+        .filter(|&p| ghost[p])
+        .flat_map(|p| {
+            let g = plan.global()[p] as usize;
+            (0..3).map(move |c| (p, c, 3 * g + c))
+        })
+        .filter(|(_, _, dof)| global_constrained.binary_search(dof).is_ok())
+        .map(|(p, c, _)| 3 * p + c)
+        .collect()
+}
+
 /// One quasi-static solver list on every rank: the load steps of
 /// [`crate::solver::quasistatic`] with Trilinos NOX (`NOXQuasiStatic`) or peridyn's Newton
 /// with distributed Belos solves (`QuasiStatic`) over the owned unknowns, the ghosts
@@ -779,17 +814,7 @@ fn quasi_static_on_ranks(
         model,
     } = sub;
     let (partition, model) = (&*partition, &*model);
-    // The prescribed dofs of the ghosts, from the run-wide conditions.
-    let global_constrained = global.boundary.constrained_dofs();
-    let ghost_constrained: Vec<usize> = (0..model.points.len())
-        .filter(|&p| ghost[p])
-        .flat_map(|p| {
-            let g = plan.global()[p] as usize;
-            (0..3).map(move |c| (p, c, 3 * g + c))
-        })
-        .filter(|(_, _, dof)| global_constrained.binary_search(dof).is_ok())
-        .map(|(p, c, _)| 3 * p + c)
-        .collect();
+    let ghost_constrained = ghost_constrained_dofs(global, model, plan, &ghost);
     let owned = plan.owned().to_vec();
     state.time = solver.initial_time;
     outputs.nonlinear_iterations = None;
@@ -836,6 +861,82 @@ fn quasi_static_on_ranks(
             ..
         })) => Err(RunError::OtherRank { rank: 0, code: 3 }),
         Err(error @ RunError::QuasiStatic(QuasiStaticError::NotConverged { .. })) => {
+            Err(collective(comm, error))
+        }
+        Err(error) => Err(error),
+    }
+}
+
+/// One `Implicit` (Newmark-β) solver list on every rank: the steps of
+/// [`crate::solver::newmark`] with peridyn's Newton and distributed Belos solves over the
+/// owned unknowns, the ghosts refreshed before every residual evaluation.
+#[allow(clippy::too_many_arguments)]
+fn newmark_on_ranks(
+    comm: &dyn Communicator,
+    sub: &mut Subdomain,
+    global: &Model,
+    solver: &Solver,
+    implicit: &crate::io::deck::Implicit,
+    physics: &mut Physics,
+    state: &mut State,
+    outputs: &mut DistributedOutputs<'_>,
+    summary: &mut RunSummary,
+) -> Result<(), RunError> {
+    let settings = super::newmark_settings(solver, implicit);
+    let mut linear = crate::solver::linear::strategy(solver, &sub.model, physics)
+        .map_err(|e| collective(comm, e))?;
+    if comm.rank() == 0 {
+        eprintln!(
+            "{}",
+            super::describe_newmark(solver, &settings, &linear.describe(), comm.size())
+        );
+    }
+    let ghost = sub.ghost_mask();
+    let Subdomain {
+        partition,
+        plan,
+        model,
+    } = sub;
+    let (partition, model) = (&*partition, &*model);
+    let ghost_constrained = ghost_constrained_dofs(global, model, plan, &ghost);
+    let owned = plan.owned().to_vec();
+    state.time = solver.initial_time;
+    outputs.nonlinear_iterations = None;
+    let written = {
+        let fields = Fields::new(model, physics, state, &[]);
+        outputs.call(comm, partition, &owned, &fields, state.time)
+    };
+    agree(comm, written)?;
+    let mut collective_ops = RankCollective {
+        plan,
+        comm,
+        ghost,
+        global_points: global.points.len(),
+        ghost_constrained,
+    };
+    let result = crate::solver::newmark::run(
+        model,
+        physics,
+        state,
+        &settings,
+        &mut linear,
+        &mut collective_ops,
+        |physics, state, _step, report| -> Result<(), RunError> {
+            summary.steps += 1;
+            outputs.nonlinear_iterations = Some(report.iterations as f64);
+            let fields = Fields::new(model, physics, state, &[]);
+            let written = outputs.call(comm, partition, &owned, &fields, state.time);
+            agree(comm, written)
+        },
+    );
+    match result {
+        Ok(()) => Ok(()),
+        // Every rank stops at the same call; the rank whose evaluation failed reports why.
+        Err(RunError::Newmark(NewmarkError::Solve {
+            source: SolveError::OtherRank,
+            ..
+        })) => Err(RunError::OtherRank { rank: 0, code: 3 }),
+        Err(error @ RunError::Newmark(NewmarkError::NotConverged { .. })) => {
             Err(collective(comm, error))
         }
         Err(error) => Err(error),

@@ -523,27 +523,12 @@ impl Run<'_> {
         physics: &mut Physics,
         state: &mut State,
     ) -> Result<(), RunError> {
-        let steps = ((solver.final_time - solver.initial_time) / implicit.fixed_dt)
-            .floor()
-            .max(0.0) as u64;
-        let settings = NewmarkSettings {
-            time_step: implicit.fixed_dt,
-            steps,
-            initial_time: solver.initial_time,
-            beta: implicit.beta,
-            gamma: implicit.gamma,
-            tolerance: implicit.absolute_tolerance,
-            max_iterations: implicit.maximum_solver_iterations,
-            verbose: solver.verbose,
-        };
+        let settings = newmark_settings(solver, implicit);
+        let steps = settings.steps;
         let mut linear = linear::strategy(solver, self.model, physics)?;
         eprintln!(
-            "{}: Implicit (Newmark-β, β = {}, γ = {}), Δt = {:e} s, {steps} steps, linear solver: {}",
-            solver.name,
-            implicit.beta,
-            implicit.gamma,
-            implicit.fixed_dt,
-            linear.describe()
+            "{}",
+            describe_newmark(solver, &settings, &linear.describe(), 1)
         );
         state.time = solver.initial_time;
         self.nonlinear_iterations = None;
@@ -554,6 +539,9 @@ impl Run<'_> {
             state,
             &settings,
             &mut linear,
+            &mut SerialRun {
+                points: self.model.points.len(),
+            },
             |physics, state, step, report| -> Result<(), RunError> {
                 self.nonlinear_iterations = Some(report.iterations as f64);
                 self.summary.broken_bonds += report.broken_bonds;
@@ -564,6 +552,41 @@ impl Run<'_> {
         self.summary.steps += steps;
         Ok(())
     }
+}
+
+/// The Newmark-β settings of an `Implicit` list; the step count is
+/// `floor((t_final − t_initial)/Δt)`, as Peridigm counts it.
+fn newmark_settings(solver: &Solver, implicit: &crate::io::deck::Implicit) -> NewmarkSettings {
+    NewmarkSettings {
+        time_step: implicit.fixed_dt,
+        steps: ((solver.final_time - solver.initial_time) / implicit.fixed_dt)
+            .floor()
+            .max(0.0) as u64,
+        initial_time: solver.initial_time,
+        beta: implicit.beta,
+        gamma: implicit.gamma,
+        tolerance: implicit.absolute_tolerance,
+        max_iterations: implicit.maximum_solver_iterations,
+        verbose: solver.verbose,
+    }
+}
+
+/// The log line that opens a Newmark-β solver list.
+fn describe_newmark(
+    solver: &Solver,
+    settings: &NewmarkSettings,
+    linear_solver: &str,
+    ranks: usize,
+) -> String {
+    let on_ranks = if ranks > 1 {
+        format!(" on {ranks} ranks")
+    } else {
+        String::new()
+    };
+    format!(
+        "{}: Implicit (Newmark-β, β = {}, γ = {}), Δt = {:e} s, {} steps{on_ranks}, linear solver: {linear_solver}",
+        solver.name, settings.beta, settings.gamma, settings.time_step, settings.steps
+    )
 }
 
 /// Columns of the implicit solver report (`<output>_solver.csv`, after `Time`).

@@ -82,15 +82,22 @@ pub fn agree<T>(
     collective: &mut dyn Collective,
     result: Result<T, SolveError>,
 ) -> Result<T, SolveError> {
-    if collective.ranks() == 1 {
-        return result;
-    }
-    let mut failed = [f64::from(u8::from(result.is_err()))];
-    collective.sum(&mut failed);
+    // Every rank takes part in the sum, the failing ones too.
+    let failed_somewhere = any_failed(collective, result.is_err());
     match result {
-        Ok(_) if failed[0] > 0.0 => Err(SolveError::OtherRank),
+        Ok(_) if failed_somewhere => Err(SolveError::OtherRank),
         other => other,
     }
+}
+
+/// True when `failed` holds on any rank (collective; no message on one rank).
+pub fn any_failed(collective: &mut dyn Collective, failed: bool) -> bool {
+    if collective.ranks() == 1 {
+        return failed;
+    }
+    let mut failures = [f64::from(u8::from(failed))];
+    collective.sum(&mut failures);
+    failures[0] > 0.0
 }
 
 /// Σ v² over the ranks.

@@ -19,7 +19,7 @@ use crate::backend::SolveError;
 use crate::boundary::BoundaryError;
 use crate::physics::Physics;
 use crate::setup::Model;
-use crate::solver::collective::SerialRun;
+use crate::solver::collective::{any_failed, Collective};
 use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem, Inertia};
 use crate::solver::newton::{
     self, ConvergenceMeasure, LinearStrategy, NewtonReport, NewtonSettings,
@@ -83,18 +83,25 @@ pub enum NewmarkError {
 }
 
 /// Advances the state `settings.steps` steps, calling `on_step(step, report)` after each.
+///
+/// On several ranks (`collective`) every rank calls this with its subdomain: the Newton
+/// unknowns are the owned free dofs, the ghosts' displacements come from their owners, and
+/// rank 0 alone writes the log. [`crate::solver::collective::SerialRun`] runs it on one.
+#[allow(clippy::too_many_arguments)]
 pub fn run<E: From<NewmarkError>>(
     model: &Model,
     physics: &mut Physics,
     state: &mut State,
     settings: &NewmarkSettings,
     linear: &mut LinearStrategy,
+    collective: &mut dyn Collective,
     mut on_step: impl FnMut(&Physics, &State, u64, &NewtonReport) -> Result<(), E>,
 ) -> Result<(), E> {
     let constrained = model.boundary.constrained_dofs();
     let (dt, beta, gamma) = (settings.time_step, settings.beta, settings.gamma);
     let positions = &model.points.position;
     let n = model.points.len();
+    let root = collective.rank() == 0;
     for step in 1..=settings.steps {
         let from = settings.initial_time + (step - 1) as f64 * dt;
         let to = settings.initial_time + step as f64 * dt;
@@ -109,16 +116,25 @@ pub fn run<E: From<NewmarkError>>(
             }
         }
         state.displacement.copy_from_slice(&predictor);
-        {
-            let displacement = &mut state.displacement;
-            model
-                .boundary
-                .prescribed_increments(positions, &u_n, from, to, |p, c, du| {
-                    displacement[p][c] = u_n[p][c] + du
-                })
-                .map_err(NewmarkError::from)?;
+        let displacement = &mut state.displacement;
+        let loads = model
+            .boundary
+            .prescribed_increments(positions, &u_n, from, to, |p, c, du| {
+                displacement[p][c] = u_n[p][c] + du
+            })
+            .and_then(|()| apply_loads_at(model, physics, state, to));
+        // A condition may fail at some points only, hence on some ranks only: all stop.
+        if any_failed(collective, loads.is_err()) {
+            return Err(match loads {
+                Err(error) => NewmarkError::Boundary(error),
+                Ok(()) => NewmarkError::Solve {
+                    step,
+                    time: to,
+                    source: SolveError::OtherRank,
+                },
+            }
+            .into());
         }
-        apply_loads_at(model, physics, state, to).map_err(NewmarkError::from)?;
         let factor = 1.0 / (beta * dt * dt);
         let mut system = ImplicitSystem::new(DofMap::new(n, &constrained, &[]), physics);
         system.inertia = Some(Inertia { predictor, factor });
@@ -129,8 +145,8 @@ pub fn run<E: From<NewmarkError>>(
                 scale: beta * dt * dt,
             },
             line_search: true,
-            print_iterations: settings.verbose,
-            verbose: settings.verbose,
+            print_iterations: settings.verbose && root,
+            verbose: settings.verbose && root,
         };
         let report = newton::solve(
             &mut system,
@@ -140,9 +156,7 @@ pub fn run<E: From<NewmarkError>>(
             linear,
             &newton_settings,
             &constrained,
-            &mut SerialRun {
-                points: model.points.len(),
-            },
+            collective,
         )
         .map_err(|source| NewmarkError::Solve {
             step,
@@ -160,6 +174,9 @@ pub fn run<E: From<NewmarkError>>(
             }
             .into());
         }
+        // The ghosts take their owners' solution, so that their velocities and accelerations,
+        // and the next step's predictor, are the owners' too.
+        collective.refresh(&mut state.displacement);
         let inertia = system.inertia.as_ref().expect("set above");
         let kinematics = state
             .acceleration
@@ -175,7 +192,7 @@ pub fn run<E: From<NewmarkError>>(
         }
         state.time = to;
         system.commit_damage(physics);
-        if settings.verbose || step == settings.steps || step % 100 == 0 {
+        if root && (settings.verbose || step == settings.steps || step % 100 == 0) {
             eprintln!(
                 "Time step {step}, Newton iterations = {}, norm(residual) = {measure:e}",
                 report.iterations

@@ -25,7 +25,7 @@ use crate::boundary::BoundaryError;
 use crate::io::deck::{AdaptiveLoadStepping, LoadSteps};
 use crate::physics::Physics;
 use crate::setup::Model;
-use crate::solver::collective::Collective;
+use crate::solver::collective::{any_failed, Collective};
 use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem};
 use crate::solver::newton::{ConvergenceMeasure, NewtonReport, NewtonSettings, NonlinearSolver};
 use crate::state::State;
@@ -158,7 +158,18 @@ pub fn run<E: From<QuasiStaticError>>(
         let predictor_velocity = state.velocity.clone();
         let mut system =
             ImplicitSystem::new(DofMap::new(model.points.len(), &constrained, &[]), physics);
-        set_loads(model, physics, state, &start_displacement, from, to)?;
+        let loads = set_loads(model, physics, state, &start_displacement, from, to);
+        // A condition may fail at some points only, hence on some ranks only: all stop.
+        if any_failed(collective, loads.is_err()) {
+            return Err(loads
+                .err()
+                .unwrap_or(QuasiStaticError::Solve {
+                    step: k,
+                    time: to,
+                    source: SolveError::OtherRank,
+                })
+                .into());
+        }
         if settings.predictor && (!reports.is_empty() || settings.predict_first_step) {
             for &dof in &system.dofs.free {
                 state.displacement[dof / 3][dof % 3] += predictor_velocity[dof / 3][dof % 3] * dt;
