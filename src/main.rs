@@ -257,7 +257,7 @@ fn run_on_ranks_collectively(
         }
     };
     let deck = load_with_backend(path, backend).map_err(shared)?;
-    let model = build(&deck).map_err(shared)?;
+    let (model, families) = simulation::global_model(&deck).map_err(|e| shared(invalid(e)))?;
     let unsupported = setup::unsupported_features(&deck);
     if !unsupported.is_empty() {
         return Err(shared(
@@ -288,14 +288,13 @@ fn run_on_ranks_collectively(
     }
     if rank == 0 {
         eprintln!(
-            "{}: {} points, {} bonds, {} ranks",
+            "{}: {} points, {} ranks",
             path.display(),
             model.points.len(),
-            model.bonds.num_bonds(),
             comm.size()
         );
     }
-    match simulation::run_distributed(&deck, &model, output_dir, comm) {
+    match simulation::run_distributed(&deck, &model, families, output_dir, comm) {
         Ok(summary) => {
             if rank == 0 {
                 eprintln!(

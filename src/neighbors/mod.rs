@@ -13,7 +13,7 @@ mod space_filling_curve;
 
 pub use bond_filter::{BondFilter, BondFilterError, Disk, RectangularPlane};
 pub use search::{
-    find_families, find_families_with, try_find_families, FamilySearch, NeighborSearchError,
-    NeighborhoodRule, SearchBackend, MAX_CELLS_PER_POINT,
+    find_families, find_families_with, try_find_families, try_find_families_of, FamilySearch,
+    NeighborSearchError, NeighborhoodRule, SearchBackend, MAX_CELLS_PER_POINT,
 };
 pub use space_filling_curve::space_filling_curve_order;

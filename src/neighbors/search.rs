@@ -157,6 +157,33 @@ pub fn find_families_with(
     search: &FamilySearch,
     backend: SearchBackend,
 ) -> Result<BondList, NeighborSearchError> {
+    find_rows_with(search, backend, None)
+}
+
+/// The families of `points` only: row k of the result is point `points[k]`'s family, exactly
+/// the row [`try_find_families`] gives it (neighbour indices stay global). A distributed run
+/// builds the rows of its own points and ghosts this way instead of every point's.
+///
+/// # Panics
+/// When an entry of `points` is not a point of the search (a caller's broken invariant).
+pub fn try_find_families_of(
+    search: &FamilySearch,
+    points: &[u32],
+) -> Result<BondList, NeighborSearchError> {
+    let n = search.positions.len();
+    assert!(
+        points.iter().all(|&p| (p as usize) < n),
+        "family rows requested for points beyond the {n} of the search"
+    );
+    find_rows_with(search, SearchBackend::Auto, Some(points))
+}
+
+/// The rows of `rows` (all points when `None`), searched with `backend`.
+fn find_rows_with(
+    search: &FamilySearch,
+    backend: SearchBackend,
+    rows: Option<&[u32]>,
+) -> Result<BondList, NeighborSearchError> {
     validate(search)?;
     let queries = Queries::new(search);
     let n = search.positions.len();
@@ -178,6 +205,7 @@ pub fn find_families_with(
         let grid = CellGrid::new(search.positions, &queries, budget);
         assemble(
             search.positions,
+            rows,
             || (),
             |_, i, row| grid.neighbours(i, search.positions[i], queries.shape(i), &rules, row),
         )
@@ -191,6 +219,7 @@ pub fn find_families_with(
         };
         assemble(
             search.positions,
+            rows,
             || tree.create_scratch::<SquaredEuclidean<f64>>(),
             |scratch, i, row| kd.neighbours(scratch, i, queries.shape(i), &rules, row),
         )
@@ -719,6 +748,7 @@ fn split_by_lengths<'a, T>(mut data: &'a mut [T], lengths: &[usize]) -> Vec<&'a 
 /// twice; searching is the dearer part.
 fn assemble<S, I, F>(
     positions: &[[f64; 3]],
+    rows: Option<&[u32]>,
     init: I,
     find_row: F,
 ) -> Result<BondList, NeighborSearchError>
@@ -726,7 +756,8 @@ where
     I: Fn() -> S + Sync + Send,
     F: Fn(&mut S, usize, &mut Vec<u32>) + Sync + Send,
 {
-    let n = positions.len();
+    let n = rows.map_or(positions.len(), <[u32]>::len);
+    let point = |k: usize| rows.map_or(k, |rows| rows[k] as usize);
     let blocks: Vec<Range<usize>> = (0..n)
         .step_by(BLOCK)
         .map(|s| s..(s + BLOCK).min(n))
@@ -739,9 +770,9 @@ where
                 let mut counts = Vec::with_capacity(block.len());
                 // The previous block's size is a good guess for this one's (same region).
                 let mut neighbors = Vec::with_capacity(*last_size + *last_size / 8);
-                for i in block.clone() {
+                for k in block.clone() {
                     row.clear();
-                    find_row(state, i, row);
+                    find_row(state, point(k), row);
                     if !row.is_sorted() {
                         row.sort_unstable();
                     }
@@ -779,9 +810,9 @@ where
         .for_each(|((rows, block), (neighbors, lengths))| {
             neighbors.copy_from_slice(&rows.neighbors);
             let mut start = 0;
-            for (i, &count) in block.zip(&rows.counts) {
+            for (k, &count) in block.zip(&rows.counts) {
                 let end = start + count as usize;
-                let x = positions[i];
+                let x = positions[point(k)];
                 for (length, &j) in lengths[start..end]
                     .iter_mut()
                     .zip(&rows.neighbors[start..end])
@@ -1133,6 +1164,37 @@ mod tests {
                 .any(|&j| got[j as usize].binary_search(&(i as u32)).is_err())
         });
         assert!(asymmetric, "variable horizons should give one-way bonds");
+    }
+
+    #[test]
+    fn rows_of_some_points_are_their_rows_of_the_full_search() {
+        // Variable horizons (one-way bonds) and both search structures: a rank's rows must be
+        // bitwise the full search's, lengths included, in the order asked for.
+        let positions = random_cloud(1500, 7);
+        let mut random = Random(11);
+        let horizons: Vec<f64> = (0..positions.len())
+            .map(|_| 0.05 + 0.15 * random.next())
+            .collect();
+        let blocks = vec![0; positions.len()];
+        let s = search(&positions, &horizons, &blocks, NeighborhoodRule::Sphere);
+        let all = try_find_families(&s).unwrap();
+        let points: Vec<u32> = (0..positions.len() as u32).rev().step_by(7).collect();
+        for rows in [
+            try_find_families_of(&s, &points).unwrap(),
+            find_rows_with(&s, SearchBackend::KdTree, Some(&points)).unwrap(),
+            find_rows_with(&s, SearchBackend::CellGrid, Some(&points)).unwrap(),
+        ] {
+            assert_eq!(rows.num_points(), points.len());
+            for (k, &p) in points.iter().enumerate() {
+                assert_eq!(rows.family(k), all.family(p as usize));
+                let (mine, full) = (rows.range(k), all.range(p as usize));
+                assert_eq!(
+                    rows.reference_length[mine], all.reference_length[full],
+                    "point {p}"
+                );
+            }
+        }
+        assert_eq!(try_find_families_of(&s, &[]).unwrap().num_bonds(), 0);
     }
 
     #[test]

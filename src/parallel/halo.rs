@@ -82,6 +82,38 @@ pub struct HaloPlan {
     receive_buffers: Vec<Vec<f64>>,
 }
 
+/// The off-rank points in `rows` not marked yet, marked with `layer` and returned in
+/// increasing order. `mine` says which points this rank owns.
+pub(super) fn new_ghosts<'a>(
+    rows: impl Iterator<Item = &'a [u32]>,
+    mine: impl Fn(u32) -> bool,
+    mark: &mut [u8],
+    layer: u8,
+) -> Vec<u32> {
+    let mut found = Vec::new();
+    for row in rows {
+        for &j in row {
+            if !mine(j) && mark[j as usize] == 0 {
+                mark[j as usize] = layer;
+                found.push(j);
+            }
+        }
+    }
+    found.sort_unstable();
+    found
+}
+
+/// Layer-1 and layer-2 ghosts as (global index, layer), sorted by global index.
+pub(super) fn layered(first: &[u32], second: &[u32]) -> Vec<(u32, u8)> {
+    let mut ghosts: Vec<(u32, u8)> = first
+        .iter()
+        .map(|&j| (j, 1))
+        .chain(second.iter().map(|&k| (k, 2)))
+        .collect();
+    ghosts.sort_unstable();
+    ghosts
+}
+
 /// Ghosts of rank `rank` as (global index, layer), sorted by global index. `mark` has one
 /// entry per point and is all zero on entry and on return.
 fn ghosts_of(
@@ -92,40 +124,29 @@ fn ghosts_of(
     mark: &mut [u8],
 ) -> Vec<(u32, u8)> {
     let mine = |p: u32| partition.owner[p as usize] as usize == rank;
-    let mut first = Vec::new();
-    for &i in &partition.owned[rank] {
-        for &j in bonds.family(i as usize) {
-            if !mine(j) && mark[j as usize] == 0 {
-                mark[j as usize] = 1;
-                first.push(j);
-            }
-        }
-    }
-    let mut second = Vec::new();
-    if depth >= 2 {
-        for &j in &first {
-            for &k in bonds.family(j as usize) {
-                if !mine(k) && mark[k as usize] == 0 {
-                    mark[k as usize] = 2;
-                    second.push(k);
-                }
-            }
-        }
-    }
-    let mut ghosts: Vec<(u32, u8)> = first
+    let owned_rows = partition.owned[rank]
         .iter()
-        .map(|&j| (j, 1))
-        .chain(second.iter().map(|&k| (k, 2)))
-        .collect();
+        .map(|&i| bonds.family(i as usize));
+    let first = new_ghosts(owned_rows, mine, mark, 1);
+    let second = if depth >= 2 {
+        new_ghosts(
+            first.iter().map(|&j| bonds.family(j as usize)),
+            mine,
+            mark,
+            2,
+        )
+    } else {
+        Vec::new()
+    };
+    let ghosts = layered(&first, &second);
     for &(p, _) in &ghosts {
         mark[p as usize] = 0;
     }
-    ghosts.sort_unstable();
     ghosts
 }
 
 impl HaloPlan {
-    /// The plan of rank `rank` for `partition` with ghosts `depth` (1 or 2) bonds deep.
+    /// The plan of rank `rank` for `partition`, with ghosts `depth` (1 or 2) bonds deep.
     ///
     /// Every rank computes the ghost sets of all ranks from the global bond list (no
     /// messages), so the send list to rank r is r's ghosts that this rank owns, in the same
@@ -137,17 +158,93 @@ impl HaloPlan {
             "ghost depth must be 1 or 2, got {depth}"
         );
         assert!(rank < partition.parts());
-        let n = bonds.num_points();
-        let mut mark = vec![0u8; n];
-        let mut all_ghosts = Vec::with_capacity(partition.parts());
-        for r in 0..partition.parts() {
-            all_ghosts.push(ghosts_of(bonds, partition, r, depth, &mut mark));
+        let mut mark = vec![0u8; bonds.num_points()];
+        let all_ghosts: Vec<Vec<(u32, u8)>> = (0..partition.parts())
+            .map(|r| ghosts_of(bonds, partition, r, depth, &mut mark))
+            .collect();
+        let held_elsewhere = (0..partition.parts())
+            .filter(|&r| r != rank)
+            .map(|r| {
+                let mine: Vec<u32> = all_ghosts[r]
+                    .iter()
+                    .filter(|&&(p, _)| partition.owner[p as usize] as usize == rank)
+                    .map(|&(p, _)| p)
+                    .collect();
+                (r, mine)
+            })
+            .filter(|(_, points)| !points.is_empty())
+            .collect();
+        Self::assemble(partition, rank, depth, &all_ghosts[rank], held_elsewhere)
+    }
+
+    /// [`HaloPlan::build`] from this rank's own `ghosts` ((global index, layer), sorted), for
+    /// a run in which no rank holds the global bond list: each rank tells every owner which of
+    /// its points it holds as ghosts. Collective: one all-gather of ranks² counts and one
+    /// exchange of the requested indices. Gives the plan [`HaloPlan::build`] gives.
+    pub fn from_ghosts(
+        partition: &Partition,
+        rank: usize,
+        depth: usize,
+        ghosts: &[(u32, u8)],
+        comm: &dyn Communicator,
+    ) -> Self {
+        assert!(
+            (1..=2).contains(&depth),
+            "ghost depth must be 1 or 2, got {depth}"
+        );
+        let parts = partition.parts();
+        assert!(rank < parts && comm.size() == parts && comm.rank() == rank);
+        let mut requested = vec![Vec::new(); parts];
+        for &(p, _) in ghosts {
+            // Point indices below 2^53 travel exactly as f64.
+            requested[partition.owner[p as usize] as usize].push(f64::from(p));
         }
+        let counts: Vec<f64> = requested.iter().map(|r| r.len() as f64).collect();
+        // wanted[s * parts + r]: how many of rank r's points rank s holds.
+        let wanted = comm.all_gather(&counts, &vec![parts; parts]);
+        let send_ranks: Vec<usize> = (0..parts)
+            .filter(|&r| r != rank && !requested[r].is_empty())
+            .collect();
+        let send_buffers: Vec<Vec<f64>> = send_ranks
+            .iter()
+            .map(|&r| std::mem::take(&mut requested[r]))
+            .collect();
+        let receive_ranks: Vec<usize> = (0..parts)
+            .filter(|&s| s != rank && wanted[s * parts + rank] > 0.0)
+            .collect();
+        let mut receive_buffers: Vec<Vec<f64>> = receive_ranks
+            .iter()
+            .map(|&s| vec![0.0; wanted[s * parts + rank] as usize])
+            .collect();
+        swap_buffers(
+            comm,
+            send_ranks.into_iter(),
+            &send_buffers,
+            receive_ranks.iter().copied(),
+            &mut receive_buffers,
+        );
+        let held_elsewhere = receive_ranks
+            .into_iter()
+            .zip(receive_buffers)
+            .map(|(s, points)| (s, points.iter().map(|&p| p as u32).collect()))
+            .collect();
+        Self::assemble(partition, rank, depth, ghosts, held_elsewhere)
+    }
+
+    /// The plan from this rank's `ghosts` and, for every other rank that holds some of this
+    /// rank's points, those points (global indices, increasing), in rank order.
+    fn assemble(
+        partition: &Partition,
+        rank: usize,
+        depth: usize,
+        ghosts: &[(u32, u8)],
+        held_elsewhere: Vec<(usize, Vec<u32>)>,
+    ) -> Self {
         // Local numbering: owned and own ghosts merged in global order.
         let mut members: Vec<(u32, u8)> = partition.owned[rank]
             .iter()
             .map(|&p| (p, 0u8))
-            .chain(all_ghosts[rank].iter().copied())
+            .chain(ghosts.iter().copied())
             .collect();
         members.sort_unstable();
         let global: Vec<u32> = members.iter().map(|m| m.0).collect();
@@ -161,12 +258,8 @@ impl HaloPlan {
             .filter(|&l| layer[l as usize] == 0)
             .collect();
         let mut receives = Vec::new();
-        let mut sends = Vec::new();
-        for r in 0..partition.parts() {
-            if r == rank {
-                continue;
-            }
-            let from_r: Vec<u32> = all_ghosts[rank]
+        for r in (0..partition.parts()).filter(|&r| r != rank) {
+            let from_r: Vec<u32> = ghosts
                 .iter()
                 .filter(|&&(p, _)| partition.owner[p as usize] as usize == r)
                 .map(|&(p, _)| local_of(p))
@@ -177,18 +270,22 @@ impl HaloPlan {
                     points: from_r,
                 });
             }
-            let to_r: Vec<u32> = all_ghosts[r]
-                .iter()
-                .filter(|&&(p, _)| partition.owner[p as usize] as usize == rank)
-                .map(|&(p, _)| local_of(p))
-                .collect();
-            if !to_r.is_empty() {
-                sends.push(Neighbor {
-                    rank: r,
-                    points: to_r,
-                });
-            }
         }
+        let sends: Vec<Neighbor> = held_elsewhere
+            .into_iter()
+            .map(|(r, points)| {
+                assert!(
+                    points
+                        .iter()
+                        .all(|&p| partition.owner[p as usize] as usize == rank),
+                    "rank {r} asked rank {rank} for points it does not own"
+                );
+                Neighbor {
+                    rank: r,
+                    points: points.into_iter().map(local_of).collect(),
+                }
+            })
+            .collect();
         Self {
             rank,
             depth,

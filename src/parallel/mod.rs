@@ -55,6 +55,8 @@ mod mpi;
 mod partition;
 mod partner;
 mod subdomain;
+#[cfg(test)]
+pub(crate) mod thread_comm;
 
 pub use halo::{HaloPlan, HaloValue, HaloVolume};
 #[cfg(feature = "mpi")]

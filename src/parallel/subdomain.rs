@@ -1,7 +1,8 @@
 //! One rank's part of the model: owned points plus ghosts, as a [`Model`] the ordinary
 //! physics and integrator run on.
 
-use super::{HaloPlan, Partition};
+use super::halo::{layered, new_ghosts};
+use super::{Communicator, HaloPlan, Partition};
 use crate::io::deck::{DamageKind, Deck, MaterialModel};
 use crate::model::{BondList, NodeSets, PointCloud};
 use crate::setup::{Model, ModelBlock};
@@ -79,12 +80,88 @@ impl Subdomain {
     ) -> Self {
         let partition = Partition::of_bonds(&global.points.position, &global.bonds, ranks);
         let plan = HaloPlan::build(&global.bonds, &partition, rank, depth);
-        let model = local_model(global, &plan, depth == 1 || outer_layer_in_blocks);
+        let in_blocks = depth == 1 || outer_layer_in_blocks;
+        let model = local_model(global, &plan, in_blocks, &global.bonds);
         Self {
             partition,
             plan,
             model,
         }
+    }
+
+    /// [`Subdomain::new`] for a global model without families
+    /// ([`crate::setup::build_points`]): `rows_of(points)` gives the families of `points`, row
+    /// k for `points[k]` ([`crate::setup::family_rows`]). No rank holds more rows than its
+    /// owned points' and ghosts' (and, while the points are weighed, a 1/ranks slice), so the
+    /// bond memory per rank falls with the rank count. Gives the partition, plan and model of
+    /// [`Subdomain::new`] on the global families.
+    ///
+    /// Collective: every rank calls `rows_of` 3 times (depth 1) or 4 times (depth 2), then
+    /// one all-gather of weights and the requests of [`HaloPlan::from_ghosts`]. `rows_of`
+    /// must fail on every rank alike or on none (agree inside it).
+    pub fn searched<E>(
+        global: &Model,
+        comm: &dyn Communicator,
+        depth: usize,
+        outer_layer_in_blocks: bool,
+        mut rows_of: impl FnMut(&[u32]) -> Result<BondList, E>,
+    ) -> Result<Self, E> {
+        let (n, ranks, rank) = (global.points.len(), comm.size(), comm.rank());
+        // Weights `1 + family size`, as Partition::of_bonds: each rank weighs a slice.
+        let start = |r: usize| r * n / ranks;
+        let slice: Vec<u32> = (start(rank)..start(rank + 1)).map(|p| p as u32).collect();
+        let sizes: Vec<f64> = {
+            let rows = rows_of(&slice)?;
+            (0..slice.len())
+                .map(|k| 1.0 + rows.family_size(k) as f64)
+                .collect()
+        };
+        let counts: Vec<usize> = (0..ranks).map(|r| start(r + 1) - start(r)).collect();
+        let weights = comm.all_gather(&sizes, &counts);
+        let partition = Partition::bisect(&global.points.position, &weights, ranks);
+        let owned = partition.owned[rank].clone();
+        let owned_rows = rows_of(&owned)?;
+        let mine = |p: u32| partition.owner[p as usize] as usize == rank;
+        let mut mark = vec![0u8; n];
+        let first = new_ghosts(
+            (0..owned.len()).map(|k| owned_rows.family(k)),
+            mine,
+            &mut mark,
+            1,
+        );
+        let first_rows = rows_of(&first)?;
+        let second = if depth >= 2 {
+            new_ghosts(
+                (0..first.len()).map(|k| first_rows.family(k)),
+                mine,
+                &mut mark,
+                2,
+            )
+        } else {
+            Vec::new()
+        };
+        // The outermost layer's rows too: they keep their bonds to other local points.
+        let second_rows = if depth >= 2 {
+            rows_of(&second)?
+        } else {
+            BondList {
+                offsets: vec![0],
+                ..BondList::default()
+            }
+        };
+        let plan = HaloPlan::from_ghosts(&partition, rank, depth, &layered(&first, &second), comm);
+        let rows = SomeRows(vec![
+            (owned, owned_rows),
+            (first, first_rows),
+            (second, second_rows),
+        ]);
+        let in_blocks = depth == 1 || outer_layer_in_blocks;
+        let model = local_model(global, &plan, in_blocks, &rows);
+        Ok(Self {
+            partition,
+            plan,
+            model,
+        })
     }
 
     /// Local indices of the owned points (increasing).
@@ -98,8 +175,43 @@ impl Subdomain {
     }
 }
 
-/// The model over the plan's local points.
-fn local_model(global: &Model, plan: &HaloPlan, outer_layer_in_blocks: bool) -> Model {
+/// Where [`local_model`] reads a point's family: its neighbours and reference lengths, in
+/// run order.
+trait FamilyRows {
+    /// Row of global point `point`.
+    fn row(&self, point: u32) -> (&[u32], &[f64]);
+}
+
+impl FamilyRows for BondList {
+    fn row(&self, point: u32) -> (&[u32], &[f64]) {
+        let p = point as usize;
+        (self.family(p), &self.reference_length[self.range(p)])
+    }
+}
+
+/// The rows of some points: lists of global point indices (each increasing), with row k of
+/// each bond list for the list's k-th point.
+struct SomeRows(Vec<(Vec<u32>, BondList)>);
+
+impl FamilyRows for SomeRows {
+    fn row(&self, point: u32) -> (&[u32], &[f64]) {
+        self.0
+            .iter()
+            .find_map(|(points, rows)| {
+                let k = points.binary_search(&point).ok()?;
+                Some((rows.family(k), &rows.reference_length[rows.range(k)]))
+            })
+            .expect("every local point's row was searched")
+    }
+}
+
+/// The model over the plan's local points, their families read from `rows`.
+fn local_model(
+    global: &Model,
+    plan: &HaloPlan,
+    outer_layer_in_blocks: bool,
+    rows: &dyn FamilyRows,
+) -> Model {
     let local_points = plan.global();
     let n_global = global.points.len();
     let mut local_of = vec![u32::MAX; n_global];
@@ -138,8 +250,8 @@ fn local_model(global: &Model, plan: &HaloPlan, outer_layer_in_blocks: bool) -> 
     bonds.offsets.push(0);
     for (l, &g) in local_points.iter().enumerate() {
         let complete_row = plan.layer()[l] < plan.depth() as u8;
-        for b in global.bonds.range(g as usize) {
-            let j = global.bonds.neighbor[b];
+        let (neighbors, lengths) = rows.row(g);
+        for (&j, &length) in neighbors.iter().zip(lengths) {
             let local = local_of[j as usize];
             if local == u32::MAX {
                 assert!(
@@ -150,9 +262,7 @@ fn local_model(global: &Model, plan: &HaloPlan, outer_layer_in_blocks: bool) -> 
                 continue;
             }
             bonds.neighbor.push(local);
-            bonds
-                .reference_length
-                .push(global.bonds.reference_length[b]);
+            bonds.reference_length.push(length);
         }
         bonds.offsets.push(bonds.neighbor.len());
     }
@@ -206,6 +316,7 @@ fn local_model(global: &Model, plan: &HaloPlan, outer_layer_in_blocks: bool) -> 
 mod tests {
     use super::*;
     use crate::io::deck::{parse_str, DeckFormat};
+    use crate::parallel::thread_comm::ThreadComm;
 
     fn deck(material: &str) -> (tempfile::TempDir, Deck) {
         let dir = tempfile::tempdir().unwrap();
@@ -246,6 +357,52 @@ mod tests {
         );
         let deck = parse_str(&text, DeckFormat::Yaml, &dir.path().join("deck.yaml")).unwrap();
         (dir, deck)
+    }
+
+    /// `Subdomain::searched` on threads against `Subdomain::new` on the global families.
+    fn searched_matches_the_global_build(deck: &Deck, ranks: usize, depth: usize) {
+        use crate::discretization::FamilyRule;
+        let global = crate::setup::build(deck).unwrap();
+        let (points_only, rule) = crate::setup::build_points(deck).unwrap();
+        let FamilyRule::Search(rule) = rule else {
+            panic!("a QuickGrid box is searched")
+        };
+        assert_eq!(points_only.bonds.num_bonds(), 0);
+        let searched = ThreadComm::run(ranks, |comm| {
+            let mut calls = 0;
+            let sub = Subdomain::searched(&points_only, comm, depth, false, |points| {
+                calls += 1;
+                crate::setup::family_rows(deck, &points_only, rule, points)
+            })
+            .unwrap();
+            (sub, calls)
+        });
+        for (rank, (sub, calls)) in searched.into_iter().enumerate() {
+            // Weights, owned rows, layer-1 rows and, at depth 2, layer-2 rows.
+            assert_eq!(calls, 2 + depth);
+            let expected = Subdomain::new(&global, ranks, rank, depth, false);
+            assert_eq!(sub.partition, expected.partition);
+            assert_eq!(sub.plan, expected.plan, "rank {rank}");
+            assert_eq!(sub.model.bonds, expected.model.bonds, "rank {rank}");
+            assert_eq!(sub.model.points, expected.model.points);
+            assert_eq!(sub.model.node_sets, expected.model.node_sets);
+            let block_points = |m: &Model| -> Vec<Vec<u32>> {
+                m.blocks.iter().map(|b| b.points.clone()).collect()
+            };
+            assert_eq!(block_points(&sub.model), block_points(&expected.model));
+        }
+    }
+
+    #[test]
+    fn searched_families_give_the_global_subdomains() {
+        // Depth 2 (LPS) and depth 1 (PMB), 2 and 3 ranks; the 10 × 2 × 2 bar with δ = 2.1
+        // gives every rank ghosts from both neighbours at 3 ranks.
+        let (_dir, lps) = deck("Elastic");
+        let (_dir2, pmb) = deck("Elastic Bond Based");
+        for ranks in [2, 3] {
+            searched_matches_the_global_build(&lps, ranks, 2);
+            searched_matches_the_global_build(&pmb, ranks, 1);
+        }
     }
 
     #[test]

@@ -4,7 +4,10 @@ use super::SetupError;
 use crate::discretization::FamilyRule;
 use crate::io::deck::{BondFilterShape, Deck, OmitBonds};
 use crate::model::{BondList, PointCloud};
-use crate::neighbors::{try_find_families, BondFilter, Disk, FamilySearch, RectangularPlane};
+use crate::neighbors::{
+    try_find_families, try_find_families_of, BondFilter, Disk, FamilySearch, NeighborhoodRule,
+    RectangularPlane,
+};
 
 /// The deck's bond filters as geometry; `Exodus Mesh` filters are skipped here (the plan
 /// reports them as unsupported).
@@ -62,16 +65,42 @@ pub(super) fn build(
             ));
         }
     };
+    search_rows(deck, search_rule, points, horizon, None)
+}
+
+/// The families of `rows` alone (see [`super::family_rows`]).
+pub(super) fn rows(
+    deck: &Deck,
+    rule: NeighborhoodRule,
+    points: &PointCloud,
+    horizon: &[f64],
+    rows: &[u32],
+) -> Result<BondList, SetupError> {
+    search_rows(deck, rule, points, horizon, Some(rows))
+}
+
+/// The searched families of `rows`, or of every point.
+fn search_rows(
+    deck: &Deck,
+    rule: NeighborhoodRule,
+    points: &PointCloud,
+    horizon: &[f64],
+    rows: Option<&[u32]>,
+) -> Result<BondList, SetupError> {
     let filters = bond_filters(deck)?;
     let search = FamilySearch {
         positions: &points.position,
         horizons: horizon,
         blocks: &points.block,
-        rule: search_rule,
+        rule,
         omit_bonds_between_blocks: deck.discretization.omit_bonds_between_blocks == OmitBonds::All,
         filters: &filters,
     };
-    try_find_families(&search).map_err(|e| deck.error_at(&["Discretization"], e.to_string()).into())
+    match rows {
+        None => try_find_families(&search),
+        Some(rows) => try_find_families_of(&search, rows),
+    }
+    .map_err(|e| deck.error_at(&["Discretization"], e.to_string()).into())
 }
 
 /// Converts families given in generator order to run order, rows sorted.

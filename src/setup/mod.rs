@@ -328,6 +328,15 @@ fn boundary_conditions(deck: &Deck, node_sets: &NodeSets) -> Result<BoundaryCond
 /// Builds the model: discretize, assign blocks, horizons, node sets, conditions, reorder along
 /// a space-filling curve, and search families.
 pub fn build(deck: &Deck) -> Result<Model, SetupError> {
+    let (mut model, rule) = build_points(deck)?;
+    build_families(deck, &mut model, &rule)?;
+    Ok(model)
+}
+
+/// [`build`] without the families: `bonds` has a row per point but no bonds, and the rule
+/// that finds them is returned beside the model. A distributed run keeps this global model
+/// (O(points) memory) and finds the rows of its own points and ghosts with [`family_rows`].
+pub fn build_points(deck: &Deck) -> Result<(Model, FamilyRule), SetupError> {
     check_expressions(deck)?;
     let discretization = discretize(deck).map_err(|e| match e {
         SetupError::Mesh(mesh) => SetupError::Deck(
@@ -357,14 +366,10 @@ pub fn build(deck: &Deck) -> Result<Model, SetupError> {
         condition.points.sort_unstable();
     }
 
-    let bonds = families::build(
-        deck,
-        &discretization.family_rule,
-        &points,
-        &horizon,
-        &order,
-        &run_index,
-    )?;
+    let bonds = BondList {
+        offsets: vec![0; points.len() + 1],
+        ..BondList::default()
+    };
     let blocks = discretization
         .blocks
         .iter()
@@ -378,15 +383,48 @@ pub fn build(deck: &Deck) -> Result<Model, SetupError> {
         })
         .collect();
     let min_element_radius = discretization.min_element_radius();
-    Ok(Model {
-        points,
-        horizon,
-        blocks,
-        node_sets,
-        mesh_node_set_names,
-        bonds,
-        run_index,
-        boundary,
-        min_element_radius,
-    })
+    Ok((
+        Model {
+            points,
+            horizon,
+            blocks,
+            node_sets,
+            mesh_node_set_names,
+            bonds,
+            run_index,
+            boundary,
+            min_element_radius,
+        },
+        discretization.family_rule,
+    ))
+}
+
+/// Finds every point's family into `model.bonds` (the second half of [`build`]).
+pub fn build_families(deck: &Deck, model: &mut Model, rule: &FamilyRule) -> Result<(), SetupError> {
+    // `order[new] = old`, the inverse of `run_index`.
+    let mut order = vec![0u32; model.run_index.len()];
+    for (old, &new) in model.run_index.iter().enumerate() {
+        order[new as usize] = old as u32;
+    }
+    model.bonds = families::build(
+        deck,
+        rule,
+        &model.points,
+        &model.horizon,
+        &order,
+        &model.run_index,
+    )?;
+    Ok(())
+}
+
+/// The families of `points` alone (row k is `points[k]`'s, neighbour indices in run order),
+/// bitwise the rows [`build`] gives them, for a model from [`build_points`] whose families come
+/// from a neighbour search (`rule`).
+pub fn family_rows(
+    deck: &Deck,
+    model: &Model,
+    rule: NeighborhoodRule,
+    points: &[u32],
+) -> Result<BondList, SetupError> {
+    families::rows(deck, rule, &model.points, &model.horizon, points)
 }

@@ -25,8 +25,10 @@
 use super::{energy_floor_of, prepare_compute_classes, Fields, PreparedComputeClass, Progress};
 use super::{RunError, RunSummary};
 use crate::backend::SolveError;
+use crate::discretization::FamilyRule;
 use crate::io::deck::{Deck, Integrator, Solver};
 use crate::io::output::{kind_of, FieldSource, OutputFile, Schedule, VariableKind};
+use crate::neighbors::NeighborhoodRule;
 use crate::parallel::{
     halo_depth, outer_ghosts_need_physics, Communicator, HaloPlan, Partition, Subdomain,
 };
@@ -448,12 +450,42 @@ fn broken_bonds(comm: &dyn Communicator, sub: &Subdomain, physics: &Physics) -> 
     count[0] as usize
 }
 
+/// Where the ranks of a distributed run get their points' families.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GlobalFamilies {
+    /// The global model holds every point's family (contact decks, whose search needs the
+    /// global bonds, and the QuickGrid cylinder, whose families come from index space).
+    Built,
+    /// The global model has no families ([`setup::build_points`]); each rank searches the
+    /// rows of its own points and ghosts with this rule ([`Subdomain::searched`]), so no rank
+    /// holds the global bond list.
+    Searched(NeighborhoodRule),
+}
+
+/// The model every rank of a distributed run builds from the deck: points, blocks, node sets
+/// and conditions of the whole discretization, and the families only where
+/// [`GlobalFamilies::Built`] says they are needed. Fails on every rank alike.
+pub fn global_model(deck: &Deck) -> Result<(Model, GlobalFamilies), setup::SetupError> {
+    let (mut model, rule) = setup::build_points(deck)?;
+    match rule {
+        FamilyRule::Search(rule) if deck.contact.is_none() => {
+            Ok((model, GlobalFamilies::Searched(rule)))
+        }
+        rule => {
+            setup::build_families(deck, &mut model, &rule)?;
+            Ok((model, GlobalFamilies::Built))
+        }
+    }
+}
+
 /// Runs every solver list of the deck (those [`check_distributable`] accepts) on
-/// `comm.size()` ranks. Every rank calls it with the same deck and global model; rank 0
-/// writes the outputs to `dir` and returns the summary with the files.
+/// `comm.size()` ranks. Every rank calls it with the same deck and the global model of
+/// [`global_model`]; rank 0 writes the outputs to `dir` and returns the summary with the
+/// files.
 pub fn run_distributed(
     deck: &Deck,
     global: &Model,
+    families: GlobalFamilies,
     dir: &Path,
     comm: &dyn Communicator,
 ) -> Result<RunSummary, RunError> {
@@ -461,13 +493,24 @@ pub fn run_distributed(
     let compute_classes = prepare_compute_classes(&deck.compute_classes, global)
         .map_err(|e| collective(comm, RunError::Unsupported(e)))?;
     let rank = comm.rank();
-    let mut sub = Subdomain::new(
-        global,
-        comm.size(),
-        rank,
-        halo_depth(deck),
-        outer_ghosts_need_physics(deck),
-    );
+    let (depth, outer) = (halo_depth(deck), outer_ghosts_need_physics(deck));
+    let mut sub = match families {
+        GlobalFamilies::Built => Subdomain::new(global, comm.size(), rank, depth, outer),
+        GlobalFamilies::Searched(rule) => {
+            Subdomain::searched(global, comm, depth, outer, |points| {
+                agree(
+                    comm,
+                    setup::family_rows(deck, global, rule, points).map_err(RunError::from),
+                )
+            })?
+        }
+    };
+    let mut bonds = [sub
+        .owned()
+        .iter()
+        .map(|&l| sub.model.bonds.family_size(l as usize) as f64)
+        .sum::<f64>()];
+    comm.sum(&mut bonds);
     // From here on, failures may differ between ranks: every step agrees.
     let prepared = (|| -> Result<_, RunError> {
         let mut physics = setup::build_physics(deck, &sub.model)
@@ -495,7 +538,8 @@ pub fn run_distributed(
     if rank == 0 {
         let volume = sub.plan.volume();
         eprintln!(
-            "{} ranks, ghost depth {}: rank 0 owns {} points, receives {} ghosts ({} bytes of positions per step) from {} ranks",
+            "{} bonds; {} ranks, ghost depth {}: rank 0 owns {} points, receives {} ghosts ({} bytes of positions per step) from {} ranks",
+            bonds[0],
             comm.size(),
             sub.plan.depth(),
             sub.owned().len(),

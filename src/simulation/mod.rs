@@ -4,7 +4,7 @@
 mod distributed;
 mod fields;
 
-pub use distributed::{check_distributable, run_distributed};
+pub use distributed::{check_distributable, global_model, run_distributed, GlobalFamilies};
 pub use fields::{prepare_compute_classes, Fields, PreparedComputeClass};
 
 use crate::boundary::BoundaryError;
@@ -38,6 +38,10 @@ pub enum RunError {
     /// A quasi-static solve failed (exit code 3).
     #[error(transparent)]
     QuasiStatic(#[from] QuasiStaticError),
+    /// The discretization failed while the ranks of a distributed run searched their
+    /// families (exit code 2, as bad input found before a run).
+    #[error(transparent)]
+    Setup(#[from] setup::SetupError),
     /// A Newmark-β solve failed (exit code 3).
     #[error(transparent)]
     Newmark(#[from] NewmarkError),
@@ -78,6 +82,7 @@ impl RunError {
         match self {
             RunError::Unstable { .. } | RunError::QuasiStatic(_) | RunError::Newmark(_) => 3,
             RunError::OtherRank { code, .. } => *code,
+            RunError::Setup(_) => 2,
             _ => 1,
         }
     }
