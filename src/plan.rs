@@ -35,6 +35,8 @@ pub struct RunPlan {
     pub solvers: Vec<SolverPlan>,
     /// Output files.
     pub outputs: Vec<OutputPlan>,
+    /// What a run on several MPI ranks would hold and exchange.
+    pub parallel: ParallelPlan,
     /// Features in the deck that this build cannot run yet (empty when the deck runs).
     pub unsupported: Vec<String>,
     /// Deck keys that are accepted but have no effect, and other notes.
@@ -116,6 +118,22 @@ pub struct MemoryPlan {
     pub part: String,
     /// Bytes.
     pub bytes: u64,
+}
+
+/// A run on several MPI ranks (`mpirun -np N`, feature `mpi`): ghosts, the per-point data
+/// that moves between ranks, and where the families come from.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct ParallelPlan {
+    /// Ghost layers in bonds: 1 when every force and damage decision reads only a bond's two
+    /// ends, 2 when state-based materials read their neighbours' dilatation.
+    pub ghost_depth: usize,
+    /// The data exchanged, one entry per kind, with when it moves. Everything else a ghost
+    /// needs (damage, dilatation, weighted volume) is recomputed on it, not sent.
+    pub exchanged: Vec<String>,
+    /// `searched per rank` (no rank holds the global bond list) or why every rank holds it.
+    pub families: String,
+    /// Why the deck cannot run on several ranks, when it cannot.
+    pub refused: Option<String>,
 }
 
 /// The explicit stable time step.
@@ -283,6 +301,18 @@ impl fmt::Display for RunPlan {
                     o.frequency,
                     o.variables.join(", ")
                 )?;
+            }
+        }
+        let p = &self.parallel;
+        writeln!(f, "\non several MPI ranks")?;
+        match &p.refused {
+            Some(why) => writeln!(f, "  refused: {why}")?,
+            None => {
+                writeln!(f, "  ghost depth      {} bond(s)", p.ghost_depth)?;
+                for data in &p.exchanged {
+                    writeln!(f, "  exchanged        {data}")?;
+                }
+                writeln!(f, "  families         {}", p.families)?;
             }
         }
         for w in &self.warnings {

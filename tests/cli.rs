@@ -139,6 +139,37 @@ fn check_reports_exact_sizes_as_json() {
     // floor(1e-5 / 5e-7) = 20 steps.
     assert_eq!(plan["time_step"]["steps"], 20);
     assert!(plan["unsupported"].as_array().unwrap().is_empty());
+    // On several ranks: LPS ("Elastic") reads its neighbours' dilatation, so two ghost
+    // layers; an explicit run refreshes only the ghosts' positions, and with no contact each
+    // rank searches its own families.
+    assert_eq!(plan["parallel"]["ghost_depth"], 2);
+    let exchanged = plan["parallel"]["exchanged"].as_array().unwrap();
+    assert_eq!(exchanged.len(), 1);
+    assert!(exchanged[0]
+        .as_str()
+        .unwrap()
+        .starts_with("ghost positions"));
+    assert!(plan["parallel"]["families"]
+        .as_str()
+        .unwrap()
+        .starts_with("searched per rank"));
+    assert!(plan["parallel"]["refused"].is_null());
+}
+
+#[test]
+fn the_parallel_plan_follows_the_material() {
+    // Bond-based forces read only a bond's two ends: one ghost layer.
+    let (dir, text) = (
+        tempfile::tempdir().unwrap(),
+        BASE.replace("\"Elastic\"", "\"Elastic Bond Based\"")
+            .replace("      Shear Modulus: 78.0e9\n", ""),
+    );
+    write_deck(dir.path(), &text);
+    let output = peridyn(&["check", "deck.yaml", "--json"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let plan: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(plan["physics"]["state_based"], false);
+    assert_eq!(plan["parallel"]["ghost_depth"], 1);
 }
 
 #[test]

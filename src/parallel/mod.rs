@@ -1,17 +1,26 @@
 //! Who owns which point: the partition of the points over MPI ranks, the ghost (halo) points
 //! each rank reads, and the communicator that moves data between ranks.
 //!
-//! # How a distributed explicit run is laid out
-//! Every rank reads the deck and builds the whole [`crate::setup::Model`] (discretization,
-//! node sets, families), so bad input fails on every rank the same way before any message is
-//! sent. Then, without communicating:
-//! 1. [`Partition::of_bonds`] cuts the points by recursive coordinate bisection, weighted by
-//!    family size (every rank computes the same cut);
-//! 2. [`HaloPlan::build`] lists the rank's ghosts: the off-rank points one bond away from an
-//!    owned point and, when [`halo_depth`] is 2, one more bond away from those;
-//! 3. [`Subdomain::new`] builds the rank's own [`crate::setup::Model`] over owned + ghost
-//!    points, numbered in the global run order (so every row keeps its bond order and every
-//!    per-point sum its order of operations).
+//! # How a distributed run is laid out
+//! Every rank reads the deck and builds the global [`crate::setup::Model`] without families
+//! ([`crate::setup::build_points`]: points, blocks, node sets, conditions; O(points) memory),
+//! so bad input fails on every rank the same way before any message is sent. Then
+//! [`Subdomain::searched`]:
+//! 1. weighs the points by family size (each rank searches a 1/ranks slice, one all-gather)
+//!    and cuts them by recursive coordinate bisection ([`Partition::bisect`]; every rank
+//!    computes the same cut);
+//! 2. searches the families of its owned points, which name the layer-1 ghosts (the off-rank
+//!    points one bond away), then theirs, which name the layer-2 ghosts when [`halo_depth`]
+//!    is 2, then the outer layer's;
+//! 3. tells every owner which of its points it holds as ghosts ([`HaloPlan::from_ghosts`]);
+//! 4. builds the rank's own [`crate::setup::Model`] over owned + ghost points, numbered in the
+//!    global run order (so every row keeps its bond order and every per-point sum its order
+//!    of operations).
+//!
+//! No rank holds the global bond list. Contact decks and the QuickGrid cylinder do (contact
+//! searches need the global bonds; the cylinder's families come from index space): there
+//! [`Subdomain::new`] cuts the subdomain out of the global families with [`Partition::of_bonds`]
+//! and [`HaloPlan::build`], without messages, to the same result.
 //!
 //! # Ghost depth, and why no dilatation exchange is needed
 //! The materials and damage models are set up over the owned points and the ghosts (at depth 2

@@ -8,8 +8,8 @@ use crate::io::deck::{
 };
 use crate::io::output::{closest_name, kind_of, OutputFile, RequestedVariable, VariableKind};
 use crate::plan::{
-    BlockPlan, FieldPlan, MemoryPlan, NodeSetPlan, OutputPlan, PhysicsPlan, RunPlan, SolverPlan,
-    TimeStepPlan,
+    BlockPlan, FieldPlan, MemoryPlan, NodeSetPlan, OutputPlan, ParallelPlan, PhysicsPlan, RunPlan,
+    SolverPlan, TimeStepPlan,
 };
 
 /// Integrators this build runs.
@@ -310,6 +310,38 @@ fn two_hop_nonzero_blocks(model: &Model) -> u64 {
     count * n as u64 / sampled
 }
 
+/// What a run of `deck` on several ranks holds and exchanges (see
+/// [`crate::simulation::run_distributed`]).
+fn parallel_plan(deck: &Deck, explicit: bool, implicit: bool) -> ParallelPlan {
+    let mut exchanged = Vec::new();
+    if explicit {
+        exchanged.push("ghost positions, every explicit step (3 f64 per ghost)".to_string());
+    }
+    if implicit {
+        exchanged.push(
+            "ghost displacements, before every residual evaluation (3 f64 per ghost)".to_string(),
+        );
+    }
+    if deck.contact.is_some() {
+        exchanged.push(
+            "contact points' positions to every rank at each contact search; contact partners' positions and velocities, every step"
+                .to_string(),
+        );
+    }
+    let families = match crate::simulation::global_families_reason(deck) {
+        Some(reason) => format!("global on every rank ({reason})"),
+        None => "searched per rank: owned points and ghosts only".to_string(),
+    };
+    ParallelPlan {
+        ghost_depth: crate::parallel::halo_depth(deck),
+        exchanged,
+        families,
+        refused: crate::simulation::check_distributable(deck, 2)
+            .err()
+            .map(|e| e.to_string()),
+    }
+}
+
 /// Builds the plan for a model set up from `deck`.
 pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
     let n = model.points.len() as u64;
@@ -394,6 +426,8 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
         tangent_pattern: implicit
             .then(|| if state_based { "two-hop" } else { "one-hop" }.to_string()),
     };
+
+    plan.parallel = parallel_plan(deck, explicit, implicit);
 
     let vector = 24 * n;
     let mut field = |name: &str, per: &str, bytes: u64| {

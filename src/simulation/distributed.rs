@@ -26,7 +26,7 @@ use super::{energy_floor_of, prepare_compute_classes, Fields, PreparedComputeCla
 use super::{RunError, RunSummary};
 use crate::backend::SolveError;
 use crate::discretization::FamilyRule;
-use crate::io::deck::{Deck, Integrator, Solver};
+use crate::io::deck::{Deck, Integrator, PointSource, QuickGridGenerator, Solver};
 use crate::io::output::{kind_of, FieldSource, OutputFile, Schedule, VariableKind};
 use crate::neighbors::NeighborhoodRule;
 use crate::parallel::{
@@ -462,13 +462,31 @@ pub enum GlobalFamilies {
     Searched(NeighborhoodRule),
 }
 
+/// Why every rank of a distributed run of `deck` holds the global families, if it must.
+pub fn global_families_reason(deck: &Deck) -> Option<&'static str> {
+    let cylinder = matches!(
+        &deck.discretization.source,
+        PointSource::PdQuickGrid {
+            generator: QuickGridGenerator::TensorProductCylinder { .. },
+            ..
+        }
+    );
+    if deck.contact.is_some() {
+        Some("the contact search reads the global bonds")
+    } else if cylinder {
+        Some("the QuickGrid cylinder builds them in index space")
+    } else {
+        None
+    }
+}
+
 /// The model every rank of a distributed run builds from the deck: points, blocks, node sets
 /// and conditions of the whole discretization, and the families only where
 /// [`GlobalFamilies::Built`] says they are needed. Fails on every rank alike.
 pub fn global_model(deck: &Deck) -> Result<(Model, GlobalFamilies), setup::SetupError> {
     let (mut model, rule) = setup::build_points(deck)?;
     match rule {
-        FamilyRule::Search(rule) if deck.contact.is_none() => {
+        FamilyRule::Search(rule) if global_families_reason(deck).is_none() => {
             Ok((model, GlobalFamilies::Searched(rule)))
         }
         rule => {

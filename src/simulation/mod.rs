@@ -4,7 +4,9 @@
 mod distributed;
 mod fields;
 
-pub use distributed::{check_distributable, global_model, run_distributed, GlobalFamilies};
+pub use distributed::{
+    check_distributable, global_families_reason, global_model, run_distributed, GlobalFamilies,
+};
 pub use fields::{prepare_compute_classes, Fields, PreparedComputeClass};
 
 use crate::boundary::BoundaryError;
