@@ -818,6 +818,41 @@ impl Collective for RankCollective<'_> {
     }
 }
 
+/// A subdomain taken apart for an implicit solve: the parts the outputs read, and the
+/// collective operations that hold the halo plan.
+struct ImplicitRank<'a> {
+    partition: &'a Partition,
+    model: &'a Model,
+    /// Local indices of the owned points.
+    owned: Vec<u32>,
+    collective_ops: RankCollective<'a>,
+}
+
+impl<'a> ImplicitRank<'a> {
+    fn new(comm: &'a dyn Communicator, sub: &'a mut Subdomain, global: &Model) -> Self {
+        let ghost = sub.ghost_mask();
+        let Subdomain {
+            partition,
+            plan,
+            model,
+        } = sub;
+        let ghost_constrained = ghost_constrained_dofs(global, model, plan, &ghost);
+        let owned = plan.owned().to_vec();
+        Self {
+            partition,
+            model,
+            owned,
+            collective_ops: RankCollective {
+                plan,
+                comm,
+                ghost,
+                global_points: global.points.len(),
+                ghost_constrained,
+            },
+        }
+    }
+}
+
 /// The prescribed dofs of this rank's ghosts (local numbering `3p + c`), from the run-wide
 /// conditions: a ghost may sit in a node set whose points this rank does not own.
 fn ghost_constrained_dofs(
@@ -869,15 +904,12 @@ fn quasi_static_on_ranks(
             nonlinear.describe()
         );
     }
-    let ghost = sub.ghost_mask();
-    let Subdomain {
+    let ImplicitRank {
         partition,
-        plan,
         model,
-    } = sub;
-    let (partition, model) = (&*partition, &*model);
-    let ghost_constrained = ghost_constrained_dofs(global, model, plan, &ghost);
-    let owned = plan.owned().to_vec();
+        owned,
+        mut collective_ops,
+    } = ImplicitRank::new(comm, sub, global);
     state.time = solver.initial_time;
     outputs.nonlinear_iterations = None;
     let initial = (|| -> Result<(), RunError> {
@@ -893,13 +925,6 @@ fn quasi_static_on_ranks(
         initial.and(outputs.call(comm, partition, &owned, &fields, state.time))
     };
     agree(comm, pending)?;
-    let mut collective_ops = RankCollective {
-        plan,
-        comm,
-        ghost,
-        global_points: global.points.len(),
-        ghost_constrained,
-    };
     let result = crate::solver::quasistatic::run(
         model,
         physics,
@@ -953,15 +978,12 @@ fn newmark_on_ranks(
             super::describe_newmark(solver, &settings, &linear.describe(), comm.size())
         );
     }
-    let ghost = sub.ghost_mask();
-    let Subdomain {
+    let ImplicitRank {
         partition,
-        plan,
         model,
-    } = sub;
-    let (partition, model) = (&*partition, &*model);
-    let ghost_constrained = ghost_constrained_dofs(global, model, plan, &ghost);
-    let owned = plan.owned().to_vec();
+        owned,
+        mut collective_ops,
+    } = ImplicitRank::new(comm, sub, global);
     state.time = solver.initial_time;
     outputs.nonlinear_iterations = None;
     let written = {
@@ -969,13 +991,6 @@ fn newmark_on_ranks(
         outputs.call(comm, partition, &owned, &fields, state.time)
     };
     agree(comm, written)?;
-    let mut collective_ops = RankCollective {
-        plan,
-        comm,
-        ghost,
-        global_points: global.points.len(),
-        ghost_constrained,
-    };
     let result = crate::solver::newmark::run(
         model,
         physics,
