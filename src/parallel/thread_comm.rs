@@ -106,12 +106,12 @@ impl Communicator for ThreadComm {
             self.send(to, local);
         }
         let mut all = Vec::with_capacity(counts.iter().sum());
-        for from in 0..self.size() {
+        for (from, &count) in counts.iter().enumerate() {
             if from == self.rank {
                 all.extend_from_slice(local);
             } else {
                 let data = self.receive(from);
-                assert_eq!(data.len(), counts[from]);
+                assert_eq!(data.len(), count);
                 all.extend(data);
             }
         }
