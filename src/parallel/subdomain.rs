@@ -81,7 +81,15 @@ impl Subdomain {
         let partition = Partition::of_bonds(&global.points.position, &global.bonds, ranks);
         let plan = HaloPlan::build(&global.bonds, &partition, rank, depth);
         let in_blocks = depth == 1 || outer_layer_in_blocks;
-        let model = local_model(global, &plan, in_blocks, &global.bonds);
+        let local_rows = plan.global().iter().map(|&g| {
+            let range = global.bonds.range(g as usize);
+            (
+                &global.bonds.neighbor[range.clone()],
+                &global.bonds.reference_length[range],
+            )
+        });
+        let bonds = local_bonds(&plan, global.points.len(), local_rows);
+        let model = local_model(global, &plan, in_blocks, bonds);
         Self {
             partition,
             plan,
@@ -96,8 +104,8 @@ impl Subdomain {
     /// bond memory per rank falls with the rank count. Gives the partition, plan and model of
     /// [`Subdomain::new`] on the global families.
     ///
-    /// Collective: every rank calls `rows_of` 3 times (depth 1) or 4 times (depth 2), then
-    /// one all-gather of weights and the requests of [`HaloPlan::from_ghosts`]. `rows_of`
+    /// Collective: every rank calls `rows_of` 3 times (depth 1) or 4 times (depth 2), with
+    /// one all-gather of weights and the requests of [`HaloPlan::from_ghosts`] between. `rows_of`
     /// must fail on every rank alike or on none (agree inside it).
     pub fn searched<E>(
         global: &Model,
@@ -119,44 +127,26 @@ impl Subdomain {
         let counts: Vec<usize> = (0..ranks).map(|r| start(r + 1) - start(r)).collect();
         let weights = comm.all_gather(&sizes, &counts);
         let partition = Partition::bisect(&global.points.position, &weights, ranks);
-        let owned = partition.owned[rank].clone();
-        let owned_rows = rows_of(&owned)?;
+        // The ghost layers, from the rows of the owned points and of layer 1. These rows are
+        // dropped as soon as they have named the next layer, and every local row is searched
+        // again below in local order: one copy of the local rows in memory, not two.
         let mine = |p: u32| partition.owner[p as usize] as usize == rank;
         let mut mark = vec![0u8; n];
-        let first = new_ghosts(
-            (0..owned.len()).map(|k| owned_rows.family(k)),
-            mine,
-            &mut mark,
-            1,
-        );
-        let first_rows = rows_of(&first)?;
+        let first = {
+            let owned = &partition.owned[rank];
+            let rows = rows_of(owned)?;
+            new_ghosts((0..owned.len()).map(|k| rows.family(k)), mine, &mut mark, 1)
+        };
         let second = if depth >= 2 {
-            new_ghosts(
-                (0..first.len()).map(|k| first_rows.family(k)),
-                mine,
-                &mut mark,
-                2,
-            )
+            let rows = rows_of(&first)?;
+            new_ghosts((0..first.len()).map(|k| rows.family(k)), mine, &mut mark, 2)
         } else {
             Vec::new()
         };
-        // The outermost layer's rows too: they keep their bonds to other local points.
-        let second_rows = if depth >= 2 {
-            rows_of(&second)?
-        } else {
-            BondList {
-                offsets: vec![0],
-                ..BondList::default()
-            }
-        };
         let plan = HaloPlan::from_ghosts(&partition, rank, depth, &layered(&first, &second), comm);
-        let rows = SomeRows(vec![
-            (owned, owned_rows),
-            (first, first_rows),
-            (second, second_rows),
-        ]);
+        let bonds = renumbered_in_place(&plan, n, rows_of(plan.global())?);
         let in_blocks = depth == 1 || outer_layer_in_blocks;
-        let model = local_model(global, &plan, in_blocks, &rows);
+        let model = local_model(global, &plan, in_blocks, bonds);
         Ok(Self {
             partition,
             plan,
@@ -175,49 +165,91 @@ impl Subdomain {
     }
 }
 
-/// Where [`local_model`] reads a point's family: its neighbours and reference lengths, in
-/// run order.
-trait FamilyRows {
-    /// Row of global point `point`.
-    fn row(&self, point: u32) -> (&[u32], &[f64]);
-}
-
-impl FamilyRows for BondList {
-    fn row(&self, point: u32) -> (&[u32], &[f64]) {
-        let p = point as usize;
-        (self.family(p), &self.reference_length[self.range(p)])
+/// `local_of[g]`: the local index of global point g, `u32::MAX` for points not on this rank.
+fn local_numbering(plan: &HaloPlan, n_global: usize) -> Vec<u32> {
+    let mut local_of = vec![u32::MAX; n_global];
+    for (l, &g) in plan.global().iter().enumerate() {
+        local_of[g as usize] = l as u32;
     }
+    local_of
 }
 
-/// The rows of some points: lists of global point indices (each increasing), with row k of
-/// each bond list for the list's k-th point.
-struct SomeRows(Vec<(Vec<u32>, BondList)>);
-
-impl FamilyRows for SomeRows {
-    fn row(&self, point: u32) -> (&[u32], &[f64]) {
-        self.0
-            .iter()
-            .find_map(|(points, rows)| {
-                let k = points.binary_search(&point).ok()?;
-                Some((rows.family(k), &rows.reference_length[rows.range(k)]))
-            })
-            .expect("every local point's row was searched")
+/// The local index of neighbour `j` (global) of local point `l`, or `None` when `j` is not
+/// on this rank, which only the outermost ghost layer's rows may meet (their bonds to points
+/// off this rank are dropped). The local numbering is increasing in the global one, so sorted
+/// rows stay sorted.
+fn local_neighbor(local_of: &[u32], plan: &HaloPlan, l: usize, j: u32) -> Option<u32> {
+    let local = local_of[j as usize];
+    if local != u32::MAX {
+        return Some(local);
     }
+    assert!(
+        plan.layer()[l] >= plan.depth() as u8,
+        "point {} (layer {}) has a neighbour outside the halo",
+        plan.global()[l],
+        plan.layer()[l]
+    );
+    None
 }
 
-/// The model over the plan's local points, their families read from `rows`.
+/// The local bond list from the global rows of the plan's local points, in local order.
+fn local_bonds<'a>(
+    plan: &HaloPlan,
+    n_global: usize,
+    rows: impl Iterator<Item = (&'a [u32], &'a [f64])>,
+) -> BondList {
+    let local_of = local_numbering(plan, n_global);
+    let mut bonds = BondList {
+        offsets: Vec::with_capacity(plan.global().len() + 1),
+        neighbor: Vec::new(),
+        reference_length: Vec::new(),
+    };
+    bonds.offsets.push(0);
+    for (l, (neighbors, lengths)) in rows.enumerate() {
+        for (&j, &length) in neighbors.iter().zip(lengths) {
+            if let Some(local) = local_neighbor(&local_of, plan, l, j) {
+                bonds.neighbor.push(local);
+                bonds.reference_length.push(length);
+            }
+        }
+        bonds.offsets.push(bonds.neighbor.len());
+    }
+    bonds
+}
+
+/// [`local_bonds`] in place, for `rows` searched in local order (row l is local point l's,
+/// neighbours in global numbering): no second copy of the rows.
+fn renumbered_in_place(plan: &HaloPlan, n_global: usize, mut rows: BondList) -> BondList {
+    let local_of = local_numbering(plan, n_global);
+    let (mut kept, mut start) = (0, 0);
+    for l in 0..rows.num_points() {
+        // Row l's bonds as searched; `offsets[l]` already holds its compacted start.
+        let end = rows.offsets[l + 1];
+        // `kept` never passes `b`: every write lands on a bond already read.
+        for b in start..end {
+            if let Some(local) = local_neighbor(&local_of, plan, l, rows.neighbor[b]) {
+                rows.neighbor[kept] = local;
+                rows.reference_length[kept] = rows.reference_length[b];
+                kept += 1;
+            }
+        }
+        rows.offsets[l + 1] = kept;
+        start = end;
+    }
+    rows.neighbor.truncate(kept);
+    rows.reference_length.truncate(kept);
+    rows
+}
+
+/// The model over the plan's local points with their local `bonds`.
 fn local_model(
     global: &Model,
     plan: &HaloPlan,
     outer_layer_in_blocks: bool,
-    rows: &dyn FamilyRows,
+    bonds: BondList,
 ) -> Model {
     let local_points = plan.global();
-    let n_global = global.points.len();
-    let mut local_of = vec![u32::MAX; n_global];
-    for (l, &g) in local_points.iter().enumerate() {
-        local_of[g as usize] = l as u32;
-    }
+    let local_of = local_numbering(plan, global.points.len());
     let points = PointCloud {
         position: local_points
             .iter()
@@ -240,32 +272,6 @@ fn local_model(
         .iter()
         .map(|&g| global.horizon[g as usize])
         .collect();
-    // Rows restricted to local neighbours, in the global bond order; the local numbering is
-    // increasing in the global one, so sorted rows stay sorted.
-    let mut bonds = BondList {
-        offsets: Vec::with_capacity(local_points.len() + 1),
-        neighbor: Vec::new(),
-        reference_length: Vec::new(),
-    };
-    bonds.offsets.push(0);
-    for (l, &g) in local_points.iter().enumerate() {
-        let complete_row = plan.layer()[l] < plan.depth() as u8;
-        let (neighbors, lengths) = rows.row(g);
-        for (&j, &length) in neighbors.iter().zip(lengths) {
-            let local = local_of[j as usize];
-            if local == u32::MAX {
-                assert!(
-                    !complete_row,
-                    "point {g} (layer {}) has a neighbour outside the halo",
-                    plan.layer()[l]
-                );
-                continue;
-            }
-            bonds.neighbor.push(local);
-            bonds.reference_length.push(length);
-        }
-        bonds.offsets.push(bonds.neighbor.len());
-    }
     let owned_local = |points: &[u32]| -> Vec<u32> {
         points
             .iter()
