@@ -127,24 +127,35 @@ impl Subdomain {
         let counts: Vec<usize> = (0..ranks).map(|r| start(r + 1) - start(r)).collect();
         let weights = comm.all_gather(&sizes, &counts);
         let partition = Partition::bisect(&global.points.position, &weights, ranks);
-        // The ghost layers, from the rows of the owned points and of layer 1. These rows are
-        // dropped as soon as they have named the next layer, and every local row is searched
-        // again below in local order: one copy of the local rows in memory, not two.
+        // The ghost layers, from the rows of the owned points and of layer 1; the outer
+        // layer's rows too, since they keep their bonds to other local points.
         let mine = |p: u32| partition.owner[p as usize] as usize == rank;
         let mut mark = vec![0u8; n];
-        let first = {
-            let owned = &partition.owned[rank];
-            let rows = rows_of(owned)?;
-            new_ghosts((0..owned.len()).map(|k| rows.family(k)), mine, &mut mark, 1)
-        };
-        let second = if depth >= 2 {
-            let rows = rows_of(&first)?;
-            new_ghosts((0..first.len()).map(|k| rows.family(k)), mine, &mut mark, 2)
+        let owned = &partition.owned[rank];
+        let owned_rows = rows_of(owned)?;
+        let first = new_ghosts(
+            (0..owned.len()).map(|k| owned_rows.family(k)),
+            mine,
+            &mut mark,
+            1,
+        );
+        let first_rows = rows_of(&first)?;
+        let (second, second_rows) = if depth >= 2 {
+            let second = new_ghosts(
+                (0..first.len()).map(|k| first_rows.family(k)),
+                mine,
+                &mut mark,
+                2,
+            );
+            let rows = rows_of(&second)?;
+            (second, rows)
         } else {
-            Vec::new()
+            (Vec::new(), BondList::default())
         };
         let plan = HaloPlan::from_ghosts(&partition, rank, depth, &layered(&first, &second), comm);
-        let bonds = renumbered_in_place(&plan, n, rows_of(plan.global())?);
+        let rows = merged_rows(&plan, owned_rows, [&first_rows, &second_rows]);
+        drop((first_rows, second_rows));
+        let bonds = renumbered_in_place(&plan, n, rows);
         let in_blocks = depth == 1 || outer_layer_in_blocks;
         let model = local_model(global, &plan, in_blocks, bonds);
         Ok(Self {
@@ -217,8 +228,51 @@ fn local_bonds<'a>(
     bonds
 }
 
-/// [`local_bonds`] in place, for `rows` searched in local order (row l is local point l's,
-/// neighbours in global numbering): no second copy of the rows.
+/// The rows of every local point in local order, from the rows of the owned points and of
+/// the two ghost layers (each list in increasing global order, neighbours global). The owned
+/// rows' arrays grow in place and every row moves to its local place in one backward pass
+/// (an owned row only moves up, past the ghost rows that come before it), so the owned rows,
+/// most of the bonds, exist once.
+fn merged_rows(plan: &HaloPlan, mut owned: BondList, ghost_layers: [&BondList; 2]) -> BondList {
+    let layer = plan.layer();
+    // rows_taken[x]: rows of list x (0 owned, 1 and 2 the ghost layers) placed so far.
+    let mut rows_taken = [0usize; 3];
+    let mut offsets = Vec::with_capacity(layer.len() + 1);
+    offsets.push(0);
+    for &x in layer {
+        let x = usize::from(x);
+        let size = match x {
+            0 => owned.family_size(rows_taken[0]),
+            _ => ghost_layers[x - 1].family_size(rows_taken[x]),
+        };
+        rows_taken[x] += 1;
+        offsets.push(offsets[offsets.len() - 1] + size);
+    }
+    let total = offsets[layer.len()];
+    owned.neighbor.resize(total, 0);
+    owned.reference_length.resize(total, 0.0);
+    for l in (0..layer.len()).rev() {
+        let x = usize::from(layer[l]);
+        rows_taken[x] -= 1;
+        let (k, to) = (rows_taken[x], offsets[l]);
+        if x == 0 {
+            let from = owned.offsets[k]..owned.offsets[k + 1];
+            owned.neighbor.copy_within(from.clone(), to);
+            owned.reference_length.copy_within(from, to);
+        } else {
+            let rows = ghost_layers[x - 1];
+            let from = rows.range(k);
+            let to = to..to + from.len();
+            owned.neighbor[to.clone()].copy_from_slice(&rows.neighbor[from.clone()]);
+            owned.reference_length[to].copy_from_slice(&rows.reference_length[from]);
+        }
+    }
+    owned.offsets = offsets;
+    owned
+}
+
+/// [`local_bonds`] in place, for `rows` in local order (row l is local point l's, neighbours
+/// in global numbering): no second copy of the rows.
 fn renumbered_in_place(plan: &HaloPlan, n_global: usize, mut rows: BondList) -> BondList {
     let local_of = local_numbering(plan, n_global);
     let (mut kept, mut start) = (0, 0);
