@@ -14,7 +14,8 @@ use std::process::Command;
 /// exodiff command file: 1e-8 relative everywhere (the issue's bar for implicit runs), with
 /// floors below which values are round-off: 1e-14 m for displacements (the pull is 0.012 m)
 /// and 1 N for forces, far below the reactions (1e5–1e8 N) and above the interior residuals
-/// the Newton tolerance of 0.01 N leaves, whose size depends on the iterate.
+/// the Newton tolerances (0.01 N for NOX, 0.05 N for QuasiStatic) leave, whose size depends on
+/// the iterate.
 const RELATIVE: &str = "DEFAULT TOLERANCE relative 1.0E-8 floor 1.0E-14
 COORDINATES absolute 0.0
 TIME STEPS relative 1.0E-12 floor 0.0
@@ -71,6 +72,49 @@ fn same_answer_on_one_two_and_three_ranks(name: &str, text: &str, comp: &str, la
         assert_eq!(log.matches("done:").count(), 1, "{log}");
         assert_eq!(log.matches(last_step).count(), 1, "{log}");
     }
+    // The per-step solver report is written on every rank count, rank 0 writing for all: the
+    // same steps and Newton iterations, and the same first residual (a global norm of the
+    // input, so only its summation order depends on the ranks). Later residuals start from
+    // answers that agree only to the solver tolerance, and the linear iterations and residual
+    // evaluations follow from each rank preconditioning its own rows.
+    let report = |ranks: usize| -> Vec<Vec<f64>> {
+        let path = dir.path().join(format!("ranks{ranks}/bar_solver.csv"));
+        let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path:?}: {e}"));
+        text.lines()
+            .skip(1)
+            .map(|line| line.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect()
+    };
+    let one = report(1);
+    assert!(!one.is_empty());
+    // Every step converged: fewer Newton iterations than the decks' limits (10 and 20), not
+    // accepted at the limit.
+    assert!(
+        one.iter().all(|row| row[2] < 10.0),
+        "{name}: a step ran to its iteration limit on one rank: {one:?}"
+    );
+    for ranks in 2..=3 {
+        let many = report(ranks);
+        assert_eq!(
+            many.len(),
+            one.len(),
+            "{name}: solver report rows on {ranks} ranks"
+        );
+        for (a, b) in many.iter().zip(&one) {
+            // Time, Step, Newton_Iterations.
+            for column in [0, 1, 2] {
+                assert_eq!(
+                    a[column], b[column],
+                    "{name}: {ranks} ranks, column {column}"
+                );
+            }
+        }
+        let (first_many, first_one) = (many[0][5], one[0][5]);
+        assert!(
+            (first_many - first_one).abs() <= 1e-12 * first_one.abs(),
+            "{name}: first residual {first_many} on {ranks} ranks, {first_one} on one"
+        );
+    }
     for ranks in 2..=3 {
         let output = Command::new(PERIDYN)
             .args([
@@ -112,7 +156,10 @@ fn jacobian_free_nox_gives_the_one_rank_answer_on_two_and_three_ranks() {
 
 #[test]
 fn quasi_static_newton_with_belos_gives_the_one_rank_answer_on_two_and_three_ranks() {
-    let solver = "    Final Time: 1.0\n    Backend: \"Trilinos\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"ILU\"\n    Linear Solver Tolerance: 1.0e-12\n    QuasiStatic:\n      Number of Load Steps: {steps}\n      Absolute Tolerance: 1.0e-2\n      Maximum Solver Iterations: 20";
+    // Peridigm's quasi-static measure ‖r‖ + 20·max|r| stops at about 1.1e-2 N here, the
+    // round-off of bond forces near 1e10 N; 5e-2 is reached in 2–3 iterations on any rank
+    // count, and the comparison's 1 N floor for forces stays above it.
+    let solver = "    Final Time: 1.0\n    Backend: \"Trilinos\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"ILU\"\n    Linear Solver Tolerance: 1.0e-12\n    QuasiStatic:\n      Number of Load Steps: {steps}\n      Absolute Tolerance: 5.0e-2\n      Maximum Solver Iterations: 20";
     let text = quasi_static_bar::bar_deck(solver, 0.012, 0.004, 2);
     same_answer_on_one_two_and_three_ranks("QuasiStatic + Belos", &text, RELATIVE, "Load step 2,");
 }

@@ -37,6 +37,7 @@ use crate::setup::{self, Model};
 use crate::solver::collective::Collective;
 use crate::solver::explicit::Halo;
 use crate::solver::newmark::NewmarkError;
+use crate::solver::newton::NewtonReport;
 use crate::solver::quasistatic::QuasiStaticError;
 use crate::solver::{EnergyMonitor, VelocityVerlet, VerletSettings};
 use crate::state::State;
@@ -237,6 +238,8 @@ struct DistributedOutputs<'a> {
     fields: Vec<(String, Shape)>,
     classes: &'a [PreparedComputeClass],
     seconds: f64,
+    /// `<output>_solver.csv` of the implicit steps, on rank 0.
+    solver_history: Option<super::SolverHistory>,
 }
 
 impl<'a> DistributedOutputs<'a> {
@@ -272,7 +275,26 @@ impl<'a> DistributedOutputs<'a> {
             fields,
             classes,
             seconds: 0.0,
+            solver_history: (rank == 0).then(|| super::SolverHistory::new(deck, dir)),
         })
+    }
+
+    /// One implicit step's row of `<output>_solver.csv`, written by rank 0 with the tangent
+    /// bytes summed over the ranks (the other columns are global already). Collective (one
+    /// sum); a write failure on rank 0 is returned to the caller, which agrees on it.
+    fn record(
+        &mut self,
+        comm: &dyn Communicator,
+        time: f64,
+        step: usize,
+        report: &NewtonReport,
+    ) -> Result<(), RunError> {
+        let mut tangent_bytes = [report.tangent_bytes as f64];
+        comm.sum(&mut tangent_bytes);
+        match &mut self.solver_history {
+            Some(history) => history.record(time, step, report, tangent_bytes[0]),
+            None => Ok(()),
+        }
     }
 
     /// Counts one output call; on a frame, gathers the point fields (collective) and rank 0
@@ -335,6 +357,9 @@ impl<'a> DistributedOutputs<'a> {
     }
 
     fn finish(self) -> Result<Vec<PathBuf>, RunError> {
+        if let Some(history) = self.solver_history {
+            history.finish()?;
+        }
         let mut paths = Vec::new();
         for file in self.files {
             paths.push(file.path().to_path_buf());
@@ -935,9 +960,11 @@ fn quasi_static_on_ranks(
         |physics, state, report| -> Result<(), RunError> {
             summary.steps += 1;
             outputs.nonlinear_iterations = Some(report.newton.iterations as f64);
+            // Both are collective: each runs on every rank before the agreement.
+            let recorded = outputs.record(comm, report.time, report.step, &report.newton);
             let fields = Fields::new(model, physics, state, &[]);
             let written = outputs.call(comm, partition, &owned, &fields, report.time);
-            agree(comm, written)
+            agree(comm, recorded.and(written))
         },
     );
     match result {
@@ -998,12 +1025,14 @@ fn newmark_on_ranks(
         &settings,
         &mut linear,
         &mut collective_ops,
-        |physics, state, _step, report| -> Result<(), RunError> {
+        |physics, state, step, report| -> Result<(), RunError> {
             summary.steps += 1;
             outputs.nonlinear_iterations = Some(report.iterations as f64);
+            // Both are collective: each runs on every rank before the agreement.
+            let recorded = outputs.record(comm, state.time, step as usize, report);
             let fields = Fields::new(model, physics, state, &[]);
             let written = outputs.call(comm, partition, &owned, &fields, state.time);
-            agree(comm, written)
+            agree(comm, recorded.and(written))
         },
     );
     match result {

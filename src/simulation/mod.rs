@@ -267,12 +267,7 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
         model,
         compute_classes: &compute_classes,
         outputs: Outputs::create(deck, model, dir)?,
-        solver_history: None,
-        dir: dir.to_path_buf(),
-        history_name: deck
-            .outputs
-            .first()
-            .map_or_else(|| "peridyn".to_string(), |o| o.filename.clone()),
+        solver_history: SolverHistory::new(deck, dir),
         summary: RunSummary::default(),
         nonlinear_iterations: None,
     };
@@ -306,11 +301,7 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
     summary.output_seconds = run.outputs.seconds;
     summary.solve_seconds -= summary.output_seconds.min(summary.solve_seconds);
     summary.files = run.outputs.finish()?;
-    if let Some(history) = run.solver_history {
-        history
-            .finish()
-            .map_err(|e| RunError::Unsupported(e.to_string()))?;
-    }
+    run.solver_history.finish()?;
     Ok(summary)
 }
 
@@ -319,10 +310,7 @@ struct Run<'a> {
     model: &'a Model,
     compute_classes: &'a [PreparedComputeClass],
     outputs: Outputs,
-    /// Per-step report of the implicit solvers (`<output>_solver.csv`), created on first use.
-    solver_history: Option<HistoryWriter>,
-    dir: PathBuf,
-    history_name: String,
+    solver_history: SolverHistory,
     summary: RunSummary,
     /// Newton iterations of the last accepted implicit step (`Nonlinear_Solver_Iterations`).
     nonlinear_iterations: Option<f64>,
@@ -337,35 +325,9 @@ impl Run<'_> {
 
     /// Appends one implicit step's solver report to `<output>_solver.csv`.
     fn record(&mut self, time: f64, step: usize, report: &NewtonReport) -> Result<(), RunError> {
-        if self.solver_history.is_none() {
-            let path = self.dir.join(format!("{}_solver.csv", self.history_name));
-            let names: Vec<String> = SOLVER_HISTORY_COLUMNS
-                .iter()
-                .map(|s| s.to_string())
-                .collect();
-            self.solver_history = Some(
-                HistoryWriter::create(&path, &names)
-                    .map_err(|e| RunError::Unsupported(e.to_string()))?,
-            );
-        }
-        let first = report.residual_history.first().copied().unwrap_or(0.0);
-        let last = report.residual_history.last().copied().unwrap_or(0.0);
-        let row = [
-            step as f64,
-            report.iterations as f64,
-            report.linear_iterations as f64,
-            report.residual_evaluations as f64,
-            first,
-            last,
-            report.seconds,
-            report.tangent_bytes as f64,
-            report.broken_bonds as f64,
-        ];
+        let tangent_bytes = report.tangent_bytes as f64;
         self.solver_history
-            .as_mut()
-            .expect("created above")
-            .write_row(time, &row)
-            .map_err(|e| RunError::Unsupported(e.to_string()))
+            .record(time, step, report, tangent_bytes)
     }
 
     fn verlet(
@@ -594,6 +556,74 @@ fn describe_newmark(
         "{}: Implicit (Newmark-β, β = {}, γ = {}), Δt = {:e} s, {} steps{on_ranks}, linear solver: {linear_solver}",
         solver.name, settings.beta, settings.gamma, settings.time_step, settings.steps
     )
+}
+
+/// The per-step report of the implicit solvers, `<output>_solver.csv` beside the first
+/// output file (`peridyn.csv` names when the deck has no output), created at the first step.
+struct SolverHistory {
+    path: PathBuf,
+    writer: Option<HistoryWriter>,
+}
+
+impl SolverHistory {
+    fn new(deck: &Deck, dir: &Path) -> Self {
+        let name = deck
+            .outputs
+            .first()
+            .map_or_else(|| "peridyn".to_string(), |o| o.filename.clone());
+        Self {
+            path: dir.join(format!("{name}_solver.csv")),
+            writer: None,
+        }
+    }
+
+    /// One row: the Newton report of the step that ended at `time`, with the tangent's
+    /// bytes over all ranks.
+    fn record(
+        &mut self,
+        time: f64,
+        step: usize,
+        report: &NewtonReport,
+        tangent_bytes: f64,
+    ) -> Result<(), RunError> {
+        let unavailable =
+            |e: crate::io::history::HistoryError| RunError::Unsupported(e.to_string());
+        if self.writer.is_none() {
+            let names: Vec<String> = SOLVER_HISTORY_COLUMNS
+                .iter()
+                .map(|s| s.to_string())
+                .collect();
+            self.writer = Some(HistoryWriter::create(&self.path, &names).map_err(unavailable)?);
+        }
+        let first = report.residual_history.first().copied().unwrap_or(0.0);
+        let last = report.residual_history.last().copied().unwrap_or(0.0);
+        let row = [
+            step as f64,
+            report.iterations as f64,
+            report.linear_iterations as f64,
+            report.residual_evaluations as f64,
+            first,
+            last,
+            report.seconds,
+            tangent_bytes,
+            report.broken_bonds as f64,
+        ];
+        self.writer
+            .as_mut()
+            .expect("created above")
+            .write_row(time, &row)
+            .map_err(unavailable)
+    }
+
+    /// Closes the file, if a step wrote one.
+    fn finish(self) -> Result<(), RunError> {
+        match self.writer {
+            Some(writer) => writer
+                .finish()
+                .map_err(|e| RunError::Unsupported(e.to_string())),
+            None => Ok(()),
+        }
+    }
 }
 
 /// Columns of the implicit solver report (`<output>_solver.csv`, after `Time`).
