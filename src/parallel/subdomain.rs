@@ -454,6 +454,32 @@ mod tests {
     }
 
     #[test]
+    fn searched_families_follow_one_way_bonds() {
+        // δ = 1.6 + 0.1·x over x ∈ [0.5, 9.5]: a point's family reaches further than its left
+        // neighbours' do, so rows are not symmetric and an owner learns who holds its points
+        // only from their requests.
+        let (_dir, lps) = deck("Elastic");
+        let mut variable = lps.clone();
+        for block in &mut variable.blocks {
+            block.horizon = crate::io::deck::Horizon::Expression("1.6 + 0.1*x".into());
+        }
+        let global = crate::setup::build(&variable).unwrap();
+        let one_way = (0..global.points.len()).any(|i| {
+            global.bonds.family(i).iter().any(|&j| {
+                global
+                    .bonds
+                    .family(j as usize)
+                    .binary_search(&(i as u32))
+                    .is_err()
+            })
+        });
+        assert!(one_way, "the variable horizon should give one-way bonds");
+        for ranks in [2, 3] {
+            searched_matches_the_global_build(&variable, ranks, 2);
+        }
+    }
+
+    #[test]
     fn searched_families_give_the_global_subdomains() {
         // Depth 2 (LPS) and depth 1 (PMB), 2 and 3 ranks; the 10 × 2 × 2 bar with δ = 2.1
         // gives every rank ghosts from both neighbours at 3 ranks.
