@@ -1,7 +1,8 @@
 //! Runs on N MPI ranks: the same answers as one rank, one results file.
 //!
-//! Every rank holds the whole model (built from the deck by each rank) and runs on its
-//! [`Subdomain`]: owned points plus ghosts whose current positions are refreshed by one halo
+//! Every rank holds the points of the whole model (built from the deck by each rank, see
+//! [`global_model`]; families only for its own points and ghosts, except in contact decks)
+//! and runs on its [`Subdomain`]: owned points plus ghosts whose current positions are refreshed by one halo
 //! exchange per step (velocity Verlet) or per residual evaluation (the implicit solvers, on
 //! the Trilinos backend: quasi-static load steps and Newmark-β). Each rank evaluates damage and
 //! forces of its owned points from exactly the numbers one rank would use, in the same order
