@@ -223,6 +223,14 @@ impl Physics {
         broken
     }
 
+    /// Lets every block skip the force of the points for which `keep` is false
+    /// ([`crate::material::Material::restrict_forces`]; a rank keeps its owned points).
+    pub fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
+        for block in &mut self.blocks {
+            block.material.restrict_forces(keep);
+        }
+    }
+
     /// Internal force density at `current` with the bond damage left as it is (no bond breaks).
     /// Implicit solvers use it for the probes of Jacobian-free directional derivatives.
     pub fn internal_force_with_damage_fixed(

@@ -64,6 +64,9 @@ pub struct LinearPeridynamicSolid {
     /// Every neighbour of every block point is a block point (decided in `setup`), so the
     /// block has no bond to another block ([`Material::fuses_critical_stretch`]).
     closed: bool,
+    /// The points whose force is computed, when fewer than `points`
+    /// ([`Material::restrict_forces`]).
+    force_points: Option<Vec<u32>>,
 }
 
 impl LinearPeridynamicSolid {
@@ -81,6 +84,7 @@ impl LinearPeridynamicSolid {
             weighted_volume: Vec::new(),
             tangent: TangentMethod::Analytic,
             closed: false,
+            force_points: None,
         })
     }
 
@@ -125,6 +129,9 @@ struct Rows<'a> {
     weighted_volume: &'a [f64],
     bulk: f64,
     shear: f64,
+    /// The force pass runs over a subset of `points` ([`Material::restrict_forces`]), whose
+    /// chunks are not contiguous runs of `points`.
+    force_subset: bool,
 }
 
 impl Rows<'_> {
@@ -330,7 +337,12 @@ impl Rows<'_> {
         let volume = self.reference.volume;
         let y = self.current.position;
         let k0 = self.first_local(chunk);
-        for (k, &i) in (k0..).zip(chunk) {
+        for (n, &i) in chunk.iter().enumerate() {
+            let k = if self.force_subset {
+                self.points.partition_point(|&p| p < i)
+            } else {
+                k0 + n
+            };
             let i = i as usize;
             let yi = y[i];
             let own = coefficients[i];
@@ -713,6 +725,7 @@ impl LinearPeridynamicSolid {
             weighted_volume: &self.weighted_volume,
             bulk: self.parameters.bulk_modulus,
             shear: self.parameters.shear_modulus,
+            force_subset: self.force_points.is_some(),
         }
     }
 }
@@ -783,6 +796,7 @@ impl Material for LinearPeridynamicSolid {
             .iter()
             .all(|&i| bonds.family(i as usize).iter().all(|&j| member[j as usize]));
         self.points = points;
+        self.force_points = None;
         self.weights = weights;
         self.local_offsets = local_offsets;
         self.weighted_volume = weighted_volume;
@@ -791,6 +805,11 @@ impl Material for LinearPeridynamicSolid {
 
     fn points(&self) -> &[u32] {
         &self.points
+    }
+
+    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
+        let kept: Vec<u32> = self.points.iter().copied().filter(|&p| keep(p)).collect();
+        self.force_points = (kept.len() < self.points.len()).then_some(kept);
     }
 
     fn compute_point_coefficients(
@@ -862,9 +881,10 @@ impl Material for LinearPeridynamicSolid {
     ) {
         let rows = self.rows(reference, current);
         let wide = wide_vectors_available();
+        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             for_each_chunk(
-                &self.points,
+                force_points,
                 force_density,
                 &|i| i as usize,
                 &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
@@ -1004,6 +1024,65 @@ mod tests {
             }
             assert!(total > 0 && total < bonds.num_bonds(), "{total}");
         }
+    }
+
+    #[test]
+    fn restricted_forces_are_the_kept_points_forces_bitwise() {
+        // A rank keeps its owned points (here every third point of a block that is a part of
+        // the cloud, with a parabolic influence so that the block-local bond weights matter):
+        // their forces are bitwise those of the unrestricted pass, the others are untouched.
+        let mut rng = Rng::new(21);
+        let (x, v) = random_cloud(&mut rng, 300, 5.0);
+        let bonds = brute_force_bonds(&x, 1.6);
+        let y: Vec<[f64; 3]> = x
+            .iter()
+            .map(|p| p.map(|c| c + 0.05 * (2.0 * rng.uniform() - 1.0)))
+            .collect();
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
+            density: 1.0,
+            bulk_modulus: 3.0,
+            shear_modulus: 1.3,
+            horizon: 1.6,
+            influence: InfluenceFunction::ParabolicDecay,
+        })
+        .unwrap();
+        let block: Vec<u32> = (0..x.len() as u32).filter(|p| p % 5 != 0).collect();
+        m.setup(&reference, block.clone()).unwrap();
+        let current = CurrentView {
+            position: &y,
+            bond_damage: None,
+        };
+        let mut c = vec![PointCoefficients::default(); x.len()];
+        m.compute_point_coefficients(&reference, &current, &mut c);
+        let mut all = vec![[0.0; 3]; x.len()];
+        m.add_force_density(&reference, &current, &c, &mut all);
+        let kept = |p: u32| p % 3 == 0;
+        m.restrict_forces(&kept);
+        let untouched = [7.0, 8.0, 9.0];
+        let mut restricted = vec![untouched; x.len()];
+        restricted
+            .iter_mut()
+            .enumerate()
+            .filter(|(p, _)| kept(*p as u32) && block.contains(&(*p as u32)))
+            .for_each(|(_, f)| *f = [0.0; 3]);
+        m.add_force_density(&reference, &current, &c, &mut restricted);
+        for p in 0..x.len() as u32 {
+            if kept(p) && block.contains(&p) {
+                assert_eq!(restricted[p as usize], all[p as usize], "point {p}");
+            } else {
+                assert_eq!(restricted[p as usize], untouched, "point {p}");
+            }
+        }
+        // Keeping every point is no restriction.
+        m.restrict_forces(&|_| true);
+        let mut again = vec![[0.0; 3]; x.len()];
+        m.add_force_density(&reference, &current, &c, &mut again);
+        assert_eq!(again, all);
     }
 
     #[test]

@@ -164,6 +164,15 @@ pub trait Material: Send + Sync {
     /// The block's points given to [`Material::setup`].
     fn points(&self) -> &[u32];
 
+    /// From now on [`Material::add_force_density`] may skip the block points for which `keep`
+    /// is false, leaving their force density as it was. A rank of a distributed run keeps only
+    /// its owned points: its ghosts' forces are never used (their rows may be truncated), while
+    /// their other per-point values (dilatation, damage) still are. The default computes every
+    /// block point's force.
+    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
+        let _ = keep;
+    }
+
     /// Writes the [`PointCoefficients`] of the block's points into `coefficients`.
     fn compute_point_coefficients(
         &self,

@@ -559,6 +559,9 @@ pub fn run_distributed(
     let prepared = (|| -> Result<_, RunError> {
         let mut physics = setup::build_physics(deck, &sub.model)
             .map_err(|e| RunError::Unsupported(e.to_string()))?;
+        // Ghost forces are never used: only the owned points' are computed.
+        let ghost = sub.ghost_mask();
+        physics.restrict_forces(&|p| !ghost[p as usize]);
         // Contact searches the deformed configuration of the whole model: it is built on the
         // global model (global bonds decide who may touch) and keeps its own exchange.
         if physics.contact.is_some() {
