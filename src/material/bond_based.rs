@@ -104,6 +104,9 @@ pub struct BondBased {
     pair_scratch: PairScratch,
     /// How the tangent is computed (default analytic).
     tangent: TangentMethod,
+    /// The points whose force is computed, when fewer than `points`
+    /// ([`Material::restrict_forces`]).
+    force_points: Option<Vec<u32>>,
 }
 
 impl BondBased {
@@ -125,6 +128,7 @@ impl BondBased {
             closed: false,
             pairs: None,
             pair_scratch: PairScratch::default(),
+            force_points: None,
             tangent: TangentMethod::Analytic,
         })
     }
@@ -507,13 +511,15 @@ impl PairPlan {
         *self.pair_start.last().unwrap()
     }
 
-    /// Adds the force density of every point of the block to `force_density`, breaking first
-    /// the bonds `breaker` breaks; returns the directed bonds broken. `scale` is scratch
-    /// space (resized here).
+    /// Adds the force density of every point of the block (of `gather` alone, a subset of the
+    /// block's points, when given) to `force_density`, breaking first the bonds `breaker`
+    /// breaks in every pair; returns the directed bonds broken. `scale` is scratch space
+    /// (resized here).
     #[allow(clippy::too_many_arguments)]
     fn run<D: Integrity, B: Breaker>(
         &self,
         points: &[u32],
+        gather: Option<&[u32]>,
         scale: &mut Vec<f64>,
         force_density: &mut [[f64; 3]],
         rows: PairRows<'_>,
@@ -552,9 +558,14 @@ impl PairPlan {
             .sum::<usize>();
         // Pass 2: each point gathers its row.
         let scale = &scale[..];
-        let gather = |chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
+        let gathered = |chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
             let first = points.partition_point(|&p| p < chunk[0]);
-            for (k, &i) in (first..).zip(chunk) {
+            for (n, &i) in chunk.iter().enumerate() {
+                // A subset's chunks are not contiguous runs of the block's points.
+                let k = match gather {
+                    Some(_) => points.partition_point(|&p| p < i),
+                    None => first + n,
+                };
                 let i = i as usize;
                 let f = gathered_row(
                     rows.y[i],
@@ -570,7 +581,8 @@ impl PairPlan {
                 }
             }
         };
-        for_each_chunk(points, force_density, &|i| i as usize, &gather);
+        let gather_points = gather.unwrap_or(points);
+        for_each_chunk(gather_points, force_density, &|i| i as usize, &gathered);
         broken
     }
 }
@@ -950,11 +962,17 @@ impl Material for BondBased {
             None
         };
         self.points = points;
+        self.force_points = None;
         Ok(())
     }
 
     fn points(&self) -> &[u32] {
         &self.points
+    }
+
+    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
+        let kept: Vec<u32> = self.points.iter().copied().filter(|&p| keep(p)).collect();
+        self.force_points = (kept.len() < self.points.len()).then_some(kept);
     }
 
     fn compute_point_coefficients(
@@ -1003,6 +1021,7 @@ impl Material for BondBased {
             match current.bond_damage {
                 None => plan.run(
                     &self.points,
+                    self.force_points.as_deref(),
                     scale,
                     force_density,
                     pairs,
@@ -1012,6 +1031,7 @@ impl Material for BondBased {
                 ),
                 Some(d) => plan.run(
                     &self.points,
+                    self.force_points.as_deref(),
                     scale,
                     force_density,
                     pairs,
@@ -1033,7 +1053,8 @@ impl Material for BondBased {
             (Some(d), true) => rows.add_force_dispatch(chunk, base, out, Damaged(d), uniform, wide),
             (Some(d), false) => rows.add_force_dispatch(chunk, base, out, Damaged(d), mixed, wide),
         };
-        for_each_chunk(&self.points, force_density, &|i| i as usize, &run);
+        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        for_each_chunk(force_points, force_density, &|i| i as usize, &run);
     }
 
     fn fuses_critical_stretch(&self) -> bool {
@@ -1076,6 +1097,7 @@ impl Material for BondBased {
         let scale = &mut self.pair_scratch.take();
         let broken = plan.run(
             &self.points,
+            self.force_points.as_deref(),
             scale,
             force_density,
             pairs,
@@ -1466,6 +1488,14 @@ mod tests {
         sub.setup(&sub_reference, (0..points.len() as u32).collect())
             .unwrap();
         assert!(whole.fuses_critical_stretch() && sub.fuses_critical_stretch());
+        // The same rank computing the forces of some of its owned points only (a distributed
+        // run keeps the owned ones; every other one here, so that the kept points are not a
+        // contiguous run of the block): every pair is still decided, the others' forces are
+        // left alone.
+        let kept = |l: usize| owned[l] && l % 2 == 0;
+        let mut owned_only = sub.clone();
+        owned_only.restrict_forces(&|l| kept(l as usize));
+        let mut owned_only_damage = vec![0.0f32; sub_bonds.num_bonds()];
         let coefficients = vec![PointCoefficients::default(); x.len()];
         let mut whole_damage = vec![0.0f32; bonds.num_bonds()];
         let mut sub_damage = vec![0.0f32; sub_bonds.num_bonds()];
@@ -1507,6 +1537,23 @@ mod tests {
             // The separate force call (damage already updated) gives the same bits again.
             let again = force(&[&sub], &sub_reference, &sub_at, &sub_damage);
             assert_eq!(again, sub_force);
+            let untouched = [7.0, 8.0, 9.0];
+            let mut owned_only_force: Vec<[f64; 3]> = (0..points.len())
+                .map(|l| if kept(l) { [0.0; 3] } else { untouched })
+                .collect();
+            owned_only.add_force_density_breaking_bonds(
+                &sub_reference,
+                &sub_at,
+                0.02,
+                &mut owned_only_damage,
+                &coefficients[..points.len()],
+                &mut owned_only_force,
+            );
+            assert_eq!(owned_only_damage, sub_damage);
+            for l in 0..points.len() {
+                let expected = if kept(l) { sub_force[l] } else { untouched };
+                assert_eq!(owned_only_force[l], expected, "local point {l}");
+            }
         }
         assert!(broken > 0 && broken < bonds.num_bonds(), "{broken}");
     }
