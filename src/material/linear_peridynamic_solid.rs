@@ -1026,31 +1026,51 @@ mod tests {
         }
     }
 
+    /// Reference positions, volumes, families and current positions.
+    type Cloud = (
+        Vec<[f64; 3]>,
+        Vec<f64>,
+        crate::model::BondList,
+        Vec<[f64; 3]>,
+    );
+
+    /// 300 random points in a 5-wide box, their δ = 1.6 families, and positions moved by up
+    /// to ±0.05 in every direction.
+    fn perturbed_cloud(seed: u64) -> Cloud {
+        let mut rng = Rng::new(seed);
+        let (x, v) = random_cloud(&mut rng, 300, 5.0);
+        let bonds = brute_force_bonds(&x, 1.6);
+        let y = x
+            .iter()
+            .map(|p| p.map(|c| c + 0.05 * (2.0 * rng.uniform() - 1.0)))
+            .collect();
+        (x, v, bonds, y)
+    }
+
+    /// The LPS material of the perturbed cloud (δ = 1.6, not set up).
+    fn small_material(influence: InfluenceFunction) -> LinearPeridynamicSolid {
+        LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
+            density: 1.0,
+            bulk_modulus: 3.0,
+            shear_modulus: 1.3,
+            horizon: 1.6,
+            influence,
+        })
+        .unwrap()
+    }
+
     #[test]
     fn restricted_forces_are_the_kept_points_forces_bitwise() {
         // A rank keeps its owned points (here every third point of a block that is a part of
         // the cloud, with a parabolic influence so that the block-local bond weights matter):
         // their forces are bitwise those of the unrestricted pass, the others are untouched.
-        let mut rng = Rng::new(21);
-        let (x, v) = random_cloud(&mut rng, 300, 5.0);
-        let bonds = brute_force_bonds(&x, 1.6);
-        let y: Vec<[f64; 3]> = x
-            .iter()
-            .map(|p| p.map(|c| c + 0.05 * (2.0 * rng.uniform() - 1.0)))
-            .collect();
+        let (x, v, bonds, y) = perturbed_cloud(21);
         let reference = ReferenceView {
             bonds: &bonds,
             position: &x,
             volume: &v,
         };
-        let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-            density: 1.0,
-            bulk_modulus: 3.0,
-            shear_modulus: 1.3,
-            horizon: 1.6,
-            influence: InfluenceFunction::ParabolicDecay,
-        })
-        .unwrap();
+        let mut m = small_material(InfluenceFunction::ParabolicDecay);
         let block: Vec<u32> = (0..x.len() as u32).filter(|p| p % 5 != 0).collect();
         m.setup(&reference, block.clone()).unwrap();
         let current = CurrentView {
@@ -1089,26 +1109,13 @@ mod tests {
     fn grouped_force_loop_sums_in_bond_order() {
         // The lanes only compute the bond terms; the sums run in bond order, so the force is
         // bitwise the plain running sum written out here (the module docs' formula).
-        let mut rng = Rng::new(9);
-        let (x, v) = random_cloud(&mut rng, 300, 5.0);
-        let bonds = brute_force_bonds(&x, 1.6);
-        let y: Vec<[f64; 3]> = x
-            .iter()
-            .map(|p| p.map(|c| c + 0.05 * (2.0 * rng.uniform() - 1.0)))
-            .collect();
+        let (x, v, bonds, y) = perturbed_cloud(9);
         let reference = ReferenceView {
             bonds: &bonds,
             position: &x,
             volume: &v,
         };
-        let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-            density: 1.0,
-            bulk_modulus: 3.0,
-            shear_modulus: 1.3,
-            horizon: 1.6,
-            influence: InfluenceFunction::One,
-        })
-        .unwrap();
+        let mut m = small_material(InfluenceFunction::One);
         m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
         let current = CurrentView {
             position: &y,
