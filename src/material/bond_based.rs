@@ -452,7 +452,8 @@ impl PairPlan {
     fn new(bonds: &crate::model::BondList, points: &[u32]) -> Option<Self> {
         let mut upper_start = Vec::with_capacity(points.len());
         let mut pair_start = Vec::with_capacity(points.len() + 1);
-        pair_start.push(0);
+        let mut pairs = 0;
+        pair_start.push(pairs);
         for &i in points {
             let row = bonds.family(i as usize);
             if !row.windows(2).all(|w| w[0] < w[1]) {
@@ -460,9 +461,9 @@ impl PairPlan {
             }
             let upper = row.partition_point(|&j| j <= i);
             upper_start.push(bonds.offsets[i as usize] + upper);
-            pair_start.push(pair_start.last().unwrap() + row.len() - upper);
+            pairs += row.len() - upper;
+            pair_start.push(pairs);
         }
-        let pairs = *pair_start.last().unwrap();
         if u32::try_from(pairs).is_err() {
             return None;
         }
@@ -471,7 +472,7 @@ impl PairPlan {
             position[i as usize] = k as u32;
         }
         let row_start = super::local_offsets(bonds, points);
-        let mut pair_of_bond = Vec::with_capacity(*row_start.last().unwrap());
+        let mut pair_of_bond = Vec::with_capacity(row_start[points.len()]);
         let mut lower_bonds = 0;
         for (k, &i) in points.iter().enumerate() {
             let row = bonds.range(i as usize);
@@ -508,7 +509,7 @@ impl PairPlan {
 
     /// Number of pairs (slots of the scale buffer).
     fn num_pairs(&self) -> usize {
-        *self.pair_start.last().unwrap()
+        self.pair_start[self.pair_start.len() - 1]
     }
 
     /// Adds the force density of every point of the block (of `gather` alone, a subset of the
