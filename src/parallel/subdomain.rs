@@ -88,8 +88,9 @@ impl Subdomain {
                 &global.bonds.reference_length[range],
             )
         });
-        let bonds = local_bonds(&plan, global.points.len(), local_rows);
-        let model = local_model(global, &plan, in_blocks, bonds);
+        let local_of = local_numbering(&plan, global.points.len());
+        let bonds = local_bonds(&plan, &local_of, local_rows);
+        let model = local_model(global, &plan, in_blocks, bonds, &local_of);
         Self {
             partition,
             plan,
@@ -155,9 +156,10 @@ impl Subdomain {
         let plan = HaloPlan::from_ghosts(&partition, rank, depth, &layered(&first, &second), comm);
         let rows = merged_rows(&plan, owned_rows, [&first_rows, &second_rows]);
         drop((first_rows, second_rows));
-        let bonds = renumbered_in_place(&plan, n, rows);
+        let local_of = local_numbering(&plan, n);
+        let bonds = renumbered_in_place(&plan, &local_of, rows);
         let in_blocks = depth == 1 || outer_layer_in_blocks;
-        let model = local_model(global, &plan, in_blocks, bonds);
+        let model = local_model(global, &plan, in_blocks, bonds, &local_of);
         Ok(Self {
             partition,
             plan,
@@ -206,10 +208,9 @@ fn local_neighbor(local_of: &[u32], plan: &HaloPlan, l: usize, j: u32) -> Option
 /// The local bond list from the global rows of the plan's local points, in local order.
 fn local_bonds<'a>(
     plan: &HaloPlan,
-    n_global: usize,
+    local_of: &[u32],
     rows: impl Iterator<Item = (&'a [u32], &'a [f64])>,
 ) -> BondList {
-    let local_of = local_numbering(plan, n_global);
     let mut bonds = BondList {
         offsets: Vec::with_capacity(plan.global().len() + 1),
         neighbor: Vec::new(),
@@ -218,7 +219,7 @@ fn local_bonds<'a>(
     bonds.offsets.push(0);
     for (l, (neighbors, lengths)) in rows.enumerate() {
         for (&j, &length) in neighbors.iter().zip(lengths) {
-            if let Some(local) = local_neighbor(&local_of, plan, l, j) {
+            if let Some(local) = local_neighbor(local_of, plan, l, j) {
                 bonds.neighbor.push(local);
                 bonds.reference_length.push(length);
             }
@@ -273,15 +274,14 @@ fn merged_rows(plan: &HaloPlan, mut owned: BondList, ghost_layers: [&BondList; 2
 
 /// [`local_bonds`] in place, for `rows` in local order (row l is local point l's, neighbours
 /// in global numbering): no second copy of the rows.
-fn renumbered_in_place(plan: &HaloPlan, n_global: usize, mut rows: BondList) -> BondList {
-    let local_of = local_numbering(plan, n_global);
+fn renumbered_in_place(plan: &HaloPlan, local_of: &[u32], mut rows: BondList) -> BondList {
     let (mut kept, mut start) = (0, 0);
     for l in 0..rows.num_points() {
         // Row l's bonds as searched; `offsets[l]` already holds its compacted start.
         let end = rows.offsets[l + 1];
         // `kept` never passes `b`: every write lands on a bond already read.
         for b in start..end {
-            if let Some(local) = local_neighbor(&local_of, plan, l, rows.neighbor[b]) {
+            if let Some(local) = local_neighbor(local_of, plan, l, rows.neighbor[b]) {
                 rows.neighbor[kept] = local;
                 rows.reference_length[kept] = rows.reference_length[b];
                 kept += 1;
@@ -301,9 +301,9 @@ fn local_model(
     plan: &HaloPlan,
     outer_layer_in_blocks: bool,
     bonds: BondList,
+    local_of: &[u32],
 ) -> Model {
     let local_points = plan.global();
-    let local_of = local_numbering(plan, global.points.len());
     let points = PointCloud {
         position: local_points
             .iter()
