@@ -20,8 +20,6 @@ pub struct Physics {
     pub blocks: Vec<BlockPhysics>,
     /// Published per-point coefficients (all points).
     pub coefficients: Vec<PointCoefficients>,
-    /// Bond damage, only when some block has a damage model.
-    pub bond_damage: Option<Vec<f32>>,
     /// Density of every point (from its block's material).
     pub density: Vec<f64>,
     /// Short-range contact, only when the deck has a `Contact` section.
@@ -55,20 +53,17 @@ fn interface_bonds(points: &PointCloud, bonds: &BondList) -> Vec<(u32, u32)> {
 }
 
 impl Physics {
-    /// Assembles blocks (materials already set up) for `points`; allocates bond damage only
-    /// when a damage model exists, and computes the constant coefficients of materials that
-    /// have no dilatation pass.
+    /// Assembles blocks (materials already set up) for `points`, and computes the constant
+    /// coefficients of materials that have no dilatation pass. The bond damage lives in the
+    /// state ([`crate::state::State::bond_damage`]), allocated when
+    /// [`Physics::has_bond_damage`].
     pub fn new(blocks: Vec<BlockPhysics>, points: &PointCloud, bonds: &BondList) -> Self {
         let density = points
             .block
             .iter()
             .map(|&b| blocks[b as usize].material.density())
             .collect();
-        let bond_damage = blocks
-            .iter()
-            .any(|b| b.damage.is_some())
-            .then(|| vec![0.0f32; bonds.num_bonds()]);
-        let interface_bonds = if bond_damage.is_some() {
+        let interface_bonds = if blocks.iter().any(|b| b.damage.is_some()) {
             interface_bonds(points, bonds)
         } else {
             Vec::new()
@@ -76,7 +71,6 @@ impl Physics {
         let mut physics = Self {
             blocks,
             coefficients: vec![PointCoefficients::default(); points.len()],
-            bond_damage,
             interface_bonds,
             density,
             contact: None,
@@ -112,14 +106,20 @@ impl Physics {
         Ok(())
     }
 
+    /// True when some block has a damage model, so the state carries bond damage.
+    pub fn has_bond_damage(&self) -> bool {
+        self.blocks.iter().any(|b| b.damage.is_some())
+    }
+
     /// True when any material has a dilatation pass.
     pub fn state_based(&self) -> bool {
         self.blocks.iter().any(|b| b.material.needs_dilatation())
     }
 
-    /// Internal force density at the current positions `current` (force/length³). Damage is
-    /// updated first, so a bond that exceeds its limit carries no force in this evaluation
-    /// (Peridigm's order). Returns the number of bonds that broke.
+    /// Internal force density at the current positions `current` (force/length³). The bond
+    /// damage (`Some` exactly when [`Physics::has_bond_damage`]) is updated first, so a bond
+    /// that exceeds its limit carries no force in this evaluation (Peridigm's order). Returns
+    /// the number of bonds that broke.
     ///
     /// A block whose damage model is the constant `Critical Stretch` rule and whose material
     /// can fold that test into its first bond pass
@@ -131,6 +131,7 @@ impl Physics {
         bonds: &BondList,
         points: &PointCloud,
         current: &[[f64; 3]],
+        bond_damage: Option<&mut [f32]>,
         force_density: &mut [[f64; 3]],
     ) -> usize {
         let reference = ReferenceView {
@@ -139,11 +140,10 @@ impl Physics {
             volume: &points.volume,
         };
         let mut broken = 0;
-        if self.bond_damage.is_none() {
-            self.internal_force_with_damage_fixed(bonds, points, current, force_density);
+        let Some(bond_damage) = bond_damage else {
+            self.internal_force_with_damage_fixed(bonds, points, current, None, force_density);
             return 0;
-        }
-        let bond_damage = self.bond_damage.as_mut().expect("checked above");
+        };
         // The critical stretch of each block that breaks its bonds in its own bond pass.
         let fused: Vec<Option<f64>> = self
             .blocks
@@ -238,6 +238,7 @@ impl Physics {
         bonds: &BondList,
         points: &PointCloud,
         current: &[[f64; 3]],
+        bond_damage: Option<&[f32]>,
         force_density: &mut [[f64; 3]],
     ) {
         let reference = ReferenceView {
@@ -247,7 +248,7 @@ impl Physics {
         };
         let view = CurrentView {
             position: current,
-            bond_damage: self.bond_damage.as_deref(),
+            bond_damage,
         };
         for block in &self.blocks {
             if block.material.needs_dilatation() {
@@ -266,13 +267,14 @@ impl Physics {
         }
     }
 
-    /// Stored elastic energy density of every point at `current` (uses the coefficients of the
-    /// last force evaluation at the same positions).
+    /// Stored elastic energy density of every point at `current` with `bond_damage` (uses the
+    /// coefficients of the last force evaluation at the same positions).
     pub fn stored_energy_density(
         &self,
         bonds: &BondList,
         points: &PointCloud,
         current: &[[f64; 3]],
+        bond_damage: Option<&[f32]>,
         energy_density: &mut [f64],
     ) {
         let reference = ReferenceView {
@@ -282,7 +284,7 @@ impl Physics {
         };
         let view = CurrentView {
             position: current,
-            bond_damage: self.bond_damage.as_deref(),
+            bond_damage,
         };
         for block in &self.blocks {
             block.material.stored_energy_density(
@@ -294,10 +296,11 @@ impl Physics {
         }
     }
 
-    /// Point damage (broken fraction of each family); zero without damage models.
-    pub fn point_damage(&self, bonds: &BondList, damage: &mut [f64]) {
+    /// Point damage (broken fraction of each family) from `bond_damage`; zero without damage
+    /// models.
+    pub fn point_damage(&self, bonds: &BondList, bond_damage: Option<&[f32]>, damage: &mut [f64]) {
         damage.iter_mut().for_each(|d| *d = 0.0);
-        if let Some(bond_damage) = &self.bond_damage {
+        if let Some(bond_damage) = bond_damage {
             for block in &self.blocks {
                 point_damage(bonds, bond_damage, block.material.points(), damage);
             }
@@ -318,6 +321,16 @@ impl Physics {
     }
 }
 
+/// The deformed configuration a tangent is taken at: current positions and the bond damage
+/// held fixed.
+#[derive(Debug, Clone, Copy)]
+pub struct Configuration<'a> {
+    /// Current positions Y = X + u (length), all points.
+    pub position: &'a [[f64; 3]],
+    /// Bond damage per directed bond, when some block has a damage model.
+    pub bond_damage: Option<&'a [f32]>,
+}
+
 /// The tangent stiffness ∂(V f)/∂u for implicit solvers (see [`crate::tangent`]).
 impl Physics {
     /// The block pattern the materials need: [`BlockPattern::one_hop`] when every block is
@@ -334,8 +347,8 @@ impl Physics {
         }
     }
 
-    /// Assembles `J = ∂(V f)/∂u` (force/length) at the positions `current` with the bond
-    /// damage as it is now (damage is not updated here), each block by the method chosen in
+    /// Assembles `J = ∂(V f)/∂u` (force/length) in `configuration` (its bond damage held
+    /// fixed: damage is not updated here), each block by the method chosen in
     /// the deck ([`crate::material::Material::tangent_method`]; analytic by default). The
     /// pattern of `tangent` must come from [`Physics::tangent_pattern`]. Points without an
     /// intact bond get zero rows. On error the contents of `tangent` are unspecified.
@@ -343,10 +356,10 @@ impl Physics {
         &self,
         bonds: &BondList,
         points: &PointCloud,
-        current: &[[f64; 3]],
+        configuration: Configuration<'_>,
         tangent: &mut BlockTangent,
     ) -> Result<(), TangentError> {
-        self.assemble_tangent(bonds, points, current, None, tangent)
+        self.assemble_tangent(bonds, points, configuration, None, tangent)
     }
 
     /// As [`Physics::tangent`] with `method` for every block (tests and cross-checks).
@@ -354,11 +367,11 @@ impl Physics {
         &self,
         bonds: &BondList,
         points: &PointCloud,
-        current: &[[f64; 3]],
+        configuration: Configuration<'_>,
         method: TangentMethod,
         tangent: &mut BlockTangent,
     ) -> Result<(), TangentError> {
-        self.assemble_tangent(bonds, points, current, Some(method), tangent)
+        self.assemble_tangent(bonds, points, configuration, Some(method), tangent)
     }
 
     /// Only the 3×3 diagonal blocks J_ii (block-Jacobi preconditioning, JFNK), in point
@@ -369,11 +382,11 @@ impl Physics {
         &self,
         bonds: &BondList,
         points: &PointCloud,
-        current: &[[f64; 3]],
+        configuration: Configuration<'_>,
     ) -> Result<Vec<[[f64; 3]; 3]>, TangentError> {
         let pattern = std::sync::Arc::new(BlockPattern::diagonal(points.len()));
         let mut tangent = BlockTangent::zeros(pattern);
-        self.assemble_tangent(bonds, points, current, None, &mut tangent)?;
+        self.assemble_tangent(bonds, points, configuration, None, &mut tangent)?;
         Ok(tangent.blocks)
     }
 
@@ -381,7 +394,7 @@ impl Physics {
         &self,
         bonds: &BondList,
         points: &PointCloud,
-        current: &[[f64; 3]],
+        configuration: Configuration<'_>,
         method: Option<TangentMethod>,
         tangent: &mut BlockTangent,
     ) -> Result<(), TangentError> {
@@ -391,8 +404,8 @@ impl Physics {
             volume: &points.volume,
         };
         let view = CurrentView {
-            position: current,
-            bond_damage: self.bond_damage.as_deref(),
+            position: configuration.position,
+            bond_damage: configuration.bond_damage,
         };
         tangent.fill_zero();
         for block in &self.blocks {

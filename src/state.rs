@@ -1,7 +1,159 @@
-//! Where the body is now: the mutable fields of a run (run order, one entry per point).
+//! Where the body is now: everything of a run that evolves, in one object (run order, one entry
+//! per point or per directed bond).
+//!
+//! The model (points, bonds, blocks) is immutable after setup; the state is what changes:
+//! kinematics, forces, bond damage and material history. Fields that a step may change and
+//! then either accept or abandon are [`Staged`]: they hold the trial values every force
+//! evaluation reads and writes, and, while a solver asks for it, a committed copy. Commit and
+//! restore are one operation on the whole state ([`State::commit`], [`State::restore`]):
+//!
+//! - explicit steps commit every step; nothing keeps a committed copy there, so committing
+//!   costs nothing;
+//! - implicit load steps and Newmark-β steps call [`State::keep_committed`] once, restore
+//!   before each residual (bonds broken by an unconverged iterate heal: Peridigm's rule,
+//!   reference §1.4 of our Peridigm notes) and commit when a step is accepted.
+//!
+//! A restart file writes this one object.
 
-/// Kinematic state and forces. Fields exist only when the run needs them (the external force
-/// only with a body force).
+/// A field that a step may change and then accept or abandon.
+///
+/// `trial` is what force evaluations read and write. While a committed copy is kept
+/// ([`Staged::keep_committed`]), [`Staged::restore`] puts the committed values back and
+/// [`Staged::commit`] accepts the trial values; without a copy both do nothing, the trial
+/// values being the accepted ones (explicit steps accept every step).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Staged<T> {
+    trial: Vec<T>,
+    committed: Option<Vec<T>>,
+}
+
+impl<T: Copy> Staged<T> {
+    /// A field of `len` entries equal to `value`, without a committed copy.
+    pub fn filled(len: usize, value: T) -> Self {
+        Self {
+            trial: vec![value; len],
+            committed: None,
+        }
+    }
+
+    /// The trial values (what the next force evaluation reads).
+    pub fn trial(&self) -> &[T] {
+        &self.trial
+    }
+
+    /// The trial values, for the force evaluation that updates them.
+    pub fn trial_mut(&mut self) -> &mut [T] {
+        &mut self.trial
+    }
+
+    /// The accepted values: the committed copy when one is kept, else the trial values.
+    pub fn committed(&self) -> &[T] {
+        self.committed.as_deref().unwrap_or(&self.trial)
+    }
+
+    /// From now on keep a committed copy, equal to the trial values now.
+    pub fn keep_committed(&mut self) {
+        match &mut self.committed {
+            Some(committed) => committed.copy_from_slice(&self.trial),
+            None => self.committed = Some(self.trial.clone()),
+        }
+    }
+
+    /// Drops the committed copy (the trial values are accepted as they are).
+    pub fn drop_committed(&mut self) {
+        self.committed = None;
+    }
+
+    /// Accepts the trial values.
+    pub fn commit(&mut self) {
+        if let Some(committed) = &mut self.committed {
+            committed.copy_from_slice(&self.trial);
+        }
+    }
+
+    /// Abandons the trial values: they become the committed ones again.
+    pub fn restore(&mut self) {
+        if let Some(committed) = &self.committed {
+            self.trial.copy_from_slice(committed);
+        }
+    }
+}
+
+/// Where a history field has one value: per point or per directed bond.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FieldLocation {
+    /// One value per point (run order).
+    Point,
+    /// One value per directed bond (the bond list's order).
+    Bond,
+}
+
+/// A material history field a model declares (e.g. a plastic extension per bond): its name
+/// (the output variable name, as Peridigm's) and where its values live.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HistoryField {
+    /// Output name, e.g. `Deviatoric_Plastic_Extension`.
+    pub name: &'static str,
+    /// Per point or per bond.
+    pub location: FieldLocation,
+}
+
+/// Material history: the staged fields the models of a run declared, each allocated once
+/// (zero-initialised) however many blocks declare it; a block writes only its own entries.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct History {
+    fields: Vec<(HistoryField, Staged<f64>)>,
+}
+
+impl History {
+    /// Allocates every declared field (a name declared twice must have one location; the
+    /// first declaration wins) for `points` points and `bonds` directed bonds.
+    pub fn allocate(declared: &[HistoryField], points: usize, bonds: usize) -> Self {
+        let mut fields: Vec<(HistoryField, Staged<f64>)> = Vec::new();
+        for field in declared {
+            if fields.iter().any(|(f, _)| f.name == field.name) {
+                continue;
+            }
+            let len = match field.location {
+                FieldLocation::Point => points,
+                FieldLocation::Bond => bonds,
+            };
+            fields.push((*field, Staged::filled(len, 0.0)));
+        }
+        Self { fields }
+    }
+
+    /// The field called `name`, if a model declared it.
+    pub fn field(&self, name: &str) -> Option<&Staged<f64>> {
+        self.fields
+            .iter()
+            .find(|(f, _)| f.name == name)
+            .map(|(_, values)| values)
+    }
+
+    /// The field called `name`, for the force evaluation that updates it.
+    pub fn field_mut(&mut self, name: &str) -> Option<&mut Staged<f64>> {
+        self.fields
+            .iter_mut()
+            .find(|(f, _)| f.name == name)
+            .map(|(_, values)| values)
+    }
+
+    /// The declared fields, in declaration order.
+    pub fn declared(&self) -> impl Iterator<Item = &HistoryField> {
+        self.fields.iter().map(|(f, _)| f)
+    }
+
+    fn each(&mut self, action: impl Fn(&mut Staged<f64>)) {
+        self.fields
+            .iter_mut()
+            .for_each(|(_, values)| action(values));
+    }
+}
+
+/// Everything of a run that evolves. Fields exist only when the run needs them (the external
+/// force only with a body force, bond damage only with a damage model, history only for the
+/// fields its models declare).
 #[derive(Debug, Clone, Default)]
 pub struct State {
     /// Time t (s).
@@ -18,6 +170,11 @@ pub struct State {
     pub external_force_density: Option<Vec<[f64; 3]>>,
     /// Current positions Y = X + u (length), refreshed before every force evaluation.
     pub current_position: Vec<[f64; 3]>,
+    /// Bond damage d ∈ [0, 1] per directed bond (the bond list's order), when some block has a
+    /// damage model.
+    pub bond_damage: Option<Staged<f32>>,
+    /// Material history fields the models declared.
+    pub history: History,
 }
 
 impl State {
@@ -32,7 +189,16 @@ impl State {
             force_density: vec![[0.0; 3]; n],
             external_force_density: body_force.then(|| vec![[0.0; 3]; n]),
             current_position: reference.to_vec(),
+            bond_damage: None,
+            history: History::default(),
         }
+    }
+
+    /// The same state with intact bond damage (d = 0) for `bonds` directed bonds when `bonds`
+    /// is given (some block has a damage model).
+    pub fn with_bond_damage(mut self, bonds: Option<usize>) -> Self {
+        self.bond_damage = bonds.map(|len| Staged::filled(len, 0.0));
+        self
     }
 
     /// Y = X + u.
@@ -45,5 +211,141 @@ impl State {
         {
             *y = [x[0] + u[0], x[1] + u[1], x[2] + u[2]];
         }
+    }
+
+    /// The bond damage that force evaluations read, if any.
+    pub fn bond_damage(&self) -> Option<&[f32]> {
+        self.bond_damage.as_ref().map(Staged::trial)
+    }
+
+    /// From now on keep committed copies of every staged field (implicit solvers; equal to
+    /// the trial values now).
+    pub fn keep_committed(&mut self) {
+        if let Some(damage) = &mut self.bond_damage {
+            damage.keep_committed();
+        }
+        self.history.each(Staged::keep_committed);
+    }
+
+    /// Stops keeping committed copies (the trial values are accepted as they are).
+    pub fn drop_committed(&mut self) {
+        if let Some(damage) = &mut self.bond_damage {
+            damage.drop_committed();
+        }
+        self.history.each(Staged::drop_committed);
+    }
+
+    /// Accepts every staged field's trial values (a step converged).
+    pub fn commit(&mut self) {
+        if let Some(damage) = &mut self.bond_damage {
+            damage.commit();
+        }
+        self.history.each(Staged::commit);
+    }
+
+    /// Puts every staged field back to its committed values (a step is redone, or an
+    /// iterate is abandoned).
+    pub fn restore(&mut self) {
+        if let Some(damage) = &mut self.bond_damage {
+            damage.restore();
+        }
+        self.history.each(Staged::restore);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PLASTIC: HistoryField = HistoryField {
+        name: "Deviatoric_Plastic_Extension",
+        location: FieldLocation::Bond,
+    };
+    const LAMBDA: HistoryField = HistoryField {
+        name: "Lambda",
+        location: FieldLocation::Point,
+    };
+
+    fn damaged_state() -> State {
+        State::at_rest(&[[0.0; 3]; 2], 0.0, false)
+            .with_bond_damage(Some(3))
+            .with_history(&[PLASTIC, LAMBDA, PLASTIC], 2, 3)
+    }
+
+    impl State {
+        fn with_history(mut self, declared: &[HistoryField], points: usize, bonds: usize) -> Self {
+            self.history = History::allocate(declared, points, bonds);
+            self
+        }
+    }
+
+    #[test]
+    fn without_a_committed_copy_commit_and_restore_keep_the_trial_values() {
+        let mut state = damaged_state();
+        state.bond_damage.as_mut().unwrap().trial_mut()[1] = 1.0;
+        state.restore();
+        assert_eq!(state.bond_damage(), Some(&[0.0, 1.0, 0.0][..]));
+        state.commit();
+        assert_eq!(
+            state.bond_damage.as_ref().unwrap().committed(),
+            &[0.0, 1.0, 0.0]
+        );
+    }
+
+    #[test]
+    fn restore_abandons_every_staged_field_and_commit_accepts_them() {
+        let mut state = damaged_state();
+        state.keep_committed();
+        state.bond_damage.as_mut().unwrap().trial_mut()[0] = 1.0;
+        state.history.field_mut("Lambda").unwrap().trial_mut()[1] = 0.5;
+        state.restore();
+        assert_eq!(state.bond_damage(), Some(&[0.0, 0.0, 0.0][..]));
+        assert_eq!(state.history.field("Lambda").unwrap().trial(), &[0.0, 0.0]);
+
+        state.bond_damage.as_mut().unwrap().trial_mut()[2] = 1.0;
+        state
+            .history
+            .field_mut("Deviatoric_Plastic_Extension")
+            .unwrap()
+            .trial_mut()[0] = 0.25;
+        state.commit();
+        state.restore();
+        assert_eq!(state.bond_damage(), Some(&[0.0, 0.0, 1.0][..]));
+        assert_eq!(
+            state
+                .history
+                .field("Deviatoric_Plastic_Extension")
+                .unwrap()
+                .trial(),
+            &[0.25, 0.0, 0.0]
+        );
+    }
+
+    #[test]
+    fn dropping_the_committed_copy_accepts_the_trial_values() {
+        let mut state = damaged_state();
+        state.keep_committed();
+        state.bond_damage.as_mut().unwrap().trial_mut()[0] = 1.0;
+        state.drop_committed();
+        state.restore();
+        assert_eq!(state.bond_damage(), Some(&[1.0, 0.0, 0.0][..]));
+    }
+
+    #[test]
+    fn history_allocates_each_declared_field_once_with_its_length() {
+        let state = damaged_state();
+        let names: Vec<_> = state.history.declared().map(|f| f.name).collect();
+        assert_eq!(names, ["Deviatoric_Plastic_Extension", "Lambda"]);
+        assert_eq!(
+            state
+                .history
+                .field("Deviatoric_Plastic_Extension")
+                .unwrap()
+                .trial()
+                .len(),
+            3
+        );
+        assert_eq!(state.history.field("Lambda").unwrap().trial().len(), 2);
+        assert!(state.history.field("Back_Extension").is_none());
     }
 }

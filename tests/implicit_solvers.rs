@@ -279,7 +279,8 @@ fn newton_converges_quadratically_on_a_large_stretch_and_shear() {
     let deck = parse_str(&text, DeckFormat::Yaml, &origin).unwrap();
     let model = setup::build(&deck).unwrap();
     let mut physics = setup::build_physics(&deck, &model).unwrap();
-    let mut state = State::at_rest(&model.points.position, 0.0, false);
+    let mut state = State::at_rest(&model.points.position, 0.0, false)
+        .with_bond_damage(physics.has_bond_damage().then(|| model.bonds.num_bonds()));
     let constrained = model.boundary.constrained_dofs();
     let start = state.displacement.clone();
     {
@@ -291,8 +292,10 @@ fn newton_converges_quadratically_on_a_large_stretch_and_shear() {
             })
             .unwrap();
     }
-    let mut system =
-        ImplicitSystem::new(DofMap::new(model.points.len(), &constrained, &[]), &physics);
+    let mut system = ImplicitSystem::new(
+        DofMap::new(model.points.len(), &constrained, &[]),
+        &mut state,
+    );
     let mut linear = peridyn::solver::linear::strategy(&deck.solvers[0], &model, &physics).unwrap();
     let settings = NewtonSettings {
         max_iterations: 25,

@@ -456,8 +456,8 @@ fn critical_time_step(comm: &dyn Communicator, sub: &Subdomain, physics: &Physic
 }
 
 /// Directed bonds of owned rows that are broken (d = 1), summed over ranks. Collective.
-fn broken_bonds(comm: &dyn Communicator, sub: &Subdomain, physics: &Physics) -> usize {
-    let Some(damage) = &physics.bond_damage else {
+fn broken_bonds(comm: &dyn Communicator, sub: &Subdomain, state: &State) -> usize {
+    let Some(damage) = state.bond_damage() else {
         return 0;
     };
     let bonds = &sub.model.bonds;
@@ -571,7 +571,8 @@ pub fn run_distributed(
         }
         let t0 = deck.solvers.first().map_or(0.0, |s| s.initial_time);
         let model = &sub.model;
-        let mut state = State::at_rest(&model.points.position, t0, model.boundary.has_body_force());
+        let mut state = State::at_rest(&model.points.position, t0, model.boundary.has_body_force())
+            .with_bond_damage(physics.has_bond_damage().then(|| model.bonds.num_bonds()));
         model.boundary.apply_initial(
             &model.points.position,
             t0,
@@ -595,7 +596,7 @@ pub fn run_distributed(
             volume.neighbor_ranks
         );
     }
-    let broken_at_start = broken_bonds(comm, &sub, &physics);
+    let broken_at_start = broken_bonds(comm, &sub, &state);
     let mut summary = RunSummary::default();
     for (index, solver) in deck.solvers.iter().enumerate() {
         let start = Instant::now();
@@ -644,7 +645,7 @@ pub fn run_distributed(
             return Err(error);
         }
     }
-    summary.broken_bonds = broken_bonds(comm, &sub, &physics) - broken_at_start;
+    summary.broken_bonds = broken_bonds(comm, &sub, &state) - broken_at_start;
     summary.output_seconds = outputs.seconds;
     summary.solve_seconds -= summary.output_seconds.min(summary.solve_seconds);
     summary.files = agree(comm, outputs.finish())?;

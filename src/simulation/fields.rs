@@ -140,6 +140,7 @@ impl<'a> Fields<'a> {
             &self.model.bonds,
             &self.model.points,
             &self.state.current_position,
+            self.state.bond_damage(),
             &mut w,
         );
         w
@@ -250,7 +251,8 @@ impl FieldSource for Fields<'_> {
             }
             "Damage" => {
                 let mut d = vec![0.0; n];
-                self.physics.point_damage(&self.model.bonds, &mut d);
+                self.physics
+                    .point_damage(&self.model.bonds, self.state.bond_damage(), &mut d);
                 d
             }
             "Kinetic_Energy" => (0..n)
@@ -279,7 +281,7 @@ impl FieldSource for Fields<'_> {
                 &self.model.points.position,
                 &self.state.current_position,
                 &self.model.points.volume,
-                self.physics.bond_damage.as_deref(),
+                self.state.bond_damage(),
             ))),
             _ => None,
         }

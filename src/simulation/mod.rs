@@ -256,7 +256,8 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
     let compute_classes =
         prepare_compute_classes(&deck.compute_classes, model).map_err(RunError::Unsupported)?;
     let t0 = deck.solvers.first().map_or(0.0, |s| s.initial_time);
-    let mut state = State::at_rest(&model.points.position, t0, model.boundary.has_body_force());
+    let mut state = State::at_rest(&model.points.position, t0, model.boundary.has_body_force())
+        .with_bond_damage(physics.has_bond_damage().then(|| model.bonds.num_bonds()));
     model.boundary.apply_initial(
         &model.points.position,
         t0,

@@ -110,12 +110,8 @@ pub fn squared_norm(values: &[f64], collective: &mut dyn Collective) -> f64 {
 /// The rank-deficient points ([`rank_deficient_points`]) as local indices; on several ranks
 /// each rank judges the points it owns (ghost rows may be truncated) and the verdicts are
 /// shared, so that every rank holds the same points.
-pub fn deficient_points(
-    model: &Model,
-    physics: &Physics,
-    collective: &mut dyn Collective,
-) -> Vec<u32> {
-    let local = rank_deficient_points(model, physics);
+pub fn deficient_points(model: &Model, state: &State, collective: &mut dyn Collective) -> Vec<u32> {
+    let local = rank_deficient_points(model, state.bond_damage());
     if collective.ranks() == 1 {
         return local;
     }

@@ -26,7 +26,7 @@ use crate::boundary::BoundaryError;
 use crate::parallel::Communicator;
 use crate::physics::Physics;
 use crate::setup::Model;
-use crate::state::State;
+use crate::state::{Staged, State};
 use rayon::prelude::*;
 
 /// Time-step settings of one `Verlet` solver list.
@@ -144,6 +144,9 @@ impl VelocityVerlet {
     ) -> Result<(), BoundaryError> {
         let t0 = self.settings.initial_time;
         state.time = t0;
+        // Explicit steps accept every step: no committed copy of the staged fields is kept
+        // (an implicit solver before this one may have kept one), so committing is free.
+        state.drop_committed();
         let positions = &model.points.position;
         // A failure is reported after the force evaluation, whose exchanges and collectives
         // every rank of a distributed run must join (see `step_with`).
@@ -259,6 +262,7 @@ impl VelocityVerlet {
         }
         halo.refresh(&mut state.current_position);
         let broken_bonds = internal_and_contact_force(model, physics, state, halo);
+        state.commit();
 
         // a = (f_int + f_contact + b)/ρ (as `evaluate_acceleration`), the work, the second half
         // kick and the kinetic energy in one pass.
@@ -336,6 +340,7 @@ fn internal_and_contact_force(
         &model.bonds,
         &model.points,
         &state.current_position,
+        state.bond_damage.as_mut().map(Staged::trial_mut),
         &mut state.force_density,
     );
     if let Some(contact) = &mut physics.contact {

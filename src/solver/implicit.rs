@@ -16,9 +16,9 @@
 
 use crate::backend::{Csr, SolveError};
 use crate::boundary::BoundaryError;
-use crate::physics::Physics;
+use crate::physics::{Configuration, Physics};
 use crate::setup::Model;
-use crate::state::State;
+use crate::state::{Staged, State};
 use crate::tangent::BlockTangent;
 
 /// Which dofs are unknowns and where they sit in the reduced vectors.
@@ -102,17 +102,17 @@ pub struct Inertia {
     pub factor: f64,
 }
 
-/// The nonlinear system of one load step or time step: unknowns, the committed damage the
-/// step starts from, and the reusable tangent.
+/// The nonlinear system of one load step or time step: unknowns and the reusable tangent.
+///
+/// The state's staged fields (bond damage, material history) keep their committed values
+/// from the start of the step: every residual evaluation starts from them, so bonds broken by
+/// an unconverged iterate heal until the step is accepted and the driver commits the state
+/// (Peridigm's rule, reference §1.4).
 pub struct ImplicitSystem {
     /// Unknowns.
     pub dofs: DofMap,
     /// Inertia terms (Newmark-β), none for quasi-statics.
     pub inertia: Option<Inertia>,
-    /// Bond damage accepted at the end of the previous step. Every residual evaluation starts
-    /// from it, so bonds broken by an unconverged iterate heal until the step is accepted
-    /// (Peridigm's rule, reference §1.4).
-    committed_damage: Option<Vec<f32>>,
     tangent: Option<BlockTangent>,
     /// Residual evaluations so far (for the solver report).
     pub residual_evaluations: usize,
@@ -121,28 +121,16 @@ pub struct ImplicitSystem {
 }
 
 impl ImplicitSystem {
-    /// A system over `dofs` that starts from the damage currently in `physics`.
-    pub fn new(dofs: DofMap, physics: &Physics) -> Self {
+    /// A system over `dofs` that starts from the state's staged fields as they are now: they
+    /// become the committed values ([`State::keep_committed`]).
+    pub fn new(dofs: DofMap, state: &mut State) -> Self {
+        state.keep_committed();
         Self {
             dofs,
             inertia: None,
-            committed_damage: physics.bond_damage.clone(),
             tangent: None,
             residual_evaluations: 0,
             tangent_bytes: 0,
-        }
-    }
-
-    /// Accepts the damage of the last evaluation (the step converged).
-    pub fn commit_damage(&mut self, physics: &Physics) {
-        self.committed_damage.clone_from(&physics.bond_damage);
-    }
-
-    /// Puts the committed damage back into `physics` (a step is redone).
-    pub fn restore_damage(&self, physics: &mut Physics) {
-        if let (Some(damage), Some(committed)) = (&mut physics.bond_damage, &self.committed_damage)
-        {
-            damage.copy_from_slice(committed);
         }
     }
 
@@ -157,7 +145,7 @@ impl ImplicitSystem {
         state: &mut State,
         residual: &mut [f64],
     ) -> Result<usize, SolveError> {
-        self.restore_damage(physics);
+        state.restore();
         self.residual_keeping_damage(model, physics, state, residual, true)
     }
 
@@ -179,6 +167,7 @@ impl ImplicitSystem {
                 &model.bonds,
                 &model.points,
                 &state.current_position,
+                state.bond_damage.as_mut().map(Staged::trial_mut),
                 &mut state.force_density,
             )
         } else {
@@ -186,6 +175,7 @@ impl ImplicitSystem {
                 &model.bonds,
                 &model.points,
                 &state.current_position,
+                state.bond_damage.as_ref().map(Staged::trial),
                 &mut state.force_density,
             );
             0
@@ -230,12 +220,7 @@ impl ImplicitSystem {
             ))),
         };
         physics
-            .tangent(
-                &model.bonds,
-                &model.points,
-                &state.current_position,
-                tangent,
-            )
+            .tangent(&model.bonds, &model.points, configuration(state), tangent)
             .map_err(|e| SolveError::Breakdown {
                 method: "tangent",
                 reason: e.to_string(),
@@ -266,7 +251,7 @@ impl ImplicitSystem {
         state: &State,
     ) -> Result<Vec<f64>, SolveError> {
         let blocks = physics
-            .block_diagonal_tangent(&model.bonds, &model.points, &state.current_position)
+            .block_diagonal_tangent(&model.bonds, &model.points, configuration(state))
             .map_err(|e| SolveError::Breakdown {
                 method: "tangent",
                 reason: e.to_string(),
@@ -289,6 +274,14 @@ impl ImplicitSystem {
             }
         }
         Ok(out)
+    }
+}
+
+/// The configuration of the last force evaluation: current positions and trial bond damage.
+fn configuration(state: &State) -> Configuration<'_> {
+    Configuration {
+        position: &state.current_position,
+        bond_damage: state.bond_damage(),
     }
 }
 
@@ -316,9 +309,9 @@ pub fn apply_loads_at(
 /// Points whose intact bonds are too few for a stiffness of their own: none at all, or (when
 /// bonds can break) at most two, which leaves rotations about the bond line free (Peridigm's
 /// `RANK_DEFICIENT_NODES`). Their dofs are held at their current displacement.
-pub fn rank_deficient_points(model: &Model, physics: &Physics) -> Vec<u32> {
+pub fn rank_deficient_points(model: &Model, bond_damage: Option<&[f32]>) -> Vec<u32> {
     let bonds = &model.bonds;
-    match &physics.bond_damage {
+    match bond_damage {
         Some(damage) => {
             let all: Vec<u32> = (0..bonds.num_points() as u32).collect();
             crate::damage::rank_deficient_points(bonds, damage, &all)

@@ -136,7 +136,7 @@ pub fn run<E: From<NewmarkError>>(
             .into());
         }
         let factor = 1.0 / (beta * dt * dt);
-        let mut system = ImplicitSystem::new(DofMap::new(n, &constrained, &[]), physics);
+        let mut system = ImplicitSystem::new(DofMap::new(n, &constrained, &[]), state);
         system.inertia = Some(Inertia { predictor, factor });
         let newton_settings = NewtonSettings {
             max_iterations: settings.max_iterations,
@@ -191,7 +191,7 @@ pub fn run<E: From<NewmarkError>>(
             }
         }
         state.time = to;
-        system.commit_damage(physics);
+        state.commit();
         if root && (settings.verbose || step == settings.steps || step % 100 == 0) {
             eprintln!(
                 "Time step {step}, Newton iterations = {}, norm(residual) = {measure:e}",

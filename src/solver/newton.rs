@@ -272,7 +272,7 @@ pub fn solve(
                 report.iterations + 1
             );
         }
-        let deficient = deficient_points(model, physics, collective);
+        let deficient = deficient_points(model, state, collective);
         if deficient != held {
             for &p in deficient
                 .iter()

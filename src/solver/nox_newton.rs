@@ -271,7 +271,7 @@ impl NonlinearSolver for NoxNewton {
         let distributed = collective.ranks() > 1;
         // Points with too few bonds for a stiffness are held for the whole NOX solve (NOX
         // cannot change its unknowns mid-solve); on several ranks every rank learns which.
-        let deficient = deficient_points(model, physics, collective);
+        let deficient = deficient_points(model, state, collective);
         for &p in deficient
             .iter()
             .filter(|&&p| !collective.is_ghost(p as usize))

@@ -157,7 +157,7 @@ pub fn run<E: From<QuasiStaticError>>(
         let start_displacement = state.displacement.clone();
         let predictor_velocity = state.velocity.clone();
         let mut system =
-            ImplicitSystem::new(DofMap::new(model.points.len(), &constrained, &[]), physics);
+            ImplicitSystem::new(DofMap::new(model.points.len(), &constrained, &[]), state);
         let loads = set_loads(model, physics, state, &start_displacement, from, to);
         // A condition may fail at some points only, hence on some ranks only: all stop.
         if any_failed(collective, loads.is_err()) {
@@ -228,13 +228,7 @@ pub fn run<E: From<QuasiStaticError>>(
                 }
                 cut(&mut times, k, settings);
                 (cuts_this_step, total_cuts) = (cuts_this_step + 1, total_cuts + 1);
-                restore(
-                    &system,
-                    physics,
-                    state,
-                    &start_displacement,
-                    &predictor_velocity,
-                );
+                restore(state, &start_displacement, &predictor_velocity);
                 continue;
             }
         }
@@ -252,13 +246,7 @@ pub fn run<E: From<QuasiStaticError>>(
             } else {
                 // Leave the state as the last accepted step left it (what a `Switch to
                 // Verlet` continues from, and what the output already shows).
-                restore(
-                    &system,
-                    physics,
-                    state,
-                    &start_displacement,
-                    &predictor_velocity,
-                );
+                restore(state, &start_displacement, &predictor_velocity);
                 state.update_current_position(&model.points.position);
                 state.time = from;
                 return Err(QuasiStaticError::NotConverged {
@@ -286,7 +274,7 @@ pub fn run<E: From<QuasiStaticError>>(
             *v = [0, 1, 2].map(|c| (u[c] - u0[c]) / dt);
         }
         state.time = to;
-        system.commit_damage(physics);
+        state.commit();
         if root {
             eprintln!(
                 "  cpu time for load step = {:.3} sec., cumulative cpu time = {:.3} sec.",
@@ -400,14 +388,8 @@ fn cut(times: &mut Vec<f64>, k: usize, settings: &QuasiStaticSettings) {
 }
 
 /// Puts the state back to the start of a step that is redone.
-fn restore(
-    system: &ImplicitSystem,
-    physics: &mut Physics,
-    state: &mut State,
-    displacement: &[[f64; 3]],
-    velocity: &[[f64; 3]],
-) {
-    system.restore_damage(physics);
+fn restore(state: &mut State, displacement: &[[f64; 3]], velocity: &[[f64; 3]]) {
+    state.restore();
     state.displacement.copy_from_slice(displacement);
     state.velocity.copy_from_slice(velocity);
 }
