@@ -75,7 +75,6 @@
 #![warn(missing_docs)]
 
 pub mod backend;
-pub mod bench;
 pub mod boundary;
 pub mod compute;
 pub mod contact;

@@ -7,6 +7,8 @@
 //! N ranks ([`peridyn::simulation::run_distributed`]); every rank reads the deck, only rank 0
 //! prints and writes files. One rank (with or without mpirun) takes the serial path.
 
+mod cli;
+
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use peridyn::io::deck::{self, DeckError};
@@ -68,7 +70,7 @@ enum Command {
         then: Vec<PathBuf>,
     },
     /// Time the explicit-dynamics speed check (the LAMMPS PERI problem); optionally run LAMMPS.
-    Bench(peridyn::bench::BenchArgs),
+    Bench(cli::bench::BenchArgs),
 }
 
 /// `peridyn run --backend`.
@@ -372,7 +374,7 @@ fn main() -> ExitCode {
         } => run(deck, output_dir, *threads, *backend),
         Command::Check { deck, json } => check(deck, *json),
         Command::Diff { a, b, comp, then } => diff(a, then, b, comp.as_deref()),
-        Command::Bench(args) => peridyn::bench::main(args).map_err(Into::into),
+        Command::Bench(args) => cli::bench::main(args).map_err(Into::into),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -199,6 +199,33 @@ impl fmt::Display for RunPlan {
             .and_then(|_| writeln!(f, "discretization  {}", self.discretization))?;
         writeln!(f, "points          {}", self.points)?;
         writeln!(f, "bonds           {} (directed)", self.bonds)?;
+        self.fmt_blocks(f)?;
+        if !self.node_sets.is_empty() {
+            writeln!(f, "\nnode sets")?;
+            for s in &self.node_sets {
+                writeln!(f, "  {:<32} {:>9} points  ({})", s.name, s.points, s.source)?;
+            }
+        }
+        self.fmt_physics(f)?;
+        self.fmt_storage(f)?;
+        self.fmt_time(f)?;
+        self.fmt_parallel(f)?;
+        for w in &self.warnings {
+            writeln!(f, "\nwarning: {w}")?;
+        }
+        if !self.unsupported.is_empty() {
+            writeln!(f, "\nnot supported by this build yet:")?;
+            for u in &self.unsupported {
+                writeln!(f, "  - {u}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl RunPlan {
+    /// The `blocks` section: sizes, families, horizon, material and damage of every block.
+    fn fmt_blocks(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "\nblocks")?;
         for b in &self.blocks {
             writeln!(
@@ -229,12 +256,11 @@ impl fmt::Display for RunPlan {
                     .unwrap_or_default()
             )?;
         }
-        if !self.node_sets.is_empty() {
-            writeln!(f, "\nnode sets")?;
-            for s in &self.node_sets {
-                writeln!(f, "  {:<32} {:>9} points  ({})", s.name, s.points, s.source)?;
-            }
-        }
+        Ok(())
+    }
+
+    /// The `physics` section: which passes the run makes.
+    fn fmt_physics(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let p = &self.physics;
         let yes = |b: bool| if b { "yes" } else { "no" };
         writeln!(f, "\nphysics")?;
@@ -249,7 +275,11 @@ impl fmt::Display for RunPlan {
                 .as_ref()
                 .map(|t| format!("yes, {t} pattern"))
                 .unwrap_or_else(|| "no".into())
-        )?;
+        )
+    }
+
+    /// The `fields` and `memory (estimate)` sections.
+    fn fmt_storage(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "\nfields")?;
         for field in &self.fields {
             writeln!(
@@ -269,7 +299,11 @@ impl fmt::Display for RunPlan {
             "  {:<28} {:>10}",
             "total",
             format_bytes(self.memory_total)
-        )?;
+        )
+    }
+
+    /// The `explicit time step`, `solvers` and `outputs` sections.
+    fn fmt_time(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if let Some(dt) = &self.time_step {
             writeln!(f, "\nexplicit time step")?;
             writeln!(f, "  stable estimate   {:e} s", dt.estimate)?;
@@ -303,6 +337,11 @@ impl fmt::Display for RunPlan {
                 )?;
             }
         }
+        Ok(())
+    }
+
+    /// The `on several MPI ranks` section.
+    fn fmt_parallel(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let p = &self.parallel;
         writeln!(f, "\non several MPI ranks")?;
         match &p.refused {
@@ -313,15 +352,6 @@ impl fmt::Display for RunPlan {
                     writeln!(f, "  exchanged        {data}")?;
                 }
                 writeln!(f, "  families         {}", p.families)?;
-            }
-        }
-        for w in &self.warnings {
-            writeln!(f, "\nwarning: {w}")?;
-        }
-        if !self.unsupported.is_empty() {
-            writeln!(f, "\nnot supported by this build yet:")?;
-            for u in &self.unsupported {
-                writeln!(f, "  - {u}")?;
             }
         }
         Ok(())

@@ -206,6 +206,131 @@ fn force_on_point(
     (f, touching)
 }
 
+/// The contact models the interactions use, each once, in order of first use.
+struct ModelsInUse<'d> {
+    deck: &'d Deck,
+    contact: &'d crate::io::deck::Contact,
+    models: Vec<ShortRangeForce>,
+    /// The deck names of `models`.
+    used: Vec<&'d str>,
+}
+
+impl ModelsInUse<'_> {
+    /// The index of the model `name` that interaction `entry` names, adding it on first use.
+    fn index(&mut self, entry: &str, name: &str) -> Result<u16, DeckError> {
+        let deck = self.deck;
+        if let Some(k) = self.used.iter().position(|u| *u == name) {
+            return Ok(k as u16);
+        }
+        let definition = self
+            .contact
+            .models
+            .iter()
+            .find(|m| m.name == name)
+            .ok_or_else(|| {
+                deck.error_at(
+                    &["Contact", "Interactions", entry, "Contact Model"],
+                    format!("no contact model named \"{name}\""),
+                )
+            })?;
+        let friction_coefficient = match &definition.friction {
+            Friction::Constant(mu) => *mu,
+            Friction::TimeDependent(_) => {
+                return Err(deck.error_at(
+                    &["Contact", "Models", name, "Contact Model"],
+                    "\"Time Dependent Short Range Force\" is not available in this build; use \"Short Range Force\" with a constant Friction Coefficient",
+                ))
+            }
+        };
+        self.models.push(ShortRangeForce {
+            contact_radius: definition.contact_radius,
+            spring_constant: definition.spring_constant,
+            friction_coefficient,
+        });
+        self.used.push(&definition.name);
+        Ok((self.models.len() - 1) as u16)
+    }
+}
+
+/// The index of the block `name` that key `key` of interaction `entry` names.
+fn block_index(
+    deck: &Deck,
+    model: &Model,
+    entry: &str,
+    key: &str,
+    name: &str,
+) -> Result<usize, DeckError> {
+    model
+        .blocks
+        .iter()
+        .position(|b| b.info.name == name)
+        .ok_or_else(|| {
+            deck.error_at(
+                &["Contact", "Interactions", entry, key],
+                format!(
+                    "the mesh has no block \"{name}\"; its blocks are {}",
+                    model
+                        .blocks
+                        .iter()
+                        .map(|b| b.info.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            )
+        })
+}
+
+/// The model of every (block, block) pair, row-major, `None` where the blocks do not touch.
+///
+/// As in Peridigm, every pair of blocks (each block with itself included) is in contact,
+/// through the first model of `Models`; then General and Self Contact, then named pairs
+/// in file order (later ones win) choose the model of their pairs. Peridigm uses the
+/// first model for every pair whatever the interactions say; that part is not kept.
+fn pair_models(in_use: &mut ModelsInUse, model: &Model) -> Result<Vec<Option<u16>>, DeckError> {
+    let (deck, contact) = (in_use.deck, in_use.contact);
+    let blocks = model.blocks.len();
+    let default_model = match contact.models.first() {
+        Some(first) => Some(in_use.index("Models", &first.name)?),
+        None => None,
+    };
+    let mut pair_model: Vec<Option<u16>> = vec![default_model; blocks * blocks];
+    for interaction in &contact.interactions {
+        match interaction {
+            ContactInteraction::General { model } => {
+                let m = in_use.index("General Contact", model)?;
+                for a in 0..blocks {
+                    for b in (0..blocks).filter(|&b| b != a) {
+                        pair_model[a * blocks + b] = Some(m);
+                    }
+                }
+            }
+            ContactInteraction::SelfContact { model } => {
+                let m = in_use.index("Self Contact", model)?;
+                for a in 0..blocks {
+                    pair_model[a * blocks + a] = Some(m);
+                }
+            }
+            ContactInteraction::Pair { .. } => {}
+        }
+    }
+    for interaction in &contact.interactions {
+        if let ContactInteraction::Pair {
+            name,
+            first_block,
+            second_block,
+            model: pair,
+        } = interaction
+        {
+            let a = block_index(deck, model, name, "First Block", first_block)?;
+            let b = block_index(deck, model, name, "Second Block", second_block)?;
+            let m = in_use.index(name, pair)?;
+            pair_model[a * blocks + b] = Some(m);
+            pair_model[b * blocks + a] = Some(m);
+        }
+    }
+    Ok(pair_model)
+}
+
 impl Contact {
     /// The contact of `deck` for `model`, or `None` without a `Contact` section. Errors name
     /// the deck key: an interaction naming a block the mesh lacks, or a time-dependent friction
@@ -215,102 +340,14 @@ impl Contact {
             return Ok(None);
         };
         let blocks = model.blocks.len();
-        let block_index = |entry: &str, key: &str, name: &str| -> Result<usize, DeckError> {
-            model
-                .blocks
-                .iter()
-                .position(|b| b.info.name == name)
-                .ok_or_else(|| {
-                    deck.error_at(
-                        &["Contact", "Interactions", entry, key],
-                        format!(
-                            "the mesh has no block \"{name}\"; its blocks are {}",
-                            model
-                                .blocks
-                                .iter()
-                                .map(|b| b.info.name.as_str())
-                                .collect::<Vec<_>>()
-                                .join(", ")
-                        ),
-                    )
-                })
+        let mut in_use = ModelsInUse {
+            deck,
+            contact,
+            models: Vec::new(),
+            used: Vec::new(),
         };
-        let mut models: Vec<ShortRangeForce> = Vec::new();
-        let mut used: Vec<&str> = Vec::new();
-        let mut model_index = |entry: &str, name: &str| -> Result<u16, DeckError> {
-            if let Some(k) = used.iter().position(|u| *u == name) {
-                return Ok(k as u16);
-            }
-            let definition = contact
-                .models
-                .iter()
-                .find(|m| m.name == name)
-                .ok_or_else(|| {
-                    deck.error_at(
-                        &["Contact", "Interactions", entry, "Contact Model"],
-                        format!("no contact model named \"{name}\""),
-                    )
-                })?;
-            let friction_coefficient = match &definition.friction {
-                Friction::Constant(mu) => *mu,
-                Friction::TimeDependent(_) => {
-                    return Err(deck.error_at(
-                        &["Contact", "Models", name, "Contact Model"],
-                        "\"Time Dependent Short Range Force\" is not available in this build; use \"Short Range Force\" with a constant Friction Coefficient",
-                    ))
-                }
-            };
-            models.push(ShortRangeForce {
-                contact_radius: definition.contact_radius,
-                spring_constant: definition.spring_constant,
-                friction_coefficient,
-            });
-            used.push(&definition.name);
-            Ok((models.len() - 1) as u16)
-        };
-        // As in Peridigm, every pair of blocks (each block with itself included) is in contact,
-        // through the first model of `Models`; then General and Self Contact, then named pairs
-        // in file order (later ones win) choose the model of their pairs. Peridigm uses the
-        // first model for every pair whatever the interactions say; that part is not kept.
-        let default_model = match contact.models.first() {
-            Some(first) => Some(model_index("Models", &first.name)?),
-            None => None,
-        };
-        let mut pair_model: Vec<Option<u16>> = vec![default_model; blocks * blocks];
-        for interaction in &contact.interactions {
-            match interaction {
-                ContactInteraction::General { model } => {
-                    let m = model_index("General Contact", model)?;
-                    for a in 0..blocks {
-                        for b in (0..blocks).filter(|&b| b != a) {
-                            pair_model[a * blocks + b] = Some(m);
-                        }
-                    }
-                }
-                ContactInteraction::SelfContact { model } => {
-                    let m = model_index("Self Contact", model)?;
-                    for a in 0..blocks {
-                        pair_model[a * blocks + a] = Some(m);
-                    }
-                }
-                ContactInteraction::Pair { .. } => {}
-            }
-        }
-        for interaction in &contact.interactions {
-            if let ContactInteraction::Pair {
-                name,
-                first_block,
-                second_block,
-                model,
-            } = interaction
-            {
-                let a = block_index(name, "First Block", first_block)?;
-                let b = block_index(name, "Second Block", second_block)?;
-                let m = model_index(name, model)?;
-                pair_model[a * blocks + b] = Some(m);
-                pair_model[b * blocks + a] = Some(m);
-            }
-        }
+        let pair_model = pair_models(&mut in_use, model)?;
+        let models = in_use.models;
         let in_contact: Vec<bool> = (0..blocks)
             .map(|a| (0..blocks).any(|b| pair_model[a * blocks + b].is_some()))
             .collect();

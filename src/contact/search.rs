@@ -383,7 +383,12 @@ impl CellGrid {
         bonded: Option<(&BondList, &OneWayBonds)>,
         allowed: &(impl Fn(usize, usize) -> bool + Sync),
     ) -> Vec<Vec<u32>> {
-        let radius_squared = radius * radius;
+        let query = RowQuery {
+            current,
+            radius_squared: radius * radius,
+            bonded,
+            allowed,
+        };
         let n = current.len();
         let wide = wide_vectors_available();
         searched
@@ -395,15 +400,7 @@ impl CellGrid {
                 |marker, chunk| {
                     let mut rows = Vec::with_capacity(chunk.len());
                     for &i in chunk {
-                        rows.push(self.row_dispatch(
-                            i,
-                            current,
-                            radius_squared,
-                            bonded,
-                            allowed,
-                            marker,
-                            wide,
-                        ));
+                        rows.push(self.row_dispatch(i, &query, marker, wide));
                     }
                     rows
                 },
@@ -414,25 +411,21 @@ impl CellGrid {
 
     /// [`CellGrid::row`] built for AVX2 when `wide`, else for the baseline target (the same
     /// list: the same IEEE operations decide).
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn row_dispatch(
         &self,
         i: u32,
-        current: &[[f64; 3]],
-        radius_squared: f64,
-        bonded: Option<(&BondList, &OneWayBonds)>,
-        allowed: &impl Fn(usize, usize) -> bool,
+        query: &RowQuery<impl Fn(usize, usize) -> bool>,
         marker: &mut [u32],
         wide: bool,
     ) -> Vec<u32> {
         #[cfg(target_arch = "x86_64")]
         if wide {
             // SAFETY: `wide` is true only when the CPU reports AVX2 at run time.
-            return unsafe { self.row_avx2(i, current, radius_squared, bonded, allowed, marker) };
+            return unsafe { self.row_avx2(i, query, marker) };
         }
         let _ = wide;
-        self.row(i, current, radius_squared, bonded, allowed, marker)
+        self.row(i, query, marker)
     }
 
     /// [`CellGrid::row`] with AVX2 enabled (4-wide distance tests).
@@ -444,13 +437,10 @@ impl CellGrid {
     unsafe fn row_avx2(
         &self,
         i: u32,
-        current: &[[f64; 3]],
-        radius_squared: f64,
-        bonded: Option<(&BondList, &OneWayBonds)>,
-        allowed: &impl Fn(usize, usize) -> bool,
+        query: &RowQuery<impl Fn(usize, usize) -> bool>,
         marker: &mut [u32],
     ) -> Vec<u32> {
-        self.row(i, current, radius_squared, bonded, allowed, marker)
+        self.row(i, query, marker)
     }
 
     /// Candidates of point `i` (ascending).
@@ -458,12 +448,15 @@ impl CellGrid {
     fn row(
         &self,
         i: u32,
-        current: &[[f64; 3]],
-        radius_squared: f64,
-        bonded: Option<(&BondList, &OneWayBonds)>,
-        allowed: &impl Fn(usize, usize) -> bool,
+        query: &RowQuery<impl Fn(usize, usize) -> bool>,
         marker: &mut [u32],
     ) -> Vec<u32> {
+        let RowQuery {
+            current,
+            radius_squared,
+            bonded,
+            allowed,
+        } = *query;
         let p = current[i as usize];
         if let Some((bonds, one_way)) = bonded {
             for &j in bonds
@@ -511,6 +504,19 @@ impl CellGrid {
     }
 }
 
+/// What every candidate row of one grid search asks: within R of which positions, skipping
+/// which bonded pairs, keeping which pairs.
+struct RowQuery<'q, F> {
+    /// Current positions of all points.
+    current: &'q [[f64; 3]],
+    /// R², the squared search radius.
+    radius_squared: f64,
+    /// The bond list and its one-way bonds: pairs bonded either way are not candidates.
+    bonded: Option<(&'q BondList, &'q OneWayBonds)>,
+    /// The pair filter `allowed(i, j)`.
+    allowed: &'q F,
+}
+
 /// Largest displacement of any point of `subset` between `previous` (its positions at the last
 /// search, in subset order) and `current`. Non-finite positions count as infinitely far.
 pub fn max_displacement(subset: &[u32], previous: &[[f64; 3]], current: &[[f64; 3]]) -> f64 {
@@ -542,12 +548,8 @@ mod tests {
         (*state >> 11) as f64 / (1u64 << 53) as f64
     }
 
-    #[test]
-    fn grid_and_tree_find_the_brute_force_list_without_bonded_pairs() {
-        // 1500 random points in a 6 × 6 × 3 box (some duplicated, some far away), families
-        // within 0.8 (brute force, one bond made one-way), contact radius 1.1, a filter that
-        // drops pairs whose indices sum to a multiple of 7: every backend must give exactly
-        // the brute-force rows.
+    /// 1500 random points in a 6 × 6 × 3 box, one duplicated and one far away.
+    fn random_cloud() -> Vec<[f64; 3]> {
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let mut current: Vec<[f64; 3]> = (0..1500)
             .map(|_| {
@@ -560,11 +562,18 @@ mod tests {
             .collect();
         current[10] = current[11];
         current[20] = [40.0, -3.0, 1.0];
+        current
+    }
+
+    fn distance2(current: &[[f64; 3]], i: usize, j: usize) -> f64 {
+        let d: [f64; 3] = std::array::from_fn(|k| current[j][k] - current[i][k]);
+        d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+    }
+
+    /// Families within 0.8 by brute force, with the bonds j → 3 (j > 3) dropped so that the
+    /// bonds 3 → j are one-way.
+    fn families_with_one_way_bonds(current: &[[f64; 3]]) -> BondList {
         let n = current.len();
-        let distance2 = |i: usize, j: usize| {
-            let d: [f64; 3] = std::array::from_fn(|k| current[j][k] - current[i][k]);
-            d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-        };
         let mut bonds = BondList {
             offsets: vec![0],
             ..Default::default()
@@ -572,26 +581,77 @@ mod tests {
         for i in 0..n {
             for j in 0..n {
                 // One-way: 3 → its neighbours only from 3's side (drop the reverse).
-                if i != j && distance2(i, j) <= 0.64 && !(j == 3 && i > 3) {
+                if i != j && distance2(current, i, j) <= 0.64 && !(j == 3 && i > 3) {
                     bonds.neighbor.push(j as u32);
-                    bonds.reference_length.push(distance2(i, j).sqrt());
+                    bonds.reference_length.push(distance2(current, i, j).sqrt());
                 }
             }
             bonds.offsets.push(bonds.neighbor.len());
         }
-        let keep = |i: usize, j: usize| (i + j) % 7 != 0;
-        let subset: Vec<u32> = (0..n as u32).filter(|p| p % 5 != 4).collect();
-        let mut expected = vec![Vec::new(); n];
-        for &i in &subset {
-            for &j in &subset {
+        bonds
+    }
+
+    /// The candidate rows by brute force: pairs of `subset` within 1.1, not bonded either
+    /// way, that `keep` keeps.
+    fn brute_force_rows(
+        current: &[[f64; 3]],
+        bonds: &BondList,
+        subset: &[u32],
+        keep: impl Fn(usize, usize) -> bool,
+    ) -> Vec<Vec<u32>> {
+        let mut expected = vec![Vec::new(); current.len()];
+        for &i in subset {
+            for &j in subset {
                 let (i, j) = (i as usize, j as usize);
                 let bonded =
                     bonds.family(i).contains(&(j as u32)) || bonds.family(j).contains(&(i as u32));
-                if i != j && distance2(i, j) <= 1.1 * 1.1 && !bonded && keep(i, j) {
+                if i != j && distance2(current, i, j) <= 1.1 * 1.1 && !bonded && keep(i, j) {
                     expected[i].push(j as u32);
                 }
             }
         }
+        expected
+    }
+
+    /// A bond list that holds only the rows of `part`, bonded either way (what a rank of a
+    /// distributed run passes).
+    fn part_bond_list(bonds: &BondList, one_way: &OneWayBonds, part: &[u32]) -> BondList {
+        let n = bonds.offsets.len() - 1;
+        let mut part_bonds = BondList {
+            offsets: vec![0],
+            ..Default::default()
+        };
+        for i in 0..n {
+            if part.binary_search(&(i as u32)).is_ok() {
+                let mut row: Vec<u32> = bonds
+                    .family(i)
+                    .iter()
+                    .chain(one_way.into_point(i))
+                    .copied()
+                    .collect();
+                row.sort_unstable();
+                part_bonds
+                    .reference_length
+                    .resize(part_bonds.reference_length.len() + row.len(), 1.0);
+                part_bonds.neighbor.extend(row);
+            }
+            part_bonds.offsets.push(part_bonds.neighbor.len());
+        }
+        part_bonds
+    }
+
+    #[test]
+    fn grid_and_tree_find_the_brute_force_list_without_bonded_pairs() {
+        // 1500 random points in a 6 × 6 × 3 box (some duplicated, some far away), families
+        // within 0.8 (brute force, one bond made one-way), contact radius 1.1, a filter that
+        // drops pairs whose indices sum to a multiple of 7: every backend must give exactly
+        // the brute-force rows.
+        let current = random_cloud();
+        let n = current.len();
+        let bonds = families_with_one_way_bonds(&current);
+        let keep = |i: usize, j: usize| (i + j) % 7 != 0;
+        let subset: Vec<u32> = (0..n as u32).filter(|p| p % 5 != 4).collect();
+        let expected = brute_force_rows(&current, &bonds, &subset, keep);
         assert!(expected.iter().map(Vec::len).sum::<usize>() > 1000);
         assert!(bonds
             .family(3)
@@ -625,29 +685,9 @@ mod tests {
                 assert_eq!(list.row(i), &row[..], "{backend:?}, point {i}");
             }
             // Rows of a part only (one rank's points), with a bond list that holds only
-            // their rows, bonded either way (what a rank of a distributed run passes): the
-            // same rows for the part, empty rows elsewhere.
+            // their rows: the same rows for the part, empty rows elsewhere.
             let part: Vec<u32> = subset.iter().copied().filter(|p| p % 3 == 1).collect();
-            let mut part_bonds = BondList {
-                offsets: vec![0],
-                ..Default::default()
-            };
-            for i in 0..n {
-                if part.binary_search(&(i as u32)).is_ok() {
-                    let mut row: Vec<u32> = bonds
-                        .family(i)
-                        .iter()
-                        .chain(one_way.into_point(i))
-                        .copied()
-                        .collect();
-                    row.sort_unstable();
-                    part_bonds
-                        .reference_length
-                        .resize(part_bonds.reference_length.len() + row.len(), 1.0);
-                    part_bonds.neighbor.extend(row);
-                }
-                part_bonds.offsets.push(part_bonds.neighbor.len());
-            }
+            let part_bonds = part_bond_list(&bonds, &one_way, &part);
             let list = find_candidates_for(
                 &subset,
                 &part,

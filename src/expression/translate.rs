@@ -171,58 +171,9 @@ fn lex(source: &Source) -> Result<Vec<Token>> {
         } else if byte.is_ascii_digit()
             || (byte == b'.' && next.is_some_and(|b| b.is_ascii_digit()))
         {
-            let start = i;
-            while i < bytes.len() && bytes[i].is_ascii_digit() {
-                i += 1;
-            }
-            if i < bytes.len() && bytes[i] == b'.' {
-                i += 1;
-                while i < bytes.len() && bytes[i].is_ascii_digit() {
-                    i += 1;
-                }
-            }
-            if i < bytes.len() && matches!(bytes[i], b'e' | b'E') {
-                let mut j = i + 1;
-                if j < bytes.len() && matches!(bytes[j], b'+' | b'-') {
-                    j += 1;
-                }
-                if j < bytes.len() && bytes[j].is_ascii_digit() {
-                    i = j;
-                    while i < bytes.len() && bytes[i].is_ascii_digit() {
-                        i += 1;
-                    }
-                }
-            }
-            if i < bytes.len()
-                && (bytes[i].is_ascii_alphanumeric() || matches!(bytes[i], b'_' | b'.'))
-            {
-                let mut end = i;
-                while end < bytes.len()
-                    && (bytes[end].is_ascii_alphanumeric() || matches!(bytes[end], b'_' | b'.'))
-                {
-                    end += 1;
-                }
-                return Err(source.syntax(
-                    start,
-                    format!(
-                        "`{}` is not a number (write `2*x`, not `2x`; exponents as `1.5e-3`)",
-                        &text[start..end]
-                    ),
-                ));
-            }
-            let literal = &text[start..i];
-            let number: f64 = literal
-                .parse()
-                .map_err(|_| source.syntax(start, format!("`{literal}` is not a valid number")))?;
-            if !number.is_finite() {
-                return Err(source.syntax(start, format!("`{literal}` is too large for a double")));
-            }
-            tokens.push(Token {
-                kind: Kind::Number(number),
-                text: literal.to_string(),
-                start,
-                end: i,
-            });
+            let token = lex_number(source, i)?;
+            i = token.end;
+            tokens.push(token);
         } else if byte.is_ascii_alphabetic() || byte == b'_' {
             let start = i;
             while i < bytes.len() && (bytes[i].is_ascii_alphanumeric() || bytes[i] == b'_') {
@@ -254,21 +205,84 @@ fn lex(source: &Source) -> Result<Vec<Token>> {
             });
             i += 1;
         } else {
-            let character = text[i..].chars().next().unwrap_or('?');
-            let hint = match character {
-                '&' => " (logical and is `&&`)",
-                '|' => " (logical or is `||`)",
-                ':' if text[i..].starts_with("::") => {
-                    " (call functions by their plain name, e.g. `sin(x)`)"
-                }
-                '?' | ':' => " (the `?:` operator is not supported; use if/else)",
-                '[' | ']' => " (arrays are not supported)",
-                _ => "",
-            };
-            return Err(source.syntax(i, format!("unexpected character `{character}`{hint}")));
+            return Err(unexpected_character(source, i));
         }
     }
     Ok(tokens)
+}
+
+/// The number literal starting at byte `start` (digits, an optional fraction and exponent);
+/// a literal running into letters (`2x`) is an error.
+fn lex_number(source: &Source, start: usize) -> Result<Token> {
+    let text = source.text;
+    let bytes = text.as_bytes();
+    let mut i = start;
+    while i < bytes.len() && bytes[i].is_ascii_digit() {
+        i += 1;
+    }
+    if i < bytes.len() && bytes[i] == b'.' {
+        i += 1;
+        while i < bytes.len() && bytes[i].is_ascii_digit() {
+            i += 1;
+        }
+    }
+    if i < bytes.len() && matches!(bytes[i], b'e' | b'E') {
+        let mut j = i + 1;
+        if j < bytes.len() && matches!(bytes[j], b'+' | b'-') {
+            j += 1;
+        }
+        if j < bytes.len() && bytes[j].is_ascii_digit() {
+            i = j;
+            while i < bytes.len() && bytes[i].is_ascii_digit() {
+                i += 1;
+            }
+        }
+    }
+    if i < bytes.len() && (bytes[i].is_ascii_alphanumeric() || matches!(bytes[i], b'_' | b'.')) {
+        let mut end = i;
+        while end < bytes.len()
+            && (bytes[end].is_ascii_alphanumeric() || matches!(bytes[end], b'_' | b'.'))
+        {
+            end += 1;
+        }
+        return Err(source.syntax(
+            start,
+            format!(
+                "`{}` is not a number (write `2*x`, not `2x`; exponents as `1.5e-3`)",
+                &text[start..end]
+            ),
+        ));
+    }
+    let literal = &text[start..i];
+    let number: f64 = literal
+        .parse()
+        .map_err(|_| source.syntax(start, format!("`{literal}` is not a valid number")))?;
+    if !number.is_finite() {
+        return Err(source.syntax(start, format!("`{literal}` is too large for a double")));
+    }
+    Ok(Token {
+        kind: Kind::Number(number),
+        text: literal.to_string(),
+        start,
+        end: i,
+    })
+}
+
+/// The error for a character no token starts with, with a hint for the common C/C++ ones.
+fn unexpected_character(source: &Source, i: usize) -> ExpressionError {
+    let text = source.text;
+    let character = text[i..].chars().next().unwrap_or('?');
+    let hint = match character {
+        '&' => " (logical and is `&&`)",
+        '|' => " (logical or is `||`)",
+        ':' if text[i..].starts_with("::") => {
+            " (call functions by their plain name, e.g. `sin(x)`)"
+        }
+        '?' | ':' => " (the `?:` operator is not supported; use if/else)",
+        '[' | ']' => " (arrays are not supported)",
+        _ => "",
+    };
+    source.syntax(i, format!("unexpected character `{character}`{hint}"))
 }
 
 /// Best-matching name for a did-you-mean hint, if any is close enough.

@@ -278,51 +278,7 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Discretization, DeckE
         ));
     }
     let source = match kind {
-        "Exodus" => {
-            let mesh = list.name_req(ctx, "Input Mesh File")?;
-            let intersections =
-                if list.bool_or(ctx, "Compute Element-Horizon Intersections", false)? {
-                    Some(ElementHorizonIntersections {
-                        scheme: list
-                            .get("Element-Horizon Intersection Partial Volume Scheme")
-                            .map(|f| {
-                                f.choice(ctx, &["PV", "FV", "PDLAMMPS", "HHB"])
-                                    .map(str::to_string)
-                            })
-                            .transpose()?,
-                        recursion_level: list
-                            .int_opt(ctx, "Element-Horizon Intersection Recursion Level", 0)?
-                            .unwrap_or(2),
-                        number_of_samples: list
-                            .int_opt(ctx, "Element-Horizon Intersection Number Of Samples", 1)?
-                            .unwrap_or(2),
-                        characteristic_element_length: list
-                            .non_negative_opt(
-                                ctx,
-                                "Element-Horizon Intersection Characteristic Element Length",
-                            )?
-                            .unwrap_or(0.0),
-                        use_lookup_table: list.bool_or(
-                            ctx,
-                            "Element-Horizon Intersection Use Lookup Table",
-                            true,
-                        )?,
-                    })
-                } else {
-                    None
-                };
-            PointSource::Exodus {
-                input_mesh_file: ctx.resolve(&mesh),
-                store_exodus_mesh: list.bool_or(ctx, "Store Exodus Mesh", false)?,
-                construct_interfaces: list.bool_or(ctx, "Construct Interfaces", false)?,
-                construct_neighborhood_lists: list.bool_or(
-                    ctx,
-                    "Construct Neighborhood Lists",
-                    true,
-                )?,
-                element_horizon_intersections: intersections,
-            }
-        }
+        "Exodus" => read_exodus_source(ctx, &mut list)?,
         "Text File" => {
             let mesh = list.name_req(ctx, "Input Mesh File")?;
             PointSource::TextFile {
@@ -342,7 +298,82 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Discretization, DeckE
         }
         _ => unreachable!("choice() returns one of the listed types"),
     };
-    let influence_function = match list.get("Influence Function") {
+    let influence_function = read_influence_function(ctx, &mut list)?;
+    let omit_bonds_between_blocks = match list.get("Omit Bonds Between Blocks") {
+        None => OmitBonds::None,
+        Some(f) => match f.choice(ctx, &["None", "All"])? {
+            "All" => OmitBonds::All,
+            _ => OmitBonds::None,
+        },
+    };
+    let bond_filters = read_bond_filters(ctx, &mut list, kind)?;
+    let verbose = list.bool_or(ctx, "Verbose", false)?;
+    list.finish(ctx, &[])?;
+    Ok(Discretization {
+        source,
+        influence_function,
+        omit_bonds_between_blocks,
+        bond_filters,
+        verbose,
+    })
+}
+
+/// The keys of `Type: "Exodus"`: the mesh file and its options.
+fn read_exodus_source(ctx: &mut Ctx, list: &mut ListReader) -> Result<PointSource, DeckError> {
+    let mesh = list.name_req(ctx, "Input Mesh File")?;
+    let intersections = if list.bool_or(ctx, "Compute Element-Horizon Intersections", false)? {
+        Some(read_element_horizon_intersections(ctx, list)?)
+    } else {
+        None
+    };
+    Ok(PointSource::Exodus {
+        input_mesh_file: ctx.resolve(&mesh),
+        store_exodus_mesh: list.bool_or(ctx, "Store Exodus Mesh", false)?,
+        construct_interfaces: list.bool_or(ctx, "Construct Interfaces", false)?,
+        construct_neighborhood_lists: list.bool_or(ctx, "Construct Neighborhood Lists", true)?,
+        element_horizon_intersections: intersections,
+    })
+}
+
+/// The `Element-Horizon Intersection ...` keys, read when the intersections are computed.
+fn read_element_horizon_intersections(
+    ctx: &mut Ctx,
+    list: &mut ListReader,
+) -> Result<ElementHorizonIntersections, DeckError> {
+    Ok(ElementHorizonIntersections {
+        scheme: list
+            .get("Element-Horizon Intersection Partial Volume Scheme")
+            .map(|f| {
+                f.choice(ctx, &["PV", "FV", "PDLAMMPS", "HHB"])
+                    .map(str::to_string)
+            })
+            .transpose()?,
+        recursion_level: list
+            .int_opt(ctx, "Element-Horizon Intersection Recursion Level", 0)?
+            .unwrap_or(2),
+        number_of_samples: list
+            .int_opt(ctx, "Element-Horizon Intersection Number Of Samples", 1)?
+            .unwrap_or(2),
+        characteristic_element_length: list
+            .non_negative_opt(
+                ctx,
+                "Element-Horizon Intersection Characteristic Element Length",
+            )?
+            .unwrap_or(0.0),
+        use_lookup_table: list.bool_or(
+            ctx,
+            "Element-Horizon Intersection Use Lookup Table",
+            true,
+        )?,
+    })
+}
+
+/// `Influence Function`: one of the named functions or an expression (default `One`).
+fn read_influence_function(
+    ctx: &mut Ctx,
+    list: &mut ListReader,
+) -> Result<InfluenceFunction, DeckError> {
+    Ok(match list.get("Influence Function") {
         None => InfluenceFunction::One,
         Some(f) => {
             let s = f.name(ctx)?;
@@ -353,14 +384,15 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Discretization, DeckE
                 _ => InfluenceFunction::Expression(s),
             }
         }
-    };
-    let omit_bonds_between_blocks = match list.get("Omit Bonds Between Blocks") {
-        None => OmitBonds::None,
-        Some(f) => match f.choice(ctx, &["None", "All"])? {
-            "All" => OmitBonds::All,
-            _ => OmitBonds::None,
-        },
-    };
+    })
+}
+
+/// `Bond Filters` (not with PdQuickGrid).
+fn read_bond_filters(
+    ctx: &mut Ctx,
+    list: &mut ListReader,
+    kind: &str,
+) -> Result<Vec<BondFilter>, DeckError> {
     let mut bond_filters = Vec::new();
     if let Some(mut filters) = list.list_opt(ctx, "Bond Filters")? {
         if matches!(kind, "PdQuickGrid") {
@@ -378,15 +410,7 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Discretization, DeckE
             )?);
         }
     }
-    let verbose = list.bool_or(ctx, "Verbose", false)?;
-    list.finish(ctx, &[])?;
-    Ok(Discretization {
-        source,
-        influence_function,
-        omit_bonds_between_blocks,
-        bond_filters,
-        verbose,
-    })
+    Ok(bond_filters)
 }
 
 fn read_quick_grid(ctx: &mut Ctx, list: &mut ListReader) -> Result<QuickGridGenerator, DeckError> {

@@ -263,7 +263,19 @@ fn named_lists<T>(
 }
 
 fn read_top(ctx: &mut Ctx, mut top: ListReader, format: DeckFormat) -> Result<Deck, DeckError> {
-    let mut deck = Deck {
+    let mut deck = empty_deck(ctx, format);
+    let mut seen = Vec::new();
+    for f in top.all() {
+        seen.push(f.key());
+        read_top_entry(ctx, &mut deck, &f)?;
+    }
+    check_required_sections(ctx, &top, &seen, &deck)?;
+    Ok(deck)
+}
+
+/// A deck with nothing read yet; the required sections replace the placeholders.
+fn empty_deck(ctx: &Ctx, format: DeckFormat) -> Deck {
+    Deck {
         path: ctx.file.clone(),
         format,
         verbose: false,
@@ -289,78 +301,96 @@ fn read_top(ctx: &mut Ctx, mut top: ListReader, format: DeckFormat) -> Result<De
         data_loader: None,
         warnings: Vec::new(),
         lines: HashMap::new(),
-    };
-    let mut seen = Vec::new();
-    for f in top.all() {
-        let key = f.key();
-        seen.push(key);
-        match key {
-            "Verbose" => deck.verbose = f.bool(ctx)?,
-            "Multiphysics" => {
-                let v = f.i64(ctx)?;
-                if v != 1 {
-                    return Err(f.err(ctx, format!("only `Multiphysics: 1` is accepted (found {v}); remove the key to turn multiphysics off")));
-                }
-                deck.multiphysics = true;
+    }
+}
+
+/// Reads one top-level key into `deck`.
+fn read_top_entry(ctx: &mut Ctx, deck: &mut Deck, f: &Field) -> Result<(), DeckError> {
+    let key = f.key();
+    match key {
+        "Verbose" => deck.verbose = f.bool(ctx)?,
+        "Multiphysics" => {
+            let v = f.i64(ctx)?;
+            if v != 1 {
+                return Err(f.err(ctx, format!("only `Multiphysics: 1` is accepted (found {v}); remove the key to turn multiphysics off")));
             }
-            "Restart" => {
-                deck.restart = if f.is_list() {
-                    let mut l = f.list(ctx)?;
-                    let on = l.bool_or(ctx, "Restart", true)?;
-                    l.finish(ctx, &[])?;
-                    on
-                } else {
-                    match &f.node().kind {
-                        NodeKind::Scalar(s) if matches!(s.kind, tree::ScalarKind::Null) => true,
-                        _ => f.bool(ctx)?,
-                    }
-                };
-                if !deck.restart {
-                    ctx.warn(f.line(), &f.path, "restart is off; note that Peridigm would turn restart on whenever a Restart entry is present, even when false");
-                }
-            }
-            "Discretization" => deck.discretization = discretization::read(ctx, &f)?,
-            "Materials" => deck.materials = named_lists(ctx, &f, "material", materials::read)?,
-            "Damage Models" => {
-                deck.damage_models = named_lists(ctx, &f, "damage model", damage::read)?
-            }
-            "Blocks" => deck.blocks = named_lists(ctx, &f, "group of blocks", blocks::read)?,
-            "Contact" => deck.contact = Some(contact::read(ctx, &f)?),
-            "Boundary Conditions" => deck.boundary_conditions = boundary::read(ctx, &f)?,
-            "Compute Class Parameters" => {
-                deck.compute_classes =
-                    named_lists(ctx, &f, "compute class", output::read_compute_class)?
-            }
-            "Data Loader" => {
-                let mut l = f.list(ctx)?;
-                let file = l.name_req(ctx, "File Name")?;
-                let field_name = l.name_req(ctx, "Field Name")?;
-                l.finish(ctx, &[])?;
-                deck.data_loader = Some(DataLoader {
-                    file_name: ctx.resolve(&file),
-                    field_name,
-                });
-            }
-            _ if key.contains("Solver") && key.contains("Output") => {
-                return Err(f.err(ctx, "the name contains both \"Solver\" and \"Output\", so Peridigm would read it as both; rename it"));
-            }
-            _ if key.contains("Solver") => {
-                let first = deck.solvers.is_empty();
-                deck.solvers.push(solver::read(ctx, &f, first)?);
-            }
-            _ if key.contains("Output") => deck.outputs.push(output::read_output(ctx, &f)?),
-            _ => {
-                let hint = match suggest(key, TOP_LEVEL.iter().copied()) {
-                    Some(s) => format!("did you mean \"{s}\"?"),
-                    None => format!(
-                        "valid top-level keys are {}, and any name containing \"Solver\" or \"Output\"",
-                        TOP_LEVEL[..11].iter().map(|k| format!("\"{k}\"")).collect::<Vec<_>>().join(", ")
-                    ),
-                };
-                return Err(f.err(ctx, format!("unknown key; {hint}")));
-            }
+            deck.multiphysics = true;
+        }
+        "Restart" => deck.restart = read_restart(ctx, f)?,
+        "Discretization" => deck.discretization = discretization::read(ctx, f)?,
+        "Materials" => deck.materials = named_lists(ctx, f, "material", materials::read)?,
+        "Damage Models" => deck.damage_models = named_lists(ctx, f, "damage model", damage::read)?,
+        "Blocks" => deck.blocks = named_lists(ctx, f, "group of blocks", blocks::read)?,
+        "Contact" => deck.contact = Some(contact::read(ctx, f)?),
+        "Boundary Conditions" => deck.boundary_conditions = boundary::read(ctx, f)?,
+        "Compute Class Parameters" => {
+            deck.compute_classes = named_lists(ctx, f, "compute class", output::read_compute_class)?
+        }
+        "Data Loader" => deck.data_loader = Some(read_data_loader(ctx, f)?),
+        _ if key.contains("Solver") && key.contains("Output") => {
+            return Err(f.err(ctx, "the name contains both \"Solver\" and \"Output\", so Peridigm would read it as both; rename it"));
+        }
+        _ if key.contains("Solver") => {
+            let first = deck.solvers.is_empty();
+            deck.solvers.push(solver::read(ctx, f, first)?);
+        }
+        _ if key.contains("Output") => deck.outputs.push(output::read_output(ctx, f)?),
+        _ => {
+            let hint = match suggest(key, TOP_LEVEL.iter().copied()) {
+                Some(s) => format!("did you mean \"{s}\"?"),
+                None => format!(
+                    "valid top-level keys are {}, and any name containing \"Solver\" or \"Output\"",
+                    TOP_LEVEL[..11]
+                        .iter()
+                        .map(|k| format!("\"{k}\""))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            };
+            return Err(f.err(ctx, format!("unknown key; {hint}")));
         }
     }
+    Ok(())
+}
+
+/// `Restart`: a flag, an empty entry (on) or a list with a `Restart` flag.
+fn read_restart(ctx: &mut Ctx, f: &Field) -> Result<bool, DeckError> {
+    let restart = if f.is_list() {
+        let mut l = f.list(ctx)?;
+        let on = l.bool_or(ctx, "Restart", true)?;
+        l.finish(ctx, &[])?;
+        on
+    } else {
+        match &f.node().kind {
+            NodeKind::Scalar(s) if matches!(s.kind, tree::ScalarKind::Null) => true,
+            _ => f.bool(ctx)?,
+        }
+    };
+    if !restart {
+        ctx.warn(f.line(), &f.path, "restart is off; note that Peridigm would turn restart on whenever a Restart entry is present, even when false");
+    }
+    Ok(restart)
+}
+
+/// `Data Loader`: the file and the field it loads.
+fn read_data_loader(ctx: &mut Ctx, f: &Field) -> Result<DataLoader, DeckError> {
+    let mut l = f.list(ctx)?;
+    let file = l.name_req(ctx, "File Name")?;
+    let field_name = l.name_req(ctx, "Field Name")?;
+    l.finish(ctx, &[])?;
+    Ok(DataLoader {
+        file_name: ctx.resolve(&file),
+        field_name,
+    })
+}
+
+/// The sections every deck needs: a discretization, materials, blocks and a solver.
+fn check_required_sections(
+    ctx: &Ctx,
+    top: &ListReader,
+    seen: &[&str],
+    deck: &Deck,
+) -> Result<(), DeckError> {
     for (key, what) in [
         ("Discretization", "a list with Type and its keys"),
         ("Materials", "a list of named materials"),
@@ -393,104 +423,152 @@ fn read_top(ctx: &mut Ctx, mut top: ListReader, format: DeckFormat) -> Result<De
             "a list with Initial Time, Final Time and one integrator such as Verlet",
         ));
     }
-    Ok(deck)
+    Ok(())
 }
 
 /// Checks that need more than one list: names referring to other lists, duplicates, switches.
 fn cross_check(ctx: &mut Ctx, deck: &Deck) -> Result<(), DeckError> {
-    let owned = |path: &[&str]| path.iter().map(|s| s.to_string()).collect::<Vec<_>>();
-    let quoted_list = |names: Vec<&str>| {
-        names
-            .iter()
-            .map(|n| format!("\"{n}\""))
-            .collect::<Vec<_>>()
-            .join(", ")
+    let mut groups = BlockGroupNames {
+        quick_grid: matches!(deck.discretization.source, PointSource::PdQuickGrid { .. }),
+        claimed: Vec::new(),
+        default_group: None,
     };
-    let quick_grid = matches!(deck.discretization.source, PointSource::PdQuickGrid { .. });
-    let mut claimed: Vec<(&str, &str)> = Vec::new();
-    let mut default_group: Option<&str> = None;
     for block in &deck.blocks {
-        let path = ["Blocks", block.name.as_str(), "Material"];
-        match deck.material(&block.material) {
-            None => {
-                let names: Vec<&str> = deck.materials.iter().map(|m| m.name.as_str()).collect();
-                let hint = match suggest(&block.material, names.iter().copied()) {
-                    Some(s) => format!("did you mean \"{s}\"?"),
-                    None => format!(
-                        "the materials defined under `Materials` are {}",
-                        quoted_list(names)
-                    ),
-                };
+        check_block_material(ctx, deck, block)?;
+        check_block_damage_model(ctx, deck, block)?;
+        groups.claim(ctx, deck, block)?;
+    }
+    warn_unused_materials(ctx, deck);
+    check_condition_node_sets(ctx, deck)?;
+    warn_unwritten_compute_classes(ctx, deck);
+    Ok(())
+}
+
+/// A key path of string slices as the owned path of messages.
+fn owned(path: &[&str]) -> Vec<String> {
+    path.iter().map(|s| s.to_string()).collect()
+}
+
+/// `"a", "b", "c"`.
+fn quoted_list(names: Vec<&str>) -> String {
+    names
+        .iter()
+        .map(|n| format!("\"{n}\""))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// A block group's `Material` names a defined material, and a multiphysics one only in a
+/// multiphysics deck.
+fn check_block_material(ctx: &Ctx, deck: &Deck, block: &Block) -> Result<(), DeckError> {
+    let path = ["Blocks", block.name.as_str(), "Material"];
+    match deck.material(&block.material) {
+        None => {
+            let names: Vec<&str> = deck.materials.iter().map(|m| m.name.as_str()).collect();
+            let hint = match suggest(&block.material, names.iter().copied()) {
+                Some(s) => format!("did you mean \"{s}\"?"),
+                None => format!(
+                    "the materials defined under `Materials` are {}",
+                    quoted_list(names)
+                ),
+            };
+            Err(ctx.error(
+                deck.line_of(&path),
+                &owned(&path),
+                format!("no material named \"{}\"; {hint}", block.material),
+            ))
+        }
+        Some(material) => {
+            if matches!(material.model, MaterialModel::MultiphysicsElastic { .. })
+                && !deck.multiphysics
+            {
+                let path = ["Materials", material.name.as_str(), "Material Model"];
                 return Err(ctx.error(
                     deck.line_of(&path),
                     &owned(&path),
-                    format!("no material named \"{}\"; {hint}", block.material),
+                    "the Multiphysics Elastic model needs `Multiphysics: 1` at the top level of the deck",
                 ));
             }
-            Some(material) => {
-                if matches!(material.model, MaterialModel::MultiphysicsElastic { .. })
-                    && !deck.multiphysics
-                {
-                    let path = ["Materials", material.name.as_str(), "Material Model"];
-                    return Err(ctx.error(
-                        deck.line_of(&path),
-                        &owned(&path),
-                        "the Multiphysics Elastic model needs `Multiphysics: 1` at the top level of the deck",
-                    ));
-                }
-            }
+            Ok(())
         }
-        if let Some(damage) = &block.damage_model {
-            if deck.damage_model(damage).is_none() {
-                let path = ["Blocks", block.name.as_str(), "Damage Model"];
-                let names: Vec<&str> = deck.damage_models.iter().map(|d| d.name.as_str()).collect();
-                let hint = match suggest(damage, names.iter().copied()) {
-                    Some(s) => format!("did you mean \"{s}\"?"),
-                    None if names.is_empty() => {
-                        "define it under `Damage Models`, or write \"None\"".to_string()
-                    }
-                    None => format!(
-                        "the damage models defined are {} (or \"None\")",
-                        quoted_list(names)
-                    ),
-                };
-                return Err(ctx.error(
-                    deck.line_of(&path),
-                    &owned(&path),
-                    format!("no damage model named \"{damage}\"; {hint}"),
-                ));
-            }
+    }
+}
+
+/// A block group's `Damage Model`, when given, names a defined damage model.
+fn check_block_damage_model(ctx: &Ctx, deck: &Deck, block: &Block) -> Result<(), DeckError> {
+    let Some(damage) = &block.damage_model else {
+        return Ok(());
+    };
+    if deck.damage_model(damage).is_some() {
+        return Ok(());
+    }
+    let path = ["Blocks", block.name.as_str(), "Damage Model"];
+    let names: Vec<&str> = deck.damage_models.iter().map(|d| d.name.as_str()).collect();
+    let hint = match suggest(damage, names.iter().copied()) {
+        Some(s) => format!("did you mean \"{s}\"?"),
+        None if names.is_empty() => {
+            "define it under `Damage Models`, or write \"None\"".to_string()
         }
+        None => format!(
+            "the damage models defined are {} (or \"None\")",
+            quoted_list(names)
+        ),
+    };
+    Err(ctx.error(
+        deck.line_of(&path),
+        &owned(&path),
+        format!("no damage model named \"{damage}\"; {hint}"),
+    ))
+}
+
+/// The block names the groups claimed so far: each block belongs to one group, and one group
+/// at most is the `Default`.
+struct BlockGroupNames<'d> {
+    /// A PdQuickGrid discretization has the single block `block_1`.
+    quick_grid: bool,
+    /// (block name, group name).
+    claimed: Vec<(&'d str, &'d str)>,
+    default_group: Option<&'d str>,
+}
+
+impl<'d> BlockGroupNames<'d> {
+    /// Claims the `Block Names` of `block` for its group.
+    fn claim(&mut self, ctx: &Ctx, deck: &Deck, block: &'d Block) -> Result<(), DeckError> {
         let names_path = ["Blocks", block.name.as_str(), "Block Names"];
         if block.is_default() {
-            if let Some(other) = default_group {
+            if let Some(other) = self.default_group {
                 return Err(ctx.error(
                     deck.line_of(&names_path),
                     &owned(&names_path),
                     format!("only one group may use \"Default\"; \"{other}\" already does"),
                 ));
             }
-            default_group = Some(&block.name);
-            continue;
+            self.default_group = Some(&block.name);
+            return Ok(());
         }
         for name in &block.block_names {
-            if let Some((_, other)) = claimed.iter().find(|(n, _)| n == name) {
+            if let Some((_, other)) = self.claimed.iter().find(|(n, _)| n == name) {
                 return Err(ctx.error(
                     deck.line_of(&names_path),
                     &owned(&names_path),
                     format!("block \"{name}\" is already assigned by the group \"{other}\"; each block belongs to one group"),
                 ));
             }
-            if quick_grid && name != "block_1" {
+            if self.quick_grid && name != "block_1" {
                 return Err(ctx.error(
                     deck.line_of(&names_path),
                     &owned(&names_path),
                     format!("a PdQuickGrid discretization has the single block \"block_1\", found \"{name}\""),
                 ));
             }
-            claimed.push((name, &block.name));
+            self.claimed.push((name, &block.name));
         }
+        Ok(())
     }
+}
+
+/// Warns about materials no block group uses.
+fn warn_unused_materials(ctx: &mut Ctx, deck: &Deck) {
     for material in &deck.materials {
         if !deck.blocks.iter().any(|b| b.material == material.name) {
             let path = ["Materials", material.name.as_str()];
@@ -503,8 +581,11 @@ fn cross_check(ctx: &mut Ctx, deck: &Deck) -> Result<(), DeckError> {
             }
         }
     }
-    // Node sets: Exodus meshes bring their own (checked once the mesh is read); the other
-    // discretizations have none, so every name must be defined in the deck.
+}
+
+/// Node sets: Exodus meshes bring their own (checked once the mesh is read); the other
+/// discretizations have none, so every name must be defined in the deck.
+fn check_condition_node_sets(ctx: &mut Ctx, deck: &Deck) -> Result<(), DeckError> {
     let mesh_has_node_sets = matches!(deck.discretization.source, PointSource::Exodus { .. });
     let rank_deficient = deck.boundary_conditions.create_rank_deficient_node_set == Some(true);
     for bc in &deck.boundary_conditions.conditions {
@@ -547,6 +628,11 @@ fn cross_check(ctx: &mut Ctx, deck: &Deck) -> Result<(), DeckError> {
             ),
         ));
     }
+    Ok(())
+}
+
+/// Warns about compute classes whose output label no output writes.
+fn warn_unwritten_compute_classes(ctx: &mut Ctx, deck: &Deck) {
     for class in &deck.compute_classes {
         if let Some(label) = class.output_label() {
             if !deck
@@ -565,5 +651,4 @@ fn cross_check(ctx: &mut Ctx, deck: &Deck) -> Result<(), DeckError> {
             }
         }
     }
-    Ok(())
 }

@@ -226,77 +226,15 @@ impl XmlReader<'_> {
                         "content after the closing </ParameterList> of the deck".into(),
                     ));
                 }
-                Event::Start(element) => {
-                    let tag = element.name().as_ref().to_string();
-                    match tag.as_str() {
-                        "ParameterList" => {
-                            let [name, _, _] = self.attributes(&element, start, line)?;
-                            if !self.stack.is_empty() && name.is_none() {
-                                return Err(self.invalid(line, None, "nested <ParameterList> without a name= attribute".into()));
-                            }
-                            self.stack.push(Open { name, line, entries: Vec::new() });
-                        }
-                        "Parameter" => {
-                            return Err(self.syntax(start, "<Parameter> must be an empty element: <Parameter name=\"..\" type=\"..\" value=\"..\"/>".into()))
-                        }
-                        other => return Err(self.unknown_element(other, start)),
-                    }
-                }
+                Event::Start(element) => self.start_element(&element, start, line)?,
                 Event::Empty(element) => {
-                    let tag = element.name().as_ref().to_string();
-                    match tag.as_str() {
-                        "Parameter" => {
-                            if self.stack.is_empty() {
-                                return Err(self.syntax(
-                                    start,
-                                    "the deck must start with <ParameterList>".into(),
-                                ));
-                            }
-                            let entry = self.parameter(&element, start, line)?;
-                            self.push_entry(entry)?;
-                        }
-                        "ParameterList" => {
-                            let [name, _, _] = self.attributes(&element, start, line)?;
-                            let node = Node {
-                                line,
-                                kind: NodeKind::List(Vec::new()),
-                            };
-                            match name {
-                                Some(name) if !self.stack.is_empty() => self.push_entry(Entry {
-                                    key: name,
-                                    line,
-                                    value: node,
-                                })?,
-                                _ if self.stack.is_empty() => root = Some(node),
-                                _ => {
-                                    return Err(self.invalid(
-                                        line,
-                                        None,
-                                        "nested <ParameterList> without a name= attribute".into(),
-                                    ))
-                                }
-                            }
-                        }
-                        other => return Err(self.unknown_element(other, start)),
+                    if let Some(node) = self.empty_element(&element, start, line)? {
+                        root = Some(node);
                     }
                 }
                 Event::End(_) => {
-                    let Some(open) = self.stack.pop() else {
-                        unreachable!("quick-xml checks that end tags match start tags")
-                    };
-                    let node = Node {
-                        line: open.line,
-                        kind: NodeKind::List(open.entries),
-                    };
-                    if self.stack.is_empty() {
+                    if let Some(node) = self.end_element()? {
                         root = Some(node);
-                    } else {
-                        let key = open.name.unwrap_or_default();
-                        self.push_entry(Entry {
-                            key,
-                            line: open.line,
-                            value: node,
-                        })?;
                     }
                 }
                 Event::Text(text) => {
@@ -330,6 +268,97 @@ impl XmlReader<'_> {
                 "no <ParameterList> found; a Peridigm XML deck is one <ParameterList>".into(),
             )),
         }
+    }
+
+    /// `<ParameterList name="..">`: opens a list.
+    fn start_element(
+        &mut self,
+        element: &BytesStart,
+        start: usize,
+        line: usize,
+    ) -> Result<(), DeckError> {
+        let tag = element.name().as_ref().to_string();
+        match tag.as_str() {
+            "ParameterList" => {
+                let [name, _, _] = self.attributes(element, start, line)?;
+                if !self.stack.is_empty() && name.is_none() {
+                    return Err(self.invalid(line, None, "nested <ParameterList> without a name= attribute".into()));
+                }
+                self.stack.push(Open { name, line, entries: Vec::new() });
+                Ok(())
+            }
+            "Parameter" => {
+                Err(self.syntax(start, "<Parameter> must be an empty element: <Parameter name=\"..\" type=\"..\" value=\"..\"/>".into()))
+            }
+            other => Err(self.unknown_element(other, start)),
+        }
+    }
+
+    /// `<Parameter .../>` or an empty `<ParameterList .../>`; returns the root when the
+    /// empty list is the whole deck.
+    fn empty_element(
+        &mut self,
+        element: &BytesStart,
+        start: usize,
+        line: usize,
+    ) -> Result<Option<Node>, DeckError> {
+        let tag = element.name().as_ref().to_string();
+        match tag.as_str() {
+            "Parameter" => {
+                if self.stack.is_empty() {
+                    return Err(
+                        self.syntax(start, "the deck must start with <ParameterList>".into())
+                    );
+                }
+                let entry = self.parameter(element, start, line)?;
+                self.push_entry(entry)?;
+            }
+            "ParameterList" => {
+                let [name, _, _] = self.attributes(element, start, line)?;
+                let node = Node {
+                    line,
+                    kind: NodeKind::List(Vec::new()),
+                };
+                match name {
+                    Some(name) if !self.stack.is_empty() => self.push_entry(Entry {
+                        key: name,
+                        line,
+                        value: node,
+                    })?,
+                    _ if self.stack.is_empty() => return Ok(Some(node)),
+                    _ => {
+                        return Err(self.invalid(
+                            line,
+                            None,
+                            "nested <ParameterList> without a name= attribute".into(),
+                        ))
+                    }
+                }
+            }
+            other => return Err(self.unknown_element(other, start)),
+        }
+        Ok(None)
+    }
+
+    /// `</ParameterList>`: closes the innermost list; returns the root when it is the deck.
+    fn end_element(&mut self) -> Result<Option<Node>, DeckError> {
+        let Some(open) = self.stack.pop() else {
+            unreachable!("quick-xml checks that end tags match start tags")
+        };
+        let node = Node {
+            line: open.line,
+            kind: NodeKind::List(open.entries),
+        };
+        if self.stack.is_empty() {
+            return Ok(Some(node));
+        }
+        let key = open.name.unwrap_or_default();
+        self.push_entry(Entry {
+            key,
+            line: open.line,
+            value: node,
+        })?;
+        Ok(None)
     }
 
     fn unknown_element(&self, tag: &str, offset: usize) -> DeckError {

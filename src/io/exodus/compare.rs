@@ -351,128 +351,174 @@ impl ComparisonSpec {
     }
 
     fn parse_named(text: &str, path: &Path) -> Result<Self, ExodusError> {
-        let mut spec = ComparisonSpec {
-            coordinates: Tolerance::DEFAULT_COORDINATES,
-            time_steps: Tolerance::DEFAULT_TIMES,
-            global: None,
-            nodal: None,
-            element: None,
-            ignore_case: true,
-        };
-        let mut default_tol = Tolerance::DEFAULT_VARIABLES;
-        let mut default_given = false;
-        // Which section indented variable lines belong to (0 global, 1 nodal, 2 element).
-        let mut open_section: Option<usize> = None;
-        let mut sections: [Option<VariableSection>; 3] = [None, None, None];
-        let mut parser = Parser { path, line: 0 };
-
+        let mut reader = CommandFileReader::new(path);
         for (number, raw) in text.lines().enumerate() {
-            parser.line = number + 1;
-            let words = tokens(raw);
-            let indented = raw.starts_with(|c: char| c.is_whitespace());
-            let comment_only = raw.trim_start().starts_with('#');
-            if raw.trim().is_empty() {
-                open_section = None; // exodiff ends a variable list at a blank line
-                continue;
+            reader.parser.line = number + 1;
+            reader.line(raw)?;
+        }
+        reader.finish()
+    }
+}
+
+/// An exodiff command file being read line by line.
+struct CommandFileReader<'a> {
+    parser: Parser<'a>,
+    spec: ComparisonSpec,
+    default_tol: Tolerance,
+    default_given: bool,
+    /// Which section indented variable lines belong to (0 global, 1 nodal, 2 element).
+    open_section: Option<usize>,
+    sections: [Option<VariableSection>; 3],
+}
+
+impl<'a> CommandFileReader<'a> {
+    fn new(path: &'a Path) -> Self {
+        CommandFileReader {
+            parser: Parser { path, line: 0 },
+            spec: ComparisonSpec {
+                coordinates: Tolerance::DEFAULT_COORDINATES,
+                time_steps: Tolerance::DEFAULT_TIMES,
+                global: None,
+                nodal: None,
+                element: None,
+                ignore_case: true,
+            },
+            default_tol: Tolerance::DEFAULT_VARIABLES,
+            default_given: false,
+            open_section: None,
+            sections: [None, None, None],
+        }
+    }
+
+    /// Reads one line: blank, comment, variable line (indented) or command.
+    fn line(&mut self, raw: &str) -> Result<(), ExodusError> {
+        let words = tokens(raw);
+        let indented = raw.starts_with(|c: char| c.is_whitespace());
+        let comment_only = raw.trim_start().starts_with('#');
+        if raw.trim().is_empty() {
+            self.open_section = None; // exodiff ends a variable list at a blank line
+            return Ok(());
+        }
+        if comment_only {
+            return Ok(());
+        }
+        if indented {
+            return self.variable_line(&words);
+        }
+        self.open_section = None;
+        self.command(raw, &words)
+    }
+
+    /// An indented line of a variable section: a name with its tolerance, or `!name`.
+    fn variable_line(&mut self, words: &[&str]) -> Result<(), ExodusError> {
+        let Some(index) = self.open_section else {
+            return Err(self
+                .parser
+                .error("indented variable line outside a GLOBAL/NODAL/ELEMENT VARIABLES section"));
+        };
+        let section = self.sections[index].as_mut().expect("open section exists");
+        let name = words[0];
+        if let Some(excluded) = name.strip_prefix('!') {
+            if !excluded.is_empty() {
+                section.excluded.push(excluded.to_string());
             }
-            if comment_only {
-                continue;
-            }
-            if indented {
-                let Some(index) = open_section else {
-                    return Err(parser.error(
-                        "indented variable line outside a GLOBAL/NODAL/ELEMENT VARIABLES section",
-                    ));
-                };
-                let section = sections[index].as_mut().expect("open section exists");
-                let name = words[0];
-                if let Some(excluded) = name.strip_prefix('!') {
-                    if !excluded.is_empty() {
-                        section.excluded.push(excluded.to_string());
-                    }
-                    continue;
-                }
-                let tol = parser.tolerance(&words[1..], section.default, false)?;
-                section.listed.push((name.to_string(), tol));
-                continue;
-            }
-            open_section = None;
-            let first = words[0].to_ascii_lowercase();
-            let second = words
-                .get(1)
-                .map(|w| w.to_ascii_lowercase())
-                .unwrap_or_default();
-            if abbreviates(&first, "default", 3) && abbreviates(&second, "tolerance", 3) {
-                default_tol = parser.tolerance(&words[2..], default_tol, true)?;
-                default_given = true;
-            } else if abbreviates(&first, "coordinates", 4) {
-                let base = if default_given {
-                    default_tol
-                } else {
-                    Tolerance::DEFAULT_COORDINATES
-                };
-                spec.coordinates = parser.tolerance(&words[1..], base, true)?;
-            } else if first == "time" && abbreviates(&second, "steps", 4) {
-                spec.time_steps = parser.tolerance(&words[2..], default_tol, true)?;
-            } else if abbreviates(&second, "variables", 3)
-                && (abbreviates(&first, "global", 4)
-                    || abbreviates(&first, "nodal", 4)
-                    || abbreviates(&first, "element", 4))
-            {
-                let index = if first.starts_with("glo") {
-                    0
-                } else if first.starts_with("nod") {
-                    1
-                } else {
-                    2
-                };
-                let mut rest = &words[2..];
-                let mut all = false;
-                if let Some(w) = rest.first() {
-                    if w.eq_ignore_ascii_case("(all)") || w.eq_ignore_ascii_case("all") {
-                        all = true;
-                        rest = &rest[1..];
-                    }
-                }
-                let default = parser.tolerance(rest, default_tol, true)?;
-                sections[index] = Some(VariableSection {
-                    default,
-                    all,
-                    listed: Vec::new(),
-                    excluded: Vec::new(),
-                });
-                open_section = Some(index);
-            } else if abbreviates(&first, "ignore", 3) && abbreviates(&second, "case", 3) {
-                spec.ignore_case = true;
-            } else if abbreviates(&first, "case", 3) && abbreviates(&second, "sensitive", 3) {
-                spec.ignore_case = false;
-            } else if (abbreviates(&first, "max", 3) && abbreviates(&second, "names", 3))
-                || (abbreviates(&first, "return", 3) && abbreviates(&second, "status", 3))
-            {
-                // No limit on names here, and the status is always returned: nothing to do.
+            return Ok(());
+        }
+        let tol = self.parser.tolerance(&words[1..], section.default, false)?;
+        section.listed.push((name.to_string(), tol));
+        Ok(())
+    }
+
+    /// A command line (not indented).
+    fn command(&mut self, raw: &str, words: &[&str]) -> Result<(), ExodusError> {
+        let parser = &self.parser;
+        let first = words[0].to_ascii_lowercase();
+        let second = words
+            .get(1)
+            .map(|w| w.to_ascii_lowercase())
+            .unwrap_or_default();
+        if abbreviates(&first, "default", 3) && abbreviates(&second, "tolerance", 3) {
+            self.default_tol = parser.tolerance(&words[2..], self.default_tol, true)?;
+            self.default_given = true;
+        } else if abbreviates(&first, "coordinates", 4) {
+            let base = if self.default_given {
+                self.default_tol
             } else {
-                return Err(parser.error(format!(
-                    "unsupported or unknown command '{}'; supported: DEFAULT TOLERANCE, \
-                     COORDINATES, TIME STEPS, GLOBAL/NODAL/ELEMENT VARIABLES, IGNORE CASE, \
-                     CASE SENSITIVE",
-                    raw.trim()
-                )));
+                Tolerance::DEFAULT_COORDINATES
+            };
+            self.spec.coordinates = parser.tolerance(&words[1..], base, true)?;
+        } else if first == "time" && abbreviates(&second, "steps", 4) {
+            self.spec.time_steps = parser.tolerance(&words[2..], self.default_tol, true)?;
+        } else if abbreviates(&second, "variables", 3)
+            && (abbreviates(&first, "global", 4)
+                || abbreviates(&first, "nodal", 4)
+                || abbreviates(&first, "element", 4))
+        {
+            self.section_line(&first, words)?;
+        } else if abbreviates(&first, "ignore", 3) && abbreviates(&second, "case", 3) {
+            self.spec.ignore_case = true;
+        } else if abbreviates(&first, "case", 3) && abbreviates(&second, "sensitive", 3) {
+            self.spec.ignore_case = false;
+        } else if (abbreviates(&first, "max", 3) && abbreviates(&second, "names", 3))
+            || (abbreviates(&first, "return", 3) && abbreviates(&second, "status", 3))
+        {
+            // No limit on names here, and the status is always returned: nothing to do.
+        } else {
+            return Err(parser.error(format!(
+                "unsupported or unknown command '{}'; supported: DEFAULT TOLERANCE, \
+                 COORDINATES, TIME STEPS, GLOBAL/NODAL/ELEMENT VARIABLES, IGNORE CASE, \
+                 CASE SENSITIVE",
+                raw.trim()
+            )));
+        }
+        Ok(())
+    }
+
+    /// `GLOBAL/NODAL/ELEMENT VARIABLES [(all)] [tolerance]`: opens the section.
+    fn section_line(&mut self, first: &str, words: &[&str]) -> Result<(), ExodusError> {
+        let index = if first.starts_with("glo") {
+            0
+        } else if first.starts_with("nod") {
+            1
+        } else {
+            2
+        };
+        let mut rest = &words[2..];
+        let mut all = false;
+        if let Some(w) = rest.first() {
+            if w.eq_ignore_ascii_case("(all)") || w.eq_ignore_ascii_case("all") {
+                all = true;
+                rest = &rest[1..];
             }
         }
-        for section in sections.iter_mut().flatten() {
+        let default = self.parser.tolerance(rest, self.default_tol, true)?;
+        self.sections[index] = Some(VariableSection {
+            default,
+            all,
+            listed: Vec::new(),
+            excluded: Vec::new(),
+        });
+        self.open_section = Some(index);
+        Ok(())
+    }
+
+    /// Applies exodiff's rules on the finished sections and returns the specification.
+    fn finish(mut self) -> Result<ComparisonSpec, ExodusError> {
+        for section in self.sections.iter_mut().flatten() {
             // Only exclusions: everything else is compared (exodiff's rule).
             if section.listed.is_empty() {
                 section.all = true;
             } else if !section.all && !section.excluded.is_empty() {
-                return Err(parser
+                return Err(self
+                    .parser
                     .error("a variable list mixes included and !excluded names without '(all)'"));
             }
         }
-        let [global, nodal, element] = sections;
-        spec.global = global;
-        spec.nodal = nodal;
-        spec.element = element;
-        Ok(spec)
+        let [global, nodal, element] = self.sections;
+        self.spec.global = global;
+        self.spec.nodal = nodal;
+        self.spec.element = element;
+        Ok(self.spec)
     }
 }
 
@@ -719,141 +765,224 @@ pub fn compare(
     second: &ExodusFile,
     spec: &ComparisonSpec,
 ) -> Result<ComparisonReport, ExodusError> {
-    let mut report = ComparisonReport::default();
     let names = |f: &ExodusFile| format!("{}", f.path.display());
-    let (name_a, name_b) = (names(first), names(second));
+    let mut c = Comparison {
+        first,
+        second,
+        ignore_case: spec.ignore_case,
+        name_a: names(first),
+        name_b: names(second),
+        report: ComparisonReport::default(),
+    };
+    let same_nodes = c.coordinates(spec.coordinates);
+    let block_pairs = c.blocks();
+    c.node_sets();
+    let steps = c.times(spec.time_steps);
+    let global = c.select(
+        QuantityKind::Global,
+        &spec.global,
+        &first.global_variable_names,
+        &second.global_variable_names,
+    );
+    let nodal = c.select(
+        QuantityKind::Nodal,
+        &spec.nodal,
+        &first.nodal_variable_names,
+        &second.nodal_variable_names,
+    );
+    let element = c.select(
+        QuantityKind::Element,
+        &spec.element,
+        &first.element_variable_names,
+        &second.element_variable_names,
+    );
+    c.global_variables(&global, steps)?;
+    if same_nodes {
+        c.nodal_variables(&nodal, steps)?;
+    }
+    c.element_variables(&element, &block_pairs, steps)?;
+    Ok(c.report)
+}
 
-    if first.dimension != second.dimension {
-        report.structural.push(format!(
-            "spatial dimension {} in {name_a} but {} in {name_b}",
-            first.dimension, second.dimension
-        ));
-    }
-    let same_nodes = first.coordinates.len() == second.coordinates.len();
-    if !same_nodes {
-        report.structural.push(format!(
-            "{} nodes in {name_a} but {} in {name_b}",
-            first.coordinates.len(),
-            second.coordinates.len()
-        ));
-    } else {
-        for (axis, label) in ["X", "Y", "Z"]
-            .iter()
-            .enumerate()
-            .take(first.dimension.max(1))
-        {
-            let mut t = Tracker::new(QuantityKind::Coordinate, label, None, spec.coordinates);
-            let a: Vec<f64> = first.coordinates.iter().map(|c| c[axis]).collect();
-            let b: Vec<f64> = second.coordinates.iter().map(|c| c[axis]).collect();
-            t.add(None, 0, &a, &b);
-            report.quantities.push(t.worst);
-        }
-    }
+/// A variable to compare: its index in the first file, in the second, and its tolerance.
+type VariablePair = (usize, usize, Tolerance);
 
-    // Blocks by id.
-    let mut block_pairs = Vec::new();
-    for (ia, block) in first.blocks.iter().enumerate() {
-        match second.blocks.iter().position(|b| b.id == block.id) {
-            None => report.structural.push(format!(
-                "element block {} of {name_a} is missing in {name_b}",
-                block.id
-            )),
-            Some(ib) => {
-                let other = &second.blocks[ib];
-                if block.num_elements() != other.num_elements() {
-                    report.structural.push(format!(
-                        "element block {} has {} elements in {name_a} but {} in {name_b}",
-                        block.id,
-                        block.num_elements(),
-                        other.num_elements()
-                    ));
-                    continue;
-                }
-                // exodiff's default "short" type check: compare up to the shorter name.
-                let n = block.element_type.len().min(other.element_type.len());
-                if !block.element_type[..n].eq_ignore_ascii_case(&other.element_type[..n]) {
-                    report.structural.push(format!(
-                        "element block {} is {} in {name_a} but {} in {name_b}",
-                        block.id, block.element_type, other.element_type
-                    ));
-                }
-                if block.connectivity != other.connectivity {
-                    report.structural.push(format!(
-                        "element block {} has different connectivity",
-                        block.id
-                    ));
-                }
-                block_pairs.push((ia, ib));
-            }
-        }
-    }
-    for block in &second.blocks {
-        if !first.blocks.iter().any(|b| b.id == block.id) {
+/// One comparison under way: the two files and the report so far.
+struct Comparison<'a> {
+    first: &'a ExodusFile,
+    second: &'a ExodusFile,
+    ignore_case: bool,
+    /// The files' paths, for messages.
+    name_a: String,
+    name_b: String,
+    report: ComparisonReport,
+}
+
+impl Comparison<'_> {
+    /// Compares the dimension and the coordinates; returns whether the node counts match (the
+    /// nodal variables are compared only then).
+    fn coordinates(&mut self, tolerance: Tolerance) -> bool {
+        let (first, second) = (self.first, self.second);
+        let (name_a, name_b) = (&self.name_a, &self.name_b);
+        let report = &mut self.report;
+        if first.dimension != second.dimension {
             report.structural.push(format!(
-                "element block {} of {name_b} is missing in {name_a}",
-                block.id
+                "spatial dimension {} in {name_a} but {} in {name_b}",
+                first.dimension, second.dimension
             ));
         }
+        let same_nodes = first.coordinates.len() == second.coordinates.len();
+        if !same_nodes {
+            report.structural.push(format!(
+                "{} nodes in {name_a} but {} in {name_b}",
+                first.coordinates.len(),
+                second.coordinates.len()
+            ));
+        } else {
+            for (axis, label) in ["X", "Y", "Z"]
+                .iter()
+                .enumerate()
+                .take(first.dimension.max(1))
+            {
+                let mut t = Tracker::new(QuantityKind::Coordinate, label, None, tolerance);
+                let a: Vec<f64> = first.coordinates.iter().map(|c| c[axis]).collect();
+                let b: Vec<f64> = second.coordinates.iter().map(|c| c[axis]).collect();
+                t.add(None, 0, &a, &b);
+                report.quantities.push(t.worst);
+            }
+        }
+        same_nodes
     }
 
-    // Node sets are compared where both files have them. A set present in only one file is
-    // a warning: Peridigm does not write deck-defined node sets to its results (its gold
-    // files have none) while peridyn does, and the sets carry no results to compare.
-    for set in &first.node_sets {
-        match second.node_sets.iter().find(|s| s.id == set.id) {
-            None => report.warnings.push(format!(
-                "node set {} ({}) of {name_a} is not in {name_b}",
-                set.id, set.name
-            )),
-            Some(other) => {
-                let mut a = set.nodes.clone();
-                let mut b = other.nodes.clone();
-                a.sort_unstable();
-                b.sort_unstable();
-                if a != b {
-                    report.structural.push(format!(
-                        "node set {} ({}) has different nodes ({} vs {})",
-                        set.id,
-                        set.name,
-                        set.nodes.len(),
-                        other.nodes.len()
-                    ));
+    /// Matches the element blocks by id and compares their sizes, types and connectivity;
+    /// returns the (first, second) index pairs of the blocks whose element variables can be
+    /// compared.
+    fn blocks(&mut self) -> Vec<(usize, usize)> {
+        let (first, second) = (self.first, self.second);
+        let (name_a, name_b) = (&self.name_a, &self.name_b);
+        let report = &mut self.report;
+        let mut block_pairs = Vec::new();
+        for (ia, block) in first.blocks.iter().enumerate() {
+            match second.blocks.iter().position(|b| b.id == block.id) {
+                None => report.structural.push(format!(
+                    "element block {} of {name_a} is missing in {name_b}",
+                    block.id
+                )),
+                Some(ib) => {
+                    let other = &second.blocks[ib];
+                    if block.num_elements() != other.num_elements() {
+                        report.structural.push(format!(
+                            "element block {} has {} elements in {name_a} but {} in {name_b}",
+                            block.id,
+                            block.num_elements(),
+                            other.num_elements()
+                        ));
+                        continue;
+                    }
+                    // exodiff's default "short" type check: compare up to the shorter name.
+                    let n = block.element_type.len().min(other.element_type.len());
+                    if !block.element_type[..n].eq_ignore_ascii_case(&other.element_type[..n]) {
+                        report.structural.push(format!(
+                            "element block {} is {} in {name_a} but {} in {name_b}",
+                            block.id, block.element_type, other.element_type
+                        ));
+                    }
+                    if block.connectivity != other.connectivity {
+                        report.structural.push(format!(
+                            "element block {} has different connectivity",
+                            block.id
+                        ));
+                    }
+                    block_pairs.push((ia, ib));
+                }
+            }
+        }
+        for block in &second.blocks {
+            if !first.blocks.iter().any(|b| b.id == block.id) {
+                report.structural.push(format!(
+                    "element block {} of {name_b} is missing in {name_a}",
+                    block.id
+                ));
+            }
+        }
+        block_pairs
+    }
+
+    /// Node sets are compared where both files have them. A set present in only one file is
+    /// a warning: Peridigm does not write deck-defined node sets to its results (its gold
+    /// files have none) while peridyn does, and the sets carry no results to compare.
+    fn node_sets(&mut self) {
+        let (name_a, name_b) = (&self.name_a, &self.name_b);
+        let report = &mut self.report;
+        for set in &self.first.node_sets {
+            match self.second.node_sets.iter().find(|s| s.id == set.id) {
+                None => report.warnings.push(format!(
+                    "node set {} ({}) of {name_a} is not in {name_b}",
+                    set.id, set.name
+                )),
+                Some(other) => {
+                    let mut a = set.nodes.clone();
+                    let mut b = other.nodes.clone();
+                    a.sort_unstable();
+                    b.sort_unstable();
+                    if a != b {
+                        report.structural.push(format!(
+                            "node set {} ({}) has different nodes ({} vs {})",
+                            set.id,
+                            set.name,
+                            set.nodes.len(),
+                            other.nodes.len()
+                        ));
+                    }
                 }
             }
         }
     }
 
-    let steps = first.times.len().min(second.times.len());
-    if first.times.len() != second.times.len() {
-        report.structural.push(format!(
-            "{} time steps in {name_a} but {} in {name_b}",
-            first.times.len(),
-            second.times.len()
-        ));
-    }
-    if steps > 0 {
-        let mut t = Tracker::new(QuantityKind::Time, "time", None, spec.time_steps);
-        for step in 0..steps {
-            t.add(
-                Some(step),
-                0,
-                &first.times[step..=step],
-                &second.times[step..=step],
-            );
+    /// Compares the step counts and the times of the common steps; returns their number.
+    fn times(&mut self, tolerance: Tolerance) -> usize {
+        let (first, second) = (self.first, self.second);
+        let steps = first.times.len().min(second.times.len());
+        if first.times.len() != second.times.len() {
+            self.report.structural.push(format!(
+                "{} time steps in {} but {} in {}",
+                first.times.len(),
+                self.name_a,
+                second.times.len(),
+                self.name_b
+            ));
         }
-        report.quantities.push(t.worst);
+        if steps > 0 {
+            let mut t = Tracker::new(QuantityKind::Time, "time", None, tolerance);
+            for step in 0..steps {
+                t.add(
+                    Some(step),
+                    0,
+                    &first.times[step..=step],
+                    &second.times[step..=step],
+                );
+            }
+            self.report.quantities.push(t.worst);
+        }
+        steps
     }
 
-    let ignore_case = spec.ignore_case;
-    // Pairs (index in first, index in second, tolerance) of the variables to compare.
-    let mut select = |kind: QuantityKind,
-                      section: &Option<VariableSection>,
-                      names_a: &[String],
-                      names_b: &[String]|
-     -> Vec<(usize, usize, Tolerance)> {
+    /// The variables of one kind to compare under `section`, matched by name; listed
+    /// variables missing from the first file are mismatches, variables only in the second
+    /// file warnings.
+    fn select(
+        &mut self,
+        kind: QuantityKind,
+        section: &Option<VariableSection>,
+        names_a: &[String],
+        names_b: &[String],
+    ) -> Vec<VariablePair> {
         let Some(section) = section else {
             return Vec::new();
         };
+        let ignore_case = self.ignore_case;
+        let (name_a, name_b) = (&self.name_a, &self.name_b);
+        let report = &mut self.report;
         for (listed, _) in &section.listed {
             let in_a = names_a.iter().any(|n| names_equal(n, listed, ignore_case));
             let in_b = names_b.iter().any(|n| names_equal(n, listed, ignore_case));
@@ -894,27 +1023,18 @@ pub fn compare(
             }
         }
         pairs
-    };
-    let global = select(
-        QuantityKind::Global,
-        &spec.global,
-        &first.global_variable_names,
-        &second.global_variable_names,
-    );
-    let nodal = select(
-        QuantityKind::Nodal,
-        &spec.nodal,
-        &first.nodal_variable_names,
-        &second.nodal_variable_names,
-    );
-    let element = select(
-        QuantityKind::Element,
-        &spec.element,
-        &first.element_variable_names,
-        &second.element_variable_names,
-    );
+    }
 
-    if !global.is_empty() {
+    /// Compares the selected global variables over the common steps.
+    fn global_variables(
+        &mut self,
+        global: &[VariablePair],
+        steps: usize,
+    ) -> Result<(), ExodusError> {
+        if global.is_empty() {
+            return Ok(());
+        }
+        let (first, second) = (self.first, self.second);
         let mut trackers: Vec<Tracker> = global
             .iter()
             .map(|&(ia, _, tol)| {
@@ -929,17 +1049,20 @@ pub fn compare(
         for step in 0..steps {
             let a = first.global_values(step)?;
             let b = second.global_values(step)?;
-            for (t, &(ia, ib, _)) in trackers.iter_mut().zip(&global) {
+            for (t, &(ia, ib, _)) in trackers.iter_mut().zip(global) {
                 t.add(Some(step), ia, &a[ia..=ia], &b[ib..=ib]);
             }
         }
-        report
+        self.report
             .quantities
             .extend(trackers.into_iter().map(|t| t.worst));
+        Ok(())
     }
 
-    if same_nodes {
-        for &(ia, ib, tol) in &nodal {
+    /// Compares the selected nodal variables over the common steps.
+    fn nodal_variables(&mut self, nodal: &[VariablePair], steps: usize) -> Result<(), ExodusError> {
+        let (first, second) = (self.first, self.second);
+        for &(ia, ib, tol) in nodal {
             let mut t = Tracker::new(
                 QuantityKind::Nodal,
                 &first.nodal_variable_names[ia],
@@ -954,33 +1077,43 @@ pub fn compare(
                     &second.nodal_values(step, ib)?,
                 );
             }
-            report.quantities.push(t.worst);
+            self.report.quantities.push(t.worst);
         }
+        Ok(())
     }
 
-    for &(ia, ib, tol) in &element {
-        let name = &first.element_variable_names[ia];
-        for &(ba, bb) in &block_pairs {
-            let block_id = first.blocks[ba].id;
-            let defined_a = first.element_variable_defined[ba][ia];
-            let defined_b = second.element_variable_defined[bb][ib];
-            if defined_a != defined_b {
-                report.structural.push(format!(
-                    "element variable '{name}' is defined on block {block_id} in only one file"
-                ));
-                continue;
+    /// Compares the selected element variables block by block over the common steps.
+    fn element_variables(
+        &mut self,
+        element: &[VariablePair],
+        block_pairs: &[(usize, usize)],
+        steps: usize,
+    ) -> Result<(), ExodusError> {
+        let (first, second) = (self.first, self.second);
+        for &(ia, ib, tol) in element {
+            let name = &first.element_variable_names[ia];
+            for &(ba, bb) in block_pairs {
+                let block_id = first.blocks[ba].id;
+                let defined_a = first.element_variable_defined[ba][ia];
+                let defined_b = second.element_variable_defined[bb][ib];
+                if defined_a != defined_b {
+                    self.report.structural.push(format!(
+                        "element variable '{name}' is defined on block {block_id} in only one file"
+                    ));
+                    continue;
+                }
+                if !defined_a {
+                    continue;
+                }
+                let mut t = Tracker::new(QuantityKind::Element, name, Some(block_id), tol);
+                for step in 0..steps {
+                    let a = first.element_values(step, ia, ba)?.unwrap_or_default();
+                    let b = second.element_values(step, ib, bb)?.unwrap_or_default();
+                    t.add(Some(step), 0, &a, &b);
+                }
+                self.report.quantities.push(t.worst);
             }
-            if !defined_a {
-                continue;
-            }
-            let mut t = Tracker::new(QuantityKind::Element, name, Some(block_id), tol);
-            for step in 0..steps {
-                let a = first.element_values(step, ia, ba)?.unwrap_or_default();
-                let b = second.element_values(step, ib, bb)?.unwrap_or_default();
-                t.add(Some(step), 0, &a, &b);
-            }
-            report.quantities.push(t.worst);
         }
+        Ok(())
     }
-    Ok(report)
 }

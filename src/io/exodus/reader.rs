@@ -351,8 +351,9 @@ impl Loader<'_> {
     }
 
     fn load(self) -> Result<ExodusFile, ExodusError> {
-        let header = &self.nc.header;
-        let title = header
+        let title = self
+            .nc
+            .header
             .attr("title")
             .and_then(|a| a.as_text())
             .unwrap_or_default();
@@ -361,29 +362,7 @@ impl Loader<'_> {
             return Err(self.invalid(format!("num_dim is {dimension}, expected 1, 2 or 3")));
         }
         let num_nodes = self.dim("num_nodes");
-        let mut coordinates = vec![[0.0; 3]; num_nodes];
-        if num_nodes > 0 {
-            if self.has("coordx") {
-                for (axis, var) in ["coordx", "coordy", "coordz"]
-                    .iter()
-                    .take(dimension)
-                    .enumerate()
-                {
-                    let values = self.with_len(self.f64s(var)?, num_nodes, var)?;
-                    for (c, v) in coordinates.iter_mut().zip(values) {
-                        c[axis] = v;
-                    }
-                }
-            } else {
-                // Old layout: one `coord[num_dim][num_nodes]` array.
-                let all = self.with_len(self.f64s("coord")?, dimension * num_nodes, "coord")?;
-                for axis in 0..dimension {
-                    for (k, c) in coordinates.iter_mut().enumerate() {
-                        c[axis] = all[axis * num_nodes + k];
-                    }
-                }
-            }
-        }
+        let coordinates = self.coordinates(dimension, num_nodes)?;
         let node_ids = self.ids("node_num_map", num_nodes)?;
         let num_elem = self.dim("num_elem");
         let element_ids = if self.has("elem_num_map") {
@@ -391,121 +370,20 @@ impl Loader<'_> {
         } else {
             self.ids("elem_map", num_elem)?
         };
-
-        let num_blocks = self.dim("num_el_blk");
-        let block_ids = self.ids("eb_prop1", num_blocks)?;
-        let block_names = self.names("eb_names", num_blocks)?;
-        let mut blocks = Vec::with_capacity(num_blocks);
-        for (b, (id, name)) in block_ids.into_iter().zip(block_names).enumerate() {
-            let connect = format!("connect{}", b + 1);
-            let n_elem = self.dim(&format!("num_el_in_blk{}", b + 1));
-            let per = self.dim(&format!("num_nod_per_el{}", b + 1));
-            let (element_type, connectivity) = match header.var(&connect) {
-                Some(var) if n_elem > 0 => {
-                    let element_type = var
-                        .attrs
-                        .iter()
-                        .find(|a| a.name == "elem_type")
-                        .and_then(|a| a.value.as_text())
-                        .unwrap_or_default()
-                        .to_uppercase();
-                    let raw = self.with_len(self.i64s(&connect)?, n_elem * per, &connect)?;
-                    (element_type, self.node_indices(raw, num_nodes, &connect)?)
-                }
-                _ => (String::new(), Vec::new()),
-            };
-            let n_attr = self.dim(&format!("num_att_in_blk{}", b + 1));
-            let attrib = format!("attrib{}", b + 1);
-            let attributes = if n_attr > 0 && self.has(&attrib) {
-                self.with_len(self.f64s(&attrib)?, n_elem * n_attr, &attrib)?
-            } else {
-                Vec::new()
-            };
-            let attribute_names = if n_attr > 0 {
-                self.names(&format!("attrib_name{}", b + 1), n_attr)?
-            } else {
-                Vec::new()
-            };
-            blocks.push(ElementBlock {
-                id,
-                name,
-                element_type,
-                nodes_per_element: if connectivity.is_empty() {
-                    per.max(1)
-                } else {
-                    per
-                },
-                connectivity,
-                attributes_per_element: if attributes.is_empty() { 0 } else { n_attr },
-                attributes,
-                attribute_names,
-            });
-        }
+        let blocks = self.blocks(num_nodes)?;
         let total: usize = blocks.iter().map(ElementBlock::num_elements).sum();
         if total != num_elem {
             return Err(self.invalid(format!(
                 "blocks hold {total} elements but num_elem is {num_elem}"
             )));
         }
-
-        let num_sets = self.dim("num_node_sets");
-        let set_ids = self.ids("ns_prop1", num_sets)?;
-        let set_names = self.names("ns_names", num_sets)?;
-        let mut node_sets = Vec::with_capacity(num_sets);
-        for (k, (id, name)) in set_ids.into_iter().zip(set_names).enumerate() {
-            let var = format!("node_ns{}", k + 1);
-            let nodes = if self.has(&var) {
-                self.node_indices(self.i64s(&var)?, num_nodes, &var)?
-            } else {
-                Vec::new()
-            };
-            let name = if name.is_empty() {
-                format!("nodelist_{id}")
-            } else {
-                name
-            };
-            node_sets.push(NodeSetData { id, name, nodes });
-        }
-
-        let times = if self.has("time_whole") && header.numrecs > 0 {
-            (0..header.numrecs as usize)
-                .map(|r| {
-                    self.nc
-                        .f64s("time_whole", Some(r))
-                        .map(|v| v.first().copied().unwrap_or(f64::NAN))
-                        .map_err(|e| self.nc_err(e))
-                })
-                .collect::<Result<Vec<_>, _>>()?
-        } else {
-            Vec::new()
-        };
-
+        let node_sets = self.node_sets(num_nodes)?;
+        let times = self.times()?;
         let nodal_variable_names = self.names("name_nod_var", self.dim("num_nod_var"))?;
         let element_variable_names = self.names("name_elem_var", self.dim("num_elem_var"))?;
         let global_variable_names = self.names("name_glo_var", self.dim("num_glo_var"))?;
-        let n_evar = element_variable_names.len();
-        let element_variable_defined = if n_evar == 0 {
-            vec![Vec::new(); blocks.len()]
-        } else if self.has("elem_var_tab") {
-            let table = self.with_len(
-                self.i64s("elem_var_tab")?,
-                blocks.len() * n_evar,
-                "elem_var_tab",
-            )?;
-            table
-                .chunks(n_evar)
-                .map(|row| row.iter().map(|&t| t != 0).collect())
-                .collect()
-        } else {
-            // Without a truth table Exodus defines every variable on every non-empty block.
-            (0..blocks.len())
-                .map(|b| {
-                    (0..n_evar)
-                        .map(|v| self.has(&format!("vals_elem_var{}eb{}", v + 1, b + 1)))
-                        .collect()
-                })
-                .collect()
-        };
+        let element_variable_defined =
+            self.element_variable_table(blocks.len(), element_variable_names.len())?;
 
         let Loader { path, nc } = self;
         let own_steps = times.len();
@@ -527,5 +405,174 @@ impl Loader<'_> {
             continuations: Vec::new(),
             nc,
         })
+    }
+
+    /// Node coordinates, from `coordx`/`coordy`/`coordz` or the old single `coord` array;
+    /// missing components are 0.
+    fn coordinates(
+        &self,
+        dimension: usize,
+        num_nodes: usize,
+    ) -> Result<Vec<[f64; 3]>, ExodusError> {
+        let mut coordinates = vec![[0.0; 3]; num_nodes];
+        if num_nodes == 0 {
+            return Ok(coordinates);
+        }
+        if self.has("coordx") {
+            for (axis, var) in ["coordx", "coordy", "coordz"]
+                .iter()
+                .take(dimension)
+                .enumerate()
+            {
+                let values = self.with_len(self.f64s(var)?, num_nodes, var)?;
+                for (c, v) in coordinates.iter_mut().zip(values) {
+                    c[axis] = v;
+                }
+            }
+        } else {
+            // Old layout: one `coord[num_dim][num_nodes]` array.
+            let all = self.with_len(self.f64s("coord")?, dimension * num_nodes, "coord")?;
+            for axis in 0..dimension {
+                for (k, c) in coordinates.iter_mut().enumerate() {
+                    c[axis] = all[axis * num_nodes + k];
+                }
+            }
+        }
+        Ok(coordinates)
+    }
+
+    /// The element blocks in file order.
+    fn blocks(&self, num_nodes: usize) -> Result<Vec<ElementBlock>, ExodusError> {
+        let num_blocks = self.dim("num_el_blk");
+        let block_ids = self.ids("eb_prop1", num_blocks)?;
+        let block_names = self.names("eb_names", num_blocks)?;
+        let mut blocks = Vec::with_capacity(num_blocks);
+        for (b, (id, name)) in block_ids.into_iter().zip(block_names).enumerate() {
+            blocks.push(self.block(b, id, name, num_nodes)?);
+        }
+        Ok(blocks)
+    }
+
+    /// Element block `b` (0-based): connectivity, type and attributes.
+    fn block(
+        &self,
+        b: usize,
+        id: i64,
+        name: String,
+        num_nodes: usize,
+    ) -> Result<ElementBlock, ExodusError> {
+        let connect = format!("connect{}", b + 1);
+        let n_elem = self.dim(&format!("num_el_in_blk{}", b + 1));
+        let per = self.dim(&format!("num_nod_per_el{}", b + 1));
+        let (element_type, connectivity) = match self.nc.header.var(&connect) {
+            Some(var) if n_elem > 0 => {
+                let element_type = var
+                    .attrs
+                    .iter()
+                    .find(|a| a.name == "elem_type")
+                    .and_then(|a| a.value.as_text())
+                    .unwrap_or_default()
+                    .to_uppercase();
+                let raw = self.with_len(self.i64s(&connect)?, n_elem * per, &connect)?;
+                (element_type, self.node_indices(raw, num_nodes, &connect)?)
+            }
+            _ => (String::new(), Vec::new()),
+        };
+        let n_attr = self.dim(&format!("num_att_in_blk{}", b + 1));
+        let attrib = format!("attrib{}", b + 1);
+        let attributes = if n_attr > 0 && self.has(&attrib) {
+            self.with_len(self.f64s(&attrib)?, n_elem * n_attr, &attrib)?
+        } else {
+            Vec::new()
+        };
+        let attribute_names = if n_attr > 0 {
+            self.names(&format!("attrib_name{}", b + 1), n_attr)?
+        } else {
+            Vec::new()
+        };
+        Ok(ElementBlock {
+            id,
+            name,
+            element_type,
+            nodes_per_element: if connectivity.is_empty() {
+                per.max(1)
+            } else {
+                per
+            },
+            connectivity,
+            attributes_per_element: if attributes.is_empty() { 0 } else { n_attr },
+            attributes,
+            attribute_names,
+        })
+    }
+
+    /// The node sets in file order, named `nodelist_<id>` where the file has no name.
+    fn node_sets(&self, num_nodes: usize) -> Result<Vec<NodeSetData>, ExodusError> {
+        let num_sets = self.dim("num_node_sets");
+        let set_ids = self.ids("ns_prop1", num_sets)?;
+        let set_names = self.names("ns_names", num_sets)?;
+        let mut node_sets = Vec::with_capacity(num_sets);
+        for (k, (id, name)) in set_ids.into_iter().zip(set_names).enumerate() {
+            let var = format!("node_ns{}", k + 1);
+            let nodes = if self.has(&var) {
+                self.node_indices(self.i64s(&var)?, num_nodes, &var)?
+            } else {
+                Vec::new()
+            };
+            let name = if name.is_empty() {
+                format!("nodelist_{id}")
+            } else {
+                name
+            };
+            node_sets.push(NodeSetData { id, name, nodes });
+        }
+        Ok(node_sets)
+    }
+
+    /// The time of every stored step.
+    fn times(&self) -> Result<Vec<f64>, ExodusError> {
+        let numrecs = self.nc.header.numrecs;
+        if !(self.has("time_whole") && numrecs > 0) {
+            return Ok(Vec::new());
+        }
+        (0..numrecs as usize)
+            .map(|r| {
+                self.nc
+                    .f64s("time_whole", Some(r))
+                    .map(|v| v.first().copied().unwrap_or(f64::NAN))
+                    .map_err(|e| self.nc_err(e))
+            })
+            .collect()
+    }
+
+    /// `elem_var_tab[block][variable]`, or without a table the variables that have values
+    /// on each block.
+    fn element_variable_table(
+        &self,
+        num_blocks: usize,
+        n_evar: usize,
+    ) -> Result<Vec<Vec<bool>>, ExodusError> {
+        if n_evar == 0 {
+            Ok(vec![Vec::new(); num_blocks])
+        } else if self.has("elem_var_tab") {
+            let table = self.with_len(
+                self.i64s("elem_var_tab")?,
+                num_blocks * n_evar,
+                "elem_var_tab",
+            )?;
+            Ok(table
+                .chunks(n_evar)
+                .map(|row| row.iter().map(|&t| t != 0).collect())
+                .collect())
+        } else {
+            // Without a truth table Exodus defines every variable on every non-empty block.
+            Ok((0..num_blocks)
+                .map(|b| {
+                    (0..n_evar)
+                        .map(|v| self.has(&format!("vals_elem_var{}eb{}", v + 1, b + 1)))
+                        .collect()
+                })
+                .collect())
+        }
     }
 }

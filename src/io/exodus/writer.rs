@@ -5,7 +5,7 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 
 use super::netcdf::{
-    encode, AttrValue, Attribute, Dimension, Header, NcFormat, NcType, NcWriter, Variable,
+    encode, AttrValue, Attribute, Dimension, Header, NcError, NcFormat, NcType, NcWriter, Variable,
 };
 use super::{ExodusError, OutputLayout};
 
@@ -65,40 +65,29 @@ impl HeaderBuilder {
     }
 }
 
-impl ExodusWriter {
-    /// Creates (truncating) `path` and writes everything that does not change over time.
-    ///
-    /// Empty blocks and node sets are written as Exodus "null" entities (status 0, no data),
-    /// because netCDF-3 cannot have zero-length fixed dimensions.
-    pub fn create(path: &Path, layout: &OutputLayout) -> Result<Self, ExodusError> {
-        let bad = |problem: String| ExodusError::BadInput {
-            path: path.to_path_buf(),
-            problem,
-        };
-        let nc_err = |source| ExodusError::NetCdf {
-            path: path.to_path_buf(),
-            source,
-        };
-        let num_nodes = layout.coordinates.len();
-        validate(layout).map_err(bad)?;
+/// The dimensions of an Exodus file, by index into the header's dimension list; `None` where
+/// the entity is absent (netCDF-3 cannot have zero-length fixed dimensions).
+struct Dims {
+    time: usize,
+    name: usize,
+    num_dim: usize,
+    nodes: usize,
+    elem: Option<usize>,
+    blocks: Option<usize>,
+    node_sets: Option<usize>,
+    /// Per node set: its length dimension, for sets with nodes.
+    node_set_len: Vec<Option<usize>>,
+    /// Per block: its element count and nodes-per-element dimensions, for non-empty blocks.
+    block_len: Vec<Option<(usize, usize)>>,
+    global_vars: Option<usize>,
+    nodal_vars: Option<usize>,
+    element_vars: Option<usize>,
+}
 
-        let name_len = layout
-            .blocks
-            .iter()
-            .map(|b| b.name.len())
-            .chain(layout.node_sets.iter().map(|s| s.name.len()))
-            .chain(layout.nodal_variables.iter().map(String::len))
-            .chain(layout.element_variables.iter().map(String::len))
-            .chain(layout.global_variables.iter().map(String::len))
-            .max()
-            .unwrap_or(0)
-            .max(DEFAULT_NAME_LEN);
-        let num_elem: usize = layout.blocks.iter().map(|b| b.nodes.len()).sum();
-        let sets_with_nodes: Vec<usize> = (0..layout.node_sets.len())
-            .filter(|&k| !layout.node_sets[k].nodes.is_empty())
-            .collect();
-
-        let mut b = HeaderBuilder {
+impl HeaderBuilder {
+    /// An Offset64 header with the global attributes of an Exodus file.
+    fn new(layout: &OutputLayout, name_len: usize) -> Self {
+        HeaderBuilder {
             header: Header {
                 format: NcFormat::Offset64,
                 numrecs: 0,
@@ -120,75 +109,103 @@ impl ExodusWriter {
                 ],
                 vars: Vec::new(),
             },
-        };
-        b.dim("len_string", LEN_STRING);
-        b.dim("len_line", LEN_LINE);
-        b.dim("four", 4);
-        let d_time = b.dim("time_step", 0);
-        let d_name = b.dim("len_name", name_len as u64 + 1);
-        let d_num_dim = b.dim("num_dim", 3);
-        let d_nodes = b.dim("num_nodes", num_nodes as u64);
-        let d_elem = (num_elem > 0).then(|| b.dim("num_elem", num_elem as u64));
-        let d_blk =
-            (!layout.blocks.is_empty()).then(|| b.dim("num_el_blk", layout.blocks.len() as u64));
-        let d_ns = (!layout.node_sets.is_empty())
-            .then(|| b.dim("num_node_sets", layout.node_sets.len() as u64));
-        let mut d_ns_len = vec![None; layout.node_sets.len()];
-        for &k in &sets_with_nodes {
-            d_ns_len[k] = Some(b.dim(
+        }
+    }
+
+    /// Declares the dimensions, in the order the Exodus API writes them.
+    fn dimensions(&mut self, layout: &OutputLayout, name_len: usize) -> Dims {
+        let num_elem: usize = layout.blocks.iter().map(|b| b.nodes.len()).sum();
+        self.dim("len_string", LEN_STRING);
+        self.dim("len_line", LEN_LINE);
+        self.dim("four", 4);
+        let time = self.dim("time_step", 0);
+        let name = self.dim("len_name", name_len as u64 + 1);
+        let num_dim = self.dim("num_dim", 3);
+        let nodes = self.dim("num_nodes", layout.coordinates.len() as u64);
+        let elem = (num_elem > 0).then(|| self.dim("num_elem", num_elem as u64));
+        let blocks =
+            (!layout.blocks.is_empty()).then(|| self.dim("num_el_blk", layout.blocks.len() as u64));
+        let node_sets = (!layout.node_sets.is_empty())
+            .then(|| self.dim("num_node_sets", layout.node_sets.len() as u64));
+        let mut node_set_len = vec![None; layout.node_sets.len()];
+        for k in sets_with_nodes(layout) {
+            node_set_len[k] = Some(self.dim(
                 &format!("num_nod_ns{}", k + 1),
                 layout.node_sets[k].nodes.len() as u64,
             ));
         }
-        let mut d_blk_len = vec![None; layout.blocks.len()];
+        let mut block_len = vec![None; layout.blocks.len()];
         for (i, block) in layout.blocks.iter().enumerate() {
             if !block.nodes.is_empty() {
-                let n = b.dim(&format!("num_el_in_blk{}", i + 1), block.nodes.len() as u64);
-                let per = b.dim(&format!("num_nod_per_el{}", i + 1), 1);
-                d_blk_len[i] = Some((n, per));
+                let n = self.dim(&format!("num_el_in_blk{}", i + 1), block.nodes.len() as u64);
+                let per = self.dim(&format!("num_nod_per_el{}", i + 1), 1);
+                block_len[i] = Some((n, per));
             }
         }
-        let d_glo = (!layout.global_variables.is_empty())
-            .then(|| b.dim("num_glo_var", layout.global_variables.len() as u64));
-        let d_nod_var = (!layout.nodal_variables.is_empty())
-            .then(|| b.dim("num_nod_var", layout.nodal_variables.len() as u64));
-        let d_elem_var = (!layout.element_variables.is_empty() && d_blk.is_some())
-            .then(|| b.dim("num_elem_var", layout.element_variables.len() as u64));
-
-        let id_attr = || vec![attr("name", AttrValue::Text(b"ID".to_vec()))];
-        b.var("time_whole".into(), vec![d_time], NcType::Double, vec![]);
-        if let Some(d) = d_blk {
-            b.var("eb_status".into(), vec![d], NcType::Int, vec![]);
-            b.var("eb_prop1".into(), vec![d], NcType::Int, id_attr());
+        let global_vars = (!layout.global_variables.is_empty())
+            .then(|| self.dim("num_glo_var", layout.global_variables.len() as u64));
+        let nodal_vars = (!layout.nodal_variables.is_empty())
+            .then(|| self.dim("num_nod_var", layout.nodal_variables.len() as u64));
+        let element_vars = (!layout.element_variables.is_empty() && blocks.is_some())
+            .then(|| self.dim("num_elem_var", layout.element_variables.len() as u64));
+        Dims {
+            time,
+            name,
+            num_dim,
+            nodes,
+            elem,
+            blocks,
+            node_sets,
+            node_set_len,
+            block_len,
+            global_vars,
+            nodal_vars,
+            element_vars,
         }
-        if let Some(d) = d_ns {
-            b.var("ns_status".into(), vec![d], NcType::Int, vec![]);
-            b.var("ns_prop1".into(), vec![d], NcType::Int, id_attr());
+    }
+
+    /// Declares the variables of the mesh (times, entity status and ids, coordinates, names,
+    /// node sets, connectivity and maps), in the order the Exodus API writes them.
+    fn mesh_variables(&mut self, d: &Dims) {
+        let id_attr = || vec![attr("name", AttrValue::Text(b"ID".to_vec()))];
+        self.var("time_whole".into(), vec![d.time], NcType::Double, vec![]);
+        if let Some(blocks) = d.blocks {
+            self.var("eb_status".into(), vec![blocks], NcType::Int, vec![]);
+            self.var("eb_prop1".into(), vec![blocks], NcType::Int, id_attr());
+        }
+        if let Some(sets) = d.node_sets {
+            self.var("ns_status".into(), vec![sets], NcType::Int, vec![]);
+            self.var("ns_prop1".into(), vec![sets], NcType::Int, id_attr());
         }
         for axis in ["coordx", "coordy", "coordz"] {
-            b.var(axis.into(), vec![d_nodes], NcType::Double, vec![]);
+            self.var(axis.into(), vec![d.nodes], NcType::Double, vec![]);
         }
-        if let Some(d) = d_blk {
-            b.var("eb_names".into(), vec![d, d_name], NcType::Char, vec![]);
+        if let Some(blocks) = d.blocks {
+            self.var(
+                "eb_names".into(),
+                vec![blocks, d.name],
+                NcType::Char,
+                vec![],
+            );
         }
-        if let Some(d) = d_ns {
-            b.var("ns_names".into(), vec![d, d_name], NcType::Char, vec![]);
+        if let Some(sets) = d.node_sets {
+            self.var("ns_names".into(), vec![sets, d.name], NcType::Char, vec![]);
         }
-        b.var(
+        self.var(
             "coor_names".into(),
-            vec![d_num_dim, d_name],
+            vec![d.num_dim, d.name],
             NcType::Char,
             vec![],
         );
-        for (k, d) in d_ns_len.iter().enumerate() {
-            if let Some(d) = *d {
-                b.var(format!("node_ns{}", k + 1), vec![d], NcType::Int, vec![]);
+        for (k, len) in d.node_set_len.iter().enumerate() {
+            if let Some(len) = *len {
+                self.var(format!("node_ns{}", k + 1), vec![len], NcType::Int, vec![]);
             }
         }
-        for (i, d) in d_blk_len.iter().enumerate() {
-            if let Some((n, per)) = *d {
+        for (i, len) in d.block_len.iter().enumerate() {
+            if let Some((n, per)) = *len {
                 let elem_type = vec![attr("elem_type", AttrValue::Text(b"SPHERE".to_vec()))];
-                b.var(
+                self.var(
                     format!("connect{}", i + 1),
                     vec![n, per],
                     NcType::Int,
@@ -196,56 +213,214 @@ impl ExodusWriter {
                 );
             }
         }
-        b.var("node_num_map".into(), vec![d_nodes], NcType::Int, vec![]);
-        if let Some(d) = d_elem {
-            b.var("elem_num_map".into(), vec![d], NcType::Int, vec![]);
+        self.var("node_num_map".into(), vec![d.nodes], NcType::Int, vec![]);
+        if let Some(elem) = d.elem {
+            self.var("elem_num_map".into(), vec![elem], NcType::Int, vec![]);
         }
-        if let Some(d) = d_glo {
-            b.var("name_glo_var".into(), vec![d, d_name], NcType::Char, vec![]);
-            b.var(
+    }
+
+    /// Declares the result variables (global, nodal, element per block) and their names.
+    fn result_variables(&mut self, layout: &OutputLayout, d: &Dims) {
+        if let Some(glo) = d.global_vars {
+            self.var(
+                "name_glo_var".into(),
+                vec![glo, d.name],
+                NcType::Char,
+                vec![],
+            );
+            self.var(
                 "vals_glo_var".into(),
-                vec![d_time, d],
+                vec![d.time, glo],
                 NcType::Double,
                 vec![],
             );
         }
         for k in 0..layout.nodal_variables.len() {
-            b.var(
+            self.var(
                 format!("vals_nod_var{}", k + 1),
-                vec![d_time, d_nodes],
+                vec![d.time, d.nodes],
                 NcType::Double,
                 vec![],
             );
         }
-        if let Some(d) = d_nod_var {
-            b.var("name_nod_var".into(), vec![d, d_name], NcType::Char, vec![]);
-        }
-        if let Some(d_var) = d_elem_var {
-            b.var(
-                "name_elem_var".into(),
-                vec![d_var, d_name],
+        if let Some(nod) = d.nodal_vars {
+            self.var(
+                "name_nod_var".into(),
+                vec![nod, d.name],
                 NcType::Char,
                 vec![],
             );
-            for (i, d) in d_blk_len.iter().enumerate() {
-                if let Some((n, _)) = *d {
+        }
+        if let Some(d_var) = d.element_vars {
+            self.var(
+                "name_elem_var".into(),
+                vec![d_var, d.name],
+                NcType::Char,
+                vec![],
+            );
+            for (i, len) in d.block_len.iter().enumerate() {
+                if let Some((n, _)) = *len {
                     for k in 0..layout.element_variables.len() {
-                        b.var(
+                        self.var(
                             format!("vals_elem_var{}eb{}", k + 1, i + 1),
-                            vec![d_time, n],
+                            vec![d.time, n],
                             NcType::Double,
                             vec![],
                         );
                     }
                 }
             }
-            b.var(
+            self.var(
                 "elem_var_tab".into(),
-                vec![d_blk.expect("element variables need blocks"), d_var],
+                vec![d.blocks.expect("element variables need blocks"), d_var],
                 NcType::Int,
                 vec![],
             );
         }
+    }
+}
+
+/// The length of the longest name in the file, at least Exodus' default width.
+fn name_length(layout: &OutputLayout) -> usize {
+    layout
+        .blocks
+        .iter()
+        .map(|b| b.name.len())
+        .chain(layout.node_sets.iter().map(|s| s.name.len()))
+        .chain(layout.nodal_variables.iter().map(String::len))
+        .chain(layout.element_variables.iter().map(String::len))
+        .chain(layout.global_variables.iter().map(String::len))
+        .max()
+        .unwrap_or(0)
+        .max(DEFAULT_NAME_LEN)
+}
+
+/// The indices of the node sets that have nodes (empty ones are null entities).
+fn sets_with_nodes(layout: &OutputLayout) -> impl Iterator<Item = usize> + '_ {
+    (0..layout.node_sets.len()).filter(|&k| !layout.node_sets[k].nodes.is_empty())
+}
+
+/// Writes the data of the fixed (not per-time-step) variables: the mesh, then the names of
+/// the result variables and the element variable table.
+fn write_fixed(
+    nc: &mut NcWriter,
+    layout: &OutputLayout,
+    d: &Dims,
+    width: usize,
+) -> Result<(), NcError> {
+    write_mesh(nc, layout, d, width)?;
+    let mut put = |name: &str, data: Vec<u8>| nc.put_fixed(name, &data);
+    if d.global_vars.is_some() {
+        put(
+            "name_glo_var",
+            encode::names(&layout.global_variables, width),
+        )?;
+    }
+    if d.nodal_vars.is_some() {
+        put(
+            "name_nod_var",
+            encode::names(&layout.nodal_variables, width),
+        )?;
+    }
+    if d.element_vars.is_some() {
+        put(
+            "name_elem_var",
+            encode::names(&layout.element_variables, width),
+        )?;
+        let table = layout.blocks.iter().flat_map(|b| {
+            let defined = i32::from(!b.nodes.is_empty());
+            std::iter::repeat_n(defined, layout.element_variables.len())
+        });
+        put("elem_var_tab", encode::ints(table))?;
+    }
+    Ok(())
+}
+
+/// Writes the mesh: block and node set status, ids and names, coordinates, node sets,
+/// connectivity and the node and element maps.
+fn write_mesh(
+    nc: &mut NcWriter,
+    layout: &OutputLayout,
+    d: &Dims,
+    width: usize,
+) -> Result<(), NcError> {
+    let mut put = |name: &str, data: Vec<u8>| nc.put_fixed(name, &data);
+    if d.blocks.is_some() {
+        let status = layout.blocks.iter().map(|b| i32::from(!b.nodes.is_empty()));
+        put("eb_status", encode::ints(status))?;
+        put(
+            "eb_prop1",
+            encode::ints(layout.blocks.iter().map(|b| b.id as i32)),
+        )?;
+        let names: Vec<String> = layout.blocks.iter().map(|b| b.name.clone()).collect();
+        put("eb_names", encode::names(&names, width))?;
+    }
+    if d.node_sets.is_some() {
+        let status = layout
+            .node_sets
+            .iter()
+            .map(|s| i32::from(!s.nodes.is_empty()));
+        put("ns_status", encode::ints(status))?;
+        put(
+            "ns_prop1",
+            encode::ints(layout.node_sets.iter().map(|s| s.id as i32)),
+        )?;
+        let names: Vec<String> = layout.node_sets.iter().map(|s| s.name.clone()).collect();
+        put("ns_names", encode::names(&names, width))?;
+    }
+    for (axis, name) in ["coordx", "coordy", "coordz"].iter().enumerate() {
+        put(
+            name,
+            encode::doubles(layout.coordinates.iter().map(|c| c[axis])),
+        )?;
+    }
+    let axes = ["X".to_string(), "Y".to_string(), "Z".to_string()];
+    put("coor_names", encode::names(&axes, width))?;
+    for k in sets_with_nodes(layout) {
+        let nodes = layout.node_sets[k].nodes.iter().map(|&n| n as i32 + 1);
+        put(&format!("node_ns{}", k + 1), encode::ints(nodes))?;
+    }
+    for (i, block) in layout.blocks.iter().enumerate() {
+        if !block.nodes.is_empty() {
+            let nodes = block.nodes.iter().map(|&n| n as i32 + 1);
+            put(&format!("connect{}", i + 1), encode::ints(nodes))?;
+        }
+    }
+    put(
+        "node_num_map",
+        encode::ints(layout.node_ids.iter().map(|&id| id as i32)),
+    )?;
+    if d.elem.is_some() {
+        let ids = layout
+            .blocks
+            .iter()
+            .flat_map(|b| b.nodes.iter().map(|&n| layout.node_ids[n as usize] as i32));
+        put("elem_num_map", encode::ints(ids))?;
+    }
+    Ok(())
+}
+
+impl ExodusWriter {
+    /// Creates (truncating) `path` and writes everything that does not change over time.
+    ///
+    /// Empty blocks and node sets are written as Exodus "null" entities (status 0, no data),
+    /// because netCDF-3 cannot have zero-length fixed dimensions.
+    pub fn create(path: &Path, layout: &OutputLayout) -> Result<Self, ExodusError> {
+        let bad = |problem: String| ExodusError::BadInput {
+            path: path.to_path_buf(),
+            problem,
+        };
+        let nc_err = |source| ExodusError::NetCdf {
+            path: path.to_path_buf(),
+            source,
+        };
+        validate(layout).map_err(bad)?;
+
+        let name_len = name_length(layout);
+        let mut b = HeaderBuilder::new(layout, name_len);
+        let dims = b.dimensions(layout, name_len);
+        b.mesh_variables(&dims);
+        b.result_variables(layout, &dims);
 
         let file = File::create(path).map_err(|source| ExodusError::Io {
             path: path.to_path_buf(),
@@ -253,93 +428,12 @@ impl ExodusWriter {
             source,
         })?;
         let mut nc = NcWriter::create(file, b.header).map_err(nc_err)?;
-        let width = name_len + 1;
-
-        let mut put = |name: &str, data: Vec<u8>| nc.put_fixed(name, &data);
-        let result = (|| {
-            if d_blk.is_some() {
-                let status = layout.blocks.iter().map(|b| i32::from(!b.nodes.is_empty()));
-                put("eb_status", encode::ints(status))?;
-                put(
-                    "eb_prop1",
-                    encode::ints(layout.blocks.iter().map(|b| b.id as i32)),
-                )?;
-                let names: Vec<String> = layout.blocks.iter().map(|b| b.name.clone()).collect();
-                put("eb_names", encode::names(&names, width))?;
-            }
-            if d_ns.is_some() {
-                let status = layout
-                    .node_sets
-                    .iter()
-                    .map(|s| i32::from(!s.nodes.is_empty()));
-                put("ns_status", encode::ints(status))?;
-                put(
-                    "ns_prop1",
-                    encode::ints(layout.node_sets.iter().map(|s| s.id as i32)),
-                )?;
-                let names: Vec<String> = layout.node_sets.iter().map(|s| s.name.clone()).collect();
-                put("ns_names", encode::names(&names, width))?;
-            }
-            for (axis, name) in ["coordx", "coordy", "coordz"].iter().enumerate() {
-                put(
-                    name,
-                    encode::doubles(layout.coordinates.iter().map(|c| c[axis])),
-                )?;
-            }
-            let axes = ["X".to_string(), "Y".to_string(), "Z".to_string()];
-            put("coor_names", encode::names(&axes, width))?;
-            for &k in &sets_with_nodes {
-                let nodes = layout.node_sets[k].nodes.iter().map(|&n| n as i32 + 1);
-                put(&format!("node_ns{}", k + 1), encode::ints(nodes))?;
-            }
-            for (i, block) in layout.blocks.iter().enumerate() {
-                if !block.nodes.is_empty() {
-                    let nodes = block.nodes.iter().map(|&n| n as i32 + 1);
-                    put(&format!("connect{}", i + 1), encode::ints(nodes))?;
-                }
-            }
-            put(
-                "node_num_map",
-                encode::ints(layout.node_ids.iter().map(|&id| id as i32)),
-            )?;
-            if d_elem.is_some() {
-                let ids = layout
-                    .blocks
-                    .iter()
-                    .flat_map(|b| b.nodes.iter().map(|&n| layout.node_ids[n as usize] as i32));
-                put("elem_num_map", encode::ints(ids))?;
-            }
-            if d_glo.is_some() {
-                put(
-                    "name_glo_var",
-                    encode::names(&layout.global_variables, width),
-                )?;
-            }
-            if d_nod_var.is_some() {
-                put(
-                    "name_nod_var",
-                    encode::names(&layout.nodal_variables, width),
-                )?;
-            }
-            if d_elem_var.is_some() {
-                put(
-                    "name_elem_var",
-                    encode::names(&layout.element_variables, width),
-                )?;
-                let table = layout.blocks.iter().flat_map(|b| {
-                    let defined = i32::from(!b.nodes.is_empty());
-                    std::iter::repeat_n(defined, layout.element_variables.len())
-                });
-                put("elem_var_tab", encode::ints(table))?;
-            }
-            Ok(())
-        })();
-        result.map_err(nc_err)?;
+        write_fixed(&mut nc, layout, &dims, name_len + 1).map_err(nc_err)?;
 
         Ok(ExodusWriter {
             path: path.to_path_buf(),
             nc,
-            num_nodes,
+            num_nodes: layout.coordinates.len(),
             block_nodes: layout.blocks.iter().map(|b| b.nodes.clone()).collect(),
             num_nodal: layout.nodal_variables.len(),
             num_element: layout.element_variables.len(),
