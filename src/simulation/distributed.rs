@@ -1,4 +1,6 @@
-//! Runs on N MPI ranks: the same answers as one rank, one results file.
+//! The set-up of a run on N MPI ranks: the same answers as one rank, one results file. Each
+//! rank cuts its subdomain, builds its physics and state, and hands them with its
+//! [`SubdomainRanks`] to the one driver that one rank runs too.
 //!
 //! Every rank holds the points of the whole model (built from the deck by each rank, see
 //! [`global_model`]; families only for its own points and ghosts, except in contact decks)
@@ -11,7 +13,7 @@
 //! Collectives per step: the halo exchange, one sum of (kinetic energy, supplied work, failure
 //! count) for the stability monitor and for failure agreement, and, on output steps, one gather
 //! per written point field. Rank 0 gathers the point fields in the global run order and writes
-//! every file through the ordinary [`OutputFile`], so the globals (energies, `Block_Data`,
+//! every file through the ordinary [`crate::io::output::OutputFile`], so the globals (energies, `Block_Data`,
 //! `Node_Set_Data`, `Nearest_Point_Data`) are reduced over the same numbers in the same order
 //! as on one rank.
 //!
@@ -20,7 +22,7 @@
 //! instability seen by the global monitor) are reported by rank 0 alone. A failure on some
 //! ranks only (an expression that fails at one point, an output file rank 0 cannot write) is
 //! folded into the next collective: every rank stops at the same step, the lowest failing rank
-//! reports its error and the others return [`RunError::OtherRank`]. A panic ends all ranks
+//! reports its error and the others return [`RunError::OtherRank`] (see `agreement`). A panic ends all ranks
 //! through the panic hook of [`crate::parallel::initialize`] (MPI_Abort).
 
 use super::agreement::{agree, collective};
