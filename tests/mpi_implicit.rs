@@ -2,13 +2,15 @@
 //! the owned unknowns, with the ghosts refreshed inside every residual evaluation, gives the
 //! one-rank answer on 2 and 3 ranks, with the assembled tangent and Jacobian-free, and so does
 //! peridyn's own Newton with distributed Belos solves, quasi-static (`QuasiStatic`) and
-//! Newmark-β (`Implicit`).
+//! Newmark-β (`Implicit`); a load step that fails over to `Switch to Verlet` continues on 2
+//! ranks bitwise as on one.
 #![cfg(all(feature = "mpi", feature = "trilinos"))]
 
 mod mpi_support;
 mod quasi_static_bar;
 
 use mpi_support::{mpirun, PERIDYN};
+use peridyn::io::exodus::ExodusFile;
 use std::process::Command;
 
 /// exodiff command file: 1e-8 relative everywhere (the bar for implicit runs), with
@@ -190,4 +192,46 @@ fn a_nan_residual_on_several_ranks_stops_every_rank_with_exit_code_3() {
     let log = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(3), "{log}");
     assert!(log.contains("non-finite value in the residual"), "{log}");
+}
+
+#[test]
+fn switch_to_verlet_gives_the_one_rank_answer_on_two_ranks() {
+    // One load step that cannot converge (one Newton iteration towards 1e-12 N, below the
+    // round-off of the bond forces) and may not be cut: every rank goes back to t = 0 and
+    // Verlet carries the pull to the final time, through the same driver on any rank count.
+    let solver = "    Final Time: 0.002\n    Backend: \"Trilinos\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"ILU\"\n    Linear Solver Tolerance: 1.0e-12\n    QuasiStatic:\n      Number of Load Steps: {steps}\n      Absolute Tolerance: 1.0e-12\n      Maximum Solver Iterations: 1\n      Adaptive Load-Stepping:\n        Maximum load step reductions in one step: 0\n        Switch to Verlet:\n          Safety Factor: 0.5";
+    let text = quasi_static_bar::bar_deck(solver, 3.6, 2.0, 1);
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bar.yaml"), text).unwrap();
+    for ranks in 1..=2 {
+        let out = format!("ranks{ranks}");
+        let output = mpirun(
+            dir.path(),
+            ranks,
+            &["run", "bar.yaml", "--output-dir", &out],
+        );
+        let log = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "{ranks} ranks: {log}");
+        assert_eq!(log.matches("switching to Verlet").count(), 1, "{log}");
+    }
+    let one = ExodusFile::open(&dir.path().join("ranks1/bar.e")).unwrap();
+    let two = ExodusFile::open(&dir.path().join("ranks2/bar.e")).unwrap();
+    // The initial frame, then one frame per Verlet step (Δt ≈ 5e-5 s over 2 ms).
+    assert!(one.times.len() > 10, "{:?}", one.times);
+    assert_eq!(one.times, two.times);
+    assert_eq!(one.nodal_variable_names, two.nodal_variable_names);
+    for step in 0..one.times.len() {
+        assert_eq!(
+            one.global_values(step).unwrap(),
+            two.global_values(step).unwrap()
+        );
+        for v in 0..one.nodal_variable_names.len() {
+            assert_eq!(
+                one.nodal_values(step, v).unwrap(),
+                two.nodal_values(step, v).unwrap(),
+                "{} at frame {step}",
+                one.nodal_variable_names[v]
+            );
+        }
+    }
 }

@@ -53,16 +53,20 @@
 //! at every force evaluation until the next search (see [`crate::contact`], "On N ranks",
 //! and [`crate::contact::Contact::on_ranks`]).
 //!
-//! # Serial runs
-//! [`Serial`] is the one-rank [`Communicator`]: reductions return their argument, exchanges
-//! have no neighbours. A one-rank run (with or without `mpirun -np 1`) takes the ordinary
-//! serial path of [`crate::simulation::run`] and never touches this module.
+//! # One interface to the other ranks
+//! A run and its solvers talk to the other ranks through [`Ranks`] alone: reductions, the
+//! refresh of the ghosts' positions, and which local points are ghosts. [`SerialRanks`] is the
+//! one-rank implementation (every operation free), [`SubdomainRanks`] one rank of a
+//! distributed run. Underneath, a [`Communicator`] moves the messages (MPI, or threads in unit
+//! tests); [`Serial`] is the one-rank communicator: reductions return their argument,
+//! exchanges have no neighbours.
 
 mod halo;
 #[cfg(feature = "mpi")]
 mod mpi;
 mod partition;
 mod partner;
+mod ranks;
 mod subdomain;
 #[cfg(test)]
 pub(crate) mod thread_comm;
@@ -72,9 +76,10 @@ pub use halo::{HaloPlan, HaloValue, HaloVolume};
 pub use mpi::{initialize, MpiCommunicator};
 pub use partition::Partition;
 pub use partner::PartnerExchange;
+pub use ranks::{first_failure, Ranks, SerialRanks, SubdomainRanks};
 pub use subdomain::{halo_depth, outer_ghosts_need_physics, Subdomain};
 
-/// The collective operations a distributed run uses. Every method except [`Communicator::rank`],
+/// The message transport between the ranks, under [`Ranks`]. Every method except [`Communicator::rank`],
 /// [`Communicator::size`] and [`Communicator::abort`] is collective: all ranks call it, in
 /// the same order, or the run hangs.
 pub trait Communicator {

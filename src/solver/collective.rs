@@ -1,7 +1,8 @@
 //! What an implicit solve needs from the run when it is distributed over MPI ranks: the halo
-//! exchange of a point field, sums over ranks, and which local points are ghosts. A serial run
-//! passes [`SerialRun`], whose operations are free; a distributed run passes its halo plan and
-//! communicator (see `simulation::distributed`).
+//! exchange of a point field, sums over ranks, and which local points are ghosts, all through
+//! the run's [`crate::parallel::Ranks`] (here named [`Collective`]). A serial run passes
+//! [`SerialRun`], whose operations are free; a distributed run passes its
+//! [`crate::parallel::SubdomainRanks`].
 //!
 //! Every method except the queries is collective: all ranks call it in the same order.
 
@@ -11,69 +12,11 @@ use crate::setup::Model;
 use crate::solver::implicit::{rank_deficient_points, DofMap, ImplicitSystem};
 use crate::state::State;
 
-/// The collective operations and the ownership queries of an implicit solve.
-pub trait Collective {
-    /// This rank (0-based).
-    fn rank(&self) -> usize;
-    /// Number of ranks.
-    fn ranks(&self) -> usize;
-    /// Overwrites the ghost entries of a point field with their owners' values.
-    fn refresh(&mut self, field: &mut [[f64; 3]]);
-    /// Element-wise sum over the ranks, in place.
-    fn sum(&mut self, values: &mut [f64]);
-    /// Largest value over the ranks.
-    fn max(&mut self, value: f64) -> f64;
-    /// True when local point `p` is a ghost (owned by another rank).
-    fn is_ghost(&self, p: usize) -> bool;
-    /// The run-wide index of local point `p` (the same on every rank).
-    fn global_point(&self, p: usize) -> usize;
-    /// Number of points of the whole run.
-    fn global_points(&self) -> usize;
-    /// Prescribed dofs (`3·p + component`, local numbering) of the ghost points, sorted: the
-    /// local model lists only the owned points' conditions.
-    fn ghost_constrained_dofs(&self) -> Vec<usize>;
-}
-
-/// A run on one rank: no ghosts, no messages.
-#[derive(Debug, Clone, Copy)]
-pub struct SerialRun {
-    /// Points of the model.
-    pub points: usize,
-}
-
-impl Collective for SerialRun {
-    fn rank(&self) -> usize {
-        0
-    }
-
-    fn ranks(&self) -> usize {
-        1
-    }
-
-    fn refresh(&mut self, _field: &mut [[f64; 3]]) {}
-
-    fn sum(&mut self, _values: &mut [f64]) {}
-
-    fn max(&mut self, value: f64) -> f64 {
-        value
-    }
-
-    fn is_ghost(&self, _p: usize) -> bool {
-        false
-    }
-
-    fn global_point(&self, p: usize) -> usize {
-        p
-    }
-
-    fn global_points(&self) -> usize {
-        self.points
-    }
-
-    fn ghost_constrained_dofs(&self) -> Vec<usize> {
-        Vec::new()
-    }
-}
+/// The collective operations and the ownership queries of an implicit solve: the run's
+/// [`Ranks`](crate::parallel::Ranks).
+pub use crate::parallel::Ranks as Collective;
+/// A run on one rank: the no-op [`Collective`].
+pub use crate::parallel::SerialRanks as SerialRun;
 
 /// On several ranks every rank fails when one does (collective): the failing rank keeps its
 /// error, the others get [`SolveError::OtherRank`], so that no rank waits in a collective for

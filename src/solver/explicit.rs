@@ -18,12 +18,12 @@
 //! On one rank of a distributed run the model holds owned points and ghosts
 //! ([`crate::parallel::Subdomain`]). The integrator is told which points are ghosts
 //! ([`VelocityVerlet::with_ghosts`]) and refreshes their current positions through a
-//! [`Halo`] just before each force evaluation; ghosts get zero acceleration (their own forces
+//! [`Ranks`] just before each force evaluation; ghosts get zero acceleration (their own forces
 //! come from truncated rows and mean nothing) and count in no energy or work sum, so the
 //! [`StepReport`] is this rank's share, to be summed over ranks.
 
 use crate::boundary::BoundaryError;
-use crate::parallel::Communicator;
+use crate::parallel::{Communicator, Ranks, SerialRanks};
 use crate::physics::Physics;
 use crate::setup::Model;
 use crate::state::{Staged, State};
@@ -49,28 +49,6 @@ pub struct StepReport {
     pub supplied_work: f64,
     /// Bonds broken in the step.
     pub broken_bonds: usize,
-}
-
-/// Refreshes the ghost entries of the current positions before a force evaluation (the halo
-/// exchange of a distributed run). Serial runs use [`NoHalo`].
-pub trait Halo {
-    /// Overwrites the ghost entries of `current_position` with their owners' values.
-    fn refresh(&mut self, current_position: &mut [[f64; 3]]);
-
-    /// The ranks' communicator, for the collectives of contact on ranks (see
-    /// [`crate::contact::Contact::on_ranks`]); `None` in serial runs.
-    fn communicator(&self) -> Option<&dyn Communicator> {
-        None
-    }
-}
-
-/// No ghosts: nothing to refresh.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct NoHalo;
-
-impl Halo for NoHalo {
-    #[inline(always)]
-    fn refresh(&mut self, _current_position: &mut [[f64; 3]]) {}
 }
 
 /// Velocity-Verlet integrator with its own scratch.
@@ -130,17 +108,20 @@ impl VelocityVerlet {
         physics: &mut Physics,
         state: &mut State,
     ) -> Result<(), BoundaryError> {
-        self.initialize_with(model, physics, state, &mut NoHalo)
+        let mut ranks = SerialRanks {
+            points: model.points.len(),
+        };
+        self.initialize_with(model, physics, state, &mut ranks)
     }
 
-    /// [`VelocityVerlet::initialize`] with the ghost positions refreshed by `halo` before the
+    /// [`VelocityVerlet::initialize`] with the ghost positions refreshed by `ranks` before the
     /// force evaluation.
     pub fn initialize_with(
         &self,
         model: &Model,
         physics: &mut Physics,
         state: &mut State,
-        halo: &mut impl Halo,
+        ranks: &mut dyn Ranks,
     ) -> Result<(), BoundaryError> {
         let t0 = self.settings.initial_time;
         state.time = t0;
@@ -155,11 +136,11 @@ impl VelocityVerlet {
             failure = model.boundary.body_force(positions, t0, b).err();
         }
         state.update_current_position(positions);
-        halo.refresh(&mut state.current_position);
+        ranks.refresh(&mut state.current_position);
         if let Err(error) = set_damage_time(physics, t0) {
             failure.get_or_insert(error);
         }
-        evaluate_acceleration_with(model, physics, state, halo);
+        evaluate_acceleration_with(model, physics, state, ranks);
         if let Some(ghost) = &self.ghost {
             for (a, _) in state.acceleration.iter_mut().zip(ghost).filter(|(_, &g)| g) {
                 *a = [0.0; 3];
@@ -176,10 +157,13 @@ impl VelocityVerlet {
         state: &mut State,
         step: u64,
     ) -> Result<StepReport, BoundaryError> {
-        self.step_with(model, physics, state, step, &mut NoHalo)
+        let mut ranks = SerialRanks {
+            points: model.points.len(),
+        };
+        self.step_with(model, physics, state, step, &mut ranks)
     }
 
-    /// [`VelocityVerlet::step`] with the ghost positions refreshed by `halo` before the force
+    /// [`VelocityVerlet::step`] with the ghost positions refreshed by `ranks` before the force
     /// evaluation (after the drift and the kinematic conditions).
     pub fn step_with(
         &mut self,
@@ -187,14 +171,14 @@ impl VelocityVerlet {
         physics: &mut Physics,
         state: &mut State,
         step: u64,
-        halo: &mut impl Halo,
+        ranks: &mut dyn Ranks,
     ) -> Result<StepReport, BoundaryError> {
         let dt = self.settings.time_step;
         let t_from = state.time;
         let t_to = self.time_after(step);
         let positions = &model.points.position;
         if let Some(contact) = &mut physics.contact {
-            match contact_communicator(contact, halo) {
+            match contact_communicator(contact, ranks) {
                 Some(comm) => {
                     contact.scheduled_search_on_ranks(comm, step, &state.current_position)
                 }
@@ -260,8 +244,8 @@ impl VelocityVerlet {
         if let Err(error) = set_damage_time(physics, t_to) {
             failure.get_or_insert(error);
         }
-        halo.refresh(&mut state.current_position);
-        let broken_bonds = internal_and_contact_force(model, physics, state, halo);
+        ranks.refresh(&mut state.current_position);
+        let broken_bonds = internal_and_contact_force(model, physics, state, ranks);
         state.commit();
 
         // a = (f_int + f_contact + b)/ρ (as `evaluate_acceleration`), the work, the second half
@@ -313,19 +297,13 @@ impl VelocityVerlet {
     }
 }
 
-/// The communicator of `halo` when `contact` is one rank's share of a distributed run
+/// The communicator of `ranks` when `contact` is one rank's share of a distributed run
 /// (its searches and force evaluations are collective), `None` for serial contact.
-fn contact_communicator<'h>(
+fn contact_communicator<'r>(
     contact: &crate::contact::Contact,
-    halo: &'h impl Halo,
-) -> Option<&'h dyn Communicator> {
-    if !contact.is_on_ranks() {
-        return None;
-    }
-    Some(
-        halo.communicator()
-            .expect("contact on ranks is run with the ranks' halo"),
-    )
+    ranks: &'r dyn Ranks,
+) -> Option<&'r dyn Communicator> {
+    contact.is_on_ranks().then(|| ranks.communicator())
 }
 
 /// Internal force density at `state.current_position` into `state.force_density`, then the
@@ -334,7 +312,7 @@ fn internal_and_contact_force(
     model: &Model,
     physics: &mut Physics,
     state: &mut State,
-    halo: &impl Halo,
+    ranks: &dyn Ranks,
 ) -> usize {
     let broken = physics.internal_force(
         &model.bonds,
@@ -344,7 +322,7 @@ fn internal_and_contact_force(
         &mut state.force_density,
     );
     if let Some(contact) = &mut physics.contact {
-        match contact_communicator(contact, halo) {
+        match contact_communicator(contact, ranks) {
             Some(comm) => {
                 contact.compute_force_on_ranks(comm, &state.current_position, &state.velocity);
             }
@@ -371,17 +349,20 @@ fn set_damage_time(physics: &mut Physics, time: f64) -> Result<(), BoundaryError
 /// Internal force at the current positions `state.current_position`, then the contact force
 /// (if any), and `a = (f_int + f_contact + b)/ρ`. Returns broken bonds.
 pub fn evaluate_acceleration(model: &Model, physics: &mut Physics, state: &mut State) -> usize {
-    evaluate_acceleration_with(model, physics, state, &NoHalo)
+    let ranks = SerialRanks {
+        points: model.points.len(),
+    };
+    evaluate_acceleration_with(model, physics, state, &ranks)
 }
 
-/// [`evaluate_acceleration`] with the communicator of `halo` for contact on ranks.
+/// [`evaluate_acceleration`] with the communicator of `ranks` for contact on ranks.
 fn evaluate_acceleration_with(
     model: &Model,
     physics: &mut Physics,
     state: &mut State,
-    halo: &impl Halo,
+    ranks: &dyn Ranks,
 ) -> usize {
-    let broken = internal_and_contact_force(model, physics, state, halo);
+    let broken = internal_and_contact_force(model, physics, state, ranks);
     let contact = physics.contact.as_ref().map(|c| c.force_density());
     let external = state.external_force_density.as_deref();
     let density = &physics.density;

@@ -82,12 +82,12 @@ pub enum NewmarkError {
     Boundary(#[from] BoundaryError),
 }
 
-/// Advances the state `settings.steps` steps, calling `on_step(step, report)` after each.
+/// Advances the state `settings.steps` steps, calling `on_step(physics, state, ranks, step,
+/// report)` after each.
 ///
 /// On several ranks (`collective`) every rank calls this with its subdomain: the Newton
 /// unknowns are the owned free dofs, the ghosts' displacements come from their owners, and
 /// rank 0 alone writes the log. [`crate::solver::collective::SerialRun`] runs it on one.
-#[allow(clippy::too_many_arguments)]
 pub fn run<E: From<NewmarkError>>(
     model: &Model,
     physics: &mut Physics,
@@ -95,7 +95,7 @@ pub fn run<E: From<NewmarkError>>(
     settings: &NewmarkSettings,
     linear: &mut LinearStrategy,
     collective: &mut dyn Collective,
-    mut on_step: impl FnMut(&Physics, &State, u64, &NewtonReport) -> Result<(), E>,
+    mut on_step: impl FnMut(&Physics, &State, &mut dyn Collective, u64, &NewtonReport) -> Result<(), E>,
 ) -> Result<(), E> {
     let constrained = model.boundary.constrained_dofs();
     let (dt, beta, gamma) = (settings.time_step, settings.beta, settings.gamma);
@@ -198,7 +198,7 @@ pub fn run<E: From<NewmarkError>>(
                 report.iterations
             );
         }
-        on_step(physics, state, step, &report)?;
+        on_step(physics, state, collective, step, &report)?;
     }
     Ok(())
 }

@@ -131,7 +131,8 @@ pub struct LoadStepReport {
 }
 
 /// Runs the load steps of `settings` from the current state, calling `on_step` after every
-/// accepted step (the state then holds u, v = Δu/Δt, forces and committed damage at its end).
+/// accepted step (the state then holds u, v = Δu/Δt, forces and committed damage at its end;
+/// `on_step` gets the ranks back for the collectives of its outputs).
 pub fn run<E: From<QuasiStaticError>>(
     model: &Model,
     physics: &mut Physics,
@@ -139,7 +140,7 @@ pub fn run<E: From<QuasiStaticError>>(
     settings: &QuasiStaticSettings,
     nonlinear: &mut dyn NonlinearSolver,
     collective: &mut dyn Collective,
-    mut on_step: impl FnMut(&Physics, &State, &LoadStepReport) -> Result<(), E>,
+    mut on_step: impl FnMut(&Physics, &State, &mut dyn Collective, &LoadStepReport) -> Result<(), E>,
 ) -> Result<Vec<LoadStepReport>, E> {
     let constrained = model.boundary.constrained_dofs();
     // On several ranks every rank runs this loop in step; rank 0 alone writes the log.
@@ -289,7 +290,7 @@ pub fn run<E: From<QuasiStaticError>>(
             newton: report,
             cuts: cuts_this_step,
         };
-        on_step(physics, state, &accepted)?;
+        on_step(physics, state, collective, &accepted)?;
         reports.push(accepted);
         cuts_this_step = 0;
         k += 1;

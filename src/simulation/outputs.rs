@@ -1,0 +1,537 @@
+//! Where a run's results go: one file per deck `Output` list and the implicit solvers'
+//! `<output>_solver.csv`. On one rank the files read the fields directly; on N ranks every
+//! rank counts the output calls, the point fields of a frame are gathered on rank 0 in the
+//! global run order and rank 0 writes every file through the same [`OutputFile`], so the
+//! globals (energies, `Block_Data`, `Node_Set_Data`, `Nearest_Point_Data`) are reduced over the
+//! same numbers in the same order as on one rank.
+
+use super::{Fields, PreparedComputeClass, RunError};
+use crate::io::deck::Deck;
+use crate::io::history::HistoryWriter;
+use crate::io::output::{kind_of, FieldSource, OutputFile, OutputGeometry, Schedule, VariableKind};
+use crate::parallel::{Communicator, Partition, Ranks};
+use crate::setup::{self, Model};
+use crate::solver::newton::NewtonReport;
+use std::borrow::Cow;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The outputs of a run on one rank or on N.
+pub(super) enum RunOutputs<'a> {
+    /// One rank: the files read the fields directly.
+    OneRank {
+        /// The results files.
+        outputs: Outputs,
+        /// `<output>_solver.csv`.
+        history: SolverHistory,
+    },
+    /// One rank of N: point fields gathered on rank 0, which writes.
+    Ranks {
+        /// The files (open on rank 0) and the gather.
+        outputs: DistributedOutputs<'a>,
+        /// Who owns which point.
+        partition: &'a Partition,
+        /// Local indices of this rank's owned points.
+        owned: Vec<u32>,
+    },
+}
+
+impl<'a> RunOutputs<'a> {
+    /// The files of a one-rank run of `deck` on `model`, in `dir`.
+    pub(super) fn one_rank(deck: &Deck, model: &Model, dir: &Path) -> Result<Self, RunError> {
+        Ok(Self::OneRank {
+            outputs: Outputs::create(deck, model, dir)?,
+            history: SolverHistory::new(deck, dir),
+        })
+    }
+
+    /// One output call at the time of `fields.state`. Collective on N ranks; a failure to
+    /// write (on rank 0) is returned to the caller, which agrees on it at a collective.
+    pub(super) fn call(&mut self, ranks: &dyn Ranks, fields: &Fields<'_>) -> Result<(), RunError> {
+        match self {
+            Self::OneRank { outputs, .. } => outputs.call(fields),
+            Self::Ranks {
+                outputs,
+                partition,
+                owned,
+            } => outputs.call(ranks.communicator(), partition, owned, fields),
+        }
+    }
+
+    /// One implicit step's row of `<output>_solver.csv`, with the tangent bytes summed over
+    /// the ranks. Collective on N ranks, like [`RunOutputs::call`].
+    pub(super) fn record(
+        &mut self,
+        ranks: &mut dyn Ranks,
+        time: f64,
+        step: usize,
+        report: &NewtonReport,
+    ) -> Result<(), RunError> {
+        match self {
+            Self::OneRank { history, .. } => {
+                history.record(time, step, report, report.tangent_bytes as f64)
+            }
+            Self::Ranks { outputs, .. } => outputs.record(ranks, time, step, report),
+        }
+    }
+
+    /// Wall-clock seconds spent writing.
+    pub(super) fn seconds(&self) -> f64 {
+        match self {
+            Self::OneRank { outputs, .. } => outputs.seconds,
+            Self::Ranks { outputs, .. } => outputs.seconds,
+        }
+    }
+
+    /// Closes every file; returns the paths of the results files (none on ranks other than 0).
+    pub(super) fn finish(self) -> Result<Vec<PathBuf>, RunError> {
+        match self {
+            Self::OneRank { outputs, history } => {
+                let files = outputs.finish()?;
+                history.finish()?;
+                Ok(files)
+            }
+            Self::Ranks { outputs, .. } => outputs.finish(),
+        }
+    }
+}
+
+/// The outputs of a one-rank run, one file per deck `Output` list.
+pub(super) struct Outputs {
+    files: Vec<OutputFile>,
+    seconds: f64,
+}
+
+impl Outputs {
+    fn create(deck: &Deck, model: &Model, dir: &Path) -> Result<Self, RunError> {
+        let n = model.points.len();
+        let mut coordinates = vec![[0.0; 3]; n];
+        for (k, &run) in model.run_index.iter().enumerate() {
+            coordinates[k] = model.points.position[run as usize];
+        }
+        let original = |points: &[u32]| -> Vec<u32> {
+            let mut ids: Vec<u32> = points
+                .iter()
+                .map(|&p| model.points.original_id[p as usize])
+                .collect();
+            ids.sort_unstable();
+            ids
+        };
+        let geometry = OutputGeometry {
+            coordinates,
+            run_index: model.run_index.clone(),
+            blocks: model
+                .blocks
+                .iter()
+                .map(|b| (b.info.id, b.info.name.clone(), original(&b.points)))
+                .collect(),
+            node_sets: model
+                .node_sets
+                .iter()
+                .map(|(name, points)| (name.to_string(), original(points)))
+                .collect(),
+        };
+        let mut files = Vec::new();
+        for output in &deck.outputs {
+            let variables = setup::report::requested_variables(deck, output)
+                .map_err(|e| RunError::Unsupported(e.to_string()))?;
+            let schedule = Schedule {
+                frequency: output.frequency,
+                initial_step: output.initial_output_step,
+                final_step: output.final_output_step,
+            };
+            files.push(OutputFile::create(
+                dir,
+                &output.filename,
+                "peridyn",
+                schedule,
+                variables,
+                &geometry,
+            )?);
+        }
+        Ok(Self {
+            files,
+            seconds: 0.0,
+        })
+    }
+
+    fn call(&mut self, fields: &Fields) -> Result<(), RunError> {
+        let start = Instant::now();
+        let time = fields.state.time;
+        for file in &mut self.files {
+            file.call(time, fields)?;
+        }
+        self.seconds += start.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    fn finish(self) -> Result<Vec<PathBuf>, RunError> {
+        let mut paths = Vec::new();
+        for file in self.files {
+            paths.push(file.path().to_path_buf());
+            file.finish()?;
+        }
+        Ok(paths)
+    }
+}
+
+/// The per-step report of the implicit solvers, `<output>_solver.csv` beside the first
+/// output file (`peridyn.csv` names when the deck has no output), created at the first step.
+pub(super) struct SolverHistory {
+    path: PathBuf,
+    writer: Option<HistoryWriter>,
+}
+
+impl SolverHistory {
+    fn new(deck: &Deck, dir: &Path) -> Self {
+        let name = deck
+            .outputs
+            .first()
+            .map_or_else(|| "peridyn".to_string(), |o| o.filename.clone());
+        Self {
+            path: dir.join(format!("{name}_solver.csv")),
+            writer: None,
+        }
+    }
+
+    /// One row: the Newton report of the step that ended at `time`, with the tangent's
+    /// bytes over all ranks.
+    fn record(
+        &mut self,
+        time: f64,
+        step: usize,
+        report: &NewtonReport,
+        tangent_bytes: f64,
+    ) -> Result<(), RunError> {
+        let unavailable =
+            |e: crate::io::history::HistoryError| RunError::Unsupported(e.to_string());
+        if self.writer.is_none() {
+            let names: Vec<String> = SOLVER_HISTORY_COLUMNS
+                .iter()
+                .map(|s| s.to_string())
+                .collect();
+            self.writer = Some(HistoryWriter::create(&self.path, &names).map_err(unavailable)?);
+        }
+        let first = report.residual_history.first().copied().unwrap_or(0.0);
+        let last = report.residual_history.last().copied().unwrap_or(0.0);
+        let row = [
+            step as f64,
+            report.iterations as f64,
+            report.linear_iterations as f64,
+            report.residual_evaluations as f64,
+            first,
+            last,
+            report.seconds,
+            tangent_bytes,
+            report.broken_bonds as f64,
+        ];
+        self.writer
+            .as_mut()
+            .expect("created above")
+            .write_row(time, &row)
+            .map_err(unavailable)
+    }
+
+    /// Closes the file, if a step wrote one.
+    fn finish(self) -> Result<(), RunError> {
+        match self.writer {
+            Some(writer) => writer
+                .finish()
+                .map_err(|e| RunError::Unsupported(e.to_string())),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Columns of the implicit solver report (`<output>_solver.csv`, after `Time`).
+pub const SOLVER_HISTORY_COLUMNS: [&str; 9] = [
+    "Step",
+    "Newton_Iterations",
+    "Linear_Iterations",
+    "Residual_Evaluations",
+    "Initial_Residual",
+    "Final_Residual",
+    "Seconds",
+    "Tangent_Bytes",
+    "Broken_Bonds",
+];
+
+/// How a gathered point field is stored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Shape {
+    Vector,
+    Scalar,
+    Tensor,
+}
+
+impl Shape {
+    fn width(self) -> usize {
+        match self {
+            Shape::Vector => 3,
+            Shape::Scalar => 1,
+            Shape::Tensor => 9,
+        }
+    }
+}
+
+/// Point fields gathered on rank 0 in the global run order.
+struct Gathered<'a> {
+    nonlinear_iterations: Option<f64>,
+    vectors: BTreeMap<String, Vec<[f64; 3]>>,
+    scalars: BTreeMap<String, Vec<f64>>,
+    tensors: BTreeMap<String, Vec<[f64; 9]>>,
+    classes: &'a [PreparedComputeClass],
+}
+
+impl FieldSource for Gathered<'_> {
+    fn vector(&self, name: &str) -> Option<Cow<'_, [[f64; 3]]>> {
+        self.vectors.get(name).map(|v| Cow::Borrowed(v.as_slice()))
+    }
+
+    fn scalar(&self, name: &str) -> Option<Cow<'_, [f64]>> {
+        self.scalars.get(name).map(|v| Cow::Borrowed(v.as_slice()))
+    }
+
+    fn tensor(&self, name: &str) -> Option<Cow<'_, [[f64; 9]]>> {
+        self.tensors.get(name).map(|v| Cow::Borrowed(v.as_slice()))
+    }
+
+    fn global(&self, name: &str) -> Option<f64> {
+        super::fields::global_value(self, self.classes, self.nonlinear_iterations, name)
+    }
+
+    fn global_vector(&self, name: &str) -> Option<[f64; 3]> {
+        super::fields::global_vector_value(self, self.classes, name)
+    }
+}
+
+/// The point fields the deck's outputs read, with their shapes.
+fn fields_to_gather(
+    deck: &Deck,
+    classes: &[PreparedComputeClass],
+) -> Result<Vec<(String, Shape)>, RunError> {
+    let mut wanted: BTreeMap<String, Shape> = BTreeMap::new();
+    let shape_of = |name: &str| match kind_of(name) {
+        Some(VariableKind::NodalVector) => Some(Shape::Vector),
+        Some(VariableKind::ElementScalar) => Some(Shape::Scalar),
+        Some(VariableKind::ElementTensor) => Some(Shape::Tensor),
+        _ => None,
+    };
+    for output in &deck.outputs {
+        let variables = setup::report::requested_variables(deck, output)
+            .map_err(|e| RunError::Unsupported(e.to_string()))?;
+        for variable in variables {
+            let name = variable.name.as_str();
+            let point_field = match name {
+                "Global_Kinetic_Energy" => Some("Kinetic_Energy"),
+                "Global_Stored_Elastic_Energy" => Some("Stored_Elastic_Energy"),
+                "Global_Linear_Momentum" => Some("Linear_Momentum"),
+                "Global_Angular_Momentum" => Some("Angular_Momentum"),
+                "Nonlinear_Solver_Iterations" => None,
+                _ => match variable.kind {
+                    VariableKind::Global | VariableKind::GlobalVector => classes
+                        .iter()
+                        .find(|c| c.label == name)
+                        .map(|c| c.variable.as_str()),
+                    _ => Some(name),
+                },
+            };
+            if let Some(field) = point_field {
+                if let Some(shape) = shape_of(field) {
+                    wanted.insert(field.to_string(), shape);
+                }
+            }
+        }
+    }
+    Ok(wanted.into_iter().collect())
+}
+
+/// The results files of a distributed run: open on rank 0; every rank counts the calls.
+pub(super) struct DistributedOutputs<'a> {
+    files: Vec<OutputFile>,
+    schedules: Vec<Schedule>,
+    calls: i64,
+    fields: Vec<(String, Shape)>,
+    classes: &'a [PreparedComputeClass],
+    seconds: f64,
+    /// `<output>_solver.csv` of the implicit steps, on rank 0.
+    solver_history: Option<SolverHistory>,
+}
+
+impl<'a> DistributedOutputs<'a> {
+    /// Opens the files on rank 0 (geometry from the global model). Not collective; the caller
+    /// agrees on the result.
+    pub(super) fn create(
+        deck: &Deck,
+        global: &Model,
+        dir: &Path,
+        classes: &'a [PreparedComputeClass],
+        rank: usize,
+    ) -> Result<Self, RunError> {
+        let fields = fields_to_gather(deck, classes)?;
+        let schedules = deck
+            .outputs
+            .iter()
+            .map(|output| Schedule {
+                frequency: output.frequency,
+                initial_step: output.initial_output_step,
+                final_step: output.final_output_step,
+            })
+            .collect();
+        let files = if rank == 0 {
+            Outputs::create(deck, global, dir)?.files
+        } else {
+            Vec::new()
+        };
+        Ok(Self {
+            files,
+            schedules,
+            calls: 0,
+            fields,
+            classes,
+            seconds: 0.0,
+            solver_history: (rank == 0).then(|| SolverHistory::new(deck, dir)),
+        })
+    }
+
+    /// One implicit step's row of `<output>_solver.csv`, written by rank 0 with the tangent
+    /// bytes summed over the ranks (the other columns are global already). Collective (one
+    /// sum); a write failure on rank 0 is returned to the caller, which agrees on it.
+    fn record(
+        &mut self,
+        ranks: &mut dyn Ranks,
+        time: f64,
+        step: usize,
+        report: &NewtonReport,
+    ) -> Result<(), RunError> {
+        let mut tangent_bytes = [report.tangent_bytes as f64];
+        ranks.sum(&mut tangent_bytes);
+        match &mut self.solver_history {
+            Some(history) => history.record(time, step, report, tangent_bytes[0]),
+            None => Ok(()),
+        }
+    }
+
+    /// Counts one output call; on a frame, gathers the point fields (collective) and rank 0
+    /// writes. A write failure on rank 0 is returned to the caller, which must still take part
+    /// in the next collective.
+    fn call(
+        &mut self,
+        comm: &dyn Communicator,
+        partition: &Partition,
+        owned: &[u32],
+        local: &Fields<'_>,
+    ) -> Result<(), RunError> {
+        let start = Instant::now();
+        let time = local.state.time;
+        self.calls += 1;
+        let frame = self.schedules.iter().any(|s| s.writes(self.calls));
+        let mut gathered = Gathered {
+            nonlinear_iterations: local.nonlinear_iterations,
+            vectors: BTreeMap::new(),
+            scalars: BTreeMap::new(),
+            tensors: BTreeMap::new(),
+            classes: self.classes,
+        };
+        if frame {
+            for (name, shape) in &self.fields {
+                let values = gather_field(comm, partition, owned, local, name, *shape);
+                if let Some(values) = values {
+                    match shape {
+                        Shape::Vector => {
+                            gathered.vectors.insert(
+                                name.clone(),
+                                values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+                            );
+                        }
+                        Shape::Scalar => {
+                            gathered.scalars.insert(name.clone(), values);
+                        }
+                        Shape::Tensor => {
+                            gathered.tensors.insert(
+                                name.clone(),
+                                values
+                                    .chunks_exact(9)
+                                    .map(|c| std::array::from_fn(|k| c[k]))
+                                    .collect(),
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        let mut result = Ok(());
+        for file in &mut self.files {
+            if let Err(error) = file.call(time, &gathered) {
+                result = Err(error.into());
+                break;
+            }
+        }
+        self.seconds += start.elapsed().as_secs_f64();
+        result
+    }
+
+    fn finish(self) -> Result<Vec<PathBuf>, RunError> {
+        if let Some(history) = self.solver_history {
+            history.finish()?;
+        }
+        let mut paths = Vec::new();
+        for file in self.files {
+            paths.push(file.path().to_path_buf());
+            file.finish()?;
+        }
+        Ok(paths)
+    }
+}
+
+/// One point field of the owned points, gathered on rank 0 in the global run order
+/// (`Proc_Num` is the owning rank). Collective; `None` on the other ranks. A field the run
+/// does not have is gathered as zeros, and the writer reports it as missing when it is asked
+/// for it (as one rank does).
+fn gather_field(
+    comm: &dyn Communicator,
+    partition: &Partition,
+    owned: &[u32],
+    local: &Fields<'_>,
+    name: &str,
+    shape: Shape,
+) -> Option<Vec<f64>> {
+    let width = shape.width();
+    let mut values = Vec::with_capacity(owned.len() * width);
+    match shape {
+        Shape::Vector => match local.vector(name) {
+            Some(field) => owned
+                .iter()
+                .for_each(|&l| values.extend_from_slice(&field[l as usize])),
+            None => values.resize(owned.len() * width, 0.0),
+        },
+        Shape::Scalar if name == "Proc_Num" => values.resize(owned.len(), comm.rank() as f64),
+        Shape::Scalar => match local.scalar(name) {
+            Some(field) => owned.iter().for_each(|&l| values.push(field[l as usize])),
+            None => values.resize(owned.len(), 0.0),
+        },
+        Shape::Tensor => match local.tensor(name) {
+            Some(field) => owned
+                .iter()
+                .for_each(|&l| values.extend_from_slice(&field[l as usize])),
+            None => values.resize(owned.len() * width, 0.0),
+        },
+    }
+    let counts: Vec<usize> = partition
+        .owned
+        .iter()
+        .map(|points| points.len() * width)
+        .collect();
+    let all = comm.gather(&values, &counts)?;
+    let mut global = vec![0.0; partition.owner.len() * width];
+    let mut offset = 0;
+    for points in &partition.owned {
+        for &g in points {
+            let g = g as usize;
+            global[g * width..(g + 1) * width].copy_from_slice(&all[offset..offset + width]);
+            offset += width;
+        }
+    }
+    Some(global)
+}
