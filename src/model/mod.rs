@@ -5,9 +5,11 @@
 //! and [`BondList`] holds every point's family in compressed-sparse-row form.
 
 mod bonds;
+mod declaration;
 mod node_sets;
 mod points;
 
 pub use bonds::BondList;
+pub use declaration::{FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
 pub use node_sets::{normalize_name, NodeSets};
 pub use points::{BlockInfo, PointCloud};
