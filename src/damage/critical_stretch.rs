@@ -22,7 +22,7 @@ use std::sync::Arc;
 use super::registry::BOND_DAMAGE;
 use super::stretch_kernel::{update_stretch_damage, PairPlan, StretchLimit};
 use super::{DamageError, DamageModel};
-use crate::material::ReferenceView;
+use crate::model::ReferenceView;
 use crate::model::{ModelDeclaration, Reach};
 
 /// Critical stretch from the critical energy release rate G₀ (Silling & Askari 2005, "A
@@ -123,7 +123,7 @@ impl DamageModel for CriticalStretch {
 mod tests {
     use super::*;
     use crate::damage::point_damage;
-    use crate::material::test_support::{brute_force_bonds, random_cloud, Rng};
+    use crate::model::test_support::{brute_force_bonds, random_cloud, Rng};
     use crate::model::BondList;
 
     fn two_points() -> (Vec<[f64; 3]>, Vec<f64>, BondList) {

@@ -25,8 +25,8 @@ use std::sync::Arc;
 use super::registry::{BOND_DAMAGE, POINT_CRITICAL_STRETCH};
 use super::stretch_kernel::{update_stretch_damage, BondLimit, PairPlan, StretchLimit};
 use super::{DamageError, DamageModel};
-use crate::material::ReferenceView;
 use crate::model::BondList;
+use crate::model::ReferenceView;
 use crate::model::{ModelDeclaration, Reach};
 
 /// The `Interface Aware` damage model of one block.

@@ -26,8 +26,8 @@ pub use time_dependent_critical_stretch::TimeDependentCriticalStretch;
 
 pub(crate) use stretch_kernel::StretchLimit;
 
-use crate::material::point_chunks::for_each_chunk;
-use crate::material::ReferenceView;
+use crate::model::point_chunks::for_each_chunk;
+use crate::model::ReferenceView;
 use crate::model::{BondList, ModelDeclaration};
 
 /// Invalid damage-model parameters. Messages name the deck key; the deck layer adds the file

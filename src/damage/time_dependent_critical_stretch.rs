@@ -3,7 +3,7 @@
 use super::registry::BOND_DAMAGE;
 use super::{CriticalStretch, DamageError, DamageModel};
 use crate::expression::Expression;
-use crate::material::ReferenceView;
+use crate::model::ReferenceView;
 use crate::model::{ModelDeclaration, Reach};
 
 /// Critical stretch as a function of time, e.g. `if(t < 7e-5) { value = 50; } else { value =

@@ -60,13 +60,13 @@
 //! `W_i = Σ_j ¼·c·s²·ζ·(1−d)·V_j` makes `Σ_i W_i V_i = E` exactly. (The `(1−d)` factor is
 //! exact for 0/1 damage; for fractional damage it is the energy of the softened spring.)
 
-use super::point_chunks::for_each_chunk;
 use super::{
     assert_point_set, checked_tangent_method, positive, CurrentView, Damaged, Integrity, Material,
     MaterialError, MaterialInput, PointCoefficients, ReferenceView, Undamaged,
 };
 use super::{BreakingForcePass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
+use crate::model::point_chunks::for_each_chunk;
 use crate::model::{ModelDeclaration, Reach};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
@@ -1221,7 +1221,7 @@ impl BreakingForcePass for BondBased {
 mod tests {
     use super::*;
     use crate::damage::{CriticalStretch, DamageModel};
-    use crate::material::test_support::{brute_force_bonds, random_cloud, Rng};
+    use crate::model::test_support::{brute_force_bonds, random_cloud, Rng};
     use crate::model::BondList;
 
     fn material() -> BondBased {

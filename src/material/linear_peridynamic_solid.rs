@@ -19,7 +19,6 @@
 //! Not yet supported: `Thermal Expansion Coefficient` (e ← e − αΔTζ) and `Partial_Stress`.
 
 use super::influence::InfluenceFunction;
-use super::point_chunks::for_each_chunk;
 use super::{
     assert_point_set, checked_tangent_method, local_offsets, positive, BondWeights, CurrentView,
     Damaged, Integrity, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
@@ -27,6 +26,7 @@ use super::{
 };
 use super::{BreakingCoefficientPass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
+use crate::model::point_chunks::for_each_chunk;
 use crate::model::{FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
@@ -1004,7 +1004,7 @@ impl BreakingCoefficientPass for LinearPeridynamicSolid {
 mod tests {
     use super::*;
     use crate::damage::{CriticalStretch, DamageModel};
-    use crate::material::test_support::{brute_force_bonds, random_cloud, Rng};
+    use crate::model::test_support::{brute_force_bonds, random_cloud, Rng};
 
     #[test]
     fn fused_breaking_matches_the_separate_update_bitwise() {

@@ -27,7 +27,6 @@ mod bond_based;
 mod elastic_constants;
 mod influence;
 mod linear_peridynamic_solid;
-pub(crate) mod point_chunks;
 mod registry;
 
 pub use bond_based::{BondBased, BondBasedParameters};
@@ -39,6 +38,7 @@ pub use registry::{material_entry, MaterialConstructor, MaterialEntry, MaterialI
 use rayon::prelude::*;
 
 use crate::model::{BondList, ModelDeclaration, Reach};
+pub use crate::model::{CurrentView, ReferenceView};
 use crate::tangent::{BlockTangent, TangentError, TangentMethod};
 
 /// Invalid material parameters or reference data. Messages name the deck key; the deck layer
@@ -94,27 +94,6 @@ pub(crate) fn checked_tangent_method(method: TangentMethod) -> Result<TangentMet
         }
         _ => Ok(method),
     }
-}
-
-/// The reference configuration of all points (owned and ghost), read by every material.
-#[derive(Debug, Clone, Copy)]
-pub struct ReferenceView<'a> {
-    /// Families (symmetric, directed CSR).
-    pub bonds: &'a BondList,
-    /// Reference positions X (length).
-    pub position: &'a [[f64; 3]],
-    /// Cell volumes V (length³).
-    pub volume: &'a [f64],
-}
-
-/// The current configuration of all points.
-#[derive(Debug, Clone, Copy)]
-pub struct CurrentView<'a> {
-    /// Current positions Y = X + u (length).
-    pub position: &'a [[f64; 3]],
-    /// Bond damage d ∈ [0, 1] per directed bond (same indexing as the bond list), or `None`
-    /// when no damage model is active (all bonds intact).
-    pub bond_damage: Option<&'a [f32]>,
 }
 
 /// Numbers a material publishes for each of its points before the force pass, so that the
@@ -505,9 +484,6 @@ pub(crate) fn assert_point_set(points: &[u32], num_points: usize) {
         );
     }
 }
-
-#[cfg(test)]
-pub(crate) mod test_support;
 
 #[cfg(test)]
 mod tests;
