@@ -2,8 +2,10 @@
 //! coefficient pass (LPS dilatation), then the force pass, block by block.
 
 use crate::damage::{point_damage, DamageModel};
-use crate::material::{CurrentView, Material, PointCoefficients, ReferenceView};
-use crate::model::{BondList, PointCloud};
+use crate::material::{
+    CriticalStretchFastPath, CurrentView, Material, PointCoefficients, ReferenceView,
+};
+use crate::model::{BondList, PointCloud, Reach};
 use crate::tangent::{BlockPattern, BlockTangent, TangentError, TangentMethod};
 
 /// The physics of one block.
@@ -123,7 +125,7 @@ impl Physics {
     ///
     /// A block whose damage model is the constant `Critical Stretch` rule and whose material
     /// can fold that test into its first bond pass
-    /// ([`Material::fuses_critical_stretch`]) breaks its bonds there instead of in a separate
+    /// ([`Material::critical_stretch_fast_path`]) breaks its bonds there instead of in a separate
     /// pass: the same decisions, taken just before each bond is first used, so the damage and
     /// forces are exactly those of the separate update.
     pub fn internal_force(
@@ -144,13 +146,14 @@ impl Physics {
             self.internal_force_with_damage_fixed(bonds, points, current, None, force_density);
             return 0;
         };
-        // The critical stretch of each block that breaks its bonds in its own bond pass.
-        let fused: Vec<Option<f64>> = self
+        // The critical stretch and fast path of each block that breaks its bonds in its own
+        // bond pass.
+        let fused: Vec<Option<(f64, CriticalStretchFastPath<'_>)>> = self
             .blocks
             .iter()
             .map(|block| {
                 let limit = block.damage.as_ref()?.fusable_critical_stretch()?;
-                block.material.fuses_critical_stretch().then_some(limit)
+                Some((limit, block.material.critical_stretch_fast_path()?))
             })
             .collect();
         for (block, fused) in self.blocks.iter().zip(&fused) {
@@ -167,12 +170,9 @@ impl Physics {
         // Fused blocks have no bond to another block, so nothing above reads or writes their
         // rows, and their passes below see the damage as a separate update would leave it.
         for (block, fused) in self.blocks.iter().zip(&fused) {
-            if !block.material.needs_dilatation() {
-                continue;
-            }
             match fused {
-                Some(limit) => {
-                    broken += block.material.compute_point_coefficients_breaking_bonds(
+                Some((limit, CriticalStretchFastPath::PointCoefficients(pass))) => {
+                    broken += pass.compute_point_coefficients_breaking_bonds(
                         &reference,
                         current,
                         *limit,
@@ -180,7 +180,7 @@ impl Physics {
                         &mut self.coefficients,
                     );
                 }
-                None => {
+                _ if block.material.needs_dilatation() => {
                     let view = CurrentView {
                         position: current,
                         bond_damage: Some(&bond_damage[..]),
@@ -191,13 +191,14 @@ impl Physics {
                         &mut self.coefficients,
                     );
                 }
+                _ => {}
             }
         }
         force_density.iter_mut().for_each(|f| *f = [0.0; 3]);
         for (block, fused) in self.blocks.iter().zip(&fused) {
             match fused {
-                Some(limit) if !block.material.needs_dilatation() => {
-                    broken += block.material.add_force_density_breaking_bonds(
+                Some((limit, CriticalStretchFastPath::Force(pass))) => {
+                    broken += pass.add_force_density_breaking_bonds(
                         &reference,
                         current,
                         *limit,
@@ -333,17 +334,19 @@ pub struct Configuration<'a> {
 
 /// The tangent stiffness ∂(V f)/∂u for implicit solvers (see [`crate::tangent`]).
 impl Physics {
-    /// The block pattern the materials need: [`BlockPattern::one_hop`] when every block is
-    /// bond-based, else [`BlockPattern::two_hop`].
+    /// The block pattern the materials need: the widest declared reach of the blocks'
+    /// materials ([`Reach::OneHop`]: [`BlockPattern::one_hop`], else
+    /// [`BlockPattern::two_hop`]).
     pub fn tangent_pattern(&self, bonds: &BondList) -> BlockPattern {
-        if self
+        let reach = self
             .blocks
             .iter()
-            .all(|b| b.material.tangent_is_bond_local())
-        {
-            BlockPattern::one_hop(bonds)
-        } else {
-            BlockPattern::two_hop(bonds)
+            .map(|b| b.material.declaration().reach)
+            .max()
+            .unwrap_or(Reach::OneHop);
+        match reach {
+            Reach::OneHop => BlockPattern::one_hop(bonds),
+            Reach::TwoHop => BlockPattern::two_hop(bonds),
         }
     }
 

@@ -19,9 +19,11 @@
 
 use std::sync::Arc;
 
+use super::registry::BOND_DAMAGE;
 use super::stretch_kernel::{update_stretch_damage, PairPlan, StretchLimit};
 use super::{DamageError, DamageModel};
-use crate::material::ReferenceView;
+use crate::model::ReferenceView;
+use crate::model::{ModelDeclaration, Reach};
 
 /// Critical stretch from the critical energy release rate G₀ (Silling & Askari 2005, "A
 /// meshfree method based on the peridynamic model of solid mechanics", Computers & Structures
@@ -46,6 +48,15 @@ pub struct CriticalStretch {
 }
 
 impl CriticalStretch {
+    /// `Critical Stretch`: a bond breaks on its own stretch alone, so the rule reaches one hop.
+    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+        deck_name: "Critical Stretch",
+        deck_keys: &["Critical Stretch", "Critical Energy Release Rate"],
+        reach: Reach::OneHop,
+        fields: &[BOND_DAMAGE],
+        outputs: &["Damage"],
+    };
+
     /// Model with critical stretch s_c (`Critical Stretch`, positive and finite).
     pub fn new(critical_stretch: f64) -> Result<Self, DamageError> {
         if critical_stretch.is_finite() && critical_stretch > 0.0 {
@@ -78,8 +89,8 @@ impl CriticalStretch {
 }
 
 impl DamageModel for CriticalStretch {
-    fn model_name(&self) -> &'static str {
-        "Critical Stretch"
+    fn declaration(&self) -> &'static ModelDeclaration {
+        &Self::DECLARATION
     }
 
     fn prepare(&mut self, reference: &ReferenceView<'_>, points: &[u32]) {
@@ -112,7 +123,7 @@ impl DamageModel for CriticalStretch {
 mod tests {
     use super::*;
     use crate::damage::point_damage;
-    use crate::material::test_support::{brute_force_bonds, random_cloud, Rng};
+    use crate::model::test_support::{brute_force_bonds, random_cloud, Rng};
     use crate::model::BondList;
 
     fn two_points() -> (Vec<[f64; 3]>, Vec<f64>, BondList) {

@@ -22,10 +22,12 @@
 
 use std::sync::Arc;
 
+use super::registry::{BOND_DAMAGE, POINT_CRITICAL_STRETCH};
 use super::stretch_kernel::{update_stretch_damage, BondLimit, PairPlan, StretchLimit};
 use super::{DamageError, DamageModel};
-use crate::material::ReferenceView;
 use crate::model::BondList;
+use crate::model::ReferenceView;
+use crate::model::{ModelDeclaration, Reach};
 
 /// The `Interface Aware` damage model of one block.
 #[derive(Debug, Clone)]
@@ -38,6 +40,15 @@ pub struct InterfaceAware {
 }
 
 impl InterfaceAware {
+    /// `Interface Aware`: a bond's limit reads the critical stretch of both ends, and the rank-deficient rule breaks all bonds of a point from its family's damage: two hops.
+    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+        deck_name: "Interface Aware",
+        deck_keys: &["Critical Stretch"],
+        reach: Reach::TwoHop,
+        fields: &[BOND_DAMAGE, POINT_CRITICAL_STRETCH],
+        outputs: &["Damage"],
+    };
+
     /// The model of one block with critical stretch `critical_stretch` (`Critical Stretch`,
     /// positive and finite), and the field `point_critical_stretch` of every point of the
     /// model (see [`InterfaceAware::field`]), shared by the blocks that use this model; it
@@ -115,8 +126,8 @@ impl BondLimit for PerPointLimit<'_> {
 }
 
 impl DamageModel for InterfaceAware {
-    fn model_name(&self) -> &'static str {
-        "Interface Aware"
+    fn declaration(&self) -> &'static ModelDeclaration {
+        &Self::DECLARATION
     }
 
     fn prepare(&mut self, reference: &ReferenceView<'_>, points: &[u32]) {

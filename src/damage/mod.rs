@@ -12,18 +12,23 @@
 
 mod critical_stretch;
 mod interface_aware;
+mod registry;
 mod stretch_kernel;
 mod time_dependent_critical_stretch;
 
 pub use critical_stretch::{critical_stretch_from_energy_release_rate, CriticalStretch};
 pub use interface_aware::{rank_deficient_points, InterfaceAware};
+pub use registry::{
+    damage_entry, DamageConstructor, DamageEntry, DamageInput, BOND_DAMAGE, DAMAGE_MODELS,
+    POINT_CRITICAL_STRETCH,
+};
 pub use time_dependent_critical_stretch::TimeDependentCriticalStretch;
 
 pub(crate) use stretch_kernel::StretchLimit;
 
-use crate::material::point_chunks::for_each_chunk;
-use crate::material::ReferenceView;
-use crate::model::BondList;
+use crate::model::point_chunks::for_each_chunk;
+use crate::model::ReferenceView;
+use crate::model::{BondList, ModelDeclaration};
 
 /// Invalid damage-model parameters. Messages name the deck key; the deck layer adds the file
 /// and line.
@@ -45,12 +50,24 @@ pub enum DamageError {
         /// What went wrong.
         message: String,
     },
+    /// A parameter the model needs was not given.
+    #[error("damage model parameter `{key}` is required by this damage model")]
+    Missing {
+        /// Deck key, e.g. `Critical Stretch`.
+        key: &'static str,
+    },
 }
 
 /// A damage model for one block. Object-safe; one instance per block.
 pub trait DamageModel: Send + Sync {
+    /// What the model declares about itself: the declaration of its registry entry
+    /// ([`DAMAGE_MODELS`]).
+    fn declaration(&self) -> &'static ModelDeclaration;
+
     /// Peridigm's `Damage Model` string, e.g. `"Critical Stretch"`.
-    fn model_name(&self) -> &'static str;
+    fn model_name(&self) -> &'static str {
+        self.declaration().deck_name
+    }
 
     /// Sets the time of the next update (models with time-dependent parameters evaluate them
     /// here, once per step). The default does nothing.
@@ -69,7 +86,7 @@ pub trait DamageModel: Send + Sync {
     /// rule (one limit for every bond, nothing else): a bond breaks for good once
     /// `(fl(√q) − ζ)/ζ > s_c`, q = `dx*dx + dy*dy + dz*dz` of `Y_j − Y_i`. A material whose
     /// bond pass already computes q may then take these decisions itself
-    /// ([`crate::material::Material::fuses_critical_stretch`]) instead of this model's separate
+    /// ([`crate::material::Material::critical_stretch_fast_path`]) instead of this model's separate
     /// pass over the bonds. `None` (the default) keeps the separate pass.
     fn fusable_critical_stretch(&self) -> Option<f64> {
         None

@@ -12,9 +12,9 @@
 //! (see [`CriticalStretch`](super::CriticalStretch)); evaluating it once and writing both
 //! gives what two evaluations would.
 
-use crate::material::point_chunks::for_each_chunk;
-use crate::material::ReferenceView;
+use crate::model::point_chunks::for_each_chunk;
 use crate::model::BondList;
+use crate::model::ReferenceView;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -539,7 +539,7 @@ impl<L: BondLimit> Chunk<'_, L> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::test_support::{brute_force_bonds, random_cloud, Rng};
+    use crate::model::test_support::{brute_force_bonds, random_cloud, Rng};
 
     /// The rule written out plainly: every intact bond of the rows of `points` whose stretch,
     /// evaluated as the models always have, exceeds its limit, breaks.

@@ -1,8 +1,10 @@
 //! Peridigm's `Time Dependent Critical Stretch`: critical stretch s_c(t) from an expression.
 
+use super::registry::BOND_DAMAGE;
 use super::{CriticalStretch, DamageError, DamageModel};
 use crate::expression::Expression;
-use crate::material::ReferenceView;
+use crate::model::ReferenceView;
+use crate::model::{ModelDeclaration, Reach};
 
 /// Critical stretch as a function of time, e.g. `if(t < 7e-5) { value = 50; } else { value =
 /// 0.015; }` (Peridigm's `BondBreakingInitialVelocity_TimeDependentCS`). The expression (in
@@ -15,6 +17,15 @@ pub struct TimeDependentCriticalStretch {
 }
 
 impl TimeDependentCriticalStretch {
+    /// `Time Dependent Critical Stretch`: as `Critical Stretch`, one bond at a time: one hop.
+    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+        deck_name: "Time Dependent Critical Stretch",
+        deck_keys: &["Time Dependent Critical Stretch"],
+        reach: Reach::OneHop,
+        fields: &[BOND_DAMAGE],
+        outputs: &["Damage"],
+    };
+
     /// The model at time `t0`; errors when s_c(t0) is not a positive number.
     pub fn new(expression: Expression, t0: f64) -> Result<Self, DamageError> {
         let current = Self::evaluate(&expression, t0)?;
@@ -46,8 +57,8 @@ impl TimeDependentCriticalStretch {
 }
 
 impl DamageModel for TimeDependentCriticalStretch {
-    fn model_name(&self) -> &'static str {
-        "Time Dependent Critical Stretch"
+    fn declaration(&self) -> &'static ModelDeclaration {
+        &Self::DECLARATION
     }
 
     fn set_time(&mut self, time: f64) -> Result<(), DamageError> {

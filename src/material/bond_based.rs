@@ -60,13 +60,14 @@
 //! `W_i = Σ_j ¼·c·s²·ζ·(1−d)·V_j` makes `Σ_i W_i V_i = E` exactly. (The `(1−d)` factor is
 //! exact for 0/1 damage; for fractional damage it is the energy of the softened spring.)
 
-use super::point_chunks::for_each_chunk;
-use super::FusedCriticalStretch;
 use super::{
     assert_point_set, checked_tangent_method, positive, CurrentView, Damaged, Integrity, Material,
-    MaterialError, PointCoefficients, ReferenceView, Undamaged,
+    MaterialError, MaterialInput, PointCoefficients, ReferenceView, Undamaged,
 };
+use super::{BreakingForcePass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
+use crate::model::point_chunks::for_each_chunk;
+use crate::model::{ModelDeclaration, Reach};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -97,7 +98,7 @@ pub struct BondBased {
     closed: bool,
     /// Pair-once evaluation plan, when the block is closed, its rows strictly increasing and
     /// every bond has its reverse; the plan then also breaks each pair in both directions
-    /// ([`Material::fuses_critical_stretch`]).
+    /// ([`Material::critical_stretch_fast_path`]).
     pairs: Option<PairPlan>,
     /// The pair plan's per-pair scale buffer, kept between calls (a model of 10⁶ bonds needs
     /// 4 MB, which would otherwise be allocated and faulted in at every step).
@@ -110,6 +111,35 @@ pub struct BondBased {
 }
 
 impl BondBased {
+    /// `Elastic Bond Based`: a bond's force depends on its two ends only; no fields beyond
+    /// the reference data, no outputs of its own.
+    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+        deck_name: "Elastic Bond Based",
+        deck_keys: &[
+            "Density",
+            "Bulk Modulus",
+            "Young's Modulus",
+            "Plane Strain",
+            "Plane Stress",
+            "Height",
+            "Tangent",
+            "Finite Difference Probe Length",
+        ],
+        reach: Reach::OneHop,
+        fields: &[],
+        outputs: &[],
+    };
+
+    /// The registry's constructor: ρ, K, δ and the planar height from `input`.
+    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
+        Ok(Box::new(Self::new(BondBasedParameters {
+            density: input.density,
+            bulk_modulus: input.bulk_modulus,
+            horizon: input.horizon,
+            planar_thickness: input.planar_thickness,
+        })?))
+    }
+
     /// Validates the parameters (all positive and finite) and computes the micromodulus.
     pub fn new(parameters: BondBasedParameters) -> Result<Self, MaterialError> {
         positive("Density", parameters.density)?;
@@ -923,8 +953,8 @@ impl<D: Integrity> ForceState for PmbForceState<'_, D> {
 const PAIR_BLOCK: usize = 64;
 
 impl Material for BondBased {
-    fn model_name(&self) -> &'static str {
-        "Elastic Bond Based"
+    fn declaration(&self) -> &'static ModelDeclaration {
+        &Self::DECLARATION
     }
 
     fn density(&self) -> f64 {
@@ -937,10 +967,6 @@ impl Material for BondBased {
 
     fn horizon(&self) -> f64 {
         self.parameters.horizon
-    }
-
-    fn needs_dilatation(&self) -> bool {
-        false
     }
 
     fn setup(
@@ -1058,60 +1084,12 @@ impl Material for BondBased {
         for_each_chunk(force_points, force_density, &|i| i as usize, &run);
     }
 
-    fn fuses_critical_stretch(&self) -> bool {
-        self.pairs.is_some()
-    }
-
-    /// The pair-once loop tests each pair just before its force: same q, same exact test
-    /// (behind the filter of `StretchLimit::breaks`), both directions written at once, as the
-    /// pair-once `Critical Stretch` update; the force then reads the updated damage, so forces
-    /// and damage are bitwise those of the separate update followed by the force.
-    fn add_force_density_breaking_bonds(
-        &self,
-        reference: &ReferenceView<'_>,
-        position: &[[f64; 3]],
-        critical_stretch: f64,
-        bond_damage: &mut [f32],
-        _coefficients: &[PointCoefficients],
-        force_density: &mut [[f64; 3]],
-    ) -> usize {
-        let plan = self
-            .pairs
-            .as_ref()
-            .expect("called only when fuses_critical_stretch() is true");
-        assert_eq!(bond_damage.len(), reference.bonds.num_bonds());
-        let pairs = PairRows {
-            bonds: reference.bonds,
-            volume: reference.volume,
-            y: position,
-            // As `add_force_density` (c/2 doubled: exactly c).
-            micromodulus: 2.0 * self.half(),
-        };
-        let fused = FusedCriticalStretch {
-            limit: StretchLimit::new(critical_stretch),
-            damage: bond_damage.as_mut_ptr(),
-        };
-        // The `Breaker` contract holds: `bond_damage` is borrowed mutably for this call and
-        // covers every bond; the chunk of point i reads and writes only the entries of i's
-        // upper bonds and of their reverses, which belong to no other chunk (each pair has
-        // one lower point, and the block is closed with symmetric families: the plan exists).
-        let scale = &mut self.pair_scratch.take();
-        let broken = plan.run(
-            &self.points,
-            self.force_points.as_deref(),
-            scale,
-            force_density,
-            pairs,
-            fused,
-            fused,
-            wide_vectors_available(),
-        );
-        self.pair_scratch.keep(std::mem::take(scale));
-        broken
-    }
-
-    fn tangent_is_bond_local(&self) -> bool {
-        true
+    /// The pair plan breaks each pair in both directions in the force pass (only when the
+    /// plan exists: the block is closed with symmetric families).
+    fn critical_stretch_fast_path(&self) -> Option<CriticalStretchFastPath<'_>> {
+        self.pairs
+            .is_some()
+            .then_some(CriticalStretchFastPath::Force(self))
     }
 
     fn tangent_method(&self) -> TangentMethod {
@@ -1189,11 +1167,61 @@ impl Material for BondBased {
     }
 }
 
+impl BreakingForcePass for BondBased {
+    /// The pair-once loop tests each pair just before its force: same q, same exact test
+    /// (behind the filter of `StretchLimit::breaks`), both directions written at once, as the
+    /// pair-once `Critical Stretch` update; the force then reads the updated damage, so forces
+    /// and damage are bitwise those of the separate update followed by the force.
+    fn add_force_density_breaking_bonds(
+        &self,
+        reference: &ReferenceView<'_>,
+        position: &[[f64; 3]],
+        critical_stretch: f64,
+        bond_damage: &mut [f32],
+        _coefficients: &[PointCoefficients],
+        force_density: &mut [[f64; 3]],
+    ) -> usize {
+        let plan = self
+            .pairs
+            .as_ref()
+            .expect("the fast path is offered only with a pair plan");
+        assert_eq!(bond_damage.len(), reference.bonds.num_bonds());
+        let pairs = PairRows {
+            bonds: reference.bonds,
+            volume: reference.volume,
+            y: position,
+            // As `add_force_density` (c/2 doubled: exactly c).
+            micromodulus: 2.0 * self.half(),
+        };
+        let fused = FusedCriticalStretch {
+            limit: StretchLimit::new(critical_stretch),
+            damage: bond_damage.as_mut_ptr(),
+        };
+        // The `Breaker` contract holds: `bond_damage` is borrowed mutably for this call and
+        // covers every bond; the chunk of point i reads and writes only the entries of i's
+        // upper bonds and of their reverses, which belong to no other chunk (each pair has
+        // one lower point, and the block is closed with symmetric families: the plan exists).
+        let scale = &mut self.pair_scratch.take();
+        let broken = plan.run(
+            &self.points,
+            self.force_points.as_deref(),
+            scale,
+            force_density,
+            pairs,
+            fused,
+            fused,
+            wide_vectors_available(),
+        );
+        self.pair_scratch.keep(std::mem::take(scale));
+        broken
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::damage::{CriticalStretch, DamageModel};
-    use crate::material::test_support::{brute_force_bonds, random_cloud, Rng};
+    use crate::model::test_support::{brute_force_bonds, random_cloud, Rng};
     use crate::model::BondList;
 
     fn material() -> BondBased {
@@ -1488,7 +1516,10 @@ mod tests {
         let mut sub = material();
         sub.setup(&sub_reference, (0..points.len() as u32).collect())
             .unwrap();
-        assert!(whole.fuses_critical_stretch() && sub.fuses_critical_stretch());
+        assert!(
+            whole.critical_stretch_fast_path().is_some()
+                && sub.critical_stretch_fast_path().is_some()
+        );
         // The same rank computing the forces of some of its owned points only (a distributed
         // run keeps the owned ones; every other one here, so that the kept points are not a
         // contiguous run of the block): every pair is still decided, the others' forces are
@@ -1597,7 +1628,7 @@ mod tests {
         };
         let mut m = material();
         m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
-        assert!(m.fuses_critical_stretch());
+        assert!(m.critical_stretch_fast_path().is_some());
         let all: Vec<u32> = (0..x.len() as u32).collect();
         let model = CriticalStretch::new(0.02).unwrap();
         let mut coefficients = vec![PointCoefficients::default(); x.len()];
@@ -1649,7 +1680,7 @@ mod tests {
             .collect();
         let mut m = material();
         m.setup(&reference, left).unwrap();
-        assert!(!m.fuses_critical_stretch());
+        assert!(m.critical_stretch_fast_path().is_none());
     }
 
     #[test]

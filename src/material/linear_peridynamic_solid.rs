@@ -19,14 +19,15 @@
 //! Not yet supported: `Thermal Expansion Coefficient` (e ← e − αΔTζ) and `Partial_Stress`.
 
 use super::influence::InfluenceFunction;
-use super::point_chunks::for_each_chunk;
-use super::FusedCriticalStretch;
 use super::{
     assert_point_set, checked_tangent_method, local_offsets, positive, BondWeights, CurrentView,
-    Damaged, Integrity, Material, MaterialError, PointCoefficients, ReferenceView, StoredWeights,
-    Undamaged, UnitWeights,
+    Damaged, Integrity, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
+    StoredWeights, Undamaged, UnitWeights,
 };
+use super::{BreakingCoefficientPass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
+use crate::model::point_chunks::for_each_chunk;
+use crate::model::{FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -62,7 +63,7 @@ pub struct LinearPeridynamicSolid {
     /// How the tangent is computed (default analytic).
     tangent: TangentMethod,
     /// Every neighbour of every block point is a block point (decided in `setup`), so the
-    /// block has no bond to another block ([`Material::fuses_critical_stretch`]).
+    /// block has no bond to another block ([`Material::critical_stretch_fast_path`]).
     closed: bool,
     /// The points whose force is computed, when fewer than `points`
     /// ([`Material::restrict_forces`]).
@@ -70,6 +71,50 @@ pub struct LinearPeridynamicSolid {
 }
 
 impl LinearPeridynamicSolid {
+    /// `Elastic`: state-based (the dilatation of both ends enters every bond force, so the
+    /// force reaches two hops); keeps the weighted volume (fixed by the reference
+    /// configuration) and the dilatation (recomputed in every evaluation) per point.
+    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+        deck_name: "Elastic",
+        deck_keys: &[
+            "Density",
+            "Bulk Modulus",
+            "Shear Modulus",
+            "Young's Modulus",
+            "Poisson's Ratio",
+            "Tangent",
+            "Apply Automatic Differentiation Jacobian",
+            "Finite Difference Probe Length",
+        ],
+        reach: Reach::TwoHop,
+        fields: &[
+            FieldDeclaration {
+                name: "Weighted_Volume",
+                carrier: FieldCarrier::Point,
+                bytes_per_value: 8,
+                staged: false,
+            },
+            FieldDeclaration {
+                name: "Dilatation",
+                carrier: FieldCarrier::Point,
+                bytes_per_value: 8,
+                staged: false,
+            },
+        ],
+        outputs: &["Weighted_Volume", "Dilatation"],
+    };
+
+    /// The registry's constructor: ρ, K, μ, δ and ω from `input`.
+    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
+        Ok(Box::new(Self::new(LinearPeridynamicSolidParameters {
+            density: input.density,
+            bulk_modulus: input.bulk_modulus,
+            shear_modulus: input.required_shear_modulus()?,
+            horizon: input.horizon,
+            influence: input.influence.clone(),
+        })?))
+    }
+
     /// Validates the parameters (ρ, K, μ, δ positive and finite).
     pub fn new(parameters: LinearPeridynamicSolidParameters) -> Result<Self, MaterialError> {
         positive("Density", parameters.density)?;
@@ -731,8 +776,8 @@ impl LinearPeridynamicSolid {
 }
 
 impl Material for LinearPeridynamicSolid {
-    fn model_name(&self) -> &'static str {
-        "Elastic"
+    fn declaration(&self) -> &'static ModelDeclaration {
+        &Self::DECLARATION
     }
 
     fn density(&self) -> f64 {
@@ -749,10 +794,6 @@ impl Material for LinearPeridynamicSolid {
 
     fn weighted_volume(&self) -> Option<&[f64]> {
         Some(&self.weighted_volume)
-    }
-
-    fn needs_dilatation(&self) -> bool {
-        true
     }
 
     fn setup(
@@ -833,43 +874,10 @@ impl Material for LinearPeridynamicSolid {
         })
     }
 
-    fn fuses_critical_stretch(&self) -> bool {
+    /// The dilatation pass breaks the bonds of each row (only for a closed block).
+    fn critical_stretch_fast_path(&self) -> Option<CriticalStretchFastPath<'_>> {
         self.closed
-    }
-
-    /// The dilatation pass tests each bond of a row just before it enters θ: the same q and
-    /// the same exact test (behind the filter of `StretchLimit::breaks`) as the directed
-    /// `Critical Stretch` update, each row deciding its own bonds (both ends of a pair decide
-    /// alike, see [`crate::damage::CriticalStretch`]).
-    fn compute_point_coefficients_breaking_bonds(
-        &self,
-        reference: &ReferenceView<'_>,
-        position: &[[f64; 3]],
-        critical_stretch: f64,
-        bond_damage: &mut [f32],
-        coefficients: &mut [PointCoefficients],
-    ) -> usize {
-        assert!(
-            self.closed,
-            "called only when fuses_critical_stretch() is true"
-        );
-        assert_eq!(bond_damage.len(), reference.bonds.num_bonds());
-        let current = CurrentView {
-            position,
-            bond_damage: None,
-        };
-        let rows = self.rows(reference, &current);
-        let wide = wide_vectors_available();
-        let fused = FusedCriticalStretch {
-            limit: StretchLimit::new(critical_stretch),
-            damage: bond_damage.as_mut_ptr(),
-        };
-        match self.weights.as_deref() {
-            None => rows.fused_dilatation(coefficients, UnitWeights, fused, wide),
-            Some(weights) => {
-                rows.fused_dilatation(coefficients, StoredWeights(weights), fused, wide)
-            }
-        }
+            .then_some(CriticalStretchFastPath::PointCoefficients(self))
     }
 
     fn add_force_density(
@@ -955,11 +963,48 @@ impl Material for LinearPeridynamicSolid {
     }
 }
 
+impl BreakingCoefficientPass for LinearPeridynamicSolid {
+    /// The dilatation pass tests each bond of a row just before it enters θ: the same q and
+    /// the same exact test (behind the filter of `StretchLimit::breaks`) as the directed
+    /// `Critical Stretch` update, each row deciding its own bonds (both ends of a pair decide
+    /// alike, see [`crate::damage::CriticalStretch`]).
+    fn compute_point_coefficients_breaking_bonds(
+        &self,
+        reference: &ReferenceView<'_>,
+        position: &[[f64; 3]],
+        critical_stretch: f64,
+        bond_damage: &mut [f32],
+        coefficients: &mut [PointCoefficients],
+    ) -> usize {
+        assert!(
+            self.closed,
+            "the fast path is offered only for a closed block"
+        );
+        assert_eq!(bond_damage.len(), reference.bonds.num_bonds());
+        let current = CurrentView {
+            position,
+            bond_damage: None,
+        };
+        let rows = self.rows(reference, &current);
+        let wide = wide_vectors_available();
+        let fused = FusedCriticalStretch {
+            limit: StretchLimit::new(critical_stretch),
+            damage: bond_damage.as_mut_ptr(),
+        };
+        match self.weights.as_deref() {
+            None => rows.fused_dilatation(coefficients, UnitWeights, fused, wide),
+            Some(weights) => {
+                rows.fused_dilatation(coefficients, StoredWeights(weights), fused, wide)
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::damage::{CriticalStretch, DamageModel};
-    use crate::material::test_support::{brute_force_bonds, random_cloud, Rng};
+    use crate::model::test_support::{brute_force_bonds, random_cloud, Rng};
 
     #[test]
     fn fused_breaking_matches_the_separate_update_bitwise() {
@@ -991,7 +1036,7 @@ mod tests {
             })
             .unwrap();
             m.setup(&reference, all.clone()).unwrap();
-            assert!(m.fuses_critical_stretch());
+            assert!(m.critical_stretch_fast_path().is_some());
             let model = CriticalStretch::new(0.02).unwrap();
             let mut separate = vec![0.0f32; bonds.num_bonds()];
             let mut fused = vec![0.0f32; bonds.num_bonds()];

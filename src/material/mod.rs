@@ -27,16 +27,18 @@ mod bond_based;
 mod elastic_constants;
 mod influence;
 mod linear_peridynamic_solid;
-pub(crate) mod point_chunks;
+mod registry;
 
 pub use bond_based::{BondBased, BondBasedParameters};
 pub use elastic_constants::{ElasticConstants, ElasticInput, PlanarAssumption};
 pub use influence::{InfluenceFunction, UserInfluence};
 pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};
+pub use registry::{material_entry, MaterialConstructor, MaterialEntry, MaterialInput, MATERIALS};
 
 use rayon::prelude::*;
 
-use crate::model::BondList;
+use crate::model::{BondList, ModelDeclaration, Reach};
+pub use crate::model::{CurrentView, ReferenceView};
 use crate::tangent::{BlockTangent, TangentError, TangentMethod};
 
 /// Invalid material parameters or reference data. Messages name the deck key; the deck layer
@@ -50,6 +52,12 @@ pub enum MaterialError {
         key: &'static str,
         /// The offending value.
         value: f64,
+    },
+    /// A parameter the model needs was not given.
+    #[error("material parameter `{key}` is required by this material model")]
+    Missing {
+        /// Deck key, e.g. `Shear Modulus`.
+        key: &'static str,
     },
     /// The influence function gave a negative or non-finite weight.
     #[error(
@@ -88,27 +96,6 @@ pub(crate) fn checked_tangent_method(method: TangentMethod) -> Result<TangentMet
     }
 }
 
-/// The reference configuration of all points (owned and ghost), read by every material.
-#[derive(Debug, Clone, Copy)]
-pub struct ReferenceView<'a> {
-    /// Families (symmetric, directed CSR).
-    pub bonds: &'a BondList,
-    /// Reference positions X (length).
-    pub position: &'a [[f64; 3]],
-    /// Cell volumes V (length³).
-    pub volume: &'a [f64],
-}
-
-/// The current configuration of all points.
-#[derive(Debug, Clone, Copy)]
-pub struct CurrentView<'a> {
-    /// Current positions Y = X + u (length).
-    pub position: &'a [[f64; 3]],
-    /// Bond damage d ∈ [0, 1] per directed bond (same indexing as the bond list), or `None`
-    /// when no damage model is active (all bonds intact).
-    pub bond_damage: Option<&'a [f32]>,
-}
-
 /// Numbers a material publishes for each of its points before the force pass, so that the
 /// force pass of the point's neighbours (in any block, on any rank) can evaluate the bond force
 /// from this point's side.
@@ -134,8 +121,14 @@ pub struct PointCoefficients {
 /// Every per-point slice argument is indexed by global point index and every per-bond slice by
 /// global bond index; a material reads all points but writes only the entries of its own.
 pub trait Material: Send + Sync {
+    /// What the model declares about itself: the declaration of its registry entry
+    /// ([`MATERIALS`]).
+    fn declaration(&self) -> &'static ModelDeclaration;
+
     /// Peridigm's `Material Model` string, e.g. `"Elastic"`.
-    fn model_name(&self) -> &'static str;
+    fn model_name(&self) -> &'static str {
+        self.declaration().deck_name
+    }
 
     /// Mass density ρ (`Density`).
     fn density(&self) -> f64;
@@ -149,8 +142,12 @@ pub trait Material: Send + Sync {
     /// True when the published [`PointCoefficients`] depend on the deformation (LPS: the
     /// dilatation pass), so [`Material::compute_point_coefficients`] must run (and be
     /// exchanged across ranks) before every force evaluation. When false they are constant
-    /// and computing them once after setup is enough.
-    fn needs_dilatation(&self) -> bool;
+    /// and computing them once after setup is enough. It is the declared reach: a point's
+    /// published numbers depend on its family's deformation exactly when its force reaches
+    /// two hops ([`Reach::TwoHop`]).
+    fn needs_dilatation(&self) -> bool {
+        self.declaration().reach == Reach::TwoHop
+    }
 
     /// Stores the block's points (strictly increasing global indices) and evaluates
     /// everything that depends only on the reference configuration. Must be called before the
@@ -192,70 +189,14 @@ pub trait Material: Send + Sync {
         force_density: &mut [[f64; 3]],
     );
 
-    /// True when this block can take the decisions of a constant critical stretch
-    /// ([`crate::damage::DamageModel::fusable_critical_stretch`]) inside its first bond pass —
-    /// [`Material::compute_point_coefficients_breaking_bonds`] when
-    /// [`Material::needs_dilatation`], else [`Material::add_force_density_breaking_bonds`] —
-    /// saving the damage model's own pass over the bonds. Only blocks whose bonds all stay
-    /// inside the block qualify (no bond to another block, whose damage the physics makes
-    /// symmetric between the damage update and the bond passes). Default false.
-    fn fuses_critical_stretch(&self) -> bool {
-        false
-    }
-
-    /// [`Material::compute_point_coefficients`] with the damage update folded in: every intact
-    /// bond of the block whose stretch exceeds `critical_stretch` breaks (d = 1) before its
-    /// bond is used, with exactly the decisions of the separate `Critical Stretch` update, and
-    /// the coefficients are those that the update followed by
-    /// [`Material::compute_point_coefficients`] would give (bitwise). Returns the directed
-    /// bonds broken. Called only when [`Material::fuses_critical_stretch`] and
-    /// [`Material::needs_dilatation`] are true (a broken internal invariant otherwise).
-    fn compute_point_coefficients_breaking_bonds(
-        &self,
-        reference: &ReferenceView<'_>,
-        position: &[[f64; 3]],
-        critical_stretch: f64,
-        bond_damage: &mut [f32],
-        coefficients: &mut [PointCoefficients],
-    ) -> usize {
-        let _ = (
-            reference,
-            position,
-            critical_stretch,
-            bond_damage,
-            coefficients,
-        );
-        unreachable!(
-            "{} does not fuse the critical-stretch test",
-            self.model_name()
-        )
-    }
-
-    /// [`Material::add_force_density`] with the damage update folded in, as
-    /// [`Material::compute_point_coefficients_breaking_bonds`] for materials without a
-    /// dilatation pass. Called only when [`Material::fuses_critical_stretch`] is true and
-    /// [`Material::needs_dilatation`] false.
-    fn add_force_density_breaking_bonds(
-        &self,
-        reference: &ReferenceView<'_>,
-        position: &[[f64; 3]],
-        critical_stretch: f64,
-        bond_damage: &mut [f32],
-        coefficients: &[PointCoefficients],
-        force_density: &mut [[f64; 3]],
-    ) -> usize {
-        let _ = (
-            reference,
-            position,
-            critical_stretch,
-            bond_damage,
-            coefficients,
-            force_density,
-        );
-        unreachable!(
-            "{} does not fuse the critical-stretch test",
-            self.model_name()
-        )
+    /// The material's fast path for a constant critical stretch, when it has one for this
+    /// block: the pass in which it can take the decisions of a constant critical stretch
+    /// ([`crate::damage::DamageModel::fusable_critical_stretch`]) itself, saving the damage
+    /// model's own pass over the bonds. Only blocks whose bonds all stay inside the block
+    /// qualify (no bond to another block, whose damage the physics makes symmetric between the
+    /// damage update and the bond passes). Default `None`: the separate damage pass.
+    fn critical_stretch_fast_path(&self) -> Option<CriticalStretchFastPath<'_>> {
+        None
     }
 
     /// Writes the stored elastic energy density W_i (energy/length³) of every block point
@@ -272,16 +213,6 @@ pub trait Material: Send + Sync {
     /// (Peridigm's `Weighted_Volume`), for state-based models; `None` otherwise.
     fn weighted_volume(&self) -> Option<&[f64]> {
         None
-    }
-
-    /// True when the bond forces of this material depend only on the two ends of each bond
-    /// (bond-based), so that its tangent fits [`BlockPattern::one_hop`]; false (the default)
-    /// for state-based materials, which need [`BlockPattern::two_hop`].
-    ///
-    /// [`BlockPattern::one_hop`]: crate::tangent::BlockPattern::one_hop
-    /// [`BlockPattern::two_hop`]: crate::tangent::BlockPattern::two_hop
-    fn tangent_is_bond_local(&self) -> bool {
-        false
     }
 
     /// The tangent method chosen for this block (deck `Tangent`, set by
@@ -304,7 +235,7 @@ pub trait Material: Send + Sync {
     /// Adds the tangent contribution of the force states of the block's points,
     /// `∂(V f)/∂u` at `current` with its bond damage held fixed, to `tangent`, computed by
     /// `method` (see [`crate::tangent`]). The pattern must hold every pair of points sharing
-    /// a family of a block point (one hop suffices when [`Material::tangent_is_bond_local`]).
+    /// a family of a block point (one hop suffices for a model of reach [`Reach::OneHop`]).
     fn add_tangent(
         &self,
         reference: &ReferenceView<'_>,
@@ -328,6 +259,51 @@ pub trait Material: Send + Sync {
             self.horizon(),
         )
     }
+}
+
+/// Where a material folds the constant critical-stretch test into its own bond passes
+/// ([`Material::critical_stretch_fast_path`]). Either way every intact bond of the block whose
+/// stretch exceeds the critical stretch breaks (d = 1) just before its bond is first used,
+/// with exactly the decisions of the separate `Critical Stretch` update, and the results are
+/// bitwise those of the update followed by the ordinary passes.
+#[derive(Clone, Copy)]
+pub enum CriticalStretchFastPath<'a> {
+    /// A state-based material breaks its bonds in its point-coefficient (dilatation) pass.
+    PointCoefficients(&'a dyn BreakingCoefficientPass),
+    /// A bond-based material (no coefficient pass) breaks its bonds in its force pass.
+    Force(&'a dyn BreakingForcePass),
+}
+
+/// [`Material::compute_point_coefficients`] with the critical-stretch test folded in.
+pub trait BreakingCoefficientPass: Send + Sync {
+    /// Writes the block's [`PointCoefficients`] as the separate damage update followed by
+    /// [`Material::compute_point_coefficients`] would (bitwise), breaking every intact bond
+    /// whose stretch exceeds `critical_stretch` in `bond_damage` (all bonds, global
+    /// numbering). Returns the directed bonds broken.
+    fn compute_point_coefficients_breaking_bonds(
+        &self,
+        reference: &ReferenceView<'_>,
+        position: &[[f64; 3]],
+        critical_stretch: f64,
+        bond_damage: &mut [f32],
+        coefficients: &mut [PointCoefficients],
+    ) -> usize;
+}
+
+/// [`Material::add_force_density`] with the critical-stretch test folded in.
+pub trait BreakingForcePass: Send + Sync {
+    /// Adds the block's force density as the separate damage update followed by
+    /// [`Material::add_force_density`] would (bitwise), breaking every intact bond whose
+    /// stretch exceeds `critical_stretch` in `bond_damage`. Returns the directed bonds broken.
+    fn add_force_density_breaking_bonds(
+        &self,
+        reference: &ReferenceView<'_>,
+        position: &[[f64; 3]],
+        critical_stretch: f64,
+        bond_damage: &mut [f32],
+        coefficients: &[PointCoefficients],
+        force_density: &mut [[f64; 3]],
+    ) -> usize;
 }
 
 /// The value of π in Peridigm's critical-time-step formula (`Peridigm_CriticalTimeStep.cpp`).
@@ -508,9 +484,6 @@ pub(crate) fn assert_point_set(points: &[u32], num_points: usize) {
         );
     }
 }
-
-#[cfg(test)]
-pub(crate) mod test_support;
 
 #[cfg(test)]
 mod tests;

@@ -1,8 +1,8 @@
 //! Invariant and hand-computed checks shared by all materials.
 
-use super::test_support::{brute_force_bonds, lattice, random_cloud, Rng};
 use super::*;
 use crate::damage::{CriticalStretch, DamageModel};
+use crate::model::test_support::{brute_force_bonds, lattice, random_cloud, Rng};
 
 const PI: f64 = std::f64::consts::PI;
 

@@ -400,7 +400,7 @@ pub(super) fn swap_buffers(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::test_support::brute_force_bonds;
+    use crate::model::test_support::brute_force_bonds;
     use std::collections::BTreeSet;
 
     /// A 10 × 4 × 1 lattice with unit spacing and bonds within 1.5 (the 8 planar neighbours).

@@ -3,37 +3,41 @@
 
 use super::halo::{layered, new_ghosts};
 use super::{Communicator, HaloPlan, Partition};
-use crate::io::deck::{DamageKind, Deck, MaterialModel};
-use crate::model::{BondList, NodeSets, PointCloud};
+use crate::damage::damage_entry;
+use crate::io::deck::Deck;
+use crate::material::material_entry;
+use crate::model::{BondList, NodeSets, PointCloud, Reach};
 use crate::setup::{Model, ModelBlock};
 
-/// Ghost depth the deck's physics needs (see the module docs of [`crate::parallel`]): 1 when
-/// every block is bond-based (`Elastic Bond Based`) with no damage or a (time-dependent)
-/// critical stretch, whose bond decisions and forces read only the two ends of each bond;
-/// 2 otherwise (state-based materials read their neighbours' dilatation, which depends on
-/// the neighbours' families).
+/// Ghost depth the deck's physics needs (see the module docs of [`crate::parallel`]): the
+/// widest [`Reach`] that the blocks' material and damage models declare in their registry
+/// entries ([`crate::material::MATERIALS`], [`crate::damage::DAMAGE_MODELS`]): 1 when every
+/// model's bond decisions and forces read only the two ends of each bond, 2 otherwise
+/// (state-based materials read their neighbours' dilatation, which depends on the
+/// neighbours' families). A model this build does not run counts as two hops.
 pub fn halo_depth(deck: &Deck) -> usize {
-    let bond_local = deck.blocks.iter().all(|block| {
-        let material_ok = deck
-            .material(&block.material)
-            .is_some_and(|m| matches!(m.model, MaterialModel::ElasticBondBased { .. }));
-        let damage_ok = match &block.damage_model {
-            None => true,
-            Some(name) => deck.damage_model(name).is_some_and(|d| {
-                matches!(
-                    d.kind,
-                    DamageKind::CriticalStretch { .. }
-                        | DamageKind::TimeDependentCriticalStretch { .. }
-                )
-            }),
-        };
-        material_ok && damage_ok
-    });
-    if bond_local {
-        1
-    } else {
-        2
-    }
+    let material_reach = |name: &str| {
+        deck.material(name)
+            .and_then(|m| material_entry(m.model.deck_name()))
+            .map_or(Reach::TwoHop, |entry| entry.declaration.reach)
+    };
+    let damage_reach = |name: &str| {
+        deck.damage_model(name)
+            .and_then(|d| damage_entry(d.kind.deck_name()))
+            .map_or(Reach::TwoHop, |entry| entry.declaration.reach)
+    };
+    deck.blocks
+        .iter()
+        .map(|block| {
+            let damage = block
+                .damage_model
+                .as_deref()
+                .map_or(Reach::OneHop, damage_reach);
+            material_reach(&block.material).max(damage)
+        })
+        .max()
+        .unwrap_or(Reach::OneHop)
+        .ghost_layers()
 }
 
 /// True when the outermost ghost layer must run the damage models too: when blocks use

@@ -1,18 +1,15 @@
 //! Materials and damage models from the deck, one instance per block.
 
 use super::{compile, Model, SetupError};
+use std::sync::Arc;
+
 use crate::damage::{
-    critical_stretch_from_energy_release_rate, CriticalStretch, InterfaceAware,
-    TimeDependentCriticalStretch,
+    critical_stretch_from_energy_release_rate, damage_entry, DamageInput, DamageModel,
+    InterfaceAware, POINT_CRITICAL_STRETCH,
 };
 use crate::expression::{INFLUENCE, TIME};
-use crate::io::deck::{
-    DamageKind, Deck, Horizon, InfluenceFunction as DeckInfluence, MaterialModel, StretchLimit,
-};
-use crate::material::{
-    BondBased, BondBasedParameters, InfluenceFunction, LinearPeridynamicSolid,
-    LinearPeridynamicSolidParameters, Material, ReferenceView,
-};
+use crate::io::deck::{Block, Deck, Horizon, InfluenceFunction as DeckInfluence, StretchLimit};
+use crate::material::{material_entry, InfluenceFunction, Material, MaterialInput, ReferenceView};
 use crate::physics::{BlockPhysics, Physics};
 
 fn influence(deck: &Deck) -> Result<InfluenceFunction, SetupError> {
@@ -35,7 +32,8 @@ fn influence(deck: &Deck) -> Result<InfluenceFunction, SetupError> {
     })
 }
 
-/// Builds and sets up the material (and damage model) of every block.
+/// Builds and sets up the material (and damage model) of every block, each by its registry
+/// entry ([`crate::material::MATERIALS`], [`crate::damage::DAMAGE_MODELS`]).
 pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> {
     let reference = ReferenceView {
         bonds: &model.bonds,
@@ -43,171 +41,179 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
         volume: &model.points.volume,
     };
     let influence = influence(deck)?;
-    // `Interface Aware`: one critical-stretch field over all points, s_c on the points of the
-    // blocks that use such a model, 0 elsewhere (Peridigm's `Critical_Stretch` field).
-    let interface_aware_blocks: Vec<(&[u32], f64)> = model
-        .blocks
-        .iter()
-        .filter_map(|block| {
-            let name = deck.blocks[block.deck_block].damage_model.as_ref()?;
-            match deck.damage_model(name)?.kind {
-                DamageKind::InterfaceAware {
-                    critical_stretch, ..
-                } => Some((&block.points[..], critical_stretch)),
-                _ => None,
-            }
-        })
-        .collect();
-    let interface_aware_field = (!interface_aware_blocks.is_empty())
-        .then(|| InterfaceAware::field(model.points.len(), interface_aware_blocks));
+    let point_critical_stretch = point_critical_stretch(deck, model);
     let mut blocks = Vec::with_capacity(model.blocks.len());
     for block in &model.blocks {
         let entry = &deck.blocks[block.deck_block];
-        let key_material = ["Materials", entry.material.as_str()];
-        let Some(material) = deck.material(&entry.material) else {
-            return Err(deck
-                .error_at(&["Blocks", &entry.name, "Material"], "no such material")
-                .into());
-        };
-        let horizon = match entry.horizon {
-            Horizon::Constant(value) => value,
-            Horizon::Expression(_) => {
-                return Err(deck
-                    .error_at(
-                        &["Blocks", &entry.name, "Horizon"],
-                        "a horizon that varies in space is not supported by the force kernels yet; give a number",
-                    )
-                    .into())
-            }
-        };
-        let density = material
-            .density
-            .ok_or_else(|| deck.error_at(&key_material, "this material needs a Density"))?;
-        let mut built: Box<dyn Material> = match &material.model {
-            MaterialModel::ElasticBondBased { modulus, planar } => {
-                let bulk_modulus = modulus.bulk_modulus(planar.map(|(kind, _)| kind));
-                let planar_thickness = planar.map(|(_, height)| height);
-                Box::new(
-                    BondBased::new(BondBasedParameters {
-                        density,
-                        bulk_modulus,
-                        horizon,
-                        planar_thickness,
-                    })
-                    .map_err(|e| deck.error_at(&key_material, e.to_string()))?,
-                )
-            }
-            MaterialModel::Elastic { .. } => {
-                let constants = material.elastic.ok_or_else(|| {
-                    deck.error_at(&key_material, "Elastic needs two elastic constants")
-                })?;
-                Box::new(
-                    LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-                        density,
-                        bulk_modulus: constants.bulk_modulus(),
-                        shear_modulus: constants.shear_modulus(),
-                        horizon,
-                        influence: influence.clone(),
-                    })
-                    .map_err(|e| deck.error_at(&key_material, e.to_string()))?,
-                )
-            }
-            other => {
-                return Err(deck
-                    .error_at(
-                        &[&key_material[..], &["Material Model"]].concat(),
-                        format!(
-                            "material model \"{}\" is not available in this build",
-                            other.deck_name()
-                        ),
-                    )
-                    .into())
-            }
-        };
-        built
-            .setup(&reference, block.points.clone())
-            .map_err(|e| deck.error_at(&key_material, e.to_string()))?;
-        // `Tangent` / `Apply Automatic Differentiation Jacobian`; otherwise the model's default.
-        if let Some(method) = material.tangent {
-            built
-                .set_tangent_method(method)
-                .map_err(|e| deck.error_at(&key_material, e.to_string()))?;
-        }
-        let damage: Option<Box<dyn crate::damage::DamageModel>> = match &entry.damage_model {
+        let horizon = block_horizon(deck, entry)?;
+        let material = build_material(deck, entry, horizon, &influence, &reference, block)?;
+        let mut damage = match &entry.damage_model {
             None => None,
-            Some(name) => {
-                let key = ["Damage Models", name.as_str()];
-                let model = deck.damage_model(name).ok_or_else(|| {
-                    deck.error_at(
-                        &["Blocks", &entry.name, "Damage Model"],
-                        "no such damage model",
-                    )
-                })?;
-                match &model.kind {
-                    DamageKind::CriticalStretch {
-                        critical_stretch,
-                        thermal_expansion_coefficient: None,
-                    } => {
-                        let s_c = match *critical_stretch {
-                            StretchLimit::Stretch(s_c) => s_c,
-                            StretchLimit::EnergyReleaseRate(g0) => {
-                                critical_stretch_from_energy_release_rate(
-                                    g0,
-                                    built.bulk_modulus(),
-                                    horizon,
-                                )
-                            }
-                        };
-                        Some(Box::new(
-                            CriticalStretch::new(s_c)
-                                .map_err(|e| deck.error_at(&key, e.to_string()))?,
-                        ))
-                    }
-                    DamageKind::TimeDependentCriticalStretch {
-                        critical_stretch,
-                        thermal_expansion_coefficient: None,
-                    } => {
-                        let key_value = [key[0], key[1], "Time Dependent Critical Stretch"];
-                        let expression = compile(deck, &key_value, critical_stretch, TIME)?;
-                        let t0 = deck.solvers.first().map_or(0.0, |s| s.initial_time);
-                        Some(Box::new(
-                            TimeDependentCriticalStretch::new(expression, t0)
-                                .map_err(|e| deck.error_at(&key_value, e.to_string()))?,
-                        ))
-                    }
-                    DamageKind::InterfaceAware {
-                        critical_stretch,
-                        thermal_expansion_coefficient: None,
-                    } => {
-                        let field = interface_aware_field
-                            .clone()
-                            .expect("built above for every Interface Aware block");
-                        Some(Box::new(
-                            InterfaceAware::new(*critical_stretch, field)
-                                .map_err(|e| deck.error_at(&key, e.to_string()))?,
-                        ))
-                    }
-                    other => {
-                        return Err(deck
-                            .error_at(
-                                &key,
-                                format!("damage model \"{}\" (with these options) is not available in this build", other.deck_name()),
-                            )
-                            .into())
-                    }
-                }
-            }
+            Some(name) => Some(build_damage(
+                deck,
+                entry,
+                name,
+                BlockConstants {
+                    bulk_modulus: material.bulk_modulus(),
+                    horizon,
+                },
+                &point_critical_stretch,
+            )?),
         };
-        let mut damage = damage;
         if let Some(damage) = &mut damage {
             damage.prepare(&reference, &block.points);
         }
-        blocks.push(BlockPhysics {
-            material: built,
-            damage,
-        });
+        blocks.push(BlockPhysics { material, damage });
     }
     let mut physics = Physics::new(blocks, &model.points, &model.bonds);
     physics.contact = crate::contact::Contact::from_deck(deck, model)?;
     Ok(physics)
+}
+
+/// The block's horizon δ; a horizon that varies in space is refused here.
+fn block_horizon(deck: &Deck, entry: &Block) -> Result<f64, SetupError> {
+    match entry.horizon {
+        Horizon::Constant(value) => Ok(value),
+        Horizon::Expression(_) => Err(deck
+            .error_at(
+                &["Blocks", &entry.name, "Horizon"],
+                "a horizon that varies in space is not supported by the force kernels yet; give a number",
+            )
+            .into()),
+    }
+}
+
+/// The [`POINT_CRITICAL_STRETCH`] field over all points, when some block's damage model
+/// declares it: its s_c on the points of those blocks, 0 elsewhere.
+fn point_critical_stretch(deck: &Deck, model: &Model) -> Option<Arc<[f64]>> {
+    let blocks: Vec<(&[u32], f64)> = model
+        .blocks
+        .iter()
+        .filter_map(|block| {
+            let name = deck.blocks[block.deck_block].damage_model.as_ref()?;
+            let kind = &deck.damage_model(name)?.kind;
+            let declares = damage_entry(kind.deck_name())?
+                .declaration
+                .fields
+                .contains(&POINT_CRITICAL_STRETCH);
+            match (declares, kind.critical_stretch()?) {
+                (true, StretchLimit::Stretch(s_c)) => Some((&block.points[..], s_c)),
+                _ => None,
+            }
+        })
+        .collect();
+    (!blocks.is_empty()).then(|| InterfaceAware::field(model.points.len(), blocks))
+}
+
+/// The block's material, built by its registry entry and set up on the block's points.
+fn build_material(
+    deck: &Deck,
+    entry: &Block,
+    horizon: f64,
+    influence: &InfluenceFunction,
+    reference: &ReferenceView<'_>,
+    block: &super::ModelBlock,
+) -> Result<Box<dyn Material>, SetupError> {
+    let key_material = ["Materials", entry.material.as_str()];
+    let Some(material) = deck.material(&entry.material) else {
+        return Err(deck
+            .error_at(&["Blocks", &entry.name, "Material"], "no such material")
+            .into());
+    };
+    let density = material
+        .density
+        .ok_or_else(|| deck.error_at(&key_material, "this material needs a Density"))?;
+    let Some(registered) = material_entry(material.model.deck_name()) else {
+        return Err(deck
+            .error_at(
+                &[&key_material[..], &["Material Model"]].concat(),
+                format!(
+                    "material model \"{}\" is not available in this build",
+                    material.model.deck_name()
+                ),
+            )
+            .into());
+    };
+    let bulk_modulus = material
+        .bulk_modulus()
+        .ok_or_else(|| deck.error_at(&key_material, "this material needs elastic constants"))?;
+    let input = MaterialInput {
+        density,
+        horizon,
+        bulk_modulus,
+        shear_modulus: material.shear_modulus(),
+        planar_thickness: material.planar_thickness(),
+        influence: influence.clone(),
+    };
+    let mut built =
+        (registered.build)(&input).map_err(|e| deck.error_at(&key_material, e.to_string()))?;
+    built
+        .setup(reference, block.points.clone())
+        .map_err(|e| deck.error_at(&key_material, e.to_string()))?;
+    // `Tangent` / `Apply Automatic Differentiation Jacobian`; otherwise the model's default.
+    if let Some(method) = material.tangent {
+        built
+            .set_tangent_method(method)
+            .map_err(|e| deck.error_at(&key_material, e.to_string()))?;
+    }
+    Ok(built)
+}
+
+/// What a block's damage model may derive its parameters from.
+#[derive(Debug, Clone, Copy)]
+struct BlockConstants {
+    /// The block material's bulk modulus K.
+    bulk_modulus: f64,
+    /// The block's horizon δ.
+    horizon: f64,
+}
+
+/// The block's damage model `name`, built by its registry entry.
+fn build_damage(
+    deck: &Deck,
+    entry: &Block,
+    name: &str,
+    block: BlockConstants,
+    point_critical_stretch: &Option<Arc<[f64]>>,
+) -> Result<Box<dyn DamageModel>, SetupError> {
+    let key = ["Damage Models", name];
+    let model = deck.damage_model(name).ok_or_else(|| {
+        deck.error_at(
+            &["Blocks", &entry.name, "Damage Model"],
+            "no such damage model",
+        )
+    })?;
+    let registered = damage_entry(model.kind.deck_name())
+        .filter(|_| model.kind.thermal_expansion_coefficient().is_none())
+        .ok_or_else(|| {
+            deck.error_at(
+                &key,
+                format!(
+                    "damage model \"{}\" (with these options) is not available in this build",
+                    model.kind.deck_name()
+                ),
+            )
+        })?;
+    let key_expression = [key[0], key[1], "Time Dependent Critical Stretch"];
+    let critical_stretch_in_time = match model.kind.critical_stretch_expression() {
+        Some(text) => Some(compile(deck, &key_expression, text, TIME)?),
+        None => None,
+    };
+    let input = DamageInput {
+        critical_stretch: model.kind.critical_stretch().map(|limit| match limit {
+            StretchLimit::Stretch(s_c) => s_c,
+            StretchLimit::EnergyReleaseRate(g0) => {
+                critical_stretch_from_energy_release_rate(g0, block.bulk_modulus, block.horizon)
+            }
+        }),
+        critical_stretch_in_time,
+        initial_time: deck.solvers.first().map_or(0.0, |s| s.initial_time),
+        point_critical_stretch: point_critical_stretch.clone(),
+    };
+    let key_error = if input.critical_stretch_in_time.is_some() {
+        &key_expression[..]
+    } else {
+        &key[..]
+    };
+    (registered.build)(&input).map_err(|e| deck.error_at(key_error, e.to_string()).into())
 }

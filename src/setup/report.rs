@@ -3,10 +3,11 @@
 
 use super::Model;
 use crate::io::deck::{
-    BondFilterShape, BoundaryConditionKind, ComputeClassKind, DamageKind, Deck, DeckError, Horizon,
-    Integrator, MaterialModel, PointSource,
+    BondFilterShape, BoundaryConditionKind, ComputeClassKind, Deck, DeckError, Horizon, Integrator,
+    PointSource,
 };
 use crate::io::output::{closest_name, kind_of, OutputFile, RequestedVariable, VariableKind};
+use crate::model::{FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
 use crate::plan::{
     BlockPlan, FieldPlan, MemoryPlan, NodeSetPlan, OutputPlan, ParallelPlan, PhysicsPlan, RunPlan,
     SolverPlan, TimeStepPlan,
@@ -14,15 +15,8 @@ use crate::plan::{
 
 /// Integrators this build runs.
 const SUPPORTED_INTEGRATORS: &[&str] = &["Verlet", "QuasiStatic", "NOXQuasiStatic", "Implicit"];
-/// Material models this build runs.
-const SUPPORTED_MATERIALS: &[&str] = &["Elastic", "Elastic Bond Based"];
-/// Damage models this build runs.
-const SUPPORTED_DAMAGE: &[&str] = &[
-    "Critical Stretch",
-    "Time Dependent Critical Stretch",
-    "Interface Aware",
-];
-/// Output variables this build can compute.
+/// Output variables this build computes for every model (the models' own outputs are declared
+/// in their registry entries, see [`model_outputs`]).
 const SUPPORTED_OUTPUTS: &[&str] = &[
     "Volume",
     "Radius",
@@ -42,9 +36,6 @@ const SUPPORTED_OUTPUTS: &[&str] = &[
     "Contact_Force",
     "Contact_Force_Density",
     "Linear_Momentum",
-    "Dilatation",
-    "Weighted_Volume",
-    "Damage",
     "Kinetic_Energy",
     "Stored_Elastic_Energy",
     "Stored_Elastic_Energy_Density",
@@ -116,19 +107,64 @@ pub fn compute_class_kind(class: &crate::io::deck::ComputeClass) -> VariableKind
     }
 }
 
-/// Bulk modulus and density of a material when it has them (mechanical models).
-fn bulk_modulus_and_density(
-    model: &MaterialModel,
-    material: &crate::io::deck::Material,
-) -> Option<(f64, f64)> {
-    let density = material.density?;
-    let bulk = match model {
-        MaterialModel::ElasticBondBased { modulus, planar } => {
-            modulus.bulk_modulus(planar.map(|(kind, _)| kind))
+/// The output variables the models of this build provide beyond [`SUPPORTED_OUTPUTS`].
+fn model_outputs() -> impl Iterator<Item = &'static str> {
+    let materials = crate::material::MATERIALS.iter().map(|e| e.declaration);
+    let damage = crate::damage::DAMAGE_MODELS.iter().map(|e| e.declaration);
+    materials
+        .chain(damage)
+        .flat_map(|declaration| declaration.outputs.iter().copied())
+}
+
+/// The declarations of the material and damage models the blocks of `model` use, in block
+/// order (materials, then damage models); `None` for a model this build does not run.
+fn used_declarations(deck: &Deck, model: &Model) -> UsedModels {
+    let mut used = UsedModels::default();
+    for block in &model.blocks {
+        let entry = &deck.blocks[block.deck_block];
+        if let Some(material) = deck.material(&entry.material) {
+            let found = crate::material::material_entry(material.model.deck_name());
+            used.materials.push(found.map(|e| e.declaration));
         }
-        _ => material.elastic.as_ref()?.bulk_modulus(),
-    };
-    Some((bulk, density))
+        if let Some(damage) = entry
+            .damage_model
+            .as_ref()
+            .and_then(|n| deck.damage_model(n))
+        {
+            let found = crate::damage::damage_entry(damage.kind.deck_name());
+            used.damage.push(found.map(|e| e.declaration));
+        }
+    }
+    used
+}
+
+/// The registry declarations of the models a run uses.
+#[derive(Default)]
+struct UsedModels {
+    materials: Vec<Option<&'static ModelDeclaration>>,
+    damage: Vec<Option<&'static ModelDeclaration>>,
+}
+
+impl UsedModels {
+    /// The widest reach of the materials (a model this build does not run counts as two hops).
+    fn material_reach(&self) -> Option<Reach> {
+        self.materials
+            .iter()
+            .map(|d| d.map_or(Reach::TwoHop, |d| d.reach))
+            .max()
+    }
+
+    /// Every field the used models declare, each once, in block order.
+    fn fields(&self) -> Vec<FieldDeclaration> {
+        let mut fields: Vec<FieldDeclaration> = Vec::new();
+        let declared = self.materials.iter().chain(&self.damage).flatten();
+        for field in declared.flat_map(|d| d.fields.iter()) {
+            if !fields.iter().any(|f| f.name == field.name) {
+                fields.push(*field);
+            }
+        }
+        fields
+    }
 }
 
 /// Everything in the deck that this build cannot run yet, each named exactly.
@@ -159,24 +195,16 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
     }
     for material in &deck.materials {
         let name = material.model.deck_name();
-        if !SUPPORTED_MATERIALS.contains(&name) {
+        if crate::material::material_entry(name).is_none() {
             note(format!("material model {name}"));
         }
     }
     for damage in &deck.damage_models {
         let name = damage.kind.deck_name();
-        if !SUPPORTED_DAMAGE.contains(&name) {
+        if crate::damage::damage_entry(name).is_none() {
             note(format!("damage model {name}"));
         }
-        if let DamageKind::CriticalStretch {
-            thermal_expansion_coefficient: Some(_),
-            ..
-        }
-        | DamageKind::TimeDependentCriticalStretch {
-            thermal_expansion_coefficient: Some(_),
-            ..
-        } = damage.kind
-        {
+        if damage.kind.thermal_expansion_coefficient().is_some() {
             note("Thermal Expansion Coefficient in damage models".into());
         }
     }
@@ -241,6 +269,7 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
                 && !is_label
                 && kind_of(name).is_some()
                 && !SUPPORTED_OUTPUTS.contains(&name.as_str())
+                && !model_outputs().any(|output| output == name)
             {
                 note(format!("output variable {name}"));
             }
@@ -263,7 +292,7 @@ pub fn critical_time_step(deck: &Deck, model: &Model) -> Option<f64> {
         .filter_map(|block| {
             let entry = &deck.blocks[block.deck_block];
             let material = deck.material(&entry.material)?;
-            let (bulk, density) = bulk_modulus_and_density(&material.model, material)?;
+            let (bulk, density) = (material.bulk_modulus()?, material.density?);
             let horizon = match entry.horizon {
                 Horizon::Constant(value) => value,
                 Horizon::Expression(_) => block
@@ -404,13 +433,9 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
         });
     }
 
-    let used_models: Vec<&MaterialModel> = model
-        .blocks
-        .iter()
-        .filter_map(|b| deck.material(&deck.blocks[b.deck_block].material))
-        .map(|m| &m.model)
-        .collect();
-    let state_based = used_models.iter().any(|m| m.is_state_based());
+    let used = used_declarations(deck, model);
+    let reach = used.material_reach().unwrap_or(Reach::OneHop);
+    let state_based = reach == Reach::TwoHop;
     let damage = model
         .blocks
         .iter()
@@ -423,8 +448,7 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
         contact: deck.contact.is_some(),
         explicit,
         implicit,
-        tangent_pattern: implicit
-            .then(|| if state_based { "two-hop" } else { "one-hop" }.to_string()),
+        tangent_pattern: implicit.then(|| reach.pattern_name().to_string()),
     };
 
     plan.parallel = parallel_plan(deck, explicit, implicit);
@@ -447,13 +471,19 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
     if model.boundary.has_body_force() {
         field("External_Force_Density", "point", vector);
     }
-    if state_based {
-        field("Weighted_Volume", "point", 8 * n);
-        field("Dilatation", "point", 8 * n);
+    let declared = used.fields();
+    let declared_on = |carrier: FieldCarrier| {
+        declared
+            .iter()
+            .filter(move |f| f.carrier == carrier)
+            .map(|f| (f.name, f.bytes_per_value))
+    };
+    for (name, bytes) in declared_on(FieldCarrier::Point) {
+        field(name, "point", bytes * n);
     }
     field("bond neighbour + length", "bond", 12 * bonds + 8 * (n + 1));
-    if damage {
-        field("Bond_Damage", "bond", 4 * bonds);
+    for (name, bytes) in declared_on(FieldCarrier::Bond) {
+        field(name, "bond", bytes * bonds);
     }
     if plan.physics.contact {
         field("Contact_Force_Density", "point", vector);

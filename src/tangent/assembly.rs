@@ -37,9 +37,9 @@ use num_dual::{Dual64, DualNum};
 use rayon::prelude::*;
 
 use super::{Block, BlockTangent, TangentError, TangentMethod};
-use crate::material::point_chunks::WriteColouring;
-use crate::material::{CurrentView, ReferenceView};
+use crate::model::point_chunks::WriteColouring;
 use crate::model::BondList;
+use crate::model::{CurrentView, ReferenceView};
 
 /// The scalar type the force states are written over: `f64` for the force and finite
 /// differences, [`Dual64`] for forward-mode automatic differentiation.
@@ -626,7 +626,7 @@ fn gather_ordinary<K: ForceState>(
     current: &CurrentView<'_>,
     tangent: &mut BlockTangent,
 ) -> Result<(), TangentError> {
-    use crate::material::point_chunks::for_each_chunk;
+    use crate::model::point_chunks::for_each_chunk;
     use std::sync::atomic::{AtomicUsize, Ordering};
 
     let bonds = reference.bonds;

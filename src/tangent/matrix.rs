@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use super::{Block, BlockPattern};
 use crate::backend::Csr;
-use crate::material::point_chunks::for_each_chunk;
+use crate::model::point_chunks::for_each_chunk;
 
 /// J_ij = ∂(V_i f_i)/∂u_j: the Jacobian of the residual r_i = V_i (f_i + b_i) with respect to
 /// the displacement (force/length), one 3×3 block per pattern entry. For an elastic body it is

@@ -7,11 +7,11 @@
 use std::sync::Arc;
 
 use super::*;
-use crate::material::test_support::{brute_force_bonds, lattice, random_cloud, Rng};
 use crate::material::{
     BondBased, BondBasedParameters, InfluenceFunction, LinearPeridynamicSolid,
     LinearPeridynamicSolidParameters, Material, ReferenceView,
 };
+use crate::model::test_support::{brute_force_bonds, lattice, random_cloud, Rng};
 use crate::model::{BondList, PointCloud};
 use crate::physics::{BlockPhysics, Configuration, Physics};
 

@@ -227,4 +227,47 @@ impl DamageKind {
             DamageKind::VonMisesStress { .. } => "Von Mises Stress",
         }
     }
+
+    /// The constant critical stretch limit of the models that have one (`Critical Stretch`,
+    /// `Interface Aware`); `None` for the others.
+    pub fn critical_stretch(&self) -> Option<StretchLimit> {
+        match self {
+            DamageKind::CriticalStretch {
+                critical_stretch, ..
+            } => Some(*critical_stretch),
+            DamageKind::InterfaceAware {
+                critical_stretch, ..
+            } => Some(StretchLimit::Stretch(*critical_stretch)),
+            _ => None,
+        }
+    }
+
+    /// The text of `Time Dependent Critical Stretch` (an expression in `t`), when given.
+    pub fn critical_stretch_expression(&self) -> Option<&str> {
+        match self {
+            DamageKind::TimeDependentCriticalStretch {
+                critical_stretch, ..
+            } => Some(critical_stretch),
+            _ => None,
+        }
+    }
+
+    /// `Thermal Expansion Coefficient` α of the stretch-based models, when given.
+    pub fn thermal_expansion_coefficient(&self) -> Option<f64> {
+        match self {
+            DamageKind::CriticalStretch {
+                thermal_expansion_coefficient,
+                ..
+            }
+            | DamageKind::TimeDependentCriticalStretch {
+                thermal_expansion_coefficient,
+                ..
+            }
+            | DamageKind::InterfaceAware {
+                thermal_expansion_coefficient,
+                ..
+            } => *thermal_expansion_coefficient,
+            _ => None,
+        }
+    }
 }

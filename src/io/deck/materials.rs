@@ -518,7 +518,37 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Material, DeckError> 
     let tangent = read_tangent(ctx, &mut list, finite_difference_probe_length)?;
     let mut ignored: Vec<(&str, &str)> = Vec::new();
 
-    let model = match model_name {
+    let model = read_model(ctx, &mut list, model_name, &mut ignored)?;
+    let model_label = model_name.to_string();
+    list.finish_with(ctx, &ignored, |key| {
+        if MODEL_KEYS.contains(&key) || ELASTIC_KEYS.contains(&key) || key == "Density" {
+            Some(format!(
+                "\"{key}\" is not a parameter of the \"{model_label}\" material model"
+            ))
+        } else {
+            None
+        }
+    })?;
+    Ok(Material {
+        name: field.key().to_string(),
+        model,
+        density,
+        elastic,
+        thermal_expansion_coefficient,
+        finite_difference_probe_length,
+        tangent,
+    })
+}
+
+/// The model-specific keys of `model_name` (one of [`MODELS`]); keys the model ignores with a
+/// reason are pushed to `ignored`.
+fn read_model(
+    ctx: &mut Ctx,
+    list: &mut ListReader,
+    model_name: &str,
+    ignored: &mut Vec<(&'static str, &'static str)>,
+) -> Result<MaterialModel, DeckError> {
+    Ok(match model_name {
         "Elastic" => {
             ignored.push((
                 "Apply Shear Correction Factor",
@@ -537,31 +567,10 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Material, DeckError> 
                 compute_partial_stress: list.bool_or(ctx, "Compute Partial Stress", false)?,
             }
         }
-        "Elastic Plastic" => {
-            ignored.push((
-                "Apply Shear Correction Factor",
-                "the Elastic Plastic model never applies a shear correction",
-            ));
-            let yield_stress = list.positive_req(ctx, "Yield Stress")?;
-            let planar = list.bool_or(ctx, "Planar Problem", false)?;
-            MaterialModel::ElasticPlastic {
-                yield_stress,
-                disable_plasticity: list.bool_or(ctx, "Disable Plasticity", false)?,
-                automatic_differentiation: list.bool_or(
-                    ctx,
-                    "Apply Automatic Differentiation Jacobian",
-                    true,
-                )?,
-                planar_thickness: if planar {
-                    Some(list.positive_req(ctx, "Thickness")?)
-                } else {
-                    None
-                },
-            }
-        }
+        "Elastic Plastic" => read_elastic_plastic(ctx, list, ignored)?,
         "Elastic Plastic Hardening" => MaterialModel::ElasticPlasticHardening {
             yield_stress: list.positive_req(ctx, "Yield Stress")?,
-            hardening_modulus: non_negative_req(ctx, &mut list, "Hardening Modulus")?,
+            hardening_modulus: non_negative_req(ctx, list, "Hardening Modulus")?,
             disable_plasticity: list.bool_or(ctx, "Disable Plasticity", false)?,
             automatic_differentiation: list.bool_or(
                 ctx,
@@ -581,54 +590,8 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Material, DeckError> 
                 tau_b: list.positive_req(ctx, "tau b")?,
             }
         }
-        "Elastic Bond Based" => {
-            let k = list.get("Bulk Modulus");
-            let e = list.get("Young's Modulus");
-            let modulus = match (k, e) {
-                (Some(k), None) => BondBasedModulus::Bulk(k.positive(ctx)?),
-                (None, Some(e)) => BondBasedModulus::Young(e.positive(ctx)?),
-                (Some(_), Some(e)) => {
-                    return Err(e.err(ctx, "Elastic Bond Based takes exactly one of \"Bulk Modulus\" and \"Young's Modulus\" (Poisson's ratio is fixed by the model); remove one"))
-                }
-                (None, None) => return Err(list.missing(ctx, "Bulk Modulus", "or \"Young's Modulus\"; exactly one of them")),
-            };
-            for key in ["Shear Modulus", "Poisson's Ratio"] {
-                if let Some(f) = list.get(key) {
-                    return Err(f.err(ctx, format!("\"{key}\" cannot be set for Elastic Bond Based: Poisson's ratio is fixed (1/4 in 3D and plane strain, 1/3 in plane stress); give only \"Bulk Modulus\" or \"Young's Modulus\"")));
-                }
-            }
-            let strain = list.bool_or(ctx, "Plane Strain", false)?;
-            let stress = list.bool_or(ctx, "Plane Stress", false)?;
-            let planar = match (strain, stress) {
-                (true, true) => {
-                    let f = list.get("Plane Stress").expect("just read");
-                    return Err(f.err(ctx, "Plane Strain and Plane Stress cannot both be true"));
-                }
-                (true, false) => Some((PlanarKind::PlaneStrain, list.positive_req(ctx, "Height")?)),
-                (false, true) => Some((PlanarKind::PlaneStress, list.positive_req(ctx, "Height")?)),
-                (false, false) => None,
-            };
-            MaterialModel::ElasticBondBased { modulus, planar }
-        }
-        "Pals" => {
-            let influence = |ctx: &Ctx,
-                             list: &mut ListReader,
-                             key: &'static str|
-             -> Result<PalsInfluence, DeckError> {
-                Ok(match list.get(key) {
-                    None => PalsInfluence::One,
-                    Some(f) => match f.choice(ctx, &["One", "Parabolic Decay", "Gaussian"])? {
-                        "Parabolic Decay" => PalsInfluence::ParabolicDecay,
-                        "Gaussian" => PalsInfluence::Gaussian,
-                        _ => PalsInfluence::One,
-                    },
-                })
-            };
-            MaterialModel::Pals {
-                dilatation_influence: influence(ctx, &mut list, "Dilatation Influence Function")?,
-                deviatoric_influence: influence(ctx, &mut list, "Deviatoric Influence Function")?,
-            }
-        }
+        "Elastic Bond Based" => read_bond_based(ctx, list)?,
+        "Pals" => read_pals(ctx, list)?,
         "Linear LPS Partial Volume" => {
             let analytic = list.bool_or(ctx, "Use Analytic Weighted Volume", false)?;
             MaterialModel::LinearLpsPartialVolume {
@@ -643,151 +606,232 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Material, DeckError> 
             }
         }
         "Elastic Correspondence" => MaterialModel::ElasticCorrespondence {
-            hourglass_coefficient: non_negative_req(ctx, &mut list, "Hourglass Coefficient")?,
+            hourglass_coefficient: non_negative_req(ctx, list, "Hourglass Coefficient")?,
         },
         "Elastic Plastic Correspondence" => MaterialModel::ElasticPlasticCorrespondence {
-            hourglass_coefficient: non_negative_req(ctx, &mut list, "Hourglass Coefficient")?,
+            hourglass_coefficient: non_negative_req(ctx, list, "Hourglass Coefficient")?,
             yield_stress: list.positive_req(ctx, "Yield Stress")?,
         },
         "Isotropic Hardening Correspondence" => MaterialModel::IsotropicHardeningCorrespondence {
-            hourglass_coefficient: non_negative_req(ctx, &mut list, "Hourglass Coefficient")?,
+            hourglass_coefficient: non_negative_req(ctx, list, "Hourglass Coefficient")?,
             yield_stress: list.positive_req(ctx, "Yield Stress")?,
-            hardening_modulus: non_negative_req(ctx, &mut list, "Hardening Modulus")?,
-            flaw: read_flaw(ctx, &mut list)?,
+            hardening_modulus: non_negative_req(ctx, list, "Hardening Modulus")?,
+            flaw: read_flaw(ctx, list)?,
         },
         "Viscoplastic Needleman Correspondence" => {
             MaterialModel::ViscoplasticNeedlemanCorrespondence {
-                hourglass_coefficient: non_negative_req(ctx, &mut list, "Hourglass Coefficient")?,
+                hourglass_coefficient: non_negative_req(ctx, list, "Hourglass Coefficient")?,
                 yield_stress: list.positive_req(ctx, "Yield Stress")?,
                 strain_hardening_exponent: list.f64_req(ctx, "Strain Hardening Exponent")?,
                 rate_hardening_exponent: list.f64_req(ctx, "Rate Hardening Exponent")?,
                 reference_strain_rate: list.positive_req(ctx, "Reference Strain Rate")?,
                 reference_strain_0: list.positive_req(ctx, "Reference Strain 0")?,
                 reference_strain_1: list.positive_req(ctx, "Reference Strain 1")?,
-                flaw: read_flaw(ctx, &mut list)?,
+                flaw: read_flaw(ctx, list)?,
             }
         }
         "Elastic Hypoelastic Correspondence"
         | "Elastic Plastic Hypoelastic Correspondence"
         | "Isotropic Hardening Hypoelastic Correspondence" => {
-            let plasticity = match model_name {
-                "Elastic Hypoelastic Correspondence" => CorrespondencePlasticity::Elastic,
-                "Elastic Plastic Hypoelastic Correspondence" => {
-                    CorrespondencePlasticity::PerfectlyPlastic {
-                        yield_stress: list.positive_req(ctx, "Yield Stress")?,
-                    }
-                }
-                _ => CorrespondencePlasticity::IsotropicHardening {
-                    yield_stress: list.positive_req(ctx, "Yield Stress")?,
-                    hardening_modulus: non_negative_req(ctx, &mut list, "Hardening Modulus")?,
-                },
-            };
-            MaterialModel::HypoelasticCorrespondence {
-                plasticity,
-                actual_horizon: list.positive_req(ctx, "Actual Horizon")?,
-                gradient_order_of_accuracy: list
-                    .int_opt(ctx, "Gradient Order Of Accuracy", 1)?
-                    .unwrap_or(1),
-            }
+            read_hypoelastic(ctx, list, model_name)?
         }
         "Elastic Bond Associated Correspondence"
         | "Elastic Plastic Bond Associated Correspondence"
         | "Isotropic Hardening Bond Associated Correspondence" => {
-            let plasticity = match model_name {
-                "Elastic Bond Associated Correspondence" => BondAssociatedPlasticity::Elastic,
-                "Elastic Plastic Bond Associated Correspondence" => {
-                    BondAssociatedPlasticity::PerfectlyPlastic {
-                        yield_stress: list.positive_req(ctx, "Yield Stress")?,
-                    }
-                }
-                _ => {
-                    let rule = list
-                        .require(
-                            ctx,
-                            "Hardening Rule",
-                            "\"Power-law\" or \"Saturation type exponential\"",
-                        )?
-                        .choice(ctx, &["Power-law", "Saturation type exponential"])?;
-                    let mut params = list.list_req(ctx, "Hardening Parameters")?;
-                    let plasticity = if rule == "Power-law" {
-                        BondAssociatedPlasticity::PowerLaw {
-                            yield_stress: params.positive_req(ctx, "Yield Stress")?,
-                            hardening_characteristic_strain: params
-                                .positive_req(ctx, "Hardening Characteristic Strain")?,
-                            hardening_exponent: params.f64_req(ctx, "Hardening Exponent")?,
-                        }
-                    } else {
-                        BondAssociatedPlasticity::SaturationExponential {
-                            initial_yield_stress: params
-                                .positive_req(ctx, "Initial Yield Stress")?,
-                            saturated_yield_stress: params
-                                .positive_req(ctx, "Saturated Yield Stress")?,
-                            exponential_constant: params.f64_req(ctx, "Exponential Constant")?,
-                            linear_constant: params.f64_req(ctx, "Linear Constant")?,
-                        }
-                    };
-                    params.finish(ctx, &[])?;
-                    plasticity
-                }
-            };
-            MaterialModel::BondAssociatedCorrespondence {
-                plasticity,
-                gradient_order_of_accuracy: list
-                    .int_opt(ctx, "Gradient Order Of Accuracy", 1)?
-                    .unwrap_or(1),
-            }
+            read_bond_associated(ctx, list, model_name)?
         }
-        "Multiphysics Elastic" => {
-            ignored.push((
-                "Multiphysics",
-                "the multiphysics switch is the top-level `Multiphysics: 1`",
-            ));
-            MaterialModel::MultiphysicsElastic {
-                fluid_density: list.positive_req(ctx, "Fluid density")?,
-                fluid_compressibility: list.positive_req(ctx, "Fluid compressibility")?,
-                fluid_dynamic_viscosity: list.positive_req(ctx, "Fluid dynamic viscosity")?,
-                permeability: list.positive_req(ctx, "Permeability")?,
-                max_permeability: list.positive_req(ctx, "Max permeability")?,
-                permeability_alpha: list.f64_req(ctx, "Permeability alpha")?,
-                permeability_curve_inflection_damage: list
-                    .f64_req(ctx, "Permeability curve inflection damage")?,
-                fluid_reynolds_viscosity_temperature_effect: list
-                    .f64_req(ctx, "Fluid Reynolds viscosity temperature effect")?,
-                fluid_linear_thermal_expansion: list
-                    .f64_req(ctx, "Fluid linear thermal expansion")?,
-                automatic_differentiation: list.bool_or(
-                    ctx,
-                    "Apply Automatic Differentiation Jacobian",
-                    true,
-                )?,
-                shear_correction: list.bool_or(ctx, "Apply Shear Correction Factor", false)?,
-            }
-        }
+        "Multiphysics Elastic" => read_multiphysics_elastic(ctx, list, ignored)?,
         "Vector Poisson" => MaterialModel::VectorPoisson,
         "Diffusion" => MaterialModel::Diffusion {
             coefficient: list.positive_req(ctx, "Coefficient")?,
             use_improved_quadrature: list.bool_or(ctx, "Use Improved Quadrature", false)?,
         },
         _ => unreachable!("choice() returns one of MODELS"),
-    };
-    let model_label = model_name.to_string();
-    list.finish_with(ctx, &ignored, |key| {
-        if MODEL_KEYS.contains(&key) || ELASTIC_KEYS.contains(&key) || key == "Density" {
-            Some(format!(
-                "\"{key}\" is not a parameter of the \"{model_label}\" material model"
-            ))
+    })
+}
+
+/// `Multiphysics Elastic`: the fluid parameters (the switch itself is top-level).
+fn read_multiphysics_elastic(
+    ctx: &Ctx,
+    list: &mut ListReader,
+    ignored: &mut Vec<(&'static str, &'static str)>,
+) -> Result<MaterialModel, DeckError> {
+    ignored.push((
+        "Multiphysics",
+        "the multiphysics switch is the top-level `Multiphysics: 1`",
+    ));
+    Ok(MaterialModel::MultiphysicsElastic {
+        fluid_density: list.positive_req(ctx, "Fluid density")?,
+        fluid_compressibility: list.positive_req(ctx, "Fluid compressibility")?,
+        fluid_dynamic_viscosity: list.positive_req(ctx, "Fluid dynamic viscosity")?,
+        permeability: list.positive_req(ctx, "Permeability")?,
+        max_permeability: list.positive_req(ctx, "Max permeability")?,
+        permeability_alpha: list.f64_req(ctx, "Permeability alpha")?,
+        permeability_curve_inflection_damage: list
+            .f64_req(ctx, "Permeability curve inflection damage")?,
+        fluid_reynolds_viscosity_temperature_effect: list
+            .f64_req(ctx, "Fluid Reynolds viscosity temperature effect")?,
+        fluid_linear_thermal_expansion: list.f64_req(ctx, "Fluid linear thermal expansion")?,
+        automatic_differentiation: list.bool_or(
+            ctx,
+            "Apply Automatic Differentiation Jacobian",
+            true,
+        )?,
+        shear_correction: list.bool_or(ctx, "Apply Shear Correction Factor", false)?,
+    })
+}
+
+/// `Elastic Plastic`: yield stress, optionally planar with a `Thickness`.
+fn read_elastic_plastic(
+    ctx: &Ctx,
+    list: &mut ListReader,
+    ignored: &mut Vec<(&'static str, &'static str)>,
+) -> Result<MaterialModel, DeckError> {
+    ignored.push((
+        "Apply Shear Correction Factor",
+        "the Elastic Plastic model never applies a shear correction",
+    ));
+    let yield_stress = list.positive_req(ctx, "Yield Stress")?;
+    let planar = list.bool_or(ctx, "Planar Problem", false)?;
+    Ok(MaterialModel::ElasticPlastic {
+        yield_stress,
+        disable_plasticity: list.bool_or(ctx, "Disable Plasticity", false)?,
+        automatic_differentiation: list.bool_or(
+            ctx,
+            "Apply Automatic Differentiation Jacobian",
+            true,
+        )?,
+        planar_thickness: if planar {
+            Some(list.positive_req(ctx, "Thickness")?)
         } else {
             None
+        },
+    })
+}
+
+/// `Pals`: its two influence functions (default `One`).
+fn read_pals(ctx: &Ctx, list: &mut ListReader) -> Result<MaterialModel, DeckError> {
+    let influence =
+        |ctx: &Ctx, list: &mut ListReader, key: &'static str| -> Result<PalsInfluence, DeckError> {
+            Ok(match list.get(key) {
+                None => PalsInfluence::One,
+                Some(f) => match f.choice(ctx, &["One", "Parabolic Decay", "Gaussian"])? {
+                    "Parabolic Decay" => PalsInfluence::ParabolicDecay,
+                    "Gaussian" => PalsInfluence::Gaussian,
+                    _ => PalsInfluence::One,
+                },
+            })
+        };
+    Ok(MaterialModel::Pals {
+        dilatation_influence: influence(ctx, list, "Dilatation Influence Function")?,
+        deviatoric_influence: influence(ctx, list, "Deviatoric Influence Function")?,
+    })
+}
+
+/// `Elastic Bond Based`: exactly one modulus, optionally planar with a `Height`.
+fn read_bond_based(ctx: &Ctx, list: &mut ListReader) -> Result<MaterialModel, DeckError> {
+    let k = list.get("Bulk Modulus");
+    let e = list.get("Young's Modulus");
+    let modulus = match (k, e) {
+        (Some(k), None) => BondBasedModulus::Bulk(k.positive(ctx)?),
+        (None, Some(e)) => BondBasedModulus::Young(e.positive(ctx)?),
+        (Some(_), Some(e)) => {
+            return Err(e.err(ctx, "Elastic Bond Based takes exactly one of \"Bulk Modulus\" and \"Young's Modulus\" (Poisson's ratio is fixed by the model); remove one"))
         }
-    })?;
-    Ok(Material {
-        name: field.key().to_string(),
-        model,
-        density,
-        elastic,
-        thermal_expansion_coefficient,
-        finite_difference_probe_length,
-        tangent,
+        (None, None) => return Err(list.missing(ctx, "Bulk Modulus", "or \"Young's Modulus\"; exactly one of them")),
+    };
+    for key in ["Shear Modulus", "Poisson's Ratio"] {
+        if let Some(f) = list.get(key) {
+            return Err(f.err(ctx, format!("\"{key}\" cannot be set for Elastic Bond Based: Poisson's ratio is fixed (1/4 in 3D and plane strain, 1/3 in plane stress); give only \"Bulk Modulus\" or \"Young's Modulus\"")));
+        }
+    }
+    let strain = list.bool_or(ctx, "Plane Strain", false)?;
+    let stress = list.bool_or(ctx, "Plane Stress", false)?;
+    let planar = match (strain, stress) {
+        (true, true) => {
+            let f = list.get("Plane Stress").expect("just read");
+            return Err(f.err(ctx, "Plane Strain and Plane Stress cannot both be true"));
+        }
+        (true, false) => Some((PlanarKind::PlaneStrain, list.positive_req(ctx, "Height")?)),
+        (false, true) => Some((PlanarKind::PlaneStress, list.positive_req(ctx, "Height")?)),
+        (false, false) => None,
+    };
+    Ok(MaterialModel::ElasticBondBased { modulus, planar })
+}
+
+/// The three hypoelastic correspondence models (`model_name` says which).
+fn read_hypoelastic(
+    ctx: &Ctx,
+    list: &mut ListReader,
+    model_name: &str,
+) -> Result<MaterialModel, DeckError> {
+    let plasticity = match model_name {
+        "Elastic Hypoelastic Correspondence" => CorrespondencePlasticity::Elastic,
+        "Elastic Plastic Hypoelastic Correspondence" => {
+            CorrespondencePlasticity::PerfectlyPlastic {
+                yield_stress: list.positive_req(ctx, "Yield Stress")?,
+            }
+        }
+        _ => CorrespondencePlasticity::IsotropicHardening {
+            yield_stress: list.positive_req(ctx, "Yield Stress")?,
+            hardening_modulus: non_negative_req(ctx, list, "Hardening Modulus")?,
+        },
+    };
+    Ok(MaterialModel::HypoelasticCorrespondence {
+        plasticity,
+        actual_horizon: list.positive_req(ctx, "Actual Horizon")?,
+        gradient_order_of_accuracy: list
+            .int_opt(ctx, "Gradient Order Of Accuracy", 1)?
+            .unwrap_or(1),
+    })
+}
+
+/// The three bond-associated correspondence models (`model_name` says which).
+fn read_bond_associated(
+    ctx: &mut Ctx,
+    list: &mut ListReader,
+    model_name: &str,
+) -> Result<MaterialModel, DeckError> {
+    let plasticity = match model_name {
+        "Elastic Bond Associated Correspondence" => BondAssociatedPlasticity::Elastic,
+        "Elastic Plastic Bond Associated Correspondence" => {
+            BondAssociatedPlasticity::PerfectlyPlastic {
+                yield_stress: list.positive_req(ctx, "Yield Stress")?,
+            }
+        }
+        _ => {
+            let rule = list
+                .require(
+                    ctx,
+                    "Hardening Rule",
+                    "\"Power-law\" or \"Saturation type exponential\"",
+                )?
+                .choice(ctx, &["Power-law", "Saturation type exponential"])?;
+            let mut params = list.list_req(ctx, "Hardening Parameters")?;
+            let plasticity = if rule == "Power-law" {
+                BondAssociatedPlasticity::PowerLaw {
+                    yield_stress: params.positive_req(ctx, "Yield Stress")?,
+                    hardening_characteristic_strain: params
+                        .positive_req(ctx, "Hardening Characteristic Strain")?,
+                    hardening_exponent: params.f64_req(ctx, "Hardening Exponent")?,
+                }
+            } else {
+                BondAssociatedPlasticity::SaturationExponential {
+                    initial_yield_stress: params.positive_req(ctx, "Initial Yield Stress")?,
+                    saturated_yield_stress: params.positive_req(ctx, "Saturated Yield Stress")?,
+                    exponential_constant: params.f64_req(ctx, "Exponential Constant")?,
+                    linear_constant: params.f64_req(ctx, "Linear Constant")?,
+                }
+            };
+            params.finish(ctx, &[])?;
+            plasticity
+        }
+    };
+    Ok(MaterialModel::BondAssociatedCorrespondence {
+        plasticity,
+        gradient_order_of_accuracy: list
+            .int_opt(ctx, "Gradient Order Of Accuracy", 1)?
+            .unwrap_or(1),
     })
 }
 
@@ -870,6 +914,34 @@ impl MaterialModel {
                 | MaterialModel::VectorPoisson
                 | MaterialModel::Diffusion { .. }
         )
+    }
+}
+
+impl Material {
+    /// Bulk modulus K of a mechanical model: `Elastic Bond Based`'s own modulus (see
+    /// [`BondBasedModulus::bulk_modulus`]), else from the two elastic constants; `None` for
+    /// `Diffusion` and `Vector Poisson`.
+    pub fn bulk_modulus(&self) -> Option<f64> {
+        match &self.model {
+            MaterialModel::ElasticBondBased { modulus, planar } => {
+                Some(modulus.bulk_modulus(planar.map(|(kind, _)| kind)))
+            }
+            _ => self.elastic.as_ref().map(ElasticConstants::bulk_modulus),
+        }
+    }
+
+    /// Shear modulus μ when the deck gives two elastic constants (`None` for bond-based
+    /// models, whose Poisson's ratio is fixed).
+    pub fn shear_modulus(&self) -> Option<f64> {
+        self.elastic.as_ref().map(ElasticConstants::shear_modulus)
+    }
+
+    /// `Height` h of a planar (`Plane Strain`/`Plane Stress`) bond-based model; `None` in 3D.
+    pub fn planar_thickness(&self) -> Option<f64> {
+        match &self.model {
+            MaterialModel::ElasticBondBased { planar, .. } => planar.map(|(_, height)| height),
+            _ => None,
+        }
     }
 }
 

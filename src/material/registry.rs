@@ -1,0 +1,119 @@
+//! The one list of the material models this build runs.
+//!
+//! Each entry pairs a model's [`ModelDeclaration`] (deck name and keys, reach, fields,
+//! outputs) with its constructor. The builder (`setup::build_physics`), `peridyn check`, the
+//! ghost depth of ranks and the tangent pattern all ask this list; nothing else names a model.
+//! Adding a model is its file, one line in [`MATERIALS`] and its tests.
+
+use super::{BondBased, InfluenceFunction, LinearPeridynamicSolid, Material, MaterialError};
+use crate::model::ModelDeclaration;
+
+/// The deck values every constructor may read, resolved by the builder from the block and its
+/// `Materials` entry.
+#[derive(Debug, Clone)]
+pub struct MaterialInput {
+    /// `Density` ρ (mass/length³).
+    pub density: f64,
+    /// The block's `Horizon` δ (length).
+    pub horizon: f64,
+    /// Bulk modulus K (pressure): from two elastic constants, or for bond-based models from
+    /// `Bulk Modulus` / `Young's Modulus` with the model's fixed Poisson's ratio.
+    pub bulk_modulus: f64,
+    /// Shear modulus μ (pressure) when the deck gives two elastic constants; `None` for
+    /// bond-based models, whose Poisson's ratio is fixed.
+    pub shear_modulus: Option<f64>,
+    /// `Height` h of a `Plane Strain`/`Plane Stress` bond-based model; `None` in 3D.
+    pub planar_thickness: Option<f64>,
+    /// `Discretization → Influence Function` ω(ζ, δ).
+    pub influence: InfluenceFunction,
+}
+
+impl MaterialInput {
+    /// μ, for models that need it.
+    pub fn required_shear_modulus(&self) -> Result<f64, MaterialError> {
+        self.shear_modulus.ok_or(MaterialError::Missing {
+            key: "Shear Modulus",
+        })
+    }
+}
+
+/// Builds a model's material for one block from the resolved deck values.
+pub type MaterialConstructor = fn(&MaterialInput) -> Result<Box<dyn Material>, MaterialError>;
+
+/// One material model of this build.
+#[derive(Debug, Clone, Copy)]
+pub struct MaterialEntry {
+    /// What the model declares about itself.
+    pub declaration: &'static ModelDeclaration,
+    /// Its constructor.
+    pub build: MaterialConstructor,
+}
+
+/// Every material model this build runs, one entry each.
+pub static MATERIALS: &[MaterialEntry] = &[
+    MaterialEntry {
+        declaration: &BondBased::DECLARATION,
+        build: BondBased::build,
+    },
+    MaterialEntry {
+        declaration: &LinearPeridynamicSolid::DECLARATION,
+        build: LinearPeridynamicSolid::build,
+    },
+];
+
+/// The entry of the model called `deck_name` in decks (`Material Model`), if this build runs it.
+pub fn material_entry(deck_name: &str) -> Option<&'static MaterialEntry> {
+    MATERIALS
+        .iter()
+        .find(|entry| entry.declaration.deck_name == deck_name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn deck_names_are_unique_and_the_built_material_reports_its_declaration() {
+        for (k, entry) in MATERIALS.iter().enumerate() {
+            let name = entry.declaration.deck_name;
+            assert!(
+                MATERIALS[..k]
+                    .iter()
+                    .all(|other| other.declaration.deck_name != name),
+                "{name} listed twice"
+            );
+            let input = MaterialInput {
+                density: 1.0,
+                horizon: 1.0,
+                bulk_modulus: 1.0,
+                shear_modulus: Some(1.0),
+                planar_thickness: None,
+                influence: InfluenceFunction::One,
+            };
+            let material = (entry.build)(&input).unwrap();
+            assert_eq!(material.model_name(), name);
+            assert_eq!(material.declaration(), entry.declaration);
+            assert!(std::ptr::eq(material_entry(name).unwrap(), entry));
+        }
+        assert!(material_entry("Elastic Plastic").is_none());
+    }
+
+    #[test]
+    fn a_model_that_needs_the_shear_modulus_says_so() {
+        let input = MaterialInput {
+            density: 1.0,
+            horizon: 1.0,
+            bulk_modulus: 1.0,
+            shear_modulus: None,
+            planar_thickness: None,
+            influence: InfluenceFunction::One,
+        };
+        let error = (material_entry("Elastic").unwrap().build)(&input).err();
+        assert_eq!(
+            error,
+            Some(MaterialError::Missing {
+                key: "Shear Modulus"
+            })
+        );
+    }
+}

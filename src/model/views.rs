@@ -1,0 +1,25 @@
+//! The views of the reference and current configuration that materials and damage models
+//! read.
+
+use super::BondList;
+
+/// The reference configuration of all points (owned and ghost), read by every material.
+#[derive(Debug, Clone, Copy)]
+pub struct ReferenceView<'a> {
+    /// Families (symmetric, directed CSR).
+    pub bonds: &'a BondList,
+    /// Reference positions X (length).
+    pub position: &'a [[f64; 3]],
+    /// Cell volumes V (length³).
+    pub volume: &'a [f64],
+}
+
+/// The current configuration of all points.
+#[derive(Debug, Clone, Copy)]
+pub struct CurrentView<'a> {
+    /// Current positions Y = X + u (length).
+    pub position: &'a [[f64; 3]],
+    /// Bond damage d ∈ [0, 1] per directed bond (same indexing as the bond list), or `None`
+    /// when no damage model is active (all bonds intact).
+    pub bond_damage: Option<&'a [f32]>,
+}
