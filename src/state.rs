@@ -9,11 +9,13 @@
 //!
 //! - explicit steps commit every step; nothing keeps a committed copy there, so committing
 //!   costs nothing;
-//! - implicit load steps and Newmark-β steps call [`State::keep_committed`] once, restore
-//!   before each residual (bonds broken by an unconverged iterate heal: Peridigm's rule,
-//!   reference §1.4 of our Peridigm notes) and commit when a step is accepted.
+//! - implicit load steps and Newmark-β steps keep a committed copy from the start of each
+//!   step ([`State::keep_committed`]), restore before each residual (bonds broken by an
+//!   unconverged iterate heal, as in Peridigm) and commit when a step is accepted.
 //!
 //! A restart file writes this one object.
+
+use crate::model::{FieldCarrier, FieldDeclaration};
 
 /// A field that a step may change and then accept or abandon.
 ///
@@ -79,44 +81,32 @@ impl<T: Copy> Staged<T> {
     }
 }
 
-/// Where a history field has one value: per point or per directed bond.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FieldLocation {
-    /// One value per point (run order).
-    Point,
-    /// One value per directed bond (the bond list's order).
-    Bond,
-}
-
-/// A material history field a model declares (e.g. a plastic extension per bond): its name
-/// (the output variable name, as Peridigm's) and where its values live.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct HistoryField {
-    /// Output name, e.g. `Deviatoric_Plastic_Extension`.
-    pub name: &'static str,
-    /// Per point or per bond.
-    pub location: FieldLocation,
-}
-
-/// Material history: the staged fields the models of a run declared, each allocated once
+/// Material history: the staged fields the materials of a run declare
+/// ([`FieldDeclaration::staged`], e.g. a plastic extension per bond), each allocated once
 /// (zero-initialised) however many blocks declare it; a block writes only its own entries.
+/// Bond damage, which damage models declare, is [`State::bond_damage`].
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct History {
-    fields: Vec<(HistoryField, Staged<f64>)>,
+    fields: Vec<(FieldDeclaration, Staged<f64>)>,
 }
 
 impl History {
-    /// Allocates every declared field (a name declared twice must have one location; the
-    /// first declaration wins) for `points` points and `bonds` directed bonds.
-    pub fn allocate(declared: &[HistoryField], points: usize, bonds: usize) -> Self {
-        let mut fields: Vec<(HistoryField, Staged<f64>)> = Vec::new();
-        for field in declared {
+    /// Allocates every staged field of `declared` (fields that are not staged are the
+    /// models' own scratch; a name declared twice is allocated once, as first declared) for
+    /// `points` points and `bonds` directed bonds.
+    pub fn allocate<'a>(
+        declared: impl IntoIterator<Item = &'a FieldDeclaration>,
+        points: usize,
+        bonds: usize,
+    ) -> Self {
+        let mut fields: Vec<(FieldDeclaration, Staged<f64>)> = Vec::new();
+        for field in declared.into_iter().filter(|f| f.staged) {
             if fields.iter().any(|(f, _)| f.name == field.name) {
                 continue;
             }
-            let len = match field.location {
-                FieldLocation::Point => points,
-                FieldLocation::Bond => bonds,
+            let len = match field.carrier {
+                FieldCarrier::Point => points,
+                FieldCarrier::Bond => bonds,
             };
             fields.push((*field, Staged::filled(len, 0.0)));
         }
@@ -140,7 +130,7 @@ impl History {
     }
 
     /// The declared fields, in declaration order.
-    pub fn declared(&self) -> impl Iterator<Item = &HistoryField> {
+    pub fn declared(&self) -> impl Iterator<Item = &FieldDeclaration> {
         self.fields.iter().map(|(f, _)| f)
     }
 
@@ -257,26 +247,30 @@ impl State {
 mod tests {
     use super::*;
 
-    const PLASTIC: HistoryField = HistoryField {
+    const PLASTIC: FieldDeclaration = FieldDeclaration {
         name: "Deviatoric_Plastic_Extension",
-        location: FieldLocation::Bond,
+        carrier: FieldCarrier::Bond,
+        bytes_per_value: 8,
+        staged: true,
     };
-    const LAMBDA: HistoryField = HistoryField {
+    const LAMBDA: FieldDeclaration = FieldDeclaration {
         name: "Lambda",
-        location: FieldLocation::Point,
+        carrier: FieldCarrier::Point,
+        bytes_per_value: 8,
+        staged: true,
+    };
+    /// Recomputed in every evaluation: not history.
+    const DILATATION: FieldDeclaration = FieldDeclaration {
+        name: "Dilatation",
+        carrier: FieldCarrier::Point,
+        bytes_per_value: 8,
+        staged: false,
     };
 
     fn damaged_state() -> State {
-        State::at_rest(&[[0.0; 3]; 2], 0.0, false)
-            .with_bond_damage(Some(3))
-            .with_history(&[PLASTIC, LAMBDA, PLASTIC], 2, 3)
-    }
-
-    impl State {
-        fn with_history(mut self, declared: &[HistoryField], points: usize, bonds: usize) -> Self {
-            self.history = History::allocate(declared, points, bonds);
-            self
-        }
+        let mut state = State::at_rest(&[[0.0; 3]; 2], 0.0, false).with_bond_damage(Some(3));
+        state.history = History::allocate(&[PLASTIC, DILATATION, LAMBDA, PLASTIC], 2, 3);
+        state
     }
 
     #[test]

@@ -26,7 +26,7 @@ use crate::setup::{self, Model};
 use crate::solver::newmark::NewmarkError;
 use crate::solver::quasistatic::QuasiStaticError;
 use crate::solver::{EnergyMonitor, Instability};
-use crate::state::State;
+use crate::state::{History, State};
 use driver::Run;
 use outputs::RunOutputs;
 use std::path::{Path, PathBuf};
@@ -152,11 +152,20 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
 }
 
 /// The state at the first solver's initial time: at rest, with intact bond damage when a block
-/// has a damage model, then the deck's initial conditions.
+/// has a damage model and the material history its materials declare, then the deck's initial
+/// conditions.
 fn initial_state(deck: &Deck, model: &Model, physics: &Physics) -> Result<State, RunError> {
     let t0 = deck.solvers.first().map_or(0.0, |s| s.initial_time);
     let mut state = State::at_rest(&model.points.position, t0, model.boundary.has_body_force())
         .with_bond_damage(physics.has_bond_damage().then(|| model.bonds.num_bonds()));
+    state.history = History::allocate(
+        physics
+            .blocks
+            .iter()
+            .flat_map(|block| block.material.declaration().fields),
+        model.points.len(),
+        model.bonds.num_bonds(),
+    );
     model.boundary.apply_initial(
         &model.points.position,
         t0,
