@@ -921,7 +921,7 @@ fn quasi_static_on_ranks(
     let settings =
         super::quasi_static_settings(solver, predecessor).map_err(|e| collective(comm, e))?;
     let mut nonlinear = super::linear::nonlinear_solver(solver, &sub.model, physics)
-        .map_err(|e| collective(comm, e))?;
+        .map_err(|e| collective(comm, e.into()))?;
     let root = comm.rank() == 0;
     if root {
         eprintln!(
@@ -1002,7 +1002,7 @@ fn newmark_on_ranks(
 ) -> Result<(), RunError> {
     let settings = super::newmark_settings(solver, implicit);
     let mut linear = crate::solver::linear::strategy(solver, &sub.model, physics)
-        .map_err(|e| collective(comm, e))?;
+        .map_err(|e| collective(comm, e.into()))?;
     if comm.rank() == 0 {
         eprintln!(
             "{}",

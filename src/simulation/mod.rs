@@ -4,91 +4,28 @@
 mod distributed;
 mod fields;
 
+/// The run error lives in [`crate::error`] (reachable from every module); re-exported here
+/// under the name call sites use.
+pub use crate::error::RunError;
 pub use distributed::{
     check_distributable, global_families_reason, global_model, run_distributed, GlobalFamilies,
 };
 pub use fields::{prepare_compute_classes, Fields, PreparedComputeClass};
 
-use crate::boundary::BoundaryError;
 use crate::io::deck::{Deck, Integrator, Solver};
 use crate::io::history::HistoryWriter;
-use crate::io::output::{FieldSource, OutputError, OutputFile, OutputGeometry, Schedule};
+use crate::io::output::{FieldSource, OutputFile, OutputGeometry, Schedule};
 use crate::physics::Physics;
 use crate::setup::{self, Model};
 use crate::solver::collective::SerialRun;
-use crate::solver::newmark::{self, NewmarkError, NewmarkSettings};
+use crate::solver::newmark::{self, NewmarkSettings};
 use crate::solver::newton::{ConvergenceMeasure, NewtonReport};
 use crate::solver::quasistatic::{self, QuasiStaticError, QuasiStaticSettings};
-use crate::solver::{linear, EnergyMonitor, Instability, VelocityVerlet, VerletSettings};
+use crate::solver::{linear, EnergyMonitor, VelocityVerlet, VerletSettings};
 use crate::state::State;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-
-/// Why a run stopped early.
-#[derive(Debug, thiserror::Error)]
-pub enum RunError {
-    /// Writing results failed.
-    #[error(transparent)]
-    Output(#[from] OutputError),
-    /// A boundary-condition expression failed during the run.
-    #[error(transparent)]
-    Boundary(#[from] BoundaryError),
-    /// A solver needs something this build does not have.
-    #[error("{0}")]
-    Unsupported(String),
-    /// A quasi-static solve failed (exit code 3).
-    #[error(transparent)]
-    QuasiStatic(#[from] QuasiStaticError),
-    /// The discretization failed while the ranks of a distributed run searched their
-    /// families (exit code 2, as bad input found before a run).
-    #[error(transparent)]
-    Setup(#[from] setup::SetupError),
-    /// A Newmark-β solve failed (exit code 3).
-    #[error(transparent)]
-    Newmark(#[from] NewmarkError),
-    /// The explicit run became unstable (exit code 3).
-    #[error(
-        "the run became unstable at step {} of solver \"{solver}\" (t = {:.4e} s): kinetic energy {:.4e} exceeds {}× the energy supplied to the body ({:.4e}). \
-         The time step was {time_step:.4e} s; Peridigm's stable estimate is {estimate}. \
-         Reduce \"Safety Factor\" (e.g. 0.5) or give a smaller \"Fixed dt\". \
-         Output written up to the last frame before the failure is valid.",
-        instability.step, instability.time, instability.kinetic_energy, EnergyMonitor::GROWTH_LIMIT, instability.budget,
-        estimate = .estimate.map(|e| format!("{e:.4e} s")).unwrap_or_else(|| "not available".into())
-    )]
-    Unstable {
-        /// Solver list name.
-        solver: String,
-        /// What the monitor saw.
-        instability: Instability,
-        /// Δt used.
-        time_step: f64,
-        /// The stable estimate.
-        estimate: Option<f64>,
-    },
-    /// Another rank of a distributed run failed (or reports an error all ranks share); that
-    /// rank prints the message, this one stops quietly with the same exit code.
-    #[error("rank {rank} stopped the run; its message is above")]
-    OtherRank {
-        /// The rank that reports the failure.
-        rank: usize,
-        /// Its exit code.
-        code: u8,
-    },
-}
-
-impl RunError {
-    /// Process exit code: 3 for solver failures and instabilities, 1 otherwise (for
-    /// [`RunError::OtherRank`], the code of the rank that failed).
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            RunError::Unstable { .. } | RunError::QuasiStatic(_) | RunError::Newmark(_) => 3,
-            RunError::OtherRank { code, .. } => *code,
-            RunError::Setup(_) => 2,
-            _ => 1,
-        }
-    }
-}
 
 /// What a finished run reports.
 #[derive(Debug, Clone, Default)]

@@ -16,13 +16,13 @@
 use crate::backend::native::{
     KrylovSettings, NativeLinearSolver, NativeMethod, NativeSolverSettings, PreconditionerKind,
 };
+use crate::backend::Unsupported;
 use crate::io::deck::{
     AlgebraicPreconditioner, Integrator, LinearBackend, LinearMethod, LinearPreconditioner,
     LinearSolve, ParameterValue, PeridigmPreconditioner, Solver,
 };
 use crate::physics::Physics;
 use crate::setup::Model;
-use crate::simulation::RunError;
 use crate::solver::newton::{LinearStrategy, NonlinearSolver};
 
 /// The smallest Krylov tolerance Jacobian-free solves use: a finite-difference directional
@@ -55,7 +55,7 @@ pub fn nonlinear_solver(
     solver: &Solver,
     model: &Model,
     physics: &Physics,
-) -> Result<Box<dyn NonlinearSolver>, RunError> {
+) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
     if matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
         && matches!(solver.linear_solve.backend, LinearBackend::Trilinos { .. })
     {
@@ -65,13 +65,13 @@ pub fn nonlinear_solver(
 }
 
 #[cfg(feature = "trilinos")]
-fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, RunError> {
+fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
     Ok(Box::new(super::nox_newton::NoxNewton::from_deck(solver)?))
 }
 
 #[cfg(not(feature = "trilinos"))]
-fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, RunError> {
-    Err(RunError::Unsupported(format!(
+fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
+    Err(Unsupported(format!(
         "solver \"{}\": Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
          (cargo build --release --features trilinos; see .ci/trilinos.sh)",
         solver.name
@@ -83,7 +83,7 @@ pub fn strategy(
     solver: &Solver,
     model: &Model,
     _physics: &Physics,
-) -> Result<LinearStrategy, RunError> {
+) -> Result<LinearStrategy, Unsupported> {
     let settings = &solver.linear_solve;
     let krylov = KrylovSettings {
         relative_tolerance: settings.relative_tolerance,
@@ -165,7 +165,7 @@ fn trilinos_strategy(
     krylov: KrylovSettings,
     preconditioner: AlgebraicPreconditioner,
     ilu_fill_level: u32,
-) -> Result<LinearStrategy, RunError> {
+) -> Result<LinearStrategy, Unsupported> {
     use crate::backend::trilinos::{
         BelosMethod, Communicator, TrilinosLinearSolver, TrilinosPreconditioner, TrilinosSettings,
     };
@@ -173,7 +173,7 @@ fn trilinos_strategy(
         LinearMethod::Automatic | LinearMethod::Cg => BelosMethod::BlockCg,
         LinearMethod::Gmres => BelosMethod::BlockGmres,
         LinearMethod::Direct | LinearMethod::Cholesky | LinearMethod::Lu => {
-            return Err(RunError::Unsupported(format!(
+            return Err(Unsupported(format!(
                 "solver \"{}\": Backend \"Trilinos\" solves with Belos CG or GMRES, not a direct method",
                 solver.name
             )))
@@ -207,8 +207,8 @@ fn trilinos_strategy(
     _krylov: KrylovSettings,
     _preconditioner: AlgebraicPreconditioner,
     _ilu_fill_level: u32,
-) -> Result<LinearStrategy, RunError> {
-    Err(RunError::Unsupported(format!(
+) -> Result<LinearStrategy, Unsupported> {
+    Err(Unsupported(format!(
         "solver \"{}\": Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
          (cargo build --release --features trilinos; see .ci/trilinos.sh)",
         solver.name
