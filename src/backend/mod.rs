@@ -3,6 +3,7 @@
 //! a residual callback, and return a solution with a report.
 
 mod csr;
+pub mod factory;
 pub mod native;
 pub mod problem;
 #[cfg(feature = "trilinos")]

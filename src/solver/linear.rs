@@ -1,4 +1,5 @@
-//! Chooses how an implicit solver solves its Newton corrections, from the deck.
+//! Builds the solver objects of an implicit solver list once [`crate::backend::factory`] has
+//! decided which backend runs it (and refused what cannot run here).
 //!
 //! * `QuasiStatic` and `Implicit`: the peridyn `Linear Solver` keys ([`LinearSolve`]) on the
 //!   native backend; `Direct` is sparse Cholesky, with sparse LU taking over for good once the
@@ -13,13 +14,13 @@
 //!   `QuasiStatic` and `Implicit` hand their assembled tangent to Belos
 //!   (`TrilinosLinearSolver`) with the Ifpack/ML preconditioner of the deck.
 
+use crate::backend::factory::{self, matrix_free_preconditioner, NonlinearBackend};
 use crate::backend::native::{
     KrylovSettings, NativeLinearSolver, NativeMethod, NativeSolverSettings, PreconditionerKind,
 };
 use crate::backend::Unsupported;
 use crate::io::deck::{
-    AlgebraicPreconditioner, Integrator, LinearBackend, LinearMethod, LinearPreconditioner,
-    LinearSolve, ParameterValue, PeridigmPreconditioner, Solver,
+    AlgebraicPreconditioner, LinearBackend, LinearMethod, LinearPreconditioner, LinearSolve, Solver,
 };
 use crate::physics::Physics;
 use crate::setup::Model;
@@ -30,25 +31,6 @@ use crate::solver::newton::{LinearStrategy, NonlinearSolver};
 /// iterations.
 pub const MATRIX_FREE_TOLERANCE_FLOOR: f64 = 1e-7;
 
-/// The preconditioner of a Jacobian-free Newton–Krylov solve when `solver` asks for one
-/// (`NOXQuasiStatic` with `Jacobian Operator: "Matrix-Free"` and `Peridigm Preconditioner`
-/// `Block 3x3` or `None`), `None` when the solver assembles its tangent.
-pub fn matrix_free_preconditioner(solver: &Solver) -> Option<LinearPreconditioner> {
-    let Integrator::NoxQuasiStatic(nox) = &solver.integrator else {
-        return None;
-    };
-    let matrix_free = nox_string(
-        &nox.nox,
-        &["Direction", "Newton", "Linear Solver", "Jacobian Operator"],
-    )
-    .is_some_and(|s| s == "Matrix-Free");
-    match (matrix_free, solver.peridigm_preconditioner) {
-        (true, PeridigmPreconditioner::Block3x3) => Some(LinearPreconditioner::Block3x3),
-        (true, PeridigmPreconditioner::None) => Some(LinearPreconditioner::None),
-        _ => None,
-    }
-}
-
 /// The nonlinear solver of a quasi-static `solver` list: NOX for `NOXQuasiStatic` on the
 /// Trilinos backend, otherwise peridyn's Newton with [`strategy`].
 pub fn nonlinear_solver(
@@ -56,12 +38,10 @@ pub fn nonlinear_solver(
     model: &Model,
     physics: &Physics,
 ) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
-    if matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
-        && matches!(solver.linear_solve.backend, LinearBackend::Trilinos { .. })
-    {
-        return nox_solver(solver);
+    match factory::nonlinear_backend(solver)? {
+        NonlinearBackend::Nox => nox_solver(solver),
+        NonlinearBackend::Newton => Ok(Box::new(strategy(solver, model, physics)?)),
     }
-    Ok(Box::new(strategy(solver, model, physics)?))
 }
 
 #[cfg(feature = "trilinos")]
@@ -71,11 +51,7 @@ fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, Unsupported> 
 
 #[cfg(not(feature = "trilinos"))]
 fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
-    Err(Unsupported(format!(
-        "solver \"{}\": Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
-         (cargo build --release --features trilinos; see .ci/trilinos.sh)",
-        solver.name
-    )))
+    Err(factory::trilinos_not_built(solver))
 }
 
 /// The linear strategy of `solver` (see the module docs).
@@ -169,15 +145,10 @@ fn trilinos_strategy(
     use crate::backend::trilinos::{
         BelosMethod, Communicator, TrilinosLinearSolver, TrilinosPreconditioner, TrilinosSettings,
     };
+    factory::check_trilinos_method(solver)?;
     let method = match settings.method {
-        LinearMethod::Automatic | LinearMethod::Cg => BelosMethod::BlockCg,
         LinearMethod::Gmres => BelosMethod::BlockGmres,
-        LinearMethod::Direct | LinearMethod::Cholesky | LinearMethod::Lu => {
-            return Err(Unsupported(format!(
-                "solver \"{}\": Backend \"Trilinos\" solves with Belos CG or GMRES, not a direct method",
-                solver.name
-            )))
-        }
+        _ => BelosMethod::BlockCg,
     };
     let preconditioner = match preconditioner {
         AlgebraicPreconditioner::None => TrilinosPreconditioner::None,
@@ -208,45 +179,5 @@ fn trilinos_strategy(
     _preconditioner: AlgebraicPreconditioner,
     _ilu_fill_level: u32,
 ) -> Result<LinearStrategy, Unsupported> {
-    Err(Unsupported(format!(
-        "solver \"{}\": Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
-         (cargo build --release --features trilinos; see .ci/trilinos.sh)",
-        solver.name
-    )))
-}
-
-/// A string parameter at `path` in a NOX parameter tree.
-fn nox_string<'a>(tree: &'a [(String, ParameterValue)], path: &[&str]) -> Option<&'a str> {
-    let (first, rest) = path.split_first()?;
-    let (_, value) = tree.iter().find(|(k, _)| k == first)?;
-    match (value, rest.is_empty()) {
-        (ParameterValue::String(s), true) => Some(s),
-        (ParameterValue::List(children), false) => nox_string(children, rest),
-        _ => None,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn nox_string_follows_the_path() {
-        let tree = vec![(
-            "Direction".to_string(),
-            ParameterValue::List(vec![(
-                "Newton".to_string(),
-                ParameterValue::List(vec![(
-                    "Linear Solver".to_string(),
-                    ParameterValue::List(vec![(
-                        "Jacobian Operator".to_string(),
-                        ParameterValue::String("Matrix-Free".into()),
-                    )]),
-                )]),
-            )]),
-        )];
-        let path = ["Direction", "Newton", "Linear Solver", "Jacobian Operator"];
-        assert_eq!(nox_string(&tree, &path), Some("Matrix-Free"));
-        assert_eq!(nox_string(&tree, &["Direction", "Method"]), None);
-    }
+    Err(factory::trilinos_not_built(solver))
 }

@@ -30,6 +30,8 @@
 //!   block-Jacobi preconditioner needs 3. The blocks are refreshed after `Max Age Of Prec`
 //!   reuses.
 
+use crate::backend::factory;
+use crate::backend::problem::NonlinearProblem;
 use crate::backend::trilinos::nox_problem::{self, NoxSettings};
 pub use crate::backend::trilinos::nox_problem::{MatrixFreePreconditioner, NoxJacobian};
 use crate::backend::{SolveError, Unsupported};
@@ -60,16 +62,7 @@ impl NoxNewton {
                 solver.name
             )));
         };
-        let direction = match deck.direction_method.as_str() {
-            "Newton" => "Newton",
-            "NonlinearCG" => "Nonlinear CG",
-            other => {
-                return Err(Unsupported(format!(
-                    "solver \"{}\": NOXQuasiStatic → Direction → Method \"{other}\": use \"Newton\" or \"NonlinearCG\" (Peridigm's two)",
-                    solver.name
-                )))
-            }
-        };
+        let direction = factory::nox_direction(solver, &deck.direction_method)?;
         let linear_solver_path: Vec<String> = ["Direction", direction, "Linear Solver"]
             .map(String::from)
             .to_vec();
