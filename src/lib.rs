@@ -80,6 +80,7 @@ pub mod compute;
 pub mod contact;
 pub mod damage;
 pub mod discretization;
+pub mod error;
 pub mod expression;
 pub mod io;
 pub mod material;

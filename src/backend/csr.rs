@@ -118,6 +118,30 @@ impl Csr {
     }
 }
 
+/// A CSR matrix holding only the dense diagonal blocks (row-major per group).
+pub fn block_diagonal_csr(groups: &[usize], blocks: &[f64]) -> Csr {
+    let n = *groups.last().unwrap_or(&0);
+    let mut matrix = Csr {
+        nrows: n,
+        ncols: n,
+        offsets: vec![0],
+        columns: Vec::new(),
+        values: Vec::new(),
+    };
+    let mut at = 0;
+    for g in groups.windows(2) {
+        for _row in g[0]..g[1] {
+            for column in g[0]..g[1] {
+                matrix.columns.push(column);
+                matrix.values.push(blocks[at]);
+                at += 1;
+            }
+            matrix.offsets.push(matrix.columns.len());
+        }
+    }
+    matrix
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,11 +3,13 @@
 //! a residual callback, and return a solution with a report.
 
 mod csr;
+pub mod factory;
 pub mod native;
+pub mod problem;
 #[cfg(feature = "trilinos")]
 pub mod trilinos;
 
-pub use csr::Csr;
+pub use csr::{block_diagonal_csr, Csr};
 
 /// Why a linear or nonlinear solve did not produce an answer. Convergence failure is a value
 /// the load-stepping driver acts on (it cuts the step), not a panic.
@@ -48,6 +50,13 @@ pub enum SolveError {
         what: String,
     },
 }
+
+/// What this build, backend or rank count cannot run, as the one message the user sees (the
+/// deck's solver named, the way out given). The driver turns it into its run error (exit
+/// code 1) unchanged.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct Unsupported(pub String);
 
 /// What a linear solve did, for the log and the CSV history.
 #[derive(Debug, Clone, Default, PartialEq)]

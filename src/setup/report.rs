@@ -180,17 +180,8 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
         if !SUPPORTED_INTEGRATORS.contains(&name) {
             note(format!("solver {name}"));
         }
-        if let crate::io::deck::Integrator::NoxQuasiStatic(nox) = &solver.integrator {
-            let on_nox = matches!(
-                solver.linear_solve.backend,
-                crate::io::deck::LinearBackend::Trilinos { .. }
-            );
-            if nox.direction_method != "Newton" && !on_nox {
-                note(format!(
-                    "NOXQuasiStatic Direction Method \"{}\" on the native backend (it needs Trilinos NOX: a build with feature `trilinos`, Backend \"Trilinos\")",
-                    nox.direction_method
-                ));
-            }
+        if let Some(limitation) = crate::backend::factory::native_limitation(solver) {
+            note(limitation);
         }
     }
     for material in &deck.materials {
@@ -507,7 +498,8 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
         ),
     ];
     let assembled = deck.solvers.iter().any(|s| {
-        s.integrator.is_implicit() && crate::solver::linear::matrix_free_preconditioner(s).is_none()
+        s.integrator.is_implicit()
+            && crate::backend::factory::matrix_free_preconditioner(s).is_none()
     });
     if assembled {
         let blocks = if state_based {

@@ -46,21 +46,7 @@ use std::path::Path;
 /// gives every rank the one-rank candidates and forces).
 pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), RunError> {
     for solver in &deck.solvers {
-        let on_trilinos = matches!(
-            solver.integrator,
-            Integrator::NoxQuasiStatic(_) | Integrator::QuasiStatic(_) | Integrator::Implicit(_)
-        ) && matches!(
-            solver.linear_solve.backend,
-            crate::io::deck::LinearBackend::Trilinos { .. }
-        ) && cfg!(feature = "trilinos");
-        if !matches!(solver.integrator, Integrator::Verlet(_)) && !on_trilinos {
-            return Err(RunError::Unsupported(format!(
-                "solver \"{}\": {} on {ranks} ranks needs the Trilinos backend (QuasiStatic, NOXQuasiStatic or Implicit with Backend \"Trilinos\", \
-                 or `peridyn run --backend trilinos`, in a build with the features mpi and trilinos); the native backend runs on one rank",
-                solver.name,
-                solver.integrator.deck_name()
-            )));
-        }
+        crate::backend::factory::check_ranks(solver, ranks)?;
     }
     if deck.contact.is_some() {
         if let Some(solver) = deck

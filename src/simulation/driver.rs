@@ -315,7 +315,7 @@ impl Run<'_> {
         let settings = quasi_static_settings(solver, predecessor)
             .map_err(|error| collective(self.ranks.communicator(), error))?;
         let mut nonlinear = linear::nonlinear_solver(solver, self.model, physics)
-            .map_err(|error| collective(self.ranks.communicator(), error))?;
+            .map_err(|error| collective(self.ranks.communicator(), error.into()))?;
         if self.root() {
             eprintln!(
                 "{}: {}, {} load steps{}, linear solver: {}",
@@ -415,7 +415,7 @@ impl Run<'_> {
     ) -> Result<(), RunError> {
         let settings = newmark_settings(solver, implicit);
         let mut linear = linear::strategy(solver, self.model, physics)
-            .map_err(|error| collective(self.ranks.communicator(), error))?;
+            .map_err(|error| collective(self.ranks.communicator(), error.into()))?;
         if self.root() {
             eprintln!(
                 "{}: Implicit (Newmark-β, β = {}, γ = {}), Δt = {:e} s, {} steps{}, linear solver: {}",

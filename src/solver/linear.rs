@@ -1,4 +1,5 @@
-//! Chooses how an implicit solver solves its Newton corrections, from the deck.
+//! Builds the solver objects of an implicit solver list once [`crate::backend::factory`] has
+//! decided which backend runs it (and refused what cannot run here).
 //!
 //! * `QuasiStatic` and `Implicit`: the peridyn `Linear Solver` keys ([`LinearSolve`]) on the
 //!   native backend; `Direct` is sparse Cholesky, with sparse LU taking over for good once the
@@ -13,16 +14,16 @@
 //!   `QuasiStatic` and `Implicit` hand their assembled tangent to Belos
 //!   (`TrilinosLinearSolver`) with the Ifpack/ML preconditioner of the deck.
 
+use crate::backend::factory::{self, matrix_free_preconditioner, NonlinearBackend};
 use crate::backend::native::{
     KrylovSettings, NativeLinearSolver, NativeMethod, NativeSolverSettings, PreconditionerKind,
 };
+use crate::backend::Unsupported;
 use crate::io::deck::{
-    AlgebraicPreconditioner, Integrator, LinearBackend, LinearMethod, LinearPreconditioner,
-    LinearSolve, ParameterValue, PeridigmPreconditioner, Solver,
+    AlgebraicPreconditioner, LinearBackend, LinearMethod, LinearPreconditioner, LinearSolve, Solver,
 };
 use crate::physics::Physics;
 use crate::setup::Model;
-use crate::simulation::RunError;
 use crate::solver::newton::{LinearStrategy, NonlinearSolver};
 
 /// The smallest Krylov tolerance Jacobian-free solves use: a finite-difference directional
@@ -30,52 +31,27 @@ use crate::solver::newton::{LinearStrategy, NonlinearSolver};
 /// iterations.
 pub const MATRIX_FREE_TOLERANCE_FLOOR: f64 = 1e-7;
 
-/// The preconditioner of a Jacobian-free Newton–Krylov solve when `solver` asks for one
-/// (`NOXQuasiStatic` with `Jacobian Operator: "Matrix-Free"` and `Peridigm Preconditioner`
-/// `Block 3x3` or `None`), `None` when the solver assembles its tangent.
-pub fn matrix_free_preconditioner(solver: &Solver) -> Option<LinearPreconditioner> {
-    let Integrator::NoxQuasiStatic(nox) = &solver.integrator else {
-        return None;
-    };
-    let matrix_free = nox_string(
-        &nox.nox,
-        &["Direction", "Newton", "Linear Solver", "Jacobian Operator"],
-    )
-    .is_some_and(|s| s == "Matrix-Free");
-    match (matrix_free, solver.peridigm_preconditioner) {
-        (true, PeridigmPreconditioner::Block3x3) => Some(LinearPreconditioner::Block3x3),
-        (true, PeridigmPreconditioner::None) => Some(LinearPreconditioner::None),
-        _ => None,
-    }
-}
-
 /// The nonlinear solver of a quasi-static `solver` list: NOX for `NOXQuasiStatic` on the
 /// Trilinos backend, otherwise peridyn's Newton with [`strategy`].
 pub fn nonlinear_solver(
     solver: &Solver,
     model: &Model,
     physics: &Physics,
-) -> Result<Box<dyn NonlinearSolver>, RunError> {
-    if matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
-        && matches!(solver.linear_solve.backend, LinearBackend::Trilinos { .. })
-    {
-        return nox_solver(solver);
+) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
+    match factory::nonlinear_backend(solver)? {
+        NonlinearBackend::Nox => nox_solver(solver),
+        NonlinearBackend::Newton => Ok(Box::new(strategy(solver, model, physics)?)),
     }
-    Ok(Box::new(strategy(solver, model, physics)?))
 }
 
 #[cfg(feature = "trilinos")]
-fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, RunError> {
+fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
     Ok(Box::new(super::nox_newton::NoxNewton::from_deck(solver)?))
 }
 
 #[cfg(not(feature = "trilinos"))]
-fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, RunError> {
-    Err(RunError::Unsupported(format!(
-        "solver \"{}\": Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
-         (cargo build --release --features trilinos; see .ci/trilinos.sh)",
-        solver.name
-    )))
+fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
+    Err(factory::trilinos_not_built(solver))
 }
 
 /// The linear strategy of `solver` (see the module docs).
@@ -83,7 +59,7 @@ pub fn strategy(
     solver: &Solver,
     model: &Model,
     _physics: &Physics,
-) -> Result<LinearStrategy, RunError> {
+) -> Result<LinearStrategy, Unsupported> {
     let settings = &solver.linear_solve;
     let krylov = KrylovSettings {
         relative_tolerance: settings.relative_tolerance,
@@ -165,19 +141,14 @@ fn trilinos_strategy(
     krylov: KrylovSettings,
     preconditioner: AlgebraicPreconditioner,
     ilu_fill_level: u32,
-) -> Result<LinearStrategy, RunError> {
+) -> Result<LinearStrategy, Unsupported> {
     use crate::backend::trilinos::{
         BelosMethod, Communicator, TrilinosLinearSolver, TrilinosPreconditioner, TrilinosSettings,
     };
+    factory::check_trilinos_method(solver)?;
     let method = match settings.method {
-        LinearMethod::Automatic | LinearMethod::Cg => BelosMethod::BlockCg,
         LinearMethod::Gmres => BelosMethod::BlockGmres,
-        LinearMethod::Direct | LinearMethod::Cholesky | LinearMethod::Lu => {
-            return Err(RunError::Unsupported(format!(
-                "solver \"{}\": Backend \"Trilinos\" solves with Belos CG or GMRES, not a direct method",
-                solver.name
-            )))
-        }
+        _ => BelosMethod::BlockCg,
     };
     let preconditioner = match preconditioner {
         AlgebraicPreconditioner::None => TrilinosPreconditioner::None,
@@ -207,46 +178,6 @@ fn trilinos_strategy(
     _krylov: KrylovSettings,
     _preconditioner: AlgebraicPreconditioner,
     _ilu_fill_level: u32,
-) -> Result<LinearStrategy, RunError> {
-    Err(RunError::Unsupported(format!(
-        "solver \"{}\": Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
-         (cargo build --release --features trilinos; see .ci/trilinos.sh)",
-        solver.name
-    )))
-}
-
-/// A string parameter at `path` in a NOX parameter tree.
-fn nox_string<'a>(tree: &'a [(String, ParameterValue)], path: &[&str]) -> Option<&'a str> {
-    let (first, rest) = path.split_first()?;
-    let (_, value) = tree.iter().find(|(k, _)| k == first)?;
-    match (value, rest.is_empty()) {
-        (ParameterValue::String(s), true) => Some(s),
-        (ParameterValue::List(children), false) => nox_string(children, rest),
-        _ => None,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn nox_string_follows_the_path() {
-        let tree = vec![(
-            "Direction".to_string(),
-            ParameterValue::List(vec![(
-                "Newton".to_string(),
-                ParameterValue::List(vec![(
-                    "Linear Solver".to_string(),
-                    ParameterValue::List(vec![(
-                        "Jacobian Operator".to_string(),
-                        ParameterValue::String("Matrix-Free".into()),
-                    )]),
-                )]),
-            )]),
-        )];
-        let path = ["Direction", "Newton", "Linear Solver", "Jacobian Operator"];
-        assert_eq!(nox_string(&tree, &path), Some("Matrix-Free"));
-        assert_eq!(nox_string(&tree, &["Direction", "Method"]), None);
-    }
+) -> Result<LinearStrategy, Unsupported> {
+    Err(factory::trilinos_not_built(solver))
 }

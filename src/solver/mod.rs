@@ -10,6 +10,7 @@ pub mod newmark;
 pub mod newton;
 #[cfg(feature = "trilinos")]
 pub mod nox_newton;
+pub mod problem;
 pub mod quasistatic;
 
 pub use explicit::{VelocityVerlet, VerletSettings};

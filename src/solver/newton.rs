@@ -9,15 +9,15 @@
 //! where Peridigm's scan may spend sixty.
 
 use crate::backend::native::{KrylovSettings, NativeLinearSolver};
+use crate::backend::problem::{Evaluation, NonlinearProblem};
 use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
 use crate::io::deck::LinearPreconditioner;
 use crate::physics::Physics;
 use crate::setup::Model;
-use crate::solver::collective::{
-    agree, deficient_points, global_dof, owned_unknowns, squared_norm, Collective, ColumnMap,
-};
+use crate::solver::collective::Collective;
 use crate::solver::implicit::{DofMap, ImplicitSystem};
 use crate::solver::jfnk;
+use crate::solver::problem::{Origin, Physical, PhysicsProblem};
 use crate::state::State;
 use std::time::Instant;
 
@@ -220,14 +220,13 @@ pub struct NewtonReport {
     pub linear_method: String,
 }
 
-/// Runs Newton from `state.displacement` (prescribed dofs already set); on return the state
-/// holds the last iterate, consistent forces and damage. A non-converged solve is a report with
-/// `converged == false`; errors are failures of the linear algebra or non-finite values.
+/// Runs Newton from `state.displacement` (prescribed dofs already set) on the physics as a
+/// [`PhysicsProblem`] ([`solve_problem`]); on return the state holds the last iterate,
+/// consistent forces and damage, and the report counts broken bonds and held points.
 ///
 /// On several ranks (`collective`), the unknowns are the free dofs of the points this rank
-/// owns, every residual evaluation first refreshes the ghosts, norms and decisions are
-/// global, and the correction comes from a distributed assembled solve
-/// ([`LinearSolver::solve_distributed`], the Trilinos backend).
+/// owns, every residual evaluation first refreshes the ghosts, and norms and decisions are
+/// global.
 #[allow(clippy::too_many_arguments)]
 pub fn solve(
     system: &mut ImplicitSystem,
@@ -239,30 +238,47 @@ pub fn solve(
     constrained: &[usize],
     collective: &mut dyn Collective,
 ) -> Result<NewtonReport, SolveError> {
+    let parts = Physical {
+        system,
+        model,
+        physics,
+        state,
+        collective,
+        constrained,
+    };
+    let mut problem = PhysicsProblem::new(parts, settings.measure, Origin::Displacement);
+    let mut report = solve_problem(&mut problem, linear, settings)?;
+    report.residual_evaluations = problem.residual_evaluations();
+    report.broken_bonds = problem.broken_bonds();
+    report.held_points = problem.held_points();
+    Ok(report)
+}
+
+/// Runs Newton on `problem` from its current unknowns; on return the problem is at the last
+/// iterate. A non-converged solve is a report with `converged == false`; errors are failures
+/// of the linear algebra or non-finite values. The report's physics fields (broken bonds,
+/// held points, residual evaluations) are left for the caller, which knows the physics.
+///
+/// On several ranks the correction comes from a distributed assembled solve
+/// ([`LinearSolver::solve_distributed`], the Trilinos backend) over the problem's global ids.
+pub fn solve_problem(
+    problem: &mut dyn NonlinearProblem,
+    linear: &mut LinearStrategy,
+    settings: &NewtonSettings,
+) -> Result<NewtonReport, SolveError> {
     let start = Instant::now();
-    let distributed = collective.ranks() > 1;
-    if distributed && !matches!(linear, LinearStrategy::Assembled(_)) {
+    if problem.ranks() > 1 && !matches!(linear, LinearStrategy::Assembled(_)) {
         return Err(SolveError::Breakdown {
             method: "Newton",
             reason: "on several ranks peridyn's Newton solves its corrections with Backend \"Trilinos\" (Belos)".into(),
         });
     }
-    let volume = &model.points.volume;
     let mut report = NewtonReport::default();
-    let evaluations_before = system.residual_evaluations;
-    let mut held: Vec<u32> = Vec::new();
-    if distributed {
-        system.dofs = owned_unknowns(model, constrained, &held, collective);
-    }
-    let mut residual = vec![0.0; system.dofs.len()];
-    report.broken_bonds = evaluate(system, model, physics, state, &mut residual, collective)?;
-    let mut measure = measure_of(
-        settings.measure,
-        &residual,
-        &system.dofs,
-        volume,
-        collective,
-    );
+    let mut x = vec![0.0; problem.len()];
+    problem.unknowns(&mut x);
+    let mut residual = vec![0.0; problem.len()];
+    problem.residual(&x, &mut residual, Evaluation::Iterate)?;
+    let mut measure = problem.convergence_measure(&residual);
     report.residual_history.push(measure);
     while measure > settings.tolerance && (report.iterations as u64) < settings.max_iterations {
         // Peridigm's log: the residual at the top of every iteration, numbered from 1.
@@ -272,100 +288,23 @@ pub fn solve(
                 report.iterations + 1
             );
         }
-        let deficient = deficient_points(model, state, collective);
-        if deficient != held {
-            for &p in deficient
-                .iter()
-                .filter(|p| held.binary_search(p).is_err() && !collective.is_ghost(**p as usize))
-            {
-                eprintln!(
-                    "  note: point {} has too few intact bonds for a stiffness; its displacement is held (RANK_DEFICIENT_NODES)",
-                    model.points.original_id[p as usize] + 1
-                );
-            }
-            held = deficient;
-            system.dofs = owned_unknowns(model, constrained, &held, collective);
-            residual = vec![0.0; system.dofs.len()];
-            report.broken_bonds =
-                evaluate(system, model, physics, state, &mut residual, collective)?;
-            measure = measure_of(
-                settings.measure,
-                &residual,
-                &system.dofs,
-                volume,
-                collective,
-            );
+        if problem.update_unknowns()? {
+            x = vec![0.0; problem.len()];
+            problem.unknowns(&mut x);
+            residual = vec![0.0; problem.len()];
+            problem.residual(&x, &mut residual, Evaluation::Iterate)?;
+            measure = problem.convergence_measure(&residual);
             if measure <= settings.tolerance {
                 break;
             }
         }
-        let mut correction = vec![0.0; system.dofs.len()];
-        let linear_report = match linear {
-            LinearStrategy::Native { solver, fallback } => {
-                let matrix = system.stiffness(model, physics, state)?;
-                report.tangent_bytes = report.tangent_bytes.max(system.tangent_bytes);
-                let groups = system.dofs.groups.clone();
-                solve_native(
-                    solver,
-                    fallback,
-                    &groups,
-                    &matrix,
-                    &residual,
-                    &mut correction,
-                )?
-            }
-            LinearStrategy::Assembled(solver) if distributed => {
-                let columns = ColumnMap::new(model, constrained, &held, collective);
-                let matrix = columns.stiffness(system, model, physics, state, &*collective);
-                let matrix = agree(collective, matrix)?;
-                report.tangent_bytes = report.tangent_bytes.max(system.tangent_bytes);
-                let rows: Vec<usize> = system
-                    .dofs
-                    .free
-                    .iter()
-                    .map(|&d| global_dof(collective, d))
-                    .collect();
-                accept_inexact(solver.solve_distributed(
-                    &rows,
-                    &matrix,
-                    &residual,
-                    &mut correction,
-                ))?
-            }
-            LinearStrategy::Assembled(solver) => {
-                let matrix = system.stiffness(model, physics, state)?;
-                report.tangent_bytes = report.tangent_bytes.max(system.tangent_bytes);
-                accept_inexact(solver.solve(&matrix, &residual, &mut correction))?
-            }
-            LinearStrategy::MatrixFree {
-                krylov,
-                preconditioner,
-            } => accept_inexact(jfnk::solve(
-                system,
-                model,
-                physics,
-                state,
-                krylov,
-                *preconditioner,
-                &residual,
-                &mut correction,
-            ))?,
-        };
+        let mut correction = vec![0.0; problem.len()];
+        let linear_report = correct(problem, linear, &x, &residual, &mut correction)?;
+        report.tangent_bytes = report.tangent_bytes.max(problem.jacobian_bytes());
         report.linear_iterations += linear_report.iterations;
         report.linear_method = linear_report.method.clone();
         report.iterations += 1;
-        let (broken, new_measure) = line_search(
-            system,
-            model,
-            physics,
-            state,
-            &mut residual,
-            &correction,
-            settings,
-            collective,
-        )?;
-        report.broken_bonds = broken;
-        measure = new_measure;
+        measure = line_search(problem, &mut x, &mut residual, &correction, settings)?;
         report.residual_history.push(measure);
         if settings.verbose {
             eprintln!(
@@ -375,81 +314,58 @@ pub fn solve(
         }
     }
     report.converged = measure <= settings.tolerance;
-    report.residual_evaluations = system.residual_evaluations - evaluations_before;
-    let mut broken = [report.broken_bonds as f64];
-    collective.sum(&mut broken);
-    report.broken_bonds = broken[0] as usize;
-    report.held_points = held
-        .iter()
-        .filter(|&&p| !collective.is_ghost(p as usize))
-        .map(|&p| model.points.original_id[p as usize] + 1)
-        .collect();
     report.seconds = start.elapsed().as_secs_f64();
     Ok(report)
 }
 
-/// The residual at the state, the ghosts refreshed first and failures agreed (collective on
-/// several ranks); returns the bonds broken on this rank.
-fn evaluate(
-    system: &mut ImplicitSystem,
-    model: &Model,
-    physics: &mut Physics,
-    state: &mut State,
-    residual: &mut [f64],
-    collective: &mut dyn Collective,
-) -> Result<usize, SolveError> {
-    collective.refresh(&mut state.displacement);
-    let result = system.residual(model, physics, state, residual);
-    agree(collective, result)
-}
-
-/// The convergence measure over all ranks' unknowns.
-fn measure_of(
-    measure: ConvergenceMeasure,
+/// The Newton correction Δ of J Δ = −F at `x` (`residual` holds F).
+fn correct(
+    problem: &mut dyn NonlinearProblem,
+    linear: &mut LinearStrategy,
+    x: &[f64],
     residual: &[f64],
-    dofs: &DofMap,
-    volume: &[f64],
-    collective: &mut dyn Collective,
-) -> f64 {
-    if collective.ranks() == 1 {
-        return measure.of(residual, dofs, volume);
-    }
-    match measure {
-        ConvergenceMeasure::PeridigmQuasiStatic => {
-            let largest = collective.max(residual.iter().fold(0.0f64, |m, r| m.max(r.abs())));
-            squared_norm(residual, collective).sqrt() + 20.0 * largest
+    correction: &mut [f64],
+) -> Result<KrylovReport, SolveError> {
+    let rhs: Vec<f64> = residual.iter().map(|f| -f).collect();
+    match linear {
+        LinearStrategy::Native { solver, fallback } => {
+            let matrix = problem.jacobian(x)?;
+            let groups = problem.groups().to_vec();
+            solve_native(solver, fallback, &groups, &matrix, &rhs, correction)
         }
-        ConvergenceMeasure::TwoNorm => squared_norm(residual, collective).sqrt(),
-        ConvergenceMeasure::ForceDensity { scale } => {
-            let scaled: Vec<f64> = residual
-                .iter()
-                .zip(&dofs.free)
-                .map(|(r, &dof)| r / volume[dof / 3])
-                .collect();
-            scale * squared_norm(&scaled, collective).sqrt()
+        LinearStrategy::Assembled(solver) => {
+            let matrix = problem.jacobian(x)?;
+            let result = match problem.global_ids() {
+                Some(rows) => solver.solve_distributed(rows, &matrix, &rhs, correction),
+                None => solver.solve(&matrix, &rhs, correction),
+            };
+            accept_inexact(result)
         }
+        LinearStrategy::MatrixFree {
+            krylov,
+            preconditioner,
+        } => accept_inexact(jfnk::solve(
+            problem,
+            krylov,
+            *preconditioner,
+            x,
+            &rhs,
+            correction,
+        )),
     }
 }
 
-/// Moves the unknowns from u₀ to u₀ + αΔ with the line search of the module docs; leaves the
-/// state and `residual` at the accepted point and returns (broken bonds, measure).
-#[allow(clippy::too_many_arguments)]
+/// Moves the unknowns from x₀ to x₀ + αΔ with the line search of the module docs; leaves
+/// the problem, `x` and `residual` at the accepted point and returns its measure.
 fn line_search(
-    system: &mut ImplicitSystem,
-    model: &Model,
-    physics: &mut Physics,
-    state: &mut State,
+    problem: &mut dyn NonlinearProblem,
+    x: &mut [f64],
     residual: &mut [f64],
     correction: &[f64],
     settings: &NewtonSettings,
-    collective: &mut dyn Collective,
-) -> Result<(usize, f64), SolveError> {
-    let volume = &model.points.volume;
-    let n = system.dofs.len();
-    let mut start = vec![0.0; n];
-    system.dofs.gather(&state.displacement, &mut start);
-    let g0 = squared_norm(residual, collective);
-    let mut trial = vec![0.0; n];
+) -> Result<f64, SolveError> {
+    let start = x.to_vec();
+    let g0 = problem.dot(residual, residual);
     let mut alpha = 1.0;
     let mut best: Option<(f64, f64)> = None;
     let backtracks = if settings.line_search {
@@ -457,16 +373,17 @@ fn line_search(
     } else {
         0
     };
-    for attempt in 0..=backtracks {
-        for ((t, s), d) in trial.iter_mut().zip(&start).zip(correction) {
+    let step = |x: &mut [f64], alpha: f64| {
+        for ((t, s), d) in x.iter_mut().zip(&start).zip(correction) {
             *t = s + alpha * d;
         }
-        system.dofs.scatter(&trial, &mut state.displacement);
-        let broken = evaluate(system, model, physics, state, residual, collective)?;
-        let g = squared_norm(residual, collective);
+    };
+    for attempt in 0..=backtracks {
+        step(x, alpha);
+        problem.residual(x, residual, Evaluation::Iterate)?;
+        let g = problem.dot(residual, residual);
         if g <= (1.0 - 2.0 * ARMIJO * alpha) * g0 || attempt == backtracks && best.is_none() {
-            let measure = measure_of(settings.measure, residual, &system.dofs, volume, collective);
-            return Ok((broken, measure));
+            return Ok(problem.convergence_measure(residual));
         }
         if best.is_none_or(|(_, g_best)| g < g_best) {
             best = Some((alpha, g));
@@ -485,13 +402,9 @@ fn line_search(
     // No trial met the Armijo condition: take the best one seen (the driver decides whether
     // the step converged).
     let (alpha, _) = best.expect("at least one trial was evaluated");
-    for ((t, s), d) in trial.iter_mut().zip(&start).zip(correction) {
-        *t = s + alpha * d;
-    }
-    system.dofs.scatter(&trial, &mut state.displacement);
-    let broken = evaluate(system, model, physics, state, residual, collective)?;
-    let measure = measure_of(settings.measure, residual, &system.dofs, volume, collective);
-    Ok((broken, measure))
+    step(x, alpha);
+    problem.residual(x, residual, Evaluation::Iterate)?;
+    Ok(problem.convergence_measure(residual))
 }
 
 /// A nonlinear solver for one load step: from the state on entry (prescribed dofs set, the

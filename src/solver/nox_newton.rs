@@ -30,51 +30,20 @@
 //!   block-Jacobi preconditioner needs 3. The blocks are refreshed after `Max Age Of Prec`
 //!   reuses.
 
-use crate::backend::native::invert_dense;
-use crate::backend::trilinos::nox::{
-    self, NonlinearCallbacks, NoxLayout, Pattern, PreconditionerMatrix,
-};
-use crate::backend::SolveError;
+use crate::backend::factory;
+use crate::backend::problem::NonlinearProblem;
+use crate::backend::trilinos::nox_problem::{self, NoxSettings};
+pub use crate::backend::trilinos::nox_problem::{MatrixFreePreconditioner, NoxJacobian};
+use crate::backend::{SolveError, Unsupported};
 use crate::io::deck::{Integrator, ParameterValue, PeridigmPreconditioner, Solver};
 use crate::physics::Physics;
 use crate::setup::Model;
-use crate::simulation::RunError;
-use crate::solver::collective::{
-    agree, deficient_points, global_dof, owned_unknowns, squared_norm, Collective, ColumnMap,
-};
+use crate::solver::collective::Collective;
 use crate::solver::implicit::ImplicitSystem;
-use crate::solver::jfnk::block_diagonal_csr;
 use crate::solver::newton::{NewtonReport, NewtonSettings, NonlinearSolver};
+use crate::solver::problem::{Origin, Physical, PhysicsProblem};
 use crate::state::State;
 use std::time::Instant;
-
-/// The preconditioner of a matrix-free NOX solve.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum MatrixFreePreconditioner {
-    /// NOX `Preconditioner: "None"`: nothing is assembled.
-    None,
-    /// `User Defined`: the inverted diagonal blocks, applied by a product.
-    InvertedBlocks,
-    /// `AztecOO`, `Ifpack`, `New Ifpack`, `ML`: the diagonal blocks, factored by the library.
-    Blocks,
-}
-
-/// How the Newton system is formed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum NoxJacobian {
-    /// The assembled tangent, recomputed on every `update_every`-th request.
-    Assembled {
-        /// `Direction → Nonlinear CG → Update Jacobian` (1 for Newton).
-        update_every: u64,
-    },
-    /// `NOX::Epetra::MatrixFree`.
-    MatrixFree {
-        /// Its preconditioner.
-        preconditioner: MatrixFreePreconditioner,
-        /// `Max Age Of Prec`: reuses of the preconditioner before it is recomputed.
-        max_age: u64,
-    },
-}
 
 /// `NOXQuasiStatic` on the Trilinos backend.
 #[derive(Debug, Clone, PartialEq)]
@@ -86,23 +55,14 @@ pub struct NoxNewton {
 
 impl NoxNewton {
     /// The NOX solver of a `NOXQuasiStatic` list (see the module docs for the rules).
-    pub fn from_deck(solver: &Solver) -> Result<Self, RunError> {
+    pub fn from_deck(solver: &Solver) -> Result<Self, Unsupported> {
         let Integrator::NoxQuasiStatic(deck) = &solver.integrator else {
-            return Err(RunError::Unsupported(format!(
+            return Err(Unsupported(format!(
                 "solver \"{}\": NOX runs NOXQuasiStatic lists only",
                 solver.name
             )));
         };
-        let direction = match deck.direction_method.as_str() {
-            "Newton" => "Newton",
-            "NonlinearCG" => "Nonlinear CG",
-            other => {
-                return Err(RunError::Unsupported(format!(
-                    "solver \"{}\": NOXQuasiStatic → Direction → Method \"{other}\": use \"Newton\" or \"NonlinearCG\" (Peridigm's two)",
-                    solver.name
-                )))
-            }
-        };
+        let direction = factory::nox_direction(solver, &deck.direction_method)?;
         let linear_solver_path: Vec<String> = ["Direction", direction, "Linear Solver"]
             .map(String::from)
             .to_vec();
@@ -132,7 +92,7 @@ impl NoxNewton {
                     MatrixFreePreconditioner::Blocks
                 }
                 Some(other) => {
-                    return Err(RunError::Unsupported(format!(
+                    return Err(Unsupported(format!(
                         "solver \"{}\": NOXQuasiStatic → Direction → {direction} → Linear Solver → Preconditioner \"{other}\": \
                          use \"None\", \"User Defined\" (the inverted 3×3 blocks), \"AztecOO\", \"Ifpack\", \"New Ifpack\" or \"ML\"",
                         solver.name
@@ -267,305 +227,39 @@ impl NonlinearSolver for NoxNewton {
         collective: &mut dyn Collective,
     ) -> Result<NewtonReport, SolveError> {
         let start = Instant::now();
-        let evaluations_before = system.residual_evaluations;
-        let distributed = collective.ranks() > 1;
-        // Points with too few bonds for a stiffness are held for the whole NOX solve (NOX
-        // cannot change its unknowns mid-solve); on several ranks every rank learns which.
-        let deficient = deficient_points(model, state, collective);
-        for &p in deficient
-            .iter()
-            .filter(|&&p| !collective.is_ghost(p as usize))
-        {
-            eprintln!(
-                "  note: point {} has too few intact bonds for a stiffness; its displacement is held (RANK_DEFICIENT_NODES)",
-                model.points.original_id[p as usize] + 1
-            );
-        }
-        system.dofs = owned_unknowns(model, constrained, &deficient, collective);
-        let n = system.dofs.len();
-        let global_rows: Option<Vec<usize>> = distributed.then(|| {
-            system
-                .dofs
-                .free
-                .iter()
-                .map(|&d| global_dof(collective, d))
-                .collect()
-        });
-        let mut reference = vec![0.0; n];
-        system.dofs.gather(&model.points.position, &mut reference);
-        let mut x = vec![0.0; n];
-        system.dofs.gather(&state.displacement, &mut x);
-        for (x, reference) in x.iter_mut().zip(&reference) {
-            *x += reference;
-        }
-        // On several ranks the tangent's columns run over the ghosts' free dofs too.
-        let columns = match self.jacobian {
-            NoxJacobian::Assembled { .. } if distributed => {
-                Some(ColumnMap::new(model, constrained, &deficient, collective))
-            }
-            _ => None,
-        };
-        let jacobian_pattern = match self.jacobian {
-            NoxJacobian::Assembled { .. } => Some(match &columns {
-                None => {
-                    let matrix = system.stiffness(model, physics, state)?;
-                    Pattern {
-                        offsets: matrix.offsets,
-                        columns: matrix.columns,
-                    }
-                }
-                Some(map) => {
-                    let matrix = map.stiffness(system, model, physics, state, collective)?;
-                    Pattern {
-                        offsets: matrix.offsets,
-                        columns: matrix.columns,
-                    }
-                }
-            }),
-            NoxJacobian::MatrixFree { .. } => None,
-        };
-        let preconditioner = match self.jacobian {
-            NoxJacobian::MatrixFree {
-                preconditioner:
-                    kind @ (MatrixFreePreconditioner::Blocks | MatrixFreePreconditioner::InvertedBlocks),
-                ..
-            } => {
-                let blocks = block_diagonal_csr(
-                    &system.dofs.groups,
-                    &vec![0.0; block_entries(&system.dofs.groups)],
-                );
-                let columns = match &global_rows {
-                    Some(ids) => blocks.columns.iter().map(|&c| ids[c]).collect(),
-                    None => blocks.columns,
-                };
-                Some(PreconditionerMatrix {
-                    pattern: Pattern {
-                        offsets: blocks.offsets,
-                        columns,
-                    },
-                    is_inverse: kind == MatrixFreePreconditioner::InvertedBlocks,
-                })
-            }
-            _ => None,
-        };
-        let layout = NoxLayout {
-            linear_solver_path: self.linear_solver_path.clone(),
-            jacobian: jacobian_pattern,
-            preconditioner,
-            tolerance: settings.tolerance,
-            max_iterations: settings.max_iterations,
-            global_rows,
-        };
-        let mut callbacks = StepCallbacks {
+        let parts = Physical {
             system,
             model,
             physics,
             state,
             collective,
-            reference: &reference,
-            columns,
+            constrained,
+        };
+        let mut problem = PhysicsProblem::new(parts, settings.measure, Origin::Coordinates);
+        // Points with too few bonds for a stiffness are held for the whole NOX solve (NOX
+        // cannot change its unknowns mid-solve); on several ranks every rank learns which.
+        problem.hold_deficient_points();
+        let nox = NoxSettings {
+            parameters: &self.parameters,
+            linear_solver_path: &self.linear_solver_path,
             jacobian: self.jacobian,
-            jacobian_requests: 0,
-            preconditioner_age: None,
-            broken_bonds: 0,
-            history: Vec::new(),
+            tolerance: settings.tolerance,
+            max_iterations: settings.max_iterations,
             print_iterations: settings.print_iterations,
         };
-        let outcome = nox::solve(&mut callbacks, &layout, &self.parameters, &mut x)?;
-        // The state ends at NOX's solution with its own forces and damage (NOX's last
-        // evaluation may have been a line-search trial or a probe).
-        let mut residual = vec![0.0; n];
-        callbacks.residual(&x, &mut residual, false)?;
-        let mut broken = [callbacks.broken_bonds as f64];
-        callbacks.collective.sum(&mut broken);
-        let mut report = NewtonReport {
-            converged: outcome.converged,
-            iterations: outcome.iterations,
-            linear_iterations: outcome.linear_iterations,
-            residual_history: std::mem::take(&mut callbacks.history),
-            broken_bonds: broken[0] as usize,
+        let solved = nox_problem::solve(&mut problem, &nox)?;
+        Ok(NewtonReport {
+            converged: solved.report.converged,
+            iterations: solved.report.iterations,
+            linear_iterations: solved.report.linear_iterations,
+            residual_history: solved.history,
+            residual_evaluations: problem.residual_evaluations(),
+            broken_bonds: problem.broken_bonds(),
+            held_points: problem.held_points(),
+            tangent_bytes: problem.jacobian_bytes(),
             linear_method: "AztecOO (NOX)".to_string(),
-            ..NewtonReport::default()
-        };
-        report.residual_evaluations = system.residual_evaluations - evaluations_before;
-        report.tangent_bytes = system.tangent_bytes;
-        report.held_points = deficient
-            .iter()
-            .map(|&p| model.points.original_id[p as usize] + 1)
-            .collect();
-        report.seconds = start.elapsed().as_secs_f64();
-        Ok(report)
-    }
-}
-
-/// Entries of the dense diagonal blocks of `groups`.
-fn block_entries(groups: &[usize]) -> usize {
-    groups.windows(2).map(|g| (g[1] - g[0]).pow(2)).sum()
-}
-
-/// The callbacks of one load step.
-struct StepCallbacks<'a> {
-    system: &'a mut ImplicitSystem,
-    model: &'a Model,
-    physics: &'a mut Physics,
-    state: &'a mut State,
-    collective: &'a mut dyn Collective,
-    /// Reference coordinate X of every unknown (x is the current coordinate X + u).
-    reference: &'a [f64],
-    /// The tangent's columns on several ranks.
-    columns: Option<ColumnMap>,
-    jacobian: NoxJacobian,
-    jacobian_requests: u64,
-    /// Reuses of the current preconditioner (`None`: not computed yet).
-    preconditioner_age: Option<u64>,
-    broken_bonds: usize,
-    /// ‖F‖₂ of the first residual, then after each iteration.
-    history: Vec<f64>,
-    print_iterations: bool,
-}
-
-impl StepCallbacks<'_> {
-    /// Moves the state to the coordinates `x` of this rank's unknowns and refreshes the
-    /// ghosts (collective).
-    fn move_to(&mut self, x: &[f64]) {
-        let moved: Vec<f64> = x.iter().zip(self.reference).map(|(x, r)| x - r).collect();
-        self.system
-            .dofs
-            .scatter(&moved, &mut self.state.displacement);
-        self.collective.refresh(&mut self.state.displacement);
-        self.state
-            .update_current_position(&self.model.points.position);
-    }
-
-    fn agree<T>(&mut self, result: Result<T, SolveError>) -> Result<T, SolveError> {
-        agree(&mut *self.collective, result)
-    }
-
-    fn evaluate(&mut self, f: &mut [f64], probe: bool) -> Result<(), SolveError> {
-        if probe {
-            self.system
-                .residual_keeping_damage(self.model, self.physics, self.state, f, false)?;
-        } else {
-            self.broken_bonds = self
-                .system
-                .residual(self.model, self.physics, self.state, f)?;
-        }
-        f.iter_mut().for_each(|v| *v = -*v);
-        Ok(())
-    }
-
-    fn tangent_values(&mut self, values: &mut [f64]) -> Result<(), SolveError> {
-        let matrix = match &self.columns {
-            None => self
-                .system
-                .stiffness(self.model, self.physics, self.state)?,
-            Some(map) => map.stiffness(
-                self.system,
-                self.model,
-                self.physics,
-                self.state,
-                &*self.collective,
-            )?,
-        };
-        copy_values(&matrix.values, values)
-    }
-
-    fn preconditioner_values(
-        &mut self,
-        kind: MatrixFreePreconditioner,
-        values: &mut [f64],
-    ) -> Result<(), SolveError> {
-        let blocks = self
-            .system
-            .block_diagonal(self.model, self.physics, self.state)?;
-        if kind != MatrixFreePreconditioner::InvertedBlocks {
-            return copy_values(&blocks, values);
-        }
-        let mut at = 0;
-        for g in self.system.dofs.groups.windows(2) {
-            let size = g[1] - g[0];
-            let block = &blocks[at..at + size * size];
-            let inverse = invert_dense(block, size).ok_or_else(|| SolveError::Breakdown {
-                method: "Block 3x3 preconditioner",
-                reason: format!(
-                    "the diagonal block of point {} is singular",
-                    self.model.points.original_id[self.system.dofs.free[g[0]] / 3] + 1
-                ),
-            })?;
-            values[at..at + size * size].copy_from_slice(&inverse);
-            at += size * size;
-        }
-        Ok(())
-    }
-}
-
-fn copy_values(from: &[f64], to: &mut [f64]) -> Result<(), SolveError> {
-    if from.len() != to.len() {
-        return Err(SolveError::Breakdown {
-            method: "NOX",
-            reason: format!(
-                "{} matrix values for a pattern of {} entries",
-                from.len(),
-                to.len()
-            ),
-        });
-    }
-    to.copy_from_slice(from);
-    Ok(())
-}
-
-impl NonlinearCallbacks for StepCallbacks<'_> {
-    fn residual(&mut self, x: &[f64], f: &mut [f64], probe: bool) -> Result<(), SolveError> {
-        self.move_to(x);
-        let result = self.evaluate(f, probe);
-        self.agree(result)?;
-        if self.history.is_empty() && !probe {
-            let squares = squared_norm(f, &mut *self.collective);
-            self.history.push(squares.sqrt());
-        }
-        Ok(())
-    }
-
-    fn jacobian(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, SolveError> {
-        let NoxJacobian::Assembled { update_every } = self.jacobian else {
-            return Ok(false);
-        };
-        self.jacobian_requests += 1;
-        if (self.jacobian_requests - 1) % update_every != 0 {
-            return Ok(false);
-        }
-        self.move_to(x);
-        let result = self.tangent_values(values);
-        self.agree(result)?;
-        Ok(true)
-    }
-
-    fn preconditioner(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, SolveError> {
-        let NoxJacobian::MatrixFree {
-            preconditioner,
-            max_age,
-        } = self.jacobian
-        else {
-            return Ok(false);
-        };
-        match self.preconditioner_age {
-            Some(age) if age < max_age => {
-                self.preconditioner_age = Some(age + 1);
-                return Ok(false);
-            }
-            _ => self.preconditioner_age = Some(0),
-        }
-        self.move_to(x);
-        let result = self.preconditioner_values(preconditioner, values);
-        self.agree(result)?;
-        Ok(true)
-    }
-
-    fn iteration_done(&mut self, iteration: usize, residual_norm: f64) {
-        self.history.push(residual_norm);
-        if self.print_iterations {
-            eprintln!("  iteration {iteration}: residual L2 norm = {residual_norm:e}");
-        }
+            seconds: start.elapsed().as_secs_f64(),
+        })
     }
 }
 

@@ -23,6 +23,7 @@
 mod ffi;
 pub mod nox;
 mod nox_ffi;
+pub mod nox_problem;
 
 use std::sync::Mutex;
 

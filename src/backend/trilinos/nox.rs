@@ -8,25 +8,11 @@
 //! [`solve`] returns the callback's own [`SolveError`] — no panic or C++ exception crosses the
 //! boundary.
 
-use super::nox_ffi::bridge;
+pub use super::nox_ffi::NonlinearCallbacks;
+use super::nox_ffi::{bridge, NoxProblem};
 use super::{ffi::bridge as linear_bridge, MPI_TURN};
 use crate::backend::SolveError;
 use crate::io::deck::ParameterValue;
-
-/// What NOX asks of the problem.
-pub trait NonlinearCallbacks {
-    /// F(x) into `f`. `probe` is true when NOX evaluates F for a finite-difference or
-    /// matrix-free directional derivative rather than at an iterate.
-    fn residual(&mut self, x: &[f64], f: &mut [f64], probe: bool) -> Result<(), SolveError>;
-    /// The values of ∂F/∂x at x, in the order of [`NoxLayout::jacobian`]; `Ok(false)` keeps
-    /// the previous values.
-    fn jacobian(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, SolveError>;
-    /// The values of the preconditioner matrix at x, in the order of
-    /// [`NoxLayout::preconditioner`]; `Ok(false)` keeps the previous values.
-    fn preconditioner(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, SolveError>;
-    /// Called after every nonlinear iteration (1-based) with ‖F‖₂.
-    fn iteration_done(&mut self, iteration: usize, residual_norm: f64);
-}
 
 /// A CSR sparsity pattern over the unknowns (global column ids).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -81,43 +67,6 @@ pub struct NoxReport {
     pub linear_iterations: usize,
     /// ‖F‖₂ at the returned x.
     pub residual_norm: f64,
-}
-
-/// The Rust object the C++ side calls back; it keeps the first callback error so that the
-/// caller sees the real cause rather than NOX's generic fill failure.
-pub struct NoxProblem<'a> {
-    callbacks: &'a mut dyn NonlinearCallbacks,
-    error: Option<SolveError>,
-}
-
-impl NoxProblem<'_> {
-    fn keep<T>(&mut self, result: Result<T, SolveError>) -> Result<T, String> {
-        result.map_err(|e| {
-            let message = e.to_string();
-            self.error.get_or_insert(e);
-            message
-        })
-    }
-
-    pub(super) fn residual(&mut self, x: &[f64], f: &mut [f64], probe: bool) -> Result<(), String> {
-        let result = self.callbacks.residual(x, f, probe);
-        self.keep(result)
-    }
-
-    pub(super) fn jacobian(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, String> {
-        let result = self.callbacks.jacobian(x, values);
-        self.keep(result)
-    }
-
-    pub(super) fn preconditioner(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, String> {
-        let result = self.callbacks.preconditioner(x, values);
-        self.keep(result)
-    }
-
-    pub(super) fn iteration_done(&mut self, iteration: i32, residual_norm: f64) {
-        self.callbacks
-            .iteration_done(usize::try_from(iteration).unwrap_or(0), residual_norm);
-    }
 }
 
 fn failure(reason: impl Into<String>) -> SolveError {
@@ -247,17 +196,14 @@ pub fn solve(
         max_iterations: i32::try_from(layout.max_iterations).unwrap_or(i32::MAX),
     };
     let parameters = flatten_parameters(parameters);
-    let mut problem = NoxProblem {
-        callbacks,
-        error: None,
-    };
+    let mut problem = NoxProblem::new(callbacks);
     let outcome = {
         let _turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
         linear_bridge::mpi_initialize()
             .map_err(|e| failure(format!("MPI initialisation: {}", e.what())))?;
         bridge::nox_solve(&mut problem, &rows, &bridge_layout, &parameters, x)
     };
-    if let Some(error) = problem.error {
+    if let Some(error) = problem.into_error() {
         return Err(error);
     }
     let outcome = outcome.map_err(|e| failure(e.what().to_string()))?;

@@ -1,9 +1,78 @@
 //! The `cxx` bridge to `cpp/include/peridyn/trilinos_nox.hpp`: NOX's Newton solver on Epetra
 //! vectors, with the residual, the tangent values and the preconditioner values computed by
-//! Rust callbacks on [`NoxProblem`](super::nox::NoxProblem). Kept apart from the linear-solver
-//! bridge so an edit to one does not recompile the other's C++.
+//! Rust callbacks on [`NoxProblem`]. Kept apart from the linear-solver bridge so an edit to
+//! one does not recompile the other's C++.
+//!
+//! This file holds everything the C++ side calls ([`NoxProblem`] and the
+//! [`NonlinearCallbacks`] it forwards to); [`super::nox`] drives the solve and imports it,
+//! never the other way round.
 
-use super::nox::NoxProblem;
+use crate::backend::SolveError;
+
+/// What NOX asks of the problem.
+pub trait NonlinearCallbacks {
+    /// F(x) into `f`. `probe` is true when NOX evaluates F for a finite-difference or
+    /// matrix-free directional derivative rather than at an iterate.
+    fn residual(&mut self, x: &[f64], f: &mut [f64], probe: bool) -> Result<(), SolveError>;
+    /// The values of ∂F/∂x at x, in the order of [`NoxLayout::jacobian`](super::nox::NoxLayout::jacobian); `Ok(false)` keeps
+    /// the previous values.
+    fn jacobian(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, SolveError>;
+    /// The values of the preconditioner matrix at x, in the order of
+    /// [`NoxLayout::preconditioner`](super::nox::NoxLayout::preconditioner); `Ok(false)` keeps the previous values.
+    fn preconditioner(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, SolveError>;
+    /// Called after every nonlinear iteration (1-based) with ‖F‖₂.
+    fn iteration_done(&mut self, iteration: usize, residual_norm: f64);
+}
+
+/// The Rust object the C++ side calls back; it keeps the first callback error so that the
+/// caller sees the real cause rather than NOX's generic fill failure.
+pub struct NoxProblem<'a> {
+    callbacks: &'a mut dyn NonlinearCallbacks,
+    error: Option<SolveError>,
+}
+
+impl<'a> NoxProblem<'a> {
+    /// The bridge object over `callbacks`, no error kept yet.
+    pub(super) fn new(callbacks: &'a mut dyn NonlinearCallbacks) -> Self {
+        Self {
+            callbacks,
+            error: None,
+        }
+    }
+
+    /// The first callback error, if any (the real cause of a failed NOX solve).
+    pub(super) fn into_error(self) -> Option<SolveError> {
+        self.error
+    }
+
+    fn keep<T>(&mut self, result: Result<T, SolveError>) -> Result<T, String> {
+        result.map_err(|e| {
+            let message = e.to_string();
+            self.error.get_or_insert(e);
+            message
+        })
+    }
+
+    pub(super) fn residual(&mut self, x: &[f64], f: &mut [f64], probe: bool) -> Result<(), String> {
+        let result = self.callbacks.residual(x, f, probe);
+        self.keep(result)
+    }
+
+    pub(super) fn jacobian(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, String> {
+        let result = self.callbacks.jacobian(x, values);
+        self.keep(result)
+    }
+
+    pub(super) fn preconditioner(&mut self, x: &[f64], values: &mut [f64]) -> Result<bool, String> {
+        let result = self.callbacks.preconditioner(x, values);
+        self.keep(result)
+    }
+
+    pub(super) fn iteration_done(&mut self, iteration: i32, residual_norm: f64) {
+        self.callbacks
+            .iteration_done(usize::try_from(iteration).unwrap_or(0), residual_norm);
+    }
+}
 
 #[cxx::bridge(namespace = "peridyn::trilinos")]
 pub(crate) mod bridge {

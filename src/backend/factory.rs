@@ -1,0 +1,175 @@
+//! What runs where: the one place that maps a deck's solver list (its keys, with
+//! `peridyn run --backend` already applied) and the rank count to a backend, and says in one
+//! message what this build or rank count cannot run.
+//!
+//! | solver list                     | `Backend: "Native"`             | `Backend: "Trilinos"`        |
+//! |---------------------------------|---------------------------------|------------------------------|
+//! | `QuasiStatic`, `Implicit`       | peridyn Newton, native linear   | peridyn Newton, Belos        |
+//! | `NOXQuasiStatic`                | peridyn Newton (JFNK or native) | Trilinos NOX                 |
+//! | `Verlet`                        | explicit, any rank count        | explicit, any rank count     |
+//!
+//! On several ranks every implicit list needs `Backend: "Trilinos"` in a build with the
+//! feature `trilinos` (the distributed linear and nonlinear solves are Trilinos'); the
+//! Trilinos backend has no direct linear solver. The solver modules build the objects
+//! ([`crate::solver::linear`]); this module only decides.
+
+use super::Unsupported;
+use crate::io::deck::{
+    Integrator, LinearBackend, LinearMethod, LinearPreconditioner, ParameterValue,
+    PeridigmPreconditioner, Solver,
+};
+
+/// Which nonlinear backend solves an implicit solver list.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NonlinearBackend {
+    /// peridyn's Newton ([`crate::solver::newton`]) with a linear strategy.
+    Newton,
+    /// Trilinos NOX (`NOXQuasiStatic` on the Trilinos backend).
+    Nox,
+}
+
+/// The nonlinear backend of `solver`: NOX for `NOXQuasiStatic` on the Trilinos backend,
+/// otherwise peridyn's Newton. Fails when the choice needs a feature this build lacks.
+pub fn nonlinear_backend(solver: &Solver) -> Result<NonlinearBackend, Unsupported> {
+    if !runs_on_nox(solver) {
+        return Ok(NonlinearBackend::Newton);
+    }
+    if !cfg!(feature = "trilinos") {
+        return Err(trilinos_not_built(solver));
+    }
+    Ok(NonlinearBackend::Nox)
+}
+
+/// True when `solver` is a `NOXQuasiStatic` list on the Trilinos backend (solved by NOX).
+pub fn runs_on_nox(solver: &Solver) -> bool {
+    matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
+        && on_trilinos(&solver.linear_solve.backend)
+}
+
+fn on_trilinos(backend: &LinearBackend) -> bool {
+    matches!(backend, LinearBackend::Trilinos { .. })
+}
+
+/// The refusal of `Backend "Trilinos"` in a build without the feature.
+pub fn trilinos_not_built(solver: &Solver) -> Unsupported {
+    Unsupported(format!(
+        "solver \"{}\": Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
+         (cargo build --release --features trilinos; see .ci/trilinos.sh)",
+        solver.name
+    ))
+}
+
+/// Refuses a direct linear method on the Trilinos backend (Belos is CG or GMRES).
+pub fn check_trilinos_method(solver: &Solver) -> Result<(), Unsupported> {
+    match solver.linear_solve.method {
+        LinearMethod::Direct | LinearMethod::Cholesky | LinearMethod::Lu => Err(Unsupported(format!(
+            "solver \"{}\": Backend \"Trilinos\" solves with Belos CG or GMRES, not a direct method",
+            solver.name
+        ))),
+        LinearMethod::Automatic | LinearMethod::Cg | LinearMethod::Gmres => Ok(()),
+    }
+}
+
+/// Refuses an implicit list on `ranks` > 1 ranks unless the Trilinos backend, built in,
+/// solves it; `Verlet` runs on any number of ranks.
+pub fn check_ranks(solver: &Solver, ranks: usize) -> Result<(), Unsupported> {
+    let distributable = match solver.integrator {
+        Integrator::Verlet(_) => true,
+        Integrator::QuasiStatic(_) | Integrator::NoxQuasiStatic(_) | Integrator::Implicit(_) => {
+            on_trilinos(&solver.linear_solve.backend) && cfg!(feature = "trilinos")
+        }
+        Integrator::ImplicitDiffusion(_) => false,
+    };
+    if ranks <= 1 || distributable {
+        return Ok(());
+    }
+    Err(Unsupported(format!(
+        "solver \"{}\": {} on {ranks} ranks needs the Trilinos backend (QuasiStatic, NOXQuasiStatic or Implicit with Backend \"Trilinos\", \
+         or `peridyn run --backend trilinos`, in a build with the features mpi and trilinos); the native backend runs on one rank",
+        solver.name,
+        solver.integrator.deck_name()
+    )))
+}
+
+/// NOX's name of the deck's `Direction → Method` (`Newton` or `Nonlinear CG`), which is also
+/// the sublist holding its linear-solver keys.
+pub fn nox_direction(solver: &Solver, method: &str) -> Result<&'static str, Unsupported> {
+    match method {
+        "Newton" => Ok("Newton"),
+        "NonlinearCG" => Ok("Nonlinear CG"),
+        other => Err(Unsupported(format!(
+            "solver \"{}\": NOXQuasiStatic → Direction → Method \"{other}\": use \"Newton\" or \"NonlinearCG\" (Peridigm's two)",
+            solver.name
+        ))),
+    }
+}
+
+/// What of `solver` the native backend cannot run, for `peridyn check` (a `NOXQuasiStatic`
+/// direction other than Newton needs NOX itself).
+pub fn native_limitation(solver: &Solver) -> Option<String> {
+    let Integrator::NoxQuasiStatic(nox) = &solver.integrator else {
+        return None;
+    };
+    (nox.direction_method != "Newton" && !on_trilinos(&solver.linear_solve.backend)).then(|| {
+        format!(
+            "NOXQuasiStatic Direction Method \"{}\" on the native backend (it needs Trilinos NOX: a build with feature `trilinos`, Backend \"Trilinos\")",
+            nox.direction_method
+        )
+    })
+}
+
+/// The preconditioner of a Jacobian-free Newton–Krylov solve when `solver` asks for one
+/// (`NOXQuasiStatic` with `Jacobian Operator: "Matrix-Free"` and `Peridigm Preconditioner`
+/// `Block 3x3` or `None`, Peridigm's rule, reference §4.2: `Matrix-Free` with `Full Tangent`
+/// still assembles), `None` when the solver assembles its tangent.
+pub fn matrix_free_preconditioner(solver: &Solver) -> Option<LinearPreconditioner> {
+    let Integrator::NoxQuasiStatic(nox) = &solver.integrator else {
+        return None;
+    };
+    let matrix_free = nox_string(
+        &nox.nox,
+        &["Direction", "Newton", "Linear Solver", "Jacobian Operator"],
+    )
+    .is_some_and(|s| s == "Matrix-Free");
+    match (matrix_free, solver.peridigm_preconditioner) {
+        (true, PeridigmPreconditioner::Block3x3) => Some(LinearPreconditioner::Block3x3),
+        (true, PeridigmPreconditioner::None) => Some(LinearPreconditioner::None),
+        _ => None,
+    }
+}
+
+/// A string parameter at `path` in a NOX parameter tree.
+fn nox_string<'a>(tree: &'a [(String, ParameterValue)], path: &[&str]) -> Option<&'a str> {
+    let (first, rest) = path.split_first()?;
+    let (_, value) = tree.iter().find(|(k, _)| k == first)?;
+    match (value, rest.is_empty()) {
+        (ParameterValue::String(s), true) => Some(s),
+        (ParameterValue::List(children), false) => nox_string(children, rest),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nox_string_follows_the_path() {
+        let tree = vec![(
+            "Direction".to_string(),
+            ParameterValue::List(vec![(
+                "Newton".to_string(),
+                ParameterValue::List(vec![(
+                    "Linear Solver".to_string(),
+                    ParameterValue::List(vec![(
+                        "Jacobian Operator".to_string(),
+                        ParameterValue::String("Matrix-Free".into()),
+                    )]),
+                )]),
+            )]),
+        )];
+        let path = ["Direction", "Newton", "Linear Solver", "Jacobian Operator"];
+        assert_eq!(nox_string(&tree, &path), Some("Matrix-Free"));
+        assert_eq!(nox_string(&tree, &["Direction", "Method"]), None);
+    }
+}
