@@ -24,7 +24,7 @@
 //! | [`io::deck`] | what did the user ask for? (Peridigm YAML/XML decks, validated once) |
 //! | [`discretization`] | where are the points? (QuickGrid generators, text files, Exodus meshes) |
 //! | [`neighbors`] | who bonds with whom? (family search, bond filters, space-filling-curve order) |
-//! | [`setup`] | deck → [`setup::Model`]: blocks, horizons, node sets, conditions, families, run plan |
+//! | [`setup`] | deck → [`model::Model`]: blocks, horizons, node sets, conditions, families, run plan |
 //! | [`model`] | the immutable description: points, node sets, bond lists |
 //! | [`state`] | where is the body now? (displacement, velocity, forces) |
 //! | [`material`], [`damage`] | the physics of bonds (PMB, LPS, critical stretch) |

@@ -140,7 +140,7 @@ fn load_with_backend(path: &Path, backend: Option<BackendChoice>) -> Result<deck
     Ok(deck)
 }
 
-fn build(deck: &deck::Deck) -> Result<setup::Model> {
+fn build(deck: &deck::Deck) -> Result<peridyn::model::Model> {
     setup::build(deck).map_err(|e: SetupError| invalid(e))
 }
 

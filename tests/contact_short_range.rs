@@ -6,8 +6,9 @@
 
 use peridyn::contact::Contact;
 use peridyn::io::deck;
+use peridyn::model::Model;
 use peridyn::physics::Physics;
-use peridyn::setup::{self, Model};
+use peridyn::setup;
 use peridyn::solver::{VelocityVerlet, VerletSettings};
 use peridyn::state::State;
 use std::f64::consts::PI;

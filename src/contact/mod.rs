@@ -68,8 +68,8 @@ pub use search::{
 pub use short_range_force::{PairPoint, ShortRangeForce};
 
 use crate::io::deck::{ContactInteraction, Deck, DeckError, Friction};
+use crate::model::Model;
 use crate::neighbors::SearchBackend;
-use crate::setup::Model;
 use rayon::prelude::*;
 use std::fmt;
 use std::time::Instant;

@@ -38,8 +38,8 @@
 use super::{find_candidates_for, force_on_point, max_displacement, Contact, OneWayBonds};
 use super::{PairLaws, PointData};
 use crate::model::BondList;
+use crate::model::Model;
 use crate::parallel::{Communicator, Partition, PartnerExchange};
-use crate::setup::Model;
 use rayon::prelude::*;
 use std::time::Instant;
 

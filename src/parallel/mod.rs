@@ -2,7 +2,7 @@
 //! each rank reads, and the communicator that moves data between ranks.
 //!
 //! # How a distributed run is laid out
-//! Every rank reads the deck and builds the global [`crate::setup::Model`] without families
+//! Every rank reads the deck and builds the global [`crate::model::Model`] without families
 //! ([`crate::setup::build_points`]: points, blocks, node sets, conditions; O(points) memory),
 //! so bad input fails on every rank the same way before any message is sent. Then
 //! [`Subdomain::searched`]:
@@ -13,7 +13,7 @@
 //!    points one bond away), then theirs, which name the layer-2 ghosts when [`halo_depth`]
 //!    is 2, then the outer layer's;
 //! 3. tells every owner which of its points it holds as ghosts ([`HaloPlan::from_ghosts`]);
-//! 4. builds the rank's own [`crate::setup::Model`] over owned + ghost points, numbered in the
+//! 4. builds the rank's own [`crate::model::Model`] over owned + ghost points, numbered in the
 //!    global run order (so every row keeps its bond order and every per-point sum its order
 //!    of operations).
 //!

@@ -7,7 +7,7 @@
 //! gathers of its outputs and the exchanges of contact.
 
 use super::{Communicator, HaloPlan, Serial};
-use crate::setup::Model;
+use crate::model::Model;
 
 /// What a run and its solvers need from the other ranks: who this rank is, reductions, the
 /// refresh of the ghost entries of a point field, and which local points are ghosts.

@@ -7,7 +7,7 @@ use crate::damage::damage_entry;
 use crate::io::deck::Deck;
 use crate::material::material_entry;
 use crate::model::{BondList, NodeSets, PointCloud, Reach};
-use crate::setup::{Model, ModelBlock};
+use crate::model::{Model, ModelBlock};
 
 /// Ghost depth the deck's physics needs (see the module docs of [`crate::parallel`]): the
 /// widest [`Reach`] that the blocks' material and damage models declare in their registry

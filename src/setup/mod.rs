@@ -22,7 +22,7 @@ use crate::io::deck::{
     BoundaryConditionKind, DamageKind, Deck, DeckError, Horizon, InfluenceFunction, PointSource,
     QuickGridGenerator,
 };
-use crate::model::{BlockInfo, BondList, NodeSets, PointCloud};
+use crate::model::{BlockInfo, BondList, Model, ModelBlock, NodeSets, PointCloud};
 use crate::neighbors::{space_filling_curve_order, NeighborhoodRule};
 
 /// A problem setting up the run from a valid deck. All are invalid input (exit code 2).
@@ -34,40 +34,6 @@ pub enum SetupError {
     /// The mesh or a node-set file could not be read.
     #[error(transparent)]
     Mesh(#[from] MeshError),
-}
-
-/// One mesh block with the deck settings that apply to it.
-#[derive(Debug, Clone)]
-pub struct ModelBlock {
-    /// Mesh id and `block_<id>` name.
-    pub info: BlockInfo,
-    /// Index into `deck.blocks` of the entry that covers this block.
-    pub deck_block: usize,
-    /// Points of this block (run order, ascending).
-    pub points: Vec<u32>,
-}
-
-/// The immutable description of a run.
-#[derive(Debug, Clone)]
-pub struct Model {
-    /// Points in run order (sorted along a space-filling curve).
-    pub points: PointCloud,
-    /// Horizon δ of every point (run order).
-    pub horizon: Vec<f64>,
-    /// Mesh blocks; `points.block` indexes this list.
-    pub blocks: Vec<ModelBlock>,
-    /// Node sets from the deck and the mesh (run order).
-    pub node_sets: NodeSets,
-    /// Names of the node sets that came from the mesh (for reporting).
-    pub mesh_node_set_names: Vec<String>,
-    /// Families (directed bonds, run order).
-    pub bonds: BondList,
-    /// `run_index[k]` = run index of the point with original id k.
-    pub run_index: Vec<u32>,
-    /// Boundary and initial conditions with compiled expressions.
-    pub boundary: BoundaryConditions,
-    /// Smallest element radius (3V/4π)^(1/3).
-    pub min_element_radius: f64,
 }
 
 /// Reads or generates the discretization the deck describes.

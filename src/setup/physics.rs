@@ -1,6 +1,7 @@
 //! Materials and damage models from the deck, one instance per block.
 
-use super::{compile, Model, SetupError};
+use super::{compile, SetupError};
+use crate::model::Model;
 use std::sync::Arc;
 
 use crate::damage::{

@@ -1,12 +1,12 @@
 //! The run plan `peridyn check` prints: sizes, physics, fields, memory, Δt, and what this
 //! build cannot run yet.
 
-use super::Model;
 use crate::io::deck::{
     BondFilterShape, BoundaryConditionKind, ComputeClassKind, Deck, DeckError, Horizon, Integrator,
     PointSource,
 };
 use crate::io::output::{closest_name, kind_of, OutputFile, RequestedVariable, VariableKind};
+use crate::model::Model;
 use crate::model::{FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
 use crate::plan::{
     BlockPlan, FieldPlan, MemoryPlan, NodeSetPlan, OutputPlan, ParallelPlan, PhysicsPlan, RunPlan,

@@ -31,11 +31,12 @@ use super::outputs::{DistributedOutputs, RunOutputs};
 use super::{initial_state, prepare_compute_classes, RunError, RunSummary};
 use crate::discretization::FamilyRule;
 use crate::io::deck::{Deck, Integrator, PointSource, QuickGridGenerator};
+use crate::model::Model;
 use crate::neighbors::NeighborhoodRule;
 use crate::parallel::{
     halo_depth, outer_ghosts_need_physics, Communicator, Subdomain, SubdomainRanks,
 };
-use crate::setup::{self, Model};
+use crate::setup;
 use crate::state::State;
 use std::path::Path;
 

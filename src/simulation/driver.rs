@@ -9,9 +9,9 @@ use super::{energy_floor_of, Fields, PreparedComputeClass, RunError, RunSummary}
 use crate::backend::SolveError;
 use crate::io::deck::{Deck, Implicit, Integrator, Solver, Verlet};
 use crate::io::output::FieldSource;
+use crate::model::Model;
 use crate::parallel::Ranks;
 use crate::physics::Physics;
-use crate::setup::Model;
 use crate::solver::newmark::{self, NewmarkError, NewmarkSettings};
 use crate::solver::newton::ConvergenceMeasure;
 use crate::solver::quasistatic::{self, QuasiStaticError, QuasiStaticSettings};

@@ -2,8 +2,8 @@
 
 use crate::io::deck::{CalculationType, ComputeClass, ComputeClassKind};
 use crate::io::output::FieldSource;
+use crate::model::Model;
 use crate::physics::Physics;
-use crate::setup::Model;
 use crate::state::State;
 use std::borrow::Cow;
 

@@ -21,9 +21,10 @@ pub use fields::{prepare_compute_classes, Fields, PreparedComputeClass};
 pub use outputs::SOLVER_HISTORY_COLUMNS;
 
 use crate::io::deck::Deck;
+use crate::model::Model;
 use crate::parallel::SerialRanks;
 use crate::physics::Physics;
-use crate::setup::{self, Model};
+use crate::setup;
 use crate::state::{History, State};
 use driver::Run;
 use outputs::RunOutputs;

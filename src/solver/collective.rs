@@ -7,8 +7,8 @@
 //! Every method except the queries is collective: all ranks call it in the same order.
 
 use crate::backend::{Csr, SolveError};
+use crate::model::Model;
 use crate::physics::Physics;
-use crate::setup::Model;
 use crate::solver::implicit::{rank_deficient_points, DofMap, ImplicitSystem};
 use crate::state::State;
 

@@ -23,9 +23,9 @@
 //! [`StepReport`] is this rank's share, to be summed over ranks.
 
 use crate::boundary::BoundaryError;
+use crate::model::Model;
 use crate::parallel::{Communicator, Ranks, SerialRanks};
 use crate::physics::Physics;
-use crate::setup::Model;
 use crate::state::{Staged, State};
 use rayon::prelude::*;
 

@@ -16,8 +16,8 @@
 
 use crate::backend::{Csr, SolveError};
 use crate::boundary::BoundaryError;
+use crate::model::Model;
 use crate::physics::{Configuration, Physics};
-use crate::setup::Model;
 use crate::state::{Staged, State};
 use crate::tangent::BlockTangent;
 

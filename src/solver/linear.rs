@@ -22,8 +22,8 @@ use crate::backend::Unsupported;
 use crate::io::deck::{
     AlgebraicPreconditioner, LinearBackend, LinearMethod, LinearPreconditioner, LinearSolve, Solver,
 };
+use crate::model::Model;
 use crate::physics::Physics;
-use crate::setup::Model;
 use crate::solver::newton::{LinearStrategy, NonlinearSolver};
 
 /// The smallest Krylov tolerance Jacobian-free solves use: a finite-difference directional

@@ -5,6 +5,7 @@ pub mod explicit;
 pub mod implicit;
 pub mod jfnk;
 pub mod linear;
+pub mod measure;
 pub mod monitor;
 pub mod newmark;
 pub mod newton;

@@ -17,8 +17,8 @@
 
 use crate::backend::SolveError;
 use crate::boundary::BoundaryError;
+use crate::model::Model;
 use crate::physics::Physics;
-use crate::setup::Model;
 use crate::solver::collective::{any_failed, Collective};
 use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem, Inertia};
 use crate::solver::newton::{

@@ -12,11 +12,12 @@ use crate::backend::native::{KrylovSettings, NativeLinearSolver};
 use crate::backend::problem::{Evaluation, NonlinearProblem};
 use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
 use crate::io::deck::LinearPreconditioner;
+use crate::model::Model;
 use crate::physics::Physics;
-use crate::setup::Model;
 use crate::solver::collective::Collective;
-use crate::solver::implicit::{DofMap, ImplicitSystem};
+use crate::solver::implicit::ImplicitSystem;
 use crate::solver::jfnk;
+pub use crate::solver::measure::{norm2, ConvergenceMeasure};
 use crate::solver::problem::{Origin, Physical, PhysicsProblem};
 use crate::state::State;
 use std::time::Instant;
@@ -26,46 +27,6 @@ pub const MAX_BACKTRACKS: usize = 8;
 
 /// Sufficient-decrease constant of the Armijo condition.
 const ARMIJO: f64 = 1e-4;
-
-/// The scalar that is compared with the tolerance.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ConvergenceMeasure {
-    /// Peridigm's `QuasiStatic` measure `‖r‖₂ + 20‖r‖∞` (force units).
-    PeridigmQuasiStatic,
-    /// `‖r‖₂` (force units), NOX's `NormF`.
-    TwoNorm,
-    /// Peridigm's Newmark measure `βΔt²·‖r_k/V‖₂`: the residual in force-density units scaled
-    /// by βΔt², whose value is `scale = βΔt²`.
-    ForceDensity {
-        /// βΔt².
-        scale: f64,
-    },
-}
-
-impl ConvergenceMeasure {
-    /// The measure of `residual` over the unknowns `dofs`.
-    pub fn of(&self, residual: &[f64], dofs: &DofMap, volume: &[f64]) -> f64 {
-        match *self {
-            ConvergenceMeasure::PeridigmQuasiStatic => {
-                norm2(residual) + 20.0 * residual.iter().fold(0.0f64, |m, r| m.max(r.abs()))
-            }
-            ConvergenceMeasure::TwoNorm => norm2(residual),
-            ConvergenceMeasure::ForceDensity { scale } => {
-                let sum: f64 = residual
-                    .iter()
-                    .zip(&dofs.free)
-                    .map(|(r, &dof)| (r / volume[dof / 3]).powi(2))
-                    .sum();
-                scale * sum.sqrt()
-            }
-        }
-    }
-}
-
-/// Euclidean norm.
-pub fn norm2(values: &[f64]) -> f64 {
-    values.iter().map(|v| v * v).sum::<f64>().sqrt()
-}
 
 /// Newton settings of one solve.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -9,13 +9,13 @@
 
 use crate::backend::problem::{Evaluation, NonlinearProblem};
 use crate::backend::{Csr, SolveError};
+use crate::model::Model;
 use crate::physics::Physics;
-use crate::setup::Model;
 use crate::solver::collective::{
     agree, any_failed, deficient_points, global_dof, owned_unknowns, Collective, ColumnMap,
 };
 use crate::solver::implicit::ImplicitSystem;
-use crate::solver::newton::ConvergenceMeasure;
+use crate::solver::measure::ConvergenceMeasure;
 use crate::state::State;
 
 /// What the unknowns are measured from.

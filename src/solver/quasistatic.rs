@@ -23,8 +23,8 @@
 use crate::backend::SolveError;
 use crate::boundary::BoundaryError;
 use crate::io::deck::{AdaptiveLoadStepping, LoadSteps};
+use crate::model::Model;
 use crate::physics::Physics;
-use crate::setup::Model;
 use crate::solver::collective::{any_failed, Collective};
 use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem};
 use crate::solver::newton::{ConvergenceMeasure, NewtonReport, NewtonSettings, NonlinearSolver};
