@@ -67,6 +67,7 @@ mod mpi;
 mod partition;
 mod partner;
 mod ranks;
+mod rules;
 mod subdomain;
 #[cfg(test)]
 pub(crate) mod thread_comm;
@@ -77,6 +78,7 @@ pub use mpi::{initialize, MpiCommunicator};
 pub use partition::Partition;
 pub use partner::PartnerExchange;
 pub use ranks::{first_failure, Ranks, SerialRanks, SubdomainRanks};
+pub use rules::{check_distributable, global_families_reason};
 pub use subdomain::{halo_depth, outer_ghosts_need_physics, Subdomain};
 
 /// The message transport between the ranks, under [`Ranks`]. Every method except [`Communicator::rank`],

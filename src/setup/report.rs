@@ -348,7 +348,7 @@ fn parallel_plan(deck: &Deck, explicit: bool, implicit: bool) -> ParallelPlan {
                 .to_string(),
         );
     }
-    let families = match crate::simulation::global_families_reason(deck) {
+    let families = match crate::parallel::global_families_reason(deck) {
         Some(reason) => format!("global on every rank ({reason})"),
         None => "searched per rank: owned points and ghosts only".to_string(),
     };
@@ -356,7 +356,7 @@ fn parallel_plan(deck: &Deck, explicit: bool, implicit: bool) -> ParallelPlan {
         ghost_depth: crate::parallel::halo_depth(deck),
         exchanged,
         families,
-        refused: crate::simulation::check_distributable(deck, 2)
+        refused: crate::parallel::check_distributable(deck, 2)
             .err()
             .map(|e| e.to_string()),
     }

@@ -30,40 +30,16 @@ use super::driver::Run;
 use super::outputs::{DistributedOutputs, RunOutputs};
 use super::{initial_state, prepare_compute_classes, RunError, RunSummary};
 use crate::discretization::FamilyRule;
-use crate::io::deck::{Deck, Integrator, PointSource, QuickGridGenerator};
+use crate::io::deck::Deck;
 use crate::model::Model;
 use crate::neighbors::NeighborhoodRule;
 use crate::parallel::{
-    halo_depth, outer_ghosts_need_physics, Communicator, Subdomain, SubdomainRanks,
+    check_distributable, global_families_reason, halo_depth, outer_ghosts_need_physics,
+    Communicator, Subdomain, SubdomainRanks,
 };
 use crate::setup;
 use crate::state::State;
 use std::path::Path;
-
-/// Refuses, before any message is sent, what a distributed run cannot do yet: implicit
-/// solvers on the native backend (the distributed linear and nonlinear solves are
-/// Trilinos'), and contact in a deck with an implicit
-/// solver (contact acts only in `Verlet` steps, where [`crate::contact::Contact::on_ranks`]
-/// gives every rank the one-rank candidates and forces).
-pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), RunError> {
-    for solver in &deck.solvers {
-        crate::backend::factory::check_ranks(solver, ranks)?;
-    }
-    if deck.contact.is_some() {
-        if let Some(solver) = deck
-            .solvers
-            .iter()
-            .find(|s| !matches!(s.integrator, Integrator::Verlet(_)))
-        {
-            return Err(RunError::Unsupported(format!(
-                "Contact with solver \"{}\" ({}) on {ranks} ranks is not available (contact on several ranks runs in Verlet steps only); run on one rank",
-                solver.name,
-                solver.integrator.deck_name()
-            )));
-        }
-    }
-    Ok(())
-}
 
 /// Directed bonds of owned rows that are broken (d = 1), summed over ranks. Collective.
 fn broken_bonds(comm: &dyn Communicator, sub: &Subdomain, state: &State) -> usize {
@@ -98,24 +74,6 @@ pub enum GlobalFamilies {
     Searched(NeighborhoodRule),
 }
 
-/// Why every rank of a distributed run of `deck` holds the global families, if it must.
-pub fn global_families_reason(deck: &Deck) -> Option<&'static str> {
-    let cylinder = matches!(
-        &deck.discretization.source,
-        PointSource::PdQuickGrid {
-            generator: QuickGridGenerator::TensorProductCylinder { .. },
-            ..
-        }
-    );
-    if deck.contact.is_some() {
-        Some("the contact search reads the global bonds")
-    } else if cylinder {
-        Some("the QuickGrid cylinder builds them in index space")
-    } else {
-        None
-    }
-}
-
 /// The model every rank of a distributed run builds from the deck: points, blocks, node sets
 /// and conditions of the whole discretization, and the families only where
 /// [`GlobalFamilies::Built`] says they are needed. Fails on every rank alike.
@@ -143,7 +101,7 @@ pub fn run_distributed(
     dir: &Path,
     comm: &dyn Communicator,
 ) -> Result<RunSummary, RunError> {
-    check_distributable(deck, comm.size()).map_err(|e| collective(comm, e))?;
+    check_distributable(deck, comm.size()).map_err(|e| collective(comm, e.into()))?;
     let compute_classes = prepare_compute_classes(&deck.compute_classes, global)
         .map_err(|e| collective(comm, RunError::Unsupported(e)))?;
     let rank = comm.rank();

@@ -14,9 +14,8 @@ mod progress;
 /// The run error lives in [`crate::error`] (reachable from every module); re-exported here
 /// under the name call sites use.
 pub use crate::error::RunError;
-pub use distributed::{
-    check_distributable, global_families_reason, global_model, run_distributed, GlobalFamilies,
-};
+pub use crate::parallel::{check_distributable, global_families_reason};
+pub use distributed::{global_model, run_distributed, GlobalFamilies};
 pub use fields::{prepare_compute_classes, Fields, PreparedComputeClass};
 pub use outputs::SOLVER_HISTORY_COLUMNS;
 

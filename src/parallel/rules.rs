@@ -1,0 +1,48 @@
+//! What a run on several ranks can do and how it holds its families: the rules `peridyn run`
+//! applies before any message is sent and `peridyn check` reports in its run plan.
+
+use crate::backend::Unsupported;
+use crate::io::deck::{Deck, Integrator, PointSource, QuickGridGenerator};
+
+/// Refuses, before any message is sent, what a distributed run cannot do yet: implicit
+/// solvers on the native backend (the distributed linear and nonlinear solves are
+/// Trilinos'), and contact in a deck with an implicit
+/// solver (contact acts only in `Verlet` steps, where [`crate::contact::Contact::on_ranks`]
+/// gives every rank the one-rank candidates and forces).
+pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), Unsupported> {
+    for solver in &deck.solvers {
+        crate::backend::factory::check_ranks(solver, ranks)?;
+    }
+    if deck.contact.is_some() {
+        if let Some(solver) = deck
+            .solvers
+            .iter()
+            .find(|s| !matches!(s.integrator, Integrator::Verlet(_)))
+        {
+            return Err(Unsupported(format!(
+                "Contact with solver \"{}\" ({}) on {ranks} ranks is not available (contact on several ranks runs in Verlet steps only); run on one rank",
+                solver.name,
+                solver.integrator.deck_name()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Why every rank of a distributed run of `deck` holds the global families, if it must.
+pub fn global_families_reason(deck: &Deck) -> Option<&'static str> {
+    let cylinder = matches!(
+        &deck.discretization.source,
+        PointSource::PdQuickGrid {
+            generator: QuickGridGenerator::TensorProductCylinder { .. },
+            ..
+        }
+    );
+    if deck.contact.is_some() {
+        Some("the contact search reads the global bonds")
+    } else if cylinder {
+        Some("the QuickGrid cylinder builds them in index space")
+    } else {
+        None
+    }
+}
