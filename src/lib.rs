@@ -19,48 +19,55 @@
 //!   the original id (input order, 1-based in decks and files) is what users see.
 //!
 //! ## Module map
+//! Each module answers one question; none imports another that imports it back
+//! (`scripts/import-circles` checks).
+//!
 //! | module | question it answers |
 //! |---|---|
 //! | [`io::deck`] | what did the user ask for? (Peridigm YAML/XML decks, validated once) |
 //! | [`discretization`] | where are the points? (QuickGrid generators, text files, Exodus meshes) |
 //! | [`neighbors`] | who bonds with whom? (family search, bond filters, space-filling-curve order) |
-//! | [`setup`] | deck → [`model::Model`]: blocks, horizons, node sets, conditions, families, run plan |
-//! | [`model`] | the immutable description: points, node sets, bond lists |
-//! | [`state`] | where is the body now? (displacement, velocity, forces) |
-//! | [`material`], [`damage`] | the physics of bonds (PMB, LPS, critical stretch) |
+//! | [`setup`] | deck → [`model::Model`] and the blocks' physics; the run plan `peridyn check` prints |
+//! | [`model`] | the immutable description: [`model::Model`], points, node sets, bond lists, and what models declare about themselves ([`model::ModelDeclaration`]) |
+//! | [`state`] | where is the body now? Everything that evolves: kinematics, forces, bond damage and material history as staged (trial/committed) fields |
+//! | [`material`], [`damage`] | the physics of bonds (PMB, LPS, critical stretch); [`material::MATERIALS`] and [`damage::DAMAGE_MODELS`] are the one list of models |
 //! | [`contact`] | short-range forces between points that are not bonded |
 //! | [`physics`] | the one internal-force path every solver calls |
 //! | [`compute`] | derived outputs such as the deformation gradient |
 //! | [`boundary`] | prescribed displacements, initial conditions, body forces |
 //! | [`expression`] | Peridigm's C-like expressions in x, y, z, t |
-//! | [`solver`] | how time advances (velocity Verlet and its stability monitor; quasi-static Newton load stepping, Newmark-β, Jacobian-free Newton–Krylov) |
+//! | [`solver`] | how time advances (velocity Verlet and its stability monitor; quasi-static Newton load stepping, Newmark-β, Jacobian-free Newton–Krylov); [`solver::problem`] wraps the physics as a physics-free nonlinear problem |
 //! | [`tangent`] | ∂f/∂u in 3×3 blocks: patterns, analytic / automatic-differentiation / finite-difference assembly |
-//! | [`backend`] | who does the linear algebra: the `Csr` matrix, the `LinearSolver` trait, native direct and Krylov solvers |
-//! | [`simulation`] | a run from start to end: solvers in order, outputs, progress |
+//! | [`backend`] | who does the linear algebra: the `Csr` matrix, the `LinearSolver` trait, the physics-free [`backend::problem::NonlinearProblem`] every nonlinear backend solves, [`backend::factory`] (what runs where), native direct and Krylov solvers, Trilinos |
+//! | [`simulation`] | a run from start to end: one driver for one rank and N ranks, outputs, progress |
 //! | [`io::exodus`], [`io::output`], [`io::history`] | results in Exodus II and CSV, and exodiff-style comparison |
 //! | [`plan`] | what `peridyn check` reports |
-//! | [`parallel`] | who owns which point on N MPI ranks: RCB partition, ghost (halo) plan, communicators |
+//! | [`parallel`] | who owns which point on N MPI ranks: RCB partition, ghost (halo) plan, the one [`parallel::Ranks`] interface (serial: the no-op [`parallel::SerialRanks`]), what runs on ranks |
+//! | [`error`] | why a run stopped ([`error::RunError`], with its exit code) |
 //!
 //! ## Life of an explicit step (velocity Verlet, Peridigm's order)
 //! 1. half kick `v += ½Δt a`;
 //! 2. prescribed displacements: at constrained dofs `v = (g(t_{n+1}) − g(t_n))/Δt`;
 //! 3. drift `u += Δt v`, `Y = X + u`;
 //! 4. body force at t_{n+1};
-//! 5. damage (bonds beyond their limit break before the force is computed);
-//! 6. internal force density (state-based models first compute their dilatation);
-//! 7. contact force (when the deck has a `Contact` section);
-//! 8. `a = (f + f_contact + b)/ρ`, second half kick;
-//! 9. stability monitor and outputs.
+//! 5. ghost positions refreshed ([`parallel::Ranks::refresh`]; nothing on one rank);
+//! 6. damage (bonds beyond their limit break before the force is computed);
+//! 7. internal force density (state-based models first compute their dilatation);
+//! 8. contact force (when the deck has a `Contact` section);
+//! 9. the state commits (explicit steps accept every step; no copy is kept, so this is free);
+//! 10. `a = (f + f_contact + b)/ρ`, second half kick;
+//! 11. stability monitor and outputs.
 //!
 //! ## Life of a Newton step (quasi-static load step or Newmark-β step)
 //! 1. prescribed displacements and body force at the end of the step; free dofs get the
-//!    predictor;
-//! 2. residual `r = V ⊙ (f + b [− ρa])` over the free dofs through the same force path (bond
-//!    damage restarts from the last accepted step, so unconverged iterates heal);
+//!    predictor; the state keeps a committed copy of its staged fields;
+//! 2. residual `r = V ⊙ (f + b [− ρa])` over the free dofs through the same force path (the
+//!    state restores its staged fields first, so bonds broken by an unconverged iterate heal);
 //! 3. stiffness `K = −∂r/∂u` assembled in 3×3 blocks (or only its diagonal blocks for
-//!    Jacobian-free Newton–Krylov), linear solve `K Δ = r`;
-//! 4. line search on ‖r‖, repeat until the measure meets the tolerance; then velocities,
-//!    damage committed, output.
+//!    Jacobian-free Newton–Krylov), linear solve `K Δ = r`; the nonlinear backend (peridyn's
+//!    Newton or NOX) sees only the [`backend::problem::NonlinearProblem`];
+//! 4. line search on ‖r‖, repeat until the measure meets the tolerance; then velocities, the
+//!    state commits, output.
 //!
 //! ## Example
 //! ```no_run
