@@ -8,6 +8,7 @@ use peridyn::setup;
 use peridyn::solver::collective::SerialRun;
 use peridyn::solver::implicit::{DofMap, ImplicitSystem};
 use peridyn::solver::newton::{self, ConvergenceMeasure, NewtonSettings};
+use peridyn::solver::problem::Physical;
 use peridyn::state::State;
 use std::path::Path;
 
@@ -305,19 +306,18 @@ fn newton_converges_quadratically_on_a_large_stretch_and_shear() {
         print_iterations: true,
         verbose: true,
     };
-    let report = newton::solve(
-        &mut system,
-        &model,
-        &mut physics,
-        &mut state,
-        &mut linear,
-        &settings,
-        &constrained,
-        &mut SerialRun {
-            points: model.points.len(),
-        },
-    )
-    .unwrap();
+    let mut serial = SerialRun {
+        points: model.points.len(),
+    };
+    let parts = Physical {
+        system: &mut system,
+        model: &model,
+        physics: &mut physics,
+        state: &mut state,
+        collective: &mut serial,
+        constrained: &constrained,
+    };
+    let report = newton::solve(parts, &mut linear, &settings).unwrap();
     let r = &report.residual_history;
     eprintln!("residual history: {r:?}");
     // Order estimates p_k = ln(r_{k+1}/r_k) / ln(r_k/r_{k−1}) over the iterations where the

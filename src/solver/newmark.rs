@@ -24,6 +24,7 @@ use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem, Inertia};
 use crate::solver::newton::{
     self, ConvergenceMeasure, LinearStrategy, NewtonReport, NewtonSettings,
 };
+use crate::solver::problem::Physical;
 use crate::state::State;
 
 /// Settings of one `Implicit` solver list.
@@ -148,20 +149,20 @@ pub fn run<E: From<NewmarkError>>(
             print_iterations: settings.verbose && root,
             verbose: settings.verbose && root,
         };
-        let report = newton::solve(
-            &mut system,
+        let parts = Physical {
+            system: &mut system,
             model,
             physics,
             state,
-            linear,
-            &newton_settings,
-            &constrained,
             collective,
-        )
-        .map_err(|source| NewmarkError::Solve {
-            step,
-            time: to,
-            source,
+            constrained: &constrained,
+        };
+        let report = newton::solve(parts, linear, &newton_settings).map_err(|source| {
+            NewmarkError::Solve {
+                step,
+                time: to,
+                source,
+            }
         })?;
         let measure = *report.residual_history.last().unwrap_or(&f64::INFINITY);
         if !report.converged {

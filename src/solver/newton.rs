@@ -12,14 +12,9 @@ use crate::backend::native::{KrylovSettings, NativeLinearSolver};
 use crate::backend::problem::{Evaluation, NonlinearProblem};
 use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
 use crate::io::deck::LinearPreconditioner;
-use crate::model::Model;
-use crate::physics::Physics;
-use crate::solver::collective::Collective;
-use crate::solver::implicit::ImplicitSystem;
 use crate::solver::jfnk;
 pub use crate::solver::measure::{norm2, ConvergenceMeasure};
 use crate::solver::problem::{Origin, Physical, PhysicsProblem};
-use crate::state::State;
 use std::time::Instant;
 
 /// Backtracking steps of the line search after the full step.
@@ -188,25 +183,11 @@ pub struct NewtonReport {
 /// On several ranks (`collective`), the unknowns are the free dofs of the points this rank
 /// owns, every residual evaluation first refreshes the ghosts, and norms and decisions are
 /// global.
-#[allow(clippy::too_many_arguments)]
 pub fn solve(
-    system: &mut ImplicitSystem,
-    model: &Model,
-    physics: &mut Physics,
-    state: &mut State,
+    parts: Physical<'_>,
     linear: &mut LinearStrategy,
     settings: &NewtonSettings,
-    constrained: &[usize],
-    collective: &mut dyn Collective,
 ) -> Result<NewtonReport, SolveError> {
-    let parts = Physical {
-        system,
-        model,
-        physics,
-        state,
-        collective,
-        constrained,
-    };
     let mut problem = PhysicsProblem::new(parts, settings.measure, Origin::Displacement);
     let mut report = solve_problem(&mut problem, linear, settings)?;
     report.residual_evaluations = problem.residual_evaluations();
@@ -382,18 +363,13 @@ pub trait NonlinearSolver {
         false
     }
 
-    /// Solves `system`; a solve that stops unconverged is a report with `converged == false`.
-    /// On several ranks, `collective` holds the halo exchange and the reductions.
-    #[allow(clippy::too_many_arguments)]
+    /// Solves the step's system over `parts`; a solve that stops unconverged is a report with
+    /// `converged == false`. On several ranks, `parts.collective` holds the halo exchange and
+    /// the reductions.
     fn solve(
         &mut self,
-        system: &mut ImplicitSystem,
-        model: &Model,
-        physics: &mut Physics,
-        state: &mut State,
+        parts: Physical<'_>,
         settings: &NewtonSettings,
-        constrained: &[usize],
-        collective: &mut dyn Collective,
     ) -> Result<NewtonReport, SolveError>;
 }
 
@@ -405,23 +381,9 @@ impl NonlinearSolver for LinearStrategy {
 
     fn solve(
         &mut self,
-        system: &mut ImplicitSystem,
-        model: &Model,
-        physics: &mut Physics,
-        state: &mut State,
+        parts: Physical<'_>,
         settings: &NewtonSettings,
-        constrained: &[usize],
-        collective: &mut dyn Collective,
     ) -> Result<NewtonReport, SolveError> {
-        solve(
-            system,
-            model,
-            physics,
-            state,
-            self,
-            settings,
-            constrained,
-            collective,
-        )
+        solve(parts, self, settings)
     }
 }

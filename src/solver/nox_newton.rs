@@ -218,23 +218,10 @@ impl NonlinearSolver for NoxNewton {
 
     fn solve(
         &mut self,
-        system: &mut ImplicitSystem,
-        model: &Model,
-        physics: &mut Physics,
-        state: &mut State,
+        parts: Physical<'_>,
         settings: &NewtonSettings,
-        constrained: &[usize],
-        collective: &mut dyn Collective,
     ) -> Result<NewtonReport, SolveError> {
         let start = Instant::now();
-        let parts = Physical {
-            system,
-            model,
-            physics,
-            state,
-            collective,
-            constrained,
-        };
         let mut problem = PhysicsProblem::new(parts, settings.measure, Origin::Coordinates);
         // Points with too few bonds for a stiffness are held for the whole NOX solve (NOX
         // cannot change its unknowns mid-solve); on several ranks every rank learns which.

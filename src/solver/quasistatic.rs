@@ -28,6 +28,7 @@ use crate::physics::Physics;
 use crate::solver::collective::{any_failed, Collective};
 use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem};
 use crate::solver::newton::{ConvergenceMeasure, NewtonReport, NewtonSettings, NonlinearSolver};
+use crate::solver::problem::Physical;
 use crate::state::State;
 use std::time::Instant;
 
@@ -204,15 +205,15 @@ pub fn run<E: From<QuasiStaticError>>(
             print_iterations: root,
             verbose: settings.verbose && root,
         };
-        let report = nonlinear.solve(
-            &mut system,
+        let parts = Physical {
+            system: &mut system,
             model,
             physics,
             state,
-            &newton_settings,
-            &constrained,
             collective,
-        );
+            constrained: &constrained,
+        };
+        let report = nonlinear.solve(parts, &newton_settings);
         let failure = match &report {
             Err(source) => Some(source.to_string()),
             Ok(r) if !r.converged => Some(format!(
