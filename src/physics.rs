@@ -77,11 +77,7 @@ impl Physics {
             density,
             contact: None,
         };
-        let reference = ReferenceView {
-            bonds,
-            position: &points.position,
-            volume: &points.volume,
-        };
+        let reference = ReferenceView::of(bonds, points);
         let current = CurrentView {
             position: &points.position,
             bond_damage: None,
@@ -136,11 +132,7 @@ impl Physics {
         bond_damage: Option<&mut [f32]>,
         force_density: &mut [[f64; 3]],
     ) -> usize {
-        let reference = ReferenceView {
-            bonds,
-            position: &points.position,
-            volume: &points.volume,
-        };
+        let reference = ReferenceView::of(bonds, points);
         let mut broken = 0;
         let Some(bond_damage) = bond_damage else {
             self.internal_force_with_damage_fixed(bonds, points, current, None, force_density);
@@ -242,11 +234,7 @@ impl Physics {
         bond_damage: Option<&[f32]>,
         force_density: &mut [[f64; 3]],
     ) {
-        let reference = ReferenceView {
-            bonds,
-            position: &points.position,
-            volume: &points.volume,
-        };
+        let reference = ReferenceView::of(bonds, points);
         let view = CurrentView {
             position: current,
             bond_damage,
@@ -278,11 +266,7 @@ impl Physics {
         bond_damage: Option<&[f32]>,
         energy_density: &mut [f64],
     ) {
-        let reference = ReferenceView {
-            bonds,
-            position: &points.position,
-            volume: &points.volume,
-        };
+        let reference = ReferenceView::of(bonds, points);
         let view = CurrentView {
             position: current,
             bond_damage,
@@ -310,11 +294,7 @@ impl Physics {
 
     /// Peridigm's critical time step over all blocks (`None` if no point has a neighbour).
     pub fn critical_time_step(&self, bonds: &BondList, points: &PointCloud) -> Option<f64> {
-        let reference = ReferenceView {
-            bonds,
-            position: &points.position,
-            volume: &points.volume,
-        };
+        let reference = ReferenceView::of(bonds, points);
         self.blocks
             .iter()
             .filter_map(|b| b.material.critical_time_step(&reference))
@@ -401,11 +381,7 @@ impl Physics {
         method: Option<TangentMethod>,
         tangent: &mut BlockTangent,
     ) -> Result<(), TangentError> {
-        let reference = ReferenceView {
-            bonds,
-            position: &points.position,
-            volume: &points.volume,
-        };
+        let reference = ReferenceView::of(bonds, points);
         let view = CurrentView {
             position: configuration.position,
             bond_damage: configuration.bond_damage,

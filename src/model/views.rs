@@ -1,7 +1,7 @@
 //! The views of the reference and current configuration that materials and damage models
 //! read.
 
-use super::BondList;
+use super::{BondList, PointCloud};
 
 /// The reference configuration of all points (owned and ghost), read by every material.
 #[derive(Debug, Clone, Copy)]
@@ -12,6 +12,17 @@ pub struct ReferenceView<'a> {
     pub position: &'a [[f64; 3]],
     /// Cell volumes V (length³).
     pub volume: &'a [f64],
+}
+
+impl<'a> ReferenceView<'a> {
+    /// The reference configuration of `points` with their families `bonds`.
+    pub fn of(bonds: &'a BondList, points: &'a PointCloud) -> Self {
+        Self {
+            bonds,
+            position: &points.position,
+            volume: &points.volume,
+        }
+    }
 }
 
 /// The current configuration of all points.

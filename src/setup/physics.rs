@@ -36,11 +36,7 @@ fn influence(deck: &Deck) -> Result<InfluenceFunction, SetupError> {
 /// Builds and sets up the material (and damage model) of every block, each by its registry
 /// entry ([`crate::material::MATERIALS`], [`crate::damage::DAMAGE_MODELS`]).
 pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> {
-    let reference = ReferenceView {
-        bonds: &model.bonds,
-        position: &model.points.position,
-        volume: &model.points.volume,
-    };
+    let reference = ReferenceView::of(&model.bonds, &model.points);
     let influence = influence(deck)?;
     let point_critical_stretch = point_critical_stretch(deck, model);
     let mut blocks = Vec::with_capacity(model.blocks.len());

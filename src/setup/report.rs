@@ -272,11 +272,7 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
 /// Peridigm's critical time step over all blocks ([`crate::material::critical_time_step`] with
 /// each block's density, bulk modulus and horizon); `None` if no point has a neighbour.
 pub fn critical_time_step(deck: &Deck, model: &Model) -> Option<f64> {
-    let reference = crate::material::ReferenceView {
-        bonds: &model.bonds,
-        position: &model.points.position,
-        volume: &model.points.volume,
-    };
+    let reference = crate::material::ReferenceView::of(&model.bonds, &model.points);
     model
         .blocks
         .iter()

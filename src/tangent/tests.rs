@@ -76,11 +76,7 @@ impl Body {
             points.push(*p, 0.8 + 0.4 * rng.uniform(), block);
         }
         let bonds = brute_force_bonds(&x, HORIZON);
-        let reference = ReferenceView {
-            bonds: &bonds,
-            position: &points.position,
-            volume: &points.volume,
-        };
+        let reference = ReferenceView::of(&bonds, &points);
         let constants: &[(f64, f64)] = if split {
             &[(3.0, 1.7), (5.0, 0.9)]
         } else {
