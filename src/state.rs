@@ -134,7 +134,7 @@ impl History {
         self.fields.iter().map(|(f, _)| f)
     }
 
-    fn each(&mut self, action: impl Fn(&mut Staged<f64>)) {
+    fn each(&mut self, action: fn(&mut Staged<f64>)) {
         self.fields
             .iter_mut()
             .for_each(|(_, values)| action(values));
@@ -211,35 +211,32 @@ impl State {
     /// From now on keep committed copies of every staged field (implicit solvers; equal to
     /// the trial values now).
     pub fn keep_committed(&mut self) {
-        if let Some(damage) = &mut self.bond_damage {
-            damage.keep_committed();
-        }
-        self.history.each(Staged::keep_committed);
+        self.each_staged(Staged::keep_committed, Staged::keep_committed);
     }
 
     /// Stops keeping committed copies (the trial values are accepted as they are).
     pub fn drop_committed(&mut self) {
-        if let Some(damage) = &mut self.bond_damage {
-            damage.drop_committed();
-        }
-        self.history.each(Staged::drop_committed);
+        self.each_staged(Staged::drop_committed, Staged::drop_committed);
     }
 
     /// Accepts every staged field's trial values (a step converged).
     pub fn commit(&mut self) {
-        if let Some(damage) = &mut self.bond_damage {
-            damage.commit();
-        }
-        self.history.each(Staged::commit);
+        self.each_staged(Staged::commit, Staged::commit);
     }
 
     /// Puts every staged field back to its committed values (a step is redone, or an
     /// iterate is abandoned).
     pub fn restore(&mut self) {
-        if let Some(damage) = &mut self.bond_damage {
-            damage.restore();
+        self.each_staged(Staged::restore, Staged::restore);
+    }
+
+    /// Applies one operation to every staged field: the bond damage (`f32`) and the history
+    /// (`f64`).
+    fn each_staged(&mut self, damage: fn(&mut Staged<f32>), history: fn(&mut Staged<f64>)) {
+        if let Some(bond_damage) = &mut self.bond_damage {
+            damage(bond_damage);
         }
-        self.history.each(Staged::restore);
+        self.history.each(history);
     }
 }
 

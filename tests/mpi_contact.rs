@@ -8,7 +8,7 @@
 
 mod mpi_support;
 
-use mpi_support::{assert_success, mpirun, PERIDYN};
+use mpi_support::{assert_success, diff_against_one_rank, mpirun, STRICT};
 
 use peridyn::io::exodus::ExodusFile;
 use std::path::Path;
@@ -135,16 +135,6 @@ fn impact_deck(dir: &Path) -> &'static str {
     "impact.yaml"
 }
 
-/// exodiff command file: every variable, coordinates and times within 1e-12 relative with no
-/// floor (the runs are in fact bitwise equal).
-const STRICT: &str = "DEFAULT TOLERANCE relative 1.0E-12 floor 0.0
-COORDINATES absolute 0.0
-TIME STEPS relative 1.0E-12 floor 0.0
-GLOBAL VARIABLES
-NODAL VARIABLES
-ELEMENT VARIABLES
-";
-
 /// Mean of nodal variable `name` over the projectile's nodes at frame `step`.
 fn projectile_mean(file: &ExodusFile, step: usize, name: &str) -> f64 {
     let variable = file.nodal_variable_index(name).expect(name);
@@ -205,17 +195,7 @@ fn an_impact_with_contact_and_damage_is_the_same_on_one_two_and_three_ranks() {
     let damaged = values.iter().filter(|&&d| d > 0.0).count();
     assert!(damaged > 0, "no plate point is damaged");
     for ranks in 2..=3 {
-        let output = Command::new(PERIDYN)
-            .args([
-                "diff",
-                &format!("ranks{ranks}/impact.e"),
-                "ranks1/impact.e",
-                "--comp",
-                "strict.comp",
-            ])
-            .current_dir(dir.path())
-            .output()
-            .unwrap();
+        let output = diff_against_one_rank(dir.path(), ranks, "impact.e", "strict.comp");
         assert_success(&output, &format!("diff of {ranks} ranks against 1"));
     }
 }

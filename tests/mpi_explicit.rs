@@ -7,7 +7,7 @@
 
 mod mpi_support;
 
-use mpi_support::{assert_success, mpirun, PERIDYN};
+use mpi_support::{assert_success, diff_against_one_rank, mpirun, PERIDYN, STRICT};
 
 use peridyn::io::exodus::ExodusFile;
 use std::path::Path;
@@ -150,16 +150,6 @@ fn bar_deck_of(dir: &Path, material: &str, bar: &Bar) -> &'static str {
     "bar.yaml"
 }
 
-/// exodiff command file: every variable, coordinates and times within 1e-12 relative with no
-/// floor (the bar of the MPI issue; the runs below are in fact bitwise equal).
-const STRICT: &str = "DEFAULT TOLERANCE relative 1.0E-12 floor 0.0
-COORDINATES absolute 0.0
-TIME STEPS relative 1.0E-12 floor 0.0
-GLOBAL VARIABLES
-NODAL VARIABLES
-ELEMENT VARIABLES
-";
-
 /// Runs the bar on 1, 2 and 3 ranks and compares 2 and 3 with 1 through `peridyn diff`.
 fn same_answer_on_any_rank_count(material: &str) {
     same_answer_on_any_rank_count_of(material, &SHORT_BAR);
@@ -222,17 +212,7 @@ fn same_answer_on_any_rank_count_of(material: &str, bar: &Bar) {
         "no point is damaged: the test would not test damage"
     );
     for ranks in 2..=3 {
-        let output = Command::new(PERIDYN)
-            .args([
-                "diff",
-                &format!("ranks{ranks}/bar.e"),
-                "ranks1/bar.e",
-                "--comp",
-                "strict.comp",
-            ])
-            .current_dir(dir.path())
-            .output()
-            .unwrap();
+        let output = diff_against_one_rank(dir.path(), ranks, "bar.e", "strict.comp");
         assert_success(
             &output,
             &format!("{material}: diff of {ranks} ranks against 1"),

@@ -9,7 +9,7 @@
 mod mpi_support;
 mod quasi_static_bar;
 
-use mpi_support::{mpirun, PERIDYN};
+use mpi_support::{diff_against_one_rank, mpirun, run_on_ranks, PERIDYN};
 use peridyn::io::exodus::ExodusFile;
 use std::process::Command;
 
@@ -62,14 +62,7 @@ fn same_answer_on_one_two_and_three_ranks(name: &str, text: &str, comp: &str, la
     std::fs::write(dir.path().join("bar.yaml"), text).unwrap();
     std::fs::write(dir.path().join("relative.comp"), comp).unwrap();
     for ranks in 1..=3 {
-        let out = format!("ranks{ranks}");
-        let output = mpirun(
-            dir.path(),
-            ranks,
-            &["run", "bar.yaml", "--output-dir", &out],
-        );
-        let log = String::from_utf8_lossy(&output.stderr);
-        assert!(output.status.success(), "{name} on {ranks} ranks: {log}");
+        let log = run_on_ranks(dir.path(), ranks, "bar.yaml", name);
         // Only rank 0 reports.
         assert_eq!(log.matches("done:").count(), 1, "{log}");
         assert_eq!(log.matches(last_step).count(), 1, "{log}");
@@ -118,17 +111,7 @@ fn same_answer_on_one_two_and_three_ranks(name: &str, text: &str, comp: &str, la
         );
     }
     for ranks in 2..=3 {
-        let output = Command::new(PERIDYN)
-            .args([
-                "diff",
-                &format!("ranks{ranks}/bar.e"),
-                "ranks1/bar.e",
-                "--comp",
-                "relative.comp",
-            ])
-            .current_dir(dir.path())
-            .output()
-            .unwrap();
+        let output = diff_against_one_rank(dir.path(), ranks, "bar.e", "relative.comp");
         assert!(
             output.status.success(),
             "{name}: {ranks} ranks differ from one:\n{}{}",
@@ -204,14 +187,7 @@ fn switch_to_verlet_gives_the_one_rank_answer_on_two_ranks() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("bar.yaml"), text).unwrap();
     for ranks in 1..=2 {
-        let out = format!("ranks{ranks}");
-        let output = mpirun(
-            dir.path(),
-            ranks,
-            &["run", "bar.yaml", "--output-dir", &out],
-        );
-        let log = String::from_utf8_lossy(&output.stderr);
-        assert!(output.status.success(), "{ranks} ranks: {log}");
+        let log = run_on_ranks(dir.path(), ranks, "bar.yaml", "switch to Verlet");
         assert_eq!(log.matches("switching to Verlet").count(), 1, "{log}");
     }
     let one = ExodusFile::open(&dir.path().join("ranks1/bar.e")).unwrap();

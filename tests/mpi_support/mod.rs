@@ -39,3 +39,39 @@ pub fn assert_success(output: &Output, what: &str) {
         String::from_utf8_lossy(&output.stderr)
     );
 }
+
+/// exodiff command file: every variable, coordinates and times within 1e-12 relative with no
+/// floor (the bar of the MPI issue; the runs compared with it are in fact bitwise equal).
+pub const STRICT: &str = "DEFAULT TOLERANCE relative 1.0E-12 floor 0.0
+COORDINATES absolute 0.0
+TIME STEPS relative 1.0E-12 floor 0.0
+GLOBAL VARIABLES
+NODAL VARIABLES
+ELEMENT VARIABLES
+";
+
+/// `peridyn diff ranks<ranks>/<file> ranks1/<file> --comp <comp>` in `dir`: the run on
+/// `ranks` ranks against the one-rank run. Returns the finished command.
+pub fn diff_against_one_rank(dir: &Path, ranks: usize, file: &str, comp: &str) -> Output {
+    Command::new(PERIDYN)
+        .args([
+            "diff",
+            &format!("ranks{ranks}/{file}"),
+            &format!("ranks1/{file}"),
+            "--comp",
+            comp,
+        ])
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
+/// `peridyn run <deck> --output-dir ranks<ranks>` under `mpirun` in `dir`; panics with the log
+/// unless it succeeded, and returns the log (standard error).
+pub fn run_on_ranks(dir: &Path, ranks: usize, deck: &str, what: &str) -> String {
+    let out = format!("ranks{ranks}");
+    let output = mpirun(dir, ranks, &["run", deck, "--output-dir", &out]);
+    let log = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert!(output.status.success(), "{what} on {ranks} ranks: {log}");
+    log
+}
