@@ -12,7 +12,6 @@ use mpi_support::{assert_success, diff_against_one_rank, mpirun, STRICT};
 
 use peridyn::io::exodus::ExodusFile;
 use std::path::Path;
-use std::process::Command;
 
 /// Points of the target plate (block 1), numbered first in the mesh file.
 const TARGET_POINTS: usize = 10 * 10 * 3;

@@ -7,11 +7,10 @@
 
 mod mpi_support;
 
-use mpi_support::{assert_success, diff_against_one_rank, mpirun, PERIDYN, STRICT};
+use mpi_support::{assert_success, diff_against_one_rank, mpirun, STRICT};
 
 use peridyn::io::exodus::ExodusFile;
 use std::path::Path;
-use std::process::Command;
 
 /// A steel-like bar on a 0.5 m lattice, horizon 1.6 m (3.2 spacings), pulled apart from
 /// two-column slabs at each end.

@@ -9,9 +9,8 @@
 mod mpi_support;
 mod quasi_static_bar;
 
-use mpi_support::{diff_against_one_rank, mpirun, run_on_ranks, PERIDYN};
+use mpi_support::{diff_against_one_rank, mpirun, run_on_ranks};
 use peridyn::io::exodus::ExodusFile;
-use std::process::Command;
 
 /// exodiff command file: 1e-8 relative everywhere (the bar for implicit runs), with
 /// floors below which values are round-off: 1e-14 m for displacements (the pull is 0.012 m)

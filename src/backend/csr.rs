@@ -43,8 +43,14 @@ impl Csr {
         (&self.columns[range.clone()], &self.values[range])
     }
 
-    /// y = A x.
-    pub fn multiply(&self, x: &[f64], y: &mut [f64]) {
+    /// Row `r` of A times x, summed in the row's column order.
+    fn row_times(&self, r: usize, x: &[f64]) -> f64 {
+        let (columns, values) = self.row(r);
+        columns.iter().zip(values).map(|(&c, &v)| v * x[c]).sum()
+    }
+
+    /// Panics unless x has a value per column and y one per row (a bug of the caller).
+    fn check_product_lengths(&self, x: &[f64], y: &[f64]) {
         assert_eq!(
             x.len(),
             self.ncols,
@@ -55,9 +61,13 @@ impl Csr {
             self.nrows,
             "y has the wrong length for this matrix"
         );
+    }
+
+    /// y = A x.
+    pub fn multiply(&self, x: &[f64], y: &mut [f64]) {
+        self.check_product_lengths(x, y);
         for (r, y_r) in y.iter_mut().enumerate() {
-            let (columns, values) = self.row(r);
-            *y_r = columns.iter().zip(values).map(|(&c, &v)| v * x[c]).sum();
+            *y_r = self.row_times(r, x);
         }
     }
 
@@ -71,22 +81,12 @@ impl Csr {
             self.multiply(x, y);
             return;
         }
-        assert_eq!(
-            x.len(),
-            self.ncols,
-            "x has the wrong length for this matrix"
-        );
-        assert_eq!(
-            y.len(),
-            self.nrows,
-            "y has the wrong length for this matrix"
-        );
+        self.check_product_lengths(x, y);
         y.par_iter_mut()
             .with_min_len(1024)
             .enumerate()
             .for_each(|(r, y_r)| {
-                let (columns, values) = self.row(r);
-                *y_r = columns.iter().zip(values).map(|(&c, &v)| v * x[c]).sum();
+                *y_r = self.row_times(r, x);
             });
     }
 

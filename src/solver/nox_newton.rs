@@ -36,13 +36,8 @@ use crate::backend::trilinos::nox_problem::{self, NoxSettings};
 pub use crate::backend::trilinos::nox_problem::{MatrixFreePreconditioner, NoxJacobian};
 use crate::backend::{SolveError, Unsupported};
 use crate::io::deck::{Integrator, ParameterValue, PeridigmPreconditioner, Solver};
-use crate::model::Model;
-use crate::physics::Physics;
-use crate::solver::collective::Collective;
-use crate::solver::implicit::ImplicitSystem;
 use crate::solver::newton::{NewtonReport, NewtonSettings, NonlinearSolver};
 use crate::solver::problem::{Origin, Physical, PhysicsProblem};
-use crate::state::State;
 use std::time::Instant;
 
 /// `NOXQuasiStatic` on the Trilinos backend.
