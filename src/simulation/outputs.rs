@@ -61,7 +61,8 @@ impl<'a> RunOutputs<'a> {
     }
 
     /// One implicit step's row of `<output>_solver.csv`, with the tangent bytes summed over
-    /// the ranks. Collective on N ranks, like [`RunOutputs::call`].
+    /// the ranks (the other columns are global already). Collective on N ranks, like
+    /// [`RunOutputs::call`] (on one rank the sum is the rank's own bytes); rank 0 writes.
     pub(super) fn record(
         &mut self,
         ranks: &mut dyn Ranks,
@@ -69,11 +70,15 @@ impl<'a> RunOutputs<'a> {
         step: usize,
         report: &NewtonReport,
     ) -> Result<(), RunError> {
-        match self {
-            Self::OneRank { history, .. } => {
-                history.record(time, step, report, report.tangent_bytes as f64)
-            }
-            Self::Ranks { outputs, .. } => outputs.record(ranks, time, step, report),
+        let mut tangent_bytes = [report.tangent_bytes as f64];
+        ranks.sum(&mut tangent_bytes);
+        let history = match self {
+            Self::OneRank { history, .. } => Some(history),
+            Self::Ranks { outputs, .. } => outputs.solver_history.as_mut(),
+        };
+        match history {
+            Some(history) => history.record(time, step, report, tangent_bytes[0]),
+            None => Ok(()),
         }
     }
 
@@ -394,24 +399,6 @@ impl<'a> DistributedOutputs<'a> {
             seconds: 0.0,
             solver_history: (rank == 0).then(|| SolverHistory::new(deck, dir)),
         })
-    }
-
-    /// One implicit step's row of `<output>_solver.csv`, written by rank 0 with the tangent
-    /// bytes summed over the ranks (the other columns are global already). Collective (one
-    /// sum); a write failure on rank 0 is returned to the caller, which agrees on it.
-    fn record(
-        &mut self,
-        ranks: &mut dyn Ranks,
-        time: f64,
-        step: usize,
-        report: &NewtonReport,
-    ) -> Result<(), RunError> {
-        let mut tangent_bytes = [report.tangent_bytes as f64];
-        ranks.sum(&mut tangent_bytes);
-        match &mut self.solver_history {
-            Some(history) => history.record(time, step, report, tangent_bytes[0]),
-            None => Ok(()),
-        }
     }
 
     /// Counts one output call; on a frame, gathers the point fields (collective) and rank 0
