@@ -172,6 +172,7 @@ fn main() {
                 let current = CurrentView {
                     position: &y,
                     bond_damage: case.damage,
+                    history: &peridyn::state::NO_HISTORY,
                 };
                 case.material
                     .compute_point_coefficients(&reference, &current, &mut coefficients);

@@ -6,6 +6,7 @@ use crate::material::{
     CriticalStretchFastPath, CurrentView, Material, PointCoefficients, ReferenceView,
 };
 use crate::model::{BondList, PointCloud, Reach};
+use crate::state::{History, NO_HISTORY};
 use crate::tangent::{BlockPattern, BlockTangent, TangentError, TangentMethod};
 
 /// The physics of one block.
@@ -81,6 +82,7 @@ impl Physics {
         let current = CurrentView {
             position: &points.position,
             bond_damage: None,
+            history: &NO_HISTORY,
         };
         for block in &physics.blocks {
             if !block.material.needs_dilatation() {
@@ -130,12 +132,20 @@ impl Physics {
         points: &PointCloud,
         current: &[[f64; 3]],
         bond_damage: Option<&mut [f32]>,
+        history: &mut History,
         force_density: &mut [[f64; 3]],
     ) -> usize {
         let reference = ReferenceView::of(bonds, points);
         let mut broken = 0;
         let Some(bond_damage) = bond_damage else {
-            self.internal_force_with_damage_fixed(bonds, points, current, None, force_density);
+            self.internal_force_with_damage_fixed(
+                bonds,
+                points,
+                current,
+                None,
+                history,
+                force_density,
+            );
             return 0;
         };
         // The critical stretch and fast path of each block that breaks its bonds in its own
@@ -159,6 +169,8 @@ impl Physics {
             bond_damage[f] = larger;
             bond_damage[b] = larger;
         }
+        self.update_history(&reference, current, Some(&bond_damage[..]), history);
+        let history = &*history;
         // Fused blocks have no bond to another block, so nothing above reads or writes their
         // rows, and their passes below see the damage as a separate update would leave it.
         for (block, fused) in self.blocks.iter().zip(&fused) {
@@ -176,6 +188,7 @@ impl Physics {
                     let view = CurrentView {
                         position: current,
                         bond_damage: Some(&bond_damage[..]),
+                        history,
                     };
                     block.material.compute_point_coefficients(
                         &reference,
@@ -203,6 +216,7 @@ impl Physics {
                     let view = CurrentView {
                         position: current,
                         bond_damage: Some(&bond_damage[..]),
+                        history,
                     };
                     block.material.add_force_density(
                         &reference,
@@ -232,12 +246,15 @@ impl Physics {
         points: &PointCloud,
         current: &[[f64; 3]],
         bond_damage: Option<&[f32]>,
+        history: &mut History,
         force_density: &mut [[f64; 3]],
     ) {
         let reference = ReferenceView::of(bonds, points);
+        self.update_history(&reference, current, bond_damage, history);
         let view = CurrentView {
             position: current,
             bond_damage,
+            history,
         };
         for block in &self.blocks {
             if block.material.needs_dilatation() {
@@ -256,6 +273,25 @@ impl Physics {
         }
     }
 
+    /// Advances every block's history fields to `current` (committed values read, trial values
+    /// written; [`crate::material::Material::update_history`]).
+    fn update_history(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &[[f64; 3]],
+        bond_damage: Option<&[f32]>,
+        history: &mut History,
+    ) {
+        let view = CurrentView {
+            position: current,
+            bond_damage,
+            history: &NO_HISTORY,
+        };
+        for block in &self.blocks {
+            block.material.update_history(reference, &view, history);
+        }
+    }
+
     /// Stored elastic energy density of every point at `current` with `bond_damage` (uses the
     /// coefficients of the last force evaluation at the same positions).
     pub fn stored_energy_density(
@@ -270,6 +306,7 @@ impl Physics {
         let view = CurrentView {
             position: current,
             bond_damage,
+            history: &NO_HISTORY,
         };
         for block in &self.blocks {
             block.material.stored_energy_density(
@@ -278,6 +315,31 @@ impl Physics {
                 &self.coefficients,
                 energy_density,
             );
+        }
+    }
+
+    /// The hourglass-control force density of every point (correspondence models; zero
+    /// elsewhere) at `current` with `bond_damage`, from the history of the last force
+    /// evaluation.
+    pub fn hourglass_force_density(
+        &self,
+        bonds: &BondList,
+        points: &PointCloud,
+        current: &[[f64; 3]],
+        bond_damage: Option<&[f32]>,
+        history: &History,
+        out: &mut [[f64; 3]],
+    ) {
+        let reference = ReferenceView::of(bonds, points);
+        let view = CurrentView {
+            position: current,
+            bond_damage,
+            history,
+        };
+        for block in &self.blocks {
+            block
+                .material
+                .add_hourglass_force_density(&reference, &view, out);
         }
     }
 
@@ -310,6 +372,9 @@ pub struct Configuration<'a> {
     pub position: &'a [[f64; 3]],
     /// Bond damage per directed bond, when some block has a damage model.
     pub bond_damage: Option<&'a [f32]>,
+    /// The materials' history (the tangent differentiates the trial update from the
+    /// committed values).
+    pub history: &'a History,
 }
 
 /// The tangent stiffness ∂(V f)/∂u for implicit solvers (see [`crate::tangent`]).
@@ -385,6 +450,7 @@ impl Physics {
         let view = CurrentView {
             position: configuration.position,
             bond_damage: configuration.bond_damage,
+            history: configuration.history,
         };
         tangent.fill_zero();
         for block in &self.blocks {

@@ -73,6 +73,17 @@ impl<T: Copy> Staged<T> {
         }
     }
 
+    /// The committed values (read) and the trial values (written) at once, for an update that
+    /// computes the trial values from the committed ones. Keeps a committed copy from now on
+    /// if none was kept (equal to the trial values now).
+    pub fn committed_and_trial(&mut self) -> (&[T], &mut [T]) {
+        if self.committed.is_none() {
+            self.committed = Some(self.trial.clone());
+        }
+        let committed = self.committed.as_deref().unwrap_or_default();
+        (committed, &mut self.trial)
+    }
+
     /// Abandons the trial values: they become the committed ones again.
     pub fn restore(&mut self) {
         if let Some(committed) = &self.committed {
@@ -84,7 +95,14 @@ impl<T: Copy> Staged<T> {
 /// Material history: the staged fields the materials of a run declare
 /// ([`FieldDeclaration::staged`], e.g. a plastic extension per bond), each allocated once
 /// (zero-initialised) however many blocks declare it; a block writes only its own entries.
-/// Bond damage, which damage models declare, is [`State::bond_damage`].
+/// A field holds [`FieldDeclaration::bytes_per_value`]` / 8` numbers per point or bond (9 for
+/// a 3×3 tensor, row-major). Bond damage, which damage models declare, is
+/// [`State::bond_damage`].
+///
+/// History always keeps its committed copy, explicit runs included: a material's update
+/// reads the committed values and writes the trial ones
+/// ([`Staged::committed_and_trial`]), so an extra force evaluation within a step (an output,
+/// a probe) never advances the history twice.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct History {
     fields: Vec<(FieldDeclaration, Staged<f64>)>,
@@ -104,11 +122,14 @@ impl History {
             if fields.iter().any(|(f, _)| f.name == field.name) {
                 continue;
             }
-            let len = match field.carrier {
+            let count = match field.carrier {
                 FieldCarrier::Point => points,
                 FieldCarrier::Bond => bonds,
             };
-            fields.push((*field, Staged::filled(len, 0.0)));
+            let numbers_per_value = (field.bytes_per_value / 8).max(1) as usize;
+            let mut values = Staged::filled(count * numbers_per_value, 0.0);
+            values.keep_committed();
+            fields.push((*field, values));
         }
         Self { fields }
     }
@@ -134,12 +155,28 @@ impl History {
         self.fields.iter().map(|(f, _)| f)
     }
 
+    /// The history of a run without history fields.
+    pub const fn empty() -> Self {
+        Self { fields: Vec::new() }
+    }
+
+    /// Applies `action` to every field (tests that stage history by hand).
+    #[cfg(test)]
+    pub(crate) fn each_for_tests(&mut self, action: impl Fn(&mut Staged<f64>)) {
+        self.fields
+            .iter_mut()
+            .for_each(|(_, values)| action(values));
+    }
+
     fn each(&mut self, action: fn(&mut Staged<f64>)) {
         self.fields
             .iter_mut()
             .for_each(|(_, values)| action(values));
     }
 }
+
+/// The history of a run whose models declare no history field.
+pub static NO_HISTORY: History = History::empty();
 
 /// Everything of a run that evolves. Fields exist only when the run needs them (the external
 /// force only with a body force, bond damage only with a damage model, history only for the
@@ -214,9 +251,10 @@ impl State {
         self.each_staged(Staged::keep_committed, Staged::keep_committed);
     }
 
-    /// Stops keeping committed copies (the trial values are accepted as they are).
+    /// Stops keeping committed copies (the trial values are accepted as they are). The
+    /// history accepts its trial values and keeps its copy (see [`History`]).
     pub fn drop_committed(&mut self) {
-        self.each_staged(Staged::drop_committed, Staged::drop_committed);
+        self.each_staged(Staged::drop_committed, Staged::commit);
     }
 
     /// Accepts every staged field's trial values (a step converged).

@@ -1291,6 +1291,7 @@ mod tests {
         let current = CurrentView {
             position: y,
             bond_damage: Some(damage),
+            history: &crate::state::NO_HISTORY,
         };
         let mut coefficients = vec![PointCoefficients::default(); n];
         for m in blocks {
@@ -1635,6 +1636,7 @@ mod tests {
         let current = CurrentView {
             position: &x,
             bond_damage: None,
+            history: &crate::state::NO_HISTORY,
         };
         m.compute_point_coefficients(&reference, &current, &mut coefficients);
         let mut separate = vec![0.0f32; bonds.num_bonds()];

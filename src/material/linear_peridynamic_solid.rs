@@ -984,6 +984,7 @@ impl BreakingCoefficientPass for LinearPeridynamicSolid {
         let current = CurrentView {
             position,
             bond_damage: None,
+            history: &crate::state::NO_HISTORY,
         };
         let rows = self.rows(reference, &current);
         let wide = wide_vectors_available();
@@ -1052,6 +1053,7 @@ mod tests {
                 let current = CurrentView {
                     position: &at,
                     bond_damage: Some(&separate),
+                    history: &crate::state::NO_HISTORY,
                 };
                 m.compute_point_coefficients(&reference, &current, &mut expected);
                 let mut coefficients = vec![PointCoefficients::default(); x.len()];
@@ -1121,6 +1123,7 @@ mod tests {
         let current = CurrentView {
             position: &y,
             bond_damage: None,
+            history: &crate::state::NO_HISTORY,
         };
         let mut c = vec![PointCoefficients::default(); x.len()];
         m.compute_point_coefficients(&reference, &current, &mut c);
@@ -1165,6 +1168,7 @@ mod tests {
         let current = CurrentView {
             position: &y,
             bond_damage: None,
+            history: &crate::state::NO_HISTORY,
         };
         let mut c = vec![PointCoefficients::default(); x.len()];
         m.compute_point_coefficients(&reference, &current, &mut c);

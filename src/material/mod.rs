@@ -24,12 +24,17 @@
 //! state-based block would need the two coefficient meanings mixed and are not supported yet.
 
 mod bond_based;
+mod correspondence;
 mod elastic_constants;
 mod influence;
 mod linear_peridynamic_solid;
 mod registry;
 
 pub use bond_based::{BondBased, BondBasedParameters};
+pub use correspondence::{
+    fields as correspondence_fields, CORRESPONDENCE_FIELDS, CORRESPONDENCE_OUTPUTS,
+};
+pub(crate) use correspondence::{ElasticCorrespondence, ElasticStress, StressModel};
 pub use elastic_constants::{ElasticConstants, ElasticInput, PlanarAssumption};
 pub use influence::{InfluenceFunction, UserInfluence};
 pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};
@@ -52,6 +57,27 @@ pub enum MaterialError {
         key: &'static str,
         /// The offending value.
         value: f64,
+    },
+    /// A parameter that must be a finite number ≥ 0 is not.
+    #[error("material parameter `{key}` must be a finite number ≥ 0, got {value}")]
+    NotNonNegative {
+        /// Deck key, e.g. `Hourglass Coefficient`.
+        key: &'static str,
+        /// The offending value.
+        value: f64,
+    },
+    /// A point's intact bonds do not span three dimensions, so a correspondence model has no
+    /// shape tensor (and no deformation gradient) there.
+    #[error(
+        "point {point} has a singular shape tensor: its {intact_bonds} intact bond(s) do not \
+         span three dimensions (a correspondence model needs at least three non-coplanar \
+         bonds); enlarge the horizon or refine the discretization there"
+    )]
+    SingularShapeTensor {
+        /// The point's number in the input (1-based, as in the mesh or text file).
+        point: usize,
+        /// Its bonds with ω > 0 and no damage.
+        intact_bonds: usize,
     },
     /// A parameter the model needs was not given.
     #[error("material parameter `{key}` is required by this material model")]
@@ -168,6 +194,33 @@ pub trait Material: Send + Sync {
     /// block point's force.
     fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
         let _ = keep;
+    }
+
+    /// Advances the block's history fields ([`crate::state::History`]) to the configuration
+    /// `current` (positions and bond damage; its `history` is empty here): reads their
+    /// committed values (the start of the step) and writes their trial values. Runs in every
+    /// force evaluation before [`Material::compute_point_coefficients`]; the force pass and
+    /// the tangent then read the trial values through [`CurrentView::history`]. Materials
+    /// without history (the default) do nothing.
+    fn update_history(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        history: &mut crate::state::History,
+    ) {
+        let _ = (reference, current, history);
+    }
+
+    /// Adds the hourglass-control part of the force density of the block's points
+    /// (Peridigm's `Hourglass_Force_Density`) to `out`; nothing for models without one (the
+    /// default).
+    fn add_hourglass_force_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        out: &mut [[f64; 3]],
+    ) {
+        let _ = (reference, current, out);
     }
 
     /// Writes the [`PointCoefficients`] of the block's points into `coefficients`.

@@ -5,7 +5,10 @@
 //! ghost depth of ranks and the tangent pattern all ask this list; nothing else names a model.
 //! Adding a model is its file, one line in [`MATERIALS`] and its tests.
 
-use super::{BondBased, InfluenceFunction, LinearPeridynamicSolid, Material, MaterialError};
+use super::{
+    BondBased, ElasticCorrespondence, ElasticStress, InfluenceFunction, LinearPeridynamicSolid,
+    Material, MaterialError, StressModel,
+};
 use crate::model::ModelDeclaration;
 
 /// The deck values every constructor may read, resolved by the builder from the block and its
@@ -26,6 +29,9 @@ pub struct MaterialInput {
     pub planar_thickness: Option<f64>,
     /// `Discretization → Influence Function` ω(ζ, δ).
     pub influence: InfluenceFunction,
+    /// `Hourglass Coefficient` C_hg of a correspondence model (dimensionless, ≥ 0); `None`
+    /// for other models.
+    pub hourglass_coefficient: Option<f64>,
 }
 
 impl MaterialInput {
@@ -59,6 +65,10 @@ pub static MATERIALS: &[MaterialEntry] = &[
         declaration: &LinearPeridynamicSolid::DECLARATION,
         build: LinearPeridynamicSolid::build,
     },
+    MaterialEntry {
+        declaration: &<ElasticStress as StressModel>::DECLARATION,
+        build: ElasticCorrespondence::build,
+    },
 ];
 
 /// The entry of the model called `deck_name` in decks (`Material Model`), if this build runs it.
@@ -89,6 +99,7 @@ mod tests {
                 shear_modulus: Some(1.0),
                 planar_thickness: None,
                 influence: InfluenceFunction::One,
+                hourglass_coefficient: Some(0.0),
             };
             let material = (entry.build)(&input).unwrap();
             assert_eq!(material.model_name(), name);
@@ -107,6 +118,7 @@ mod tests {
             shear_modulus: None,
             planar_thickness: None,
             influence: InfluenceFunction::One,
+            hourglass_coefficient: None,
         };
         let error = (material_entry("Elastic").unwrap().build)(&input).err();
         assert_eq!(

@@ -2,6 +2,7 @@
 //! read.
 
 use super::{BondList, PointCloud};
+use crate::state::History;
 
 /// The reference configuration of all points (owned and ghost), read by every material.
 #[derive(Debug, Clone, Copy)]
@@ -33,4 +34,7 @@ pub struct CurrentView<'a> {
     /// Bond damage d ∈ [0, 1] per directed bond (same indexing as the bond list), or `None`
     /// when no damage model is active (all bonds intact).
     pub bond_damage: Option<&'a [f32]>,
+    /// The materials' history fields (trial values of this evaluation, committed values of
+    /// the step's start); [`crate::state::NO_HISTORY`] when no model declares any.
+    pub history: &'a History,
 }

@@ -34,6 +34,15 @@ pub enum SetupError {
     /// The mesh or a node-set file could not be read.
     #[error(transparent)]
     Mesh(#[from] MeshError),
+    /// A point of a block cannot carry its material (e.g. a singular correspondence shape
+    /// tensor); `error` names the point by its number in the input.
+    #[error("block \"{block}\": {error}")]
+    SingularPoint {
+        /// The block's name (`Blocks` entry).
+        block: String,
+        /// What is wrong at the point.
+        error: crate::material::MaterialError,
+    },
 }
 
 /// Reads or generates the discretization the deck describes.

@@ -10,7 +10,9 @@ use crate::damage::{
 };
 use crate::expression::{INFLUENCE, TIME};
 use crate::io::deck::{Block, Deck, Horizon, InfluenceFunction as DeckInfluence, StretchLimit};
-use crate::material::{material_entry, InfluenceFunction, Material, MaterialInput, ReferenceView};
+use crate::material::{
+    material_entry, InfluenceFunction, Material, MaterialError, MaterialInput, ReferenceView,
+};
 use crate::physics::{BlockPhysics, Physics};
 
 fn influence(deck: &Deck) -> Result<InfluenceFunction, SetupError> {
@@ -43,7 +45,8 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
     for block in &model.blocks {
         let entry = &deck.blocks[block.deck_block];
         let horizon = block_horizon(deck, entry)?;
-        let material = build_material(deck, entry, horizon, &influence, &reference, block)?;
+        let material = build_material(deck, entry, horizon, &influence, &reference, block)
+            .map_err(|e| name_the_point(e, &model.points.original_id))?;
         let mut damage = match &entry.damage_model {
             None => None,
             Some(name) => Some(build_damage(
@@ -102,6 +105,27 @@ fn point_critical_stretch(deck: &Deck, model: &Model) -> Option<Arc<[f64]>> {
     (!blocks.is_empty()).then(|| InterfaceAware::field(model.points.len(), blocks))
 }
 
+/// `error` with a point named by its run index renamed by its number in the input (1-based).
+fn name_the_point(error: SetupError, original_id: &[u32]) -> SetupError {
+    match error {
+        SetupError::SingularPoint {
+            block,
+            error:
+                MaterialError::SingularShapeTensor {
+                    point,
+                    intact_bonds,
+                },
+        } => SetupError::SingularPoint {
+            block,
+            error: MaterialError::SingularShapeTensor {
+                point: original_id.get(point).map_or(point, |&id| id as usize + 1),
+                intact_bonds,
+            },
+        },
+        other => other,
+    }
+}
+
 /// The block's material, built by its registry entry and set up on the block's points.
 fn build_material(
     deck: &Deck,
@@ -141,12 +165,19 @@ fn build_material(
         shear_modulus: material.shear_modulus(),
         planar_thickness: material.planar_thickness(),
         influence: influence.clone(),
+        hourglass_coefficient: material.model.hourglass_coefficient(),
     };
     let mut built =
         (registered.build)(&input).map_err(|e| deck.error_at(&key_material, e.to_string()))?;
     built
         .setup(reference, block.points.clone())
-        .map_err(|e| deck.error_at(&key_material, e.to_string()))?;
+        .map_err(|e| match e {
+            MaterialError::SingularShapeTensor { .. } => SetupError::SingularPoint {
+                block: entry.name.clone(),
+                error: e,
+            },
+            _ => deck.error_at(&key_material, e.to_string()).into(),
+        })?;
     // `Tangent` / `Apply Automatic Differentiation Jacobian`; otherwise the model's default.
     if let Some(method) = material.tangent {
         built

@@ -25,6 +25,7 @@ const SUPPORTED_OUTPUTS: &[&str] = &[
     "Block_Id",
     "Proc_Num",
     "Number_Of_Neighbors",
+    "Neighborhood_Volume",
     "Model_Coordinates",
     "Coordinates",
     "Displacement",

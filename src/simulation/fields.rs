@@ -145,6 +145,34 @@ impl<'a> Fields<'a> {
         );
         w
     }
+
+    /// A 3×3 history field of the materials (row-major per point); zero where no block keeps
+    /// it.
+    fn history_tensor(&self, name: &str) -> Vec<[f64; 9]> {
+        match self.state.history.field(name) {
+            Some(field) => {
+                let values = field.trial();
+                values
+                    .chunks_exact(9)
+                    .map(|t| std::array::from_fn(|k| t[k]))
+                    .collect()
+            }
+            None => vec![[0.0; 9]; self.model.points.len()],
+        }
+    }
+
+    fn hourglass_force_density(&self) -> Vec<[f64; 3]> {
+        let mut out = vec![[0.0; 3]; self.model.points.len()];
+        self.physics.hourglass_force_density(
+            &self.model.bonds,
+            &self.model.points,
+            &self.state.current_position,
+            self.state.bond_damage(),
+            &self.state.history,
+            &mut out,
+        );
+        out
+    }
 }
 
 impl FieldSource for Fields<'_> {
@@ -184,6 +212,7 @@ impl FieldSource for Fields<'_> {
                     .collect(),
                 None => vec![[0.0; 3]; points.len()],
             }),
+            "Hourglass_Force_Density" => Cow::Owned(self.hourglass_force_density()),
             "Linear_Momentum" => Cow::Owned(
                 (0..points.len())
                     .map(|i| {
@@ -231,6 +260,19 @@ impl FieldSource for Fields<'_> {
             "Proc_Num" => vec![0.0; n],
             "Number_Of_Neighbors" => (0..n)
                 .map(|i| self.model.bonds.family_size(i) as f64)
+                .collect(),
+            // Σ_j V_j over the family (Peridigm's partial-volume build writes the same sum).
+            "Neighborhood_Volume" => (0..n)
+                .map(|i| {
+                    let family = self.model.bonds.family(i).iter();
+                    family.map(|&j| points.volume[j as usize]).sum()
+                })
+                .collect(),
+            // σ_vm = √(3/2 s:s), s the deviator of the Cauchy stress.
+            "Von_Mises_Stress" => self
+                .history_tensor(crate::material::correspondence_fields::CAUCHY_STRESS)
+                .iter()
+                .map(von_mises)
                 .collect(),
             "Dilatation" => self
                 .physics
@@ -283,6 +325,12 @@ impl FieldSource for Fields<'_> {
                 &self.model.points.volume,
                 self.state.bond_damage(),
             ))),
+            "Cauchy_Stress" => Some(Cow::Owned(
+                self.history_tensor(crate::material::correspondence_fields::CAUCHY_STRESS),
+            )),
+            "Unrotated_Cauchy_Stress" => Some(Cow::Owned(
+                self.history_tensor(crate::material::correspondence_fields::UNROTATED_STRESS),
+            )),
             _ => None,
         }
     }
@@ -294,6 +342,17 @@ impl FieldSource for Fields<'_> {
     fn global_vector(&self, name: &str) -> Option<[f64; 3]> {
         global_vector_value(self, self.compute_classes, name)
     }
+}
+
+/// √(3/2 s:s) of a row-major stress tensor, s its deviator.
+fn von_mises(sigma: &[f64; 9]) -> f64 {
+    let mean = (sigma[0] + sigma[4] + sigma[8]) / 3.0;
+    let mut squared = 0.0;
+    for (k, value) in sigma.iter().enumerate() {
+        let deviatoric = if k % 4 == 0 { value - mean } else { *value };
+        squared += deviatoric * deviatoric;
+    }
+    (1.5 * squared).sqrt()
 }
 
 fn reduce(values: impl Iterator<Item = f64>, calculation: CalculationType) -> f64 {

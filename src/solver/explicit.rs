@@ -319,6 +319,7 @@ fn internal_and_contact_force(
         &model.points,
         &state.current_position,
         state.bond_damage.as_mut().map(Staged::trial_mut),
+        &mut state.history,
         &mut state.force_density,
     );
     if let Some(contact) = &mut physics.contact {

@@ -168,6 +168,7 @@ impl ImplicitSystem {
                 &model.points,
                 &state.current_position,
                 state.bond_damage.as_mut().map(Staged::trial_mut),
+                &mut state.history,
                 &mut state.force_density,
             )
         } else {
@@ -176,6 +177,7 @@ impl ImplicitSystem {
                 &model.points,
                 &state.current_position,
                 state.bond_damage.as_ref().map(Staged::trial),
+                &mut state.history,
                 &mut state.force_density,
             );
             0
@@ -282,6 +284,7 @@ fn configuration(state: &State) -> Configuration<'_> {
     Configuration {
         position: &state.current_position,
         bond_damage: state.bond_damage(),
+        history: &state.history,
     }
 }
 

@@ -4,6 +4,7 @@
 // Matrix checks read best with explicit row and column indices.
 #![allow(clippy::needless_range_loop)]
 
+use crate::state::{History, NO_HISTORY};
 use std::sync::Arc;
 
 use super::*;
@@ -152,6 +153,7 @@ impl Body {
         Configuration {
             position: y,
             bond_damage: self.damage.as_deref(),
+            history: &NO_HISTORY,
         }
     }
 
@@ -175,6 +177,7 @@ impl Body {
             &self.points,
             y,
             self.damage.as_deref_mut(),
+            &mut History::empty(),
             &mut f,
         );
         f.iter()
@@ -769,11 +772,11 @@ fn timing_of_the_lps_tangent_on_a_20_cubed_block() {
         rayon::current_num_threads()
     );
     let mut f = vec![[0.0; 3]; points.len()];
-    physics.internal_force(bonds, points, &y, None, &mut f);
+    physics.internal_force(bonds, points, &y, None, &mut History::empty(), &mut f);
     let repeats = 20;
     let start = Instant::now();
     for _ in 0..repeats {
-        physics.internal_force(bonds, points, &y, None, &mut f);
+        physics.internal_force(bonds, points, &y, None, &mut History::empty(), &mut f);
     }
     let force = start.elapsed().as_secs_f64() / repeats as f64;
     println!(
@@ -838,5 +841,6 @@ fn undamaged(y: &[[f64; 3]]) -> Configuration<'_> {
     Configuration {
         position: y,
         bond_damage: None,
+        history: &NO_HISTORY,
     }
 }

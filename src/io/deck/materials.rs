@@ -879,6 +879,28 @@ fn read_tangent(
 }
 
 impl MaterialModel {
+    /// `Hourglass Coefficient` of a correspondence model; `None` for other models.
+    pub fn hourglass_coefficient(&self) -> Option<f64> {
+        match self {
+            MaterialModel::ElasticCorrespondence {
+                hourglass_coefficient,
+            }
+            | MaterialModel::ElasticPlasticCorrespondence {
+                hourglass_coefficient,
+                ..
+            }
+            | MaterialModel::IsotropicHardeningCorrespondence {
+                hourglass_coefficient,
+                ..
+            }
+            | MaterialModel::ViscoplasticNeedlemanCorrespondence {
+                hourglass_coefficient,
+                ..
+            } => Some(*hourglass_coefficient),
+            _ => None,
+        }
+    }
+
     /// The `Material Model` string of this model family, as written in decks.
     pub fn deck_name(&self) -> &'static str {
         match self {

@@ -1,0 +1,691 @@
+//! Correspondence models (Silling et al. 2007, §15; Peridigm's `CorrespondenceMaterial`,
+//! reference §1.3): a classical stress model evaluated at every point from a nonlocal
+//! deformation gradient, turned back into a force state.
+//!
+//! Per point i, with ξ = X_j − X_i, Δy = Y_j − Y_i, ζ = |ξ|, ω the influence function and d the
+//! bond damage:
+//!
+//! 1. shape tensor `K = Σ_j ω (1−d) V_j ξ⊗ξ`, deformation gradient
+//!    `F = (Σ_j ω (1−d) V_j Δy⊗ξ) K⁻¹` ([`kinematics`]);
+//! 2. the Flanagan–Taylor step from the committed `F_n, V_n, R_n` gives the rotation R and the
+//!    unrotated strain increment `d Δt` ([`kinematics::flanagan_taylor`]);
+//! 3. the stress model advances the unrotated Cauchy stress σ̃ ([`StressModel`]), which is
+//!    rotated, `σ = R σ̃ Rᵀ`, and turned into the first Piola–Kirchhoff stress `P = J σ F⁻ᵀ`;
+//! 4. force state `T⟨ξ⟩ = ω (1−d) P K⁻¹ ξ + T_hg⟨ξ⟩`, with Peridigm's hourglass term
+//!    `T_hg = (1−d) c (−h·Δy)/(ζ |Δy|) Δy`, `h = F ξ − Δy` (the bond's departure from the affine
+//!    prediction), `c = 18 C_hg K/(π δ⁴)`;
+//! 5. force density `F_i = Σ_j (T_i⟨ξ_ij⟩ − T_j⟨ξ_ji⟩) V_j`.
+//!
+//! **Damage.** Peridigm hard-wires d = 0 in the shape tensor, the deformation gradient and the
+//! hourglass force of these models (its issue #87); here the bond damage enters all three, so a
+//! broken bond carries no force of either kind and no longer shapes F. Without a damage model
+//! the two agree.
+//!
+//! **Singular shape tensors.** A point whose intact bonds do not span three dimensions has no
+//! deformation gradient. At setup (no damage yet) that is an error naming the point and its
+//! intact-bond count. During a run (bonds broken) the point carries no stress and no hourglass
+//! force of its own; the implicit solvers hold points with too few intact bonds.
+//!
+//! **History.** F, V, R (stored as their difference from the identity, so that a fresh history
+//! is the undeformed state), σ̃, σ and `P K⁻¹` are staged point fields of the run's
+//! [`crate::state::History`]: each force evaluation advances them from the committed values of
+//! the step's start, and a step's acceptance commits them.
+//!
+//! Not yet supported: `Thermal Expansion Coefficient`, and runs on several MPI ranks (the
+//! ranks do not exchange material history yet).
+
+pub(crate) mod kinematics;
+
+mod elastic;
+#[cfg(test)]
+mod tests;
+
+pub(crate) use elastic::ElasticStress;
+
+use rayon::prelude::*;
+
+use self::kinematics::{
+    determinant, flanagan_taylor, from_row_major, identity, inverse, lift, to_row_major, StepStart,
+    Tensor,
+};
+use super::influence::InfluenceFunction;
+use super::{
+    assert_point_set, checked_tangent_method, local_offsets, positive, CurrentView, Material,
+    MaterialError, MaterialInput, PointCoefficients, ReferenceView, PERIDIGM_PI,
+};
+use crate::model::point_chunks::for_each_chunk;
+use crate::model::{BondList, FieldCarrier, FieldDeclaration, ModelDeclaration};
+use crate::state::History;
+use crate::tangent::{
+    assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
+    TangentMethod,
+};
+
+/// `Elastic Correspondence`: the correspondence family with the hypoelastic stress model.
+pub(crate) type ElasticCorrespondence = Correspondence<ElasticStress>;
+
+/// The constitutive part of a correspondence model: how the unrotated Cauchy stress advances
+/// over a step.
+pub(crate) trait StressModel: std::fmt::Debug + Clone + Send + Sync + 'static {
+    /// What the model declares (deck name and keys, fields, outputs).
+    const DECLARATION: ModelDeclaration;
+
+    /// The model's constants from the deck (K and μ come from `input`).
+    fn from_input(input: &MaterialInput) -> Result<Self, MaterialError>;
+
+    /// σ̃ at the end of the step from σ̃ at its start (`start`, pressure) and the unrotated
+    /// strain increment `d Δt` (dimensionless), generic over the scalar for the AD tangent.
+    fn unrotated_stress<T: Scalar>(&self, start: &Tensor<f64>, increment: &Tensor<T>) -> Tensor<T>;
+}
+
+/// The staged point fields of every correspondence model (9 numbers per point, row-major).
+pub mod fields {
+    /// F − I.
+    pub const DEFORMATION_GRADIENT: &str = "Correspondence_Deformation_Gradient";
+    /// V − I (left stretch).
+    pub const LEFT_STRETCH: &str = "Correspondence_Left_Stretch";
+    /// R − I (rotation).
+    pub const ROTATION: &str = "Correspondence_Rotation";
+    /// σ̃, Peridigm's `Unrotated_Cauchy_Stress`.
+    pub const UNROTATED_STRESS: &str = "Unrotated_Cauchy_Stress";
+    /// σ, Peridigm's `Cauchy_Stress`.
+    pub const CAUCHY_STRESS: &str = "Cauchy_Stress";
+    /// P K⁻¹, read by the neighbours' force pass.
+    pub const STRESS_SHAPE: &str = "Correspondence_Piola_Stress_Shape_Inverse";
+}
+
+/// The declaration of a staged 3×3 point field.
+const fn tensor_field(name: &'static str) -> FieldDeclaration {
+    FieldDeclaration {
+        name,
+        carrier: FieldCarrier::Point,
+        bytes_per_value: 72,
+        staged: true,
+    }
+}
+
+/// The fields every correspondence model keeps.
+pub const CORRESPONDENCE_FIELDS: &[FieldDeclaration] = &[
+    tensor_field(fields::DEFORMATION_GRADIENT),
+    tensor_field(fields::LEFT_STRETCH),
+    tensor_field(fields::ROTATION),
+    tensor_field(fields::UNROTATED_STRESS),
+    tensor_field(fields::CAUCHY_STRESS),
+    tensor_field(fields::STRESS_SHAPE),
+];
+
+/// The outputs every correspondence model provides.
+pub const CORRESPONDENCE_OUTPUTS: &[&str] = &[
+    "Cauchy_Stress",
+    "Unrotated_Cauchy_Stress",
+    "Von_Mises_Stress",
+    "Hourglass_Force_Density",
+];
+
+/// A correspondence material of one block (see the module docs).
+#[derive(Debug, Clone)]
+pub(crate) struct Correspondence<S: StressModel> {
+    stress: S,
+    density: f64,
+    bulk_modulus: f64,
+    horizon: f64,
+    hourglass_coefficient: f64,
+    influence: InfluenceFunction,
+    points: Vec<u32>,
+    /// Block-local row starts into `weights`.
+    local_offsets: Vec<usize>,
+    /// ω per block bond.
+    weights: Vec<f64>,
+    tangent: TangentMethod,
+    force_points: Option<Vec<u32>>,
+}
+
+/// What one point's update produces (generic over the scalar for the tangent).
+#[derive(Debug, Clone, Copy)]
+struct PointUpdate<T: Scalar> {
+    deformation_gradient: Tensor<T>,
+    left_stretch: Tensor<T>,
+    rotation: Tensor<T>,
+    unrotated_stress: Tensor<T>,
+    cauchy_stress: Tensor<T>,
+    /// P K⁻¹.
+    stress_shape: Tensor<T>,
+}
+
+impl<S: StressModel> Correspondence<S> {
+    /// The registry's constructor.
+    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
+        let hourglass_coefficient = input.hourglass_coefficient.ok_or(MaterialError::Missing {
+            key: "Hourglass Coefficient",
+        })?;
+        if !(hourglass_coefficient.is_finite() && hourglass_coefficient >= 0.0) {
+            return Err(MaterialError::NotNonNegative {
+                key: "Hourglass Coefficient",
+                value: hourglass_coefficient,
+            });
+        }
+        Ok(Box::new(Self {
+            stress: S::from_input(input)?,
+            density: positive("Density", input.density)?,
+            bulk_modulus: positive("Bulk Modulus", input.bulk_modulus)?,
+            horizon: positive("Horizon", input.horizon)?,
+            hourglass_coefficient,
+            influence: input.influence.clone(),
+            points: Vec::new(),
+            local_offsets: vec![0],
+            weights: Vec::new(),
+            tangent: TangentMethod::AutomaticDifferentiation,
+            force_points: None,
+        }))
+    }
+
+    /// c = 18 C_hg K/(π δ⁴), the hourglass bond constant (force/length⁶ per unit stretch).
+    fn hourglass_constant(&self) -> f64 {
+        18.0 * self.hourglass_coefficient * self.bulk_modulus / (PERIDIGM_PI * self.horizon.powi(4))
+    }
+
+    fn family<'a>(
+        &'a self,
+        reference: &ReferenceView<'a>,
+        current: &CurrentView<'a>,
+    ) -> Family<'a> {
+        Family {
+            bonds: reference.bonds,
+            position: reference.position,
+            volume: reference.volume,
+            local_offsets: &self.local_offsets,
+            weights: &self.weights,
+            damage: current.bond_damage,
+        }
+    }
+
+    /// The update of point `point` with its family at `y` (`y[0]` the point, `y[1 + n]` its n-th
+    /// neighbour) from the committed `start`; `None` when its shape tensor or deformation
+    /// gradient is singular.
+    fn point_update<T: Scalar>(
+        &self,
+        family: &Family<'_>,
+        point: PointIndex,
+        y: &[[T; 3]],
+        start: &StepStart,
+    ) -> Option<PointUpdate<T>> {
+        let (shape, _) = family.shape_tensor(point);
+        let shape_inverse = inverse(&shape)?;
+        let mut first_term = kinematics::zero::<T>();
+        for (n, b) in family.bonds.range(point.global).enumerate() {
+            let weight = family.weight(point, n, b);
+            if weight == 0.0 {
+                continue;
+            }
+            let xi = family.xi(point.global, b);
+            for r in 0..3 {
+                let dy = (y[n + 1][r] - y[0][r]) * weight;
+                for c in 0..3 {
+                    first_term[(r, c)] += dy * xi[c];
+                }
+            }
+        }
+        let deformation_gradient = first_term * lift::<T>(&shape_inverse);
+        let f_inverse = inverse(&deformation_gradient)?;
+        let step = flanagan_taylor(&deformation_gradient, start)?;
+        let unrotated_stress = self
+            .stress
+            .unrotated_stress(&start.unrotated_stress, &step.unrotated_strain_increment);
+        let cauchy_stress = step.rotation * unrotated_stress * step.rotation.transpose();
+        let jacobian = determinant(&deformation_gradient);
+        let piola = (cauchy_stress * f_inverse.transpose()).map(|x| x * jacobian);
+        Some(PointUpdate {
+            deformation_gradient,
+            left_stretch: step.left_stretch,
+            rotation: step.rotation,
+            unrotated_stress,
+            cauchy_stress,
+            stress_shape: piola * lift::<T>(&shape_inverse),
+        })
+    }
+
+    /// The force state of one bond from i's side (force/length⁶), given i's `P K⁻¹` and F.
+    #[allow(clippy::too_many_arguments)]
+    fn bond_force_state<T: Scalar>(
+        &self,
+        stress_shape: &Tensor<T>,
+        deformation_gradient: &Tensor<T>,
+        xi: [f64; 3],
+        dy: [T; 3],
+        zeta: f64,
+        weight: f64,
+        intact: f64,
+    ) -> [T; 3] {
+        let mut force: [T; 3] = std::array::from_fn(|r| {
+            (stress_shape[(r, 0)] * xi[0]
+                + stress_shape[(r, 1)] * xi[1]
+                + stress_shape[(r, 2)] * xi[2])
+                * weight
+        });
+        let length_squared = dy[0] * dy[0] + dy[1] * dy[1] + dy[2] * dy[2];
+        if self.hourglass_coefficient > 0.0 && intact > 0.0 && length_squared.re() > 0.0 {
+            let mut departure_dot_dy = T::from(0.0);
+            for r in 0..3 {
+                let predicted = deformation_gradient[(r, 0)] * xi[0]
+                    + deformation_gradient[(r, 1)] * xi[1]
+                    + deformation_gradient[(r, 2)] * xi[2];
+                departure_dot_dy += (predicted - dy[r]) * dy[r];
+            }
+            let magnitude = -departure_dot_dy * (intact * self.hourglass_constant() / zeta)
+                / length_squared.sqrt();
+            for r in 0..3 {
+                force[r] += magnitude * dy[r];
+            }
+        }
+        force
+    }
+
+    /// The committed start of the step of point `p` (global index).
+    fn step_start(history: &History, p: usize, committed: bool) -> StepStart {
+        let read = |name: &str| {
+            let field = history
+                .field(name)
+                .expect("the run allocates every field a correspondence model declares");
+            let values = if committed {
+                field.committed()
+            } else {
+                field.trial()
+            };
+            from_row_major(&values[9 * p..9 * p + 9])
+        };
+        StepStart {
+            deformation_gradient: read(fields::DEFORMATION_GRADIENT) + identity::<f64>(),
+            left_stretch: read(fields::LEFT_STRETCH) + identity::<f64>(),
+            rotation: read(fields::ROTATION) + identity::<f64>(),
+            unrotated_stress: read(fields::UNROTATED_STRESS),
+        }
+    }
+
+    /// The positions of point `p`'s family, `y[0]` the point.
+    fn family_positions(bonds: &BondList, position: &[[f64; 3]], p: usize) -> Vec<[f64; 3]> {
+        std::iter::once(position[p])
+            .chain(bonds.family(p).iter().map(|&j| position[j as usize]))
+            .collect()
+    }
+
+    /// Adds the force density of the block's points: stress and hourglass terms, or the
+    /// hourglass term alone.
+    fn add_forces(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        force_density: &mut [[f64; 3]],
+        with_stress: bool,
+    ) {
+        let history = current.history;
+        let tensor = |name: &str| {
+            history
+                .field(name)
+                .expect("the run allocates every field a correspondence model declares")
+                .trial()
+        };
+        let stress_shape = tensor(fields::STRESS_SHAPE);
+        let gradient = tensor(fields::DEFORMATION_GRADIENT);
+        let at = |values: &[f64], p: usize| from_row_major(&values[9 * p..9 * p + 9]);
+        let family = self.family(reference, current);
+        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        let positions = current.position;
+        let no_stress = Tensor::<f64>::zeros();
+        for_each_chunk(
+            force_points,
+            force_density,
+            &|i| i as usize,
+            &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
+                for &i in chunk {
+                    let i = i as usize;
+                    let (a_i, f_i) = if with_stress {
+                        (at(stress_shape, i), at(gradient, i) + identity::<f64>())
+                    } else {
+                        (no_stress, at(gradient, i) + identity::<f64>())
+                    };
+                    let mut total = [0.0; 3];
+                    let row_start = self.local_row_start(i);
+                    for (n, b) in family.bonds.range(i).enumerate() {
+                        let j = family.bonds.neighbor[b] as usize;
+                        let weight = self.weights[row_start + n];
+                        let intact = family.intact(b);
+                        let xi = family.xi(i, b);
+                        let back = [-xi[0], -xi[1], -xi[2]];
+                        let dy: [f64; 3] =
+                            std::array::from_fn(|r| positions[j][r] - positions[i][r]);
+                        let minus_dy = [-dy[0], -dy[1], -dy[2]];
+                        let zeta = family.bonds.reference_length[b];
+                        let (a_j, f_j) = if with_stress {
+                            (at(stress_shape, j), at(gradient, j) + identity::<f64>())
+                        } else {
+                            (no_stress, at(gradient, j) + identity::<f64>())
+                        };
+                        let w = weight * intact;
+                        let from_i = self.bond_force_state(&a_i, &f_i, xi, dy, zeta, w, intact);
+                        let from_j =
+                            self.bond_force_state(&a_j, &f_j, back, minus_dy, zeta, w, intact);
+                        let v = family.volume[j];
+                        for r in 0..3 {
+                            total[r] += (from_i[r] - from_j[r]) * v;
+                        }
+                    }
+                    let row = &mut out[i - base];
+                    for r in 0..3 {
+                        row[r] += total[r];
+                    }
+                }
+            },
+        );
+    }
+
+    /// Where global point `i`'s bonds start in the block-local bond arrays (`i` is a block
+    /// point).
+    fn local_row_start(&self, i: usize) -> usize {
+        let k = self
+            .points
+            .binary_search(&(i as u32))
+            .expect("the force pass visits only block points");
+        self.local_offsets[k]
+    }
+}
+
+/// What the per-point kinematics read: the reference families, ω and the bond damage.
+struct Family<'a> {
+    bonds: &'a BondList,
+    position: &'a [[f64; 3]],
+    volume: &'a [f64],
+    local_offsets: &'a [usize],
+    weights: &'a [f64],
+    damage: Option<&'a [f32]>,
+}
+
+impl Family<'_> {
+    fn xi(&self, i: usize, b: usize) -> [f64; 3] {
+        let j = self.bonds.neighbor[b] as usize;
+        std::array::from_fn(|r| self.position[j][r] - self.position[i][r])
+    }
+
+    fn intact(&self, b: usize) -> f64 {
+        self.damage.map_or(1.0, |d| 1.0 - f64::from(d[b]))
+    }
+
+    /// ω (1−d) V_j of the n-th bond `b` of `point`.
+    fn weight(&self, point: PointIndex, n: usize, b: usize) -> f64 {
+        let omega = self.weights[self.local_offsets[point.local] + n];
+        omega * self.intact(b) * self.volume[self.bonds.neighbor[b] as usize]
+    }
+
+    /// K of `point` and its number of intact bonds.
+    fn shape_tensor(&self, point: PointIndex) -> (Tensor<f64>, usize) {
+        let mut shape = Tensor::<f64>::zeros();
+        let mut intact = 0;
+        for (n, b) in self.bonds.range(point.global).enumerate() {
+            let weight = self.weight(point, n, b);
+            if weight > 0.0 {
+                intact += 1;
+            }
+            let xi = self.xi(point.global, b);
+            for r in 0..3 {
+                for c in 0..3 {
+                    shape[(r, c)] += weight * xi[r] * xi[c];
+                }
+            }
+        }
+        (shape, intact)
+    }
+}
+
+impl<S: StressModel> Material for Correspondence<S> {
+    fn declaration(&self) -> &'static ModelDeclaration {
+        &Self::DECLARATION_OF_STRESS
+    }
+
+    fn density(&self) -> f64 {
+        self.density
+    }
+
+    fn bulk_modulus(&self) -> f64 {
+        self.bulk_modulus
+    }
+
+    fn horizon(&self) -> f64 {
+        self.horizon
+    }
+
+    fn setup(
+        &mut self,
+        reference: &ReferenceView<'_>,
+        points: Vec<u32>,
+    ) -> Result<(), MaterialError> {
+        let bonds = reference.bonds;
+        assert_point_set(&points, bonds.num_points());
+        self.weights = self.influence.per_bond(bonds, &points, self.horizon)?;
+        self.local_offsets = local_offsets(bonds, &points);
+        self.points = points;
+        self.force_points = None;
+        let undamaged = CurrentView {
+            position: reference.position,
+            bond_damage: None,
+            history: &crate::state::NO_HISTORY,
+        };
+        let family = self.family(reference, &undamaged);
+        let singular = self
+            .points
+            .par_iter()
+            .enumerate()
+            .find_map_first(|(local, &p)| {
+                let point = PointIndex {
+                    global: p as usize,
+                    local,
+                };
+                let (shape, intact_bonds) = family.shape_tensor(point);
+                inverse(&shape)
+                    .filter(|_| well_conditioned(&shape))
+                    .is_none()
+                    .then_some((p as usize, intact_bonds))
+            });
+        match singular {
+            Some((point, intact_bonds)) => Err(MaterialError::SingularShapeTensor {
+                point,
+                intact_bonds,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    fn points(&self) -> &[u32] {
+        &self.points
+    }
+
+    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
+        let kept: Vec<u32> = self.points.iter().copied().filter(|&p| keep(p)).collect();
+        self.force_points = (kept.len() < self.points.len()).then_some(kept);
+    }
+
+    fn update_history(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        history: &mut History,
+    ) {
+        let family = self.family(reference, current);
+        let updates: Vec<Option<PointUpdate<f64>>> = self
+            .points
+            .par_iter()
+            .enumerate()
+            .map(|(local, &p)| {
+                let p = p as usize;
+                let y = Self::family_positions(family.bonds, current.position, p);
+                let start = Self::step_start(history, p, true);
+                let point = PointIndex { global: p, local };
+                self.point_update(&family, point, &y, &start)
+            })
+            .collect();
+        let mut write = |name: &str, value: &dyn Fn(&PointUpdate<f64>) -> Tensor<f64>| {
+            let field = history
+                .field_mut(name)
+                .expect("the run allocates every field a correspondence model declares");
+            let (committed, trial) = field.committed_and_trial();
+            for (&p, update) in self.points.iter().zip(&updates) {
+                let range = 9 * p as usize..9 * p as usize + 9;
+                match update {
+                    Some(update) => trial[range].copy_from_slice(&to_row_major(&value(update))),
+                    // A point without a deformation gradient keeps its committed kinematics
+                    // and carries no stress.
+                    None if name == fields::STRESS_SHAPE || name == fields::CAUCHY_STRESS => {
+                        trial[range].fill(0.0)
+                    }
+                    None => trial[range.clone()].copy_from_slice(&committed[range]),
+                }
+            }
+        };
+        let minus_identity = |m: Tensor<f64>| m - identity::<f64>();
+        write(fields::DEFORMATION_GRADIENT, &|u| {
+            minus_identity(u.deformation_gradient)
+        });
+        write(fields::LEFT_STRETCH, &|u| minus_identity(u.left_stretch));
+        write(fields::ROTATION, &|u| minus_identity(u.rotation));
+        write(fields::UNROTATED_STRESS, &|u| u.unrotated_stress);
+        write(fields::CAUCHY_STRESS, &|u| u.cauchy_stress);
+        write(fields::STRESS_SHAPE, &|u| u.stress_shape);
+    }
+
+    fn add_hourglass_force_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        out: &mut [[f64; 3]],
+    ) {
+        self.add_forces(reference, current, out, false);
+    }
+
+    fn compute_point_coefficients(
+        &self,
+        _reference: &ReferenceView<'_>,
+        _current: &CurrentView<'_>,
+        _coefficients: &mut [PointCoefficients],
+    ) {
+        // The published numbers of a correspondence point are its history fields (P K⁻¹ and
+        // F), written by `update_history`.
+    }
+
+    fn add_force_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        _coefficients: &[PointCoefficients],
+        force_density: &mut [[f64; 3]],
+    ) {
+        self.add_forces(reference, current, force_density, true);
+    }
+
+    fn stored_energy_density(
+        &self,
+        _reference: &ReferenceView<'_>,
+        _current: &CurrentView<'_>,
+        _coefficients: &[PointCoefficients],
+        energy_density: &mut [f64],
+    ) {
+        // Hypoelastic models have no stored-energy function; Peridigm's correspondence
+        // materials write none either (zero).
+        for &p in &self.points {
+            energy_density[p as usize] = 0.0;
+        }
+    }
+
+    fn tangent_method(&self) -> TangentMethod {
+        self.tangent
+    }
+
+    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
+        if method == TangentMethod::Analytic {
+            return Err(TangentError::NoAnalytic {
+                model: self.model_name(),
+            });
+        }
+        self.tangent = checked_tangent_method(method)?;
+        Ok(())
+    }
+
+    fn add_tangent(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        method: TangentMethod,
+        tangent: &mut BlockTangent,
+    ) -> Result<(), TangentError> {
+        let kernel = CorrespondenceForceState {
+            material: self,
+            family: self.family(reference, current),
+            history: current.history,
+        };
+        assemble(
+            &kernel,
+            self.model_name(),
+            &self.points,
+            reference,
+            current,
+            method,
+            tangent,
+        )
+    }
+}
+
+impl<S: StressModel> Correspondence<S> {
+    /// The model's declaration (its stress model's).
+    const DECLARATION_OF_STRESS: ModelDeclaration = S::DECLARATION;
+}
+
+/// A shape tensor far enough from singular to invert reliably: det K above 1e-12 of the cube
+/// of its mean eigenvalue (tr K/3)³. Below it the bonds are (nearly) coplanar.
+fn well_conditioned(shape: &Tensor<f64>) -> bool {
+    let mean = kinematics::trace(shape) / 3.0;
+    determinant(shape) > 1e-12 * mean * mean * mean
+}
+
+/// The force state of a correspondence point for the tangent assembly: the same update as the
+/// force, from the committed history, generic over the scalar.
+struct CorrespondenceForceState<'a, S: StressModel> {
+    material: &'a Correspondence<S>,
+    family: Family<'a>,
+    history: &'a History,
+}
+
+impl<S: StressModel> ForceState for CorrespondenceForceState<'_, S> {
+    const BOND_LOCAL: bool = false;
+    const ANALYTIC: bool = false;
+
+    fn force_state<T: Scalar>(
+        &self,
+        point: PointIndex,
+        y: &[[T; 3]],
+        _only: Option<usize>,
+        t: &mut [[T; 3]],
+    ) {
+        let zero = T::from(0.0);
+        let start = Correspondence::<S>::step_start(self.history, point.global, true);
+        let Some(update) = self.material.point_update(&self.family, point, y, &start) else {
+            t.fill([zero; 3]);
+            return;
+        };
+        let row_start = self.family.local_offsets[point.local];
+        for (n, b) in self.family.bonds.range(point.global).enumerate() {
+            let intact = self.family.intact(b);
+            let weight = self.family.weights[row_start + n] * intact;
+            let dy: [T; 3] = std::array::from_fn(|r| y[n + 1][r] - y[0][r]);
+            t[n] = self.material.bond_force_state(
+                &update.stress_shape,
+                &update.deformation_gradient,
+                self.family.xi(point.global, b),
+                dy,
+                self.family.bonds.reference_length[b],
+                weight,
+                intact,
+            );
+        }
+    }
+
+    fn ordinary_derivatives(&self, _point: PointIndex, _y: &[[f64; 3]], _out: &mut [OrdinaryBond]) {
+        unreachable!("a correspondence force state is not ordinary (ANALYTIC is false)")
+    }
+}

@@ -1,0 +1,412 @@
+//! Checks of the correspondence family: homogeneous deformations against closed forms,
+//! objectivity, invariance, the tangent against finite differences, singular shape tensors.
+
+use std::sync::Arc;
+
+use super::kinematics::{from_row_major, Tensor};
+use super::*;
+use crate::material::MaterialInput;
+use crate::model::test_support::{brute_force_bonds, lattice, Rng};
+use crate::model::PointCloud;
+use crate::physics::{BlockPhysics, Configuration, Physics};
+use crate::tangent::BlockPattern;
+
+const BULK: f64 = 3.0;
+const SHEAR: f64 = 1.7;
+const HORIZON: f64 = 1.8;
+
+/// A 6×6×6 lattice (spacing 1, volumes 0.8–1.2) of one `Elastic Correspondence` block.
+struct Body {
+    points: PointCloud,
+    bonds: BondList,
+    physics: Physics,
+    history: History,
+    damage: Option<Vec<f32>>,
+}
+
+fn material(hourglass: f64) -> Box<dyn Material> {
+    ElasticCorrespondence::build(&MaterialInput {
+        density: 2.0,
+        horizon: HORIZON,
+        bulk_modulus: BULK,
+        shear_modulus: Some(SHEAR),
+        planar_thickness: None,
+        influence: InfluenceFunction::ParabolicDecay,
+        hourglass_coefficient: Some(hourglass),
+    })
+    .unwrap()
+}
+
+impl Body {
+    fn new(hourglass: f64) -> Self {
+        let mut rng = Rng::new(11);
+        let x = lattice(6);
+        let mut points = PointCloud::default();
+        for p in &x {
+            points.push(*p, 0.8 + 0.4 * rng.uniform(), 0);
+        }
+        let bonds = brute_force_bonds(&x, HORIZON);
+        let reference = ReferenceView::of(&bonds, &points);
+        let mut m = material(hourglass);
+        m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
+        let physics = Physics::new(
+            vec![BlockPhysics {
+                material: m,
+                damage: None,
+            }],
+            &points,
+            &bonds,
+        );
+        let history = History::allocate(CORRESPONDENCE_FIELDS, x.len(), bonds.num_bonds());
+        Self {
+            points,
+            bonds,
+            physics,
+            history,
+            damage: None,
+        }
+    }
+
+    /// Force density at `y` (advancing the trial history from the committed one).
+    fn force(&mut self, y: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let mut f = vec![[0.0; 3]; y.len()];
+        self.physics.internal_force_with_damage_fixed(
+            &self.bonds,
+            &self.points,
+            y,
+            self.damage.as_deref(),
+            &mut self.history,
+            &mut f,
+        );
+        f
+    }
+
+    fn tensor_field(&self, name: &str, p: usize) -> Tensor<f64> {
+        from_row_major(&self.history.field(name).unwrap().trial()[9 * p..9 * p + 9])
+    }
+
+    fn affine(&self, f: &Tensor<f64>) -> Vec<[f64; 3]> {
+        self.points
+            .position
+            .iter()
+            .map(|x| std::array::from_fn(|r| (0..3).map(|c| f[(r, c)] * x[c]).sum()))
+            .collect()
+    }
+
+    /// Points whose whole family and their families have full lattice families (far enough
+    /// from the surface that the force of a homogeneous deformation vanishes by symmetry).
+    fn deep_interior(&self) -> Vec<usize> {
+        let full = self.bonds.family_size(self.points.len() / 2 + 18);
+        (0..self.points.len())
+            .filter(|&i| {
+                self.bonds.family_size(i) == full
+                    && self
+                        .bonds
+                        .family(i)
+                        .iter()
+                        .all(|&j| self.bonds.family_size(j as usize) == full)
+            })
+            .collect()
+    }
+
+    fn commit(&mut self) {
+        self.history.each_for_tests(|f| f.commit());
+    }
+}
+
+fn max_difference(a: &Tensor<f64>, b: &Tensor<f64>) -> f64 {
+    (a - b).abs().max()
+}
+
+/// For a homogeneous deformation reached in one step from the reference state, the midpoint
+/// rule gives `L Δt = (F − I)((F + I)/2)⁻¹`; the expected stresses below are worked out by
+/// hand from it (module docs of `kinematics` and `elastic`).
+fn check_homogeneous(f: Tensor<f64>, expected: Tensor<f64>, hourglass: f64) {
+    let mut body = Body::new(hourglass);
+    let y = body.affine(&f);
+    let force = body.force(&y);
+    let scale = expected.abs().max();
+    // Round-off of F (≈1e-16 of |F| per operation) times the modulus bounds the error of σ.
+    let round_off = 1e-12 * BULK;
+    for p in 0..body.points.len() {
+        let gradient = body.tensor_field(fields::DEFORMATION_GRADIENT, p) + Tensor::identity();
+        assert!(max_difference(&gradient, &f) < 1e-13, "F at point {p}");
+        let sigma = body.tensor_field(fields::CAUCHY_STRESS, p);
+        assert!(
+            max_difference(&sigma, &expected) <= round_off,
+            "σ at point {p}: {sigma} ≠ {expected}"
+        );
+    }
+    let mut hourglass_force = vec![[0.0; 3]; body.points.len()];
+    body.physics.hourglass_force_density(
+        &body.bonds,
+        &body.points,
+        &y,
+        None,
+        &body.history,
+        &mut hourglass_force,
+    );
+    let largest_hourglass = hourglass_force
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(
+        largest_hourglass < 1e-12 * scale,
+        "hourglass force {largest_hourglass}"
+    );
+    for i in body.deep_interior() {
+        let magnitude = force[i].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(
+            magnitude < 1e-11 * scale,
+            "force at interior point {i}: {magnitude}"
+        );
+    }
+}
+
+#[test]
+fn uniaxial_strain_gives_the_closed_form_stress_and_no_hourglass_force() {
+    let e = 1e-3;
+    let g = 2.0 * e / (2.0 + e);
+    let f = Tensor::from_diagonal(&nalgebra::Vector3::new(1.0 + e, 1.0, 1.0));
+    let lateral = (BULK - 2.0 * SHEAR / 3.0) * g;
+    let expected = Tensor::from_diagonal(&nalgebra::Vector3::new(
+        (BULK + 4.0 * SHEAR / 3.0) * g,
+        lateral,
+        lateral,
+    ));
+    check_homogeneous(f, expected, 0.02);
+    // Hooke's law of the small strain, to the order of the strain.
+    assert!(((BULK + 4.0 * SHEAR / 3.0) * g / ((BULK + 4.0 * SHEAR / 3.0) * e) - 1.0).abs() < e);
+}
+
+#[test]
+fn simple_shear_gives_shear_stress_mu_gamma() {
+    // L Δt = γ e_x⊗e_y exactly (its square vanishes), D = γ/2 (e_x⊗e_y + e_y⊗e_x), and the
+    // rotation cancels in σ = R (2μ Rᵀ D R) Rᵀ = 2μ D: σ_xy = σ_yx = μγ, all else 0.
+    let gamma = 2e-3;
+    let mut f = Tensor::identity();
+    f[(0, 1)] = gamma;
+    let mut expected = Tensor::zeros();
+    expected[(0, 1)] = SHEAR * gamma;
+    expected[(1, 0)] = SHEAR * gamma;
+    check_homogeneous(f, expected, 0.02);
+}
+
+#[test]
+fn isotropic_expansion_gives_pressure_three_k_strain() {
+    let e = -2e-3;
+    let g = 2.0 * e / (2.0 + e);
+    let f = Tensor::identity() * (1.0 + e);
+    check_homogeneous(f, Tensor::identity() * (3.0 * BULK * g), 0.02);
+}
+
+fn rotation_about_z(angle: f64) -> Tensor<f64> {
+    let (s, c) = angle.sin_cos();
+    Tensor::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+}
+
+#[test]
+fn a_rigid_rotation_of_ninety_degrees_in_one_step_gives_no_stress_and_no_force() {
+    let q = rotation_about_z(std::f64::consts::FRAC_PI_2);
+    let mut body = Body::new(0.02);
+    let y = body.affine(&q);
+    let force = body.force(&y);
+    for (p, force) in force.iter().enumerate() {
+        let sigma = body.tensor_field(fields::CAUCHY_STRESS, p);
+        assert!(sigma.abs().max() < 1e-14, "σ at point {p}: {sigma}");
+        assert!(
+            force.iter().all(|v| v.abs() < 1e-13),
+            "force at point {p}"
+        );
+        let rotation = body.tensor_field(fields::ROTATION, p) + Tensor::identity();
+        assert!(max_difference(&rotation, &q) < 1e-14, "R at point {p}");
+    }
+}
+
+#[test]
+fn a_stretch_then_a_ninety_degree_rotation_rotates_the_stress_exactly() {
+    let e = 1e-3;
+    let g = 2.0 * e / (2.0 + e);
+    let stretch = Tensor::from_diagonal(&nalgebra::Vector3::new(1.0 + e, 1.0, 1.0));
+    let mut body = Body::new(0.02);
+    body.force(&body.affine(&stretch));
+    body.commit();
+    let q = rotation_about_z(std::f64::consts::FRAC_PI_2);
+    body.force(&body.affine(&(q * stretch)));
+    let lateral = (BULK - 2.0 * SHEAR / 3.0) * g;
+    let unrotated = Tensor::from_diagonal(&nalgebra::Vector3::new(
+        (BULK + 4.0 * SHEAR / 3.0) * g,
+        lateral,
+        lateral,
+    ));
+    let expected = q * unrotated * q.transpose();
+    for p in 0..body.points.len() {
+        let sigma = body.tensor_field(fields::CAUCHY_STRESS, p);
+        // Round-off of F times the modulus, as in `check_homogeneous`.
+        assert!(
+            max_difference(&sigma, &expected) < 1e-12 * BULK,
+            "σ at point {p}"
+        );
+        let kept = body.tensor_field(fields::UNROTATED_STRESS, p);
+        assert!(
+            max_difference(&kept, &unrotated) < 1e-12 * BULK,
+            "σ̃ at point {p}"
+        );
+    }
+}
+
+/// Displacements of up to ±0.02 spacings around a small stretch, so every term is exercised.
+fn perturbed(body: &Body, seed: u64) -> Vec<[f64; 3]> {
+    let mut rng = Rng::new(seed);
+    let stretch = Tensor::from_diagonal(&nalgebra::Vector3::new(1.002, 0.999, 1.0));
+    body.affine(&stretch)
+        .into_iter()
+        .map(|y| y.map(|c| c + 0.04 * (rng.uniform() - 0.5)))
+        .collect()
+}
+
+#[test]
+fn translation_gives_no_force_and_the_forces_conserve_momentum() {
+    let mut body = Body::new(0.05);
+    let shifted: Vec<[f64; 3]> = body
+        .points
+        .position
+        .iter()
+        .map(|x| [x[0] + 0.3, x[1] - 1.1, x[2] + 2.0])
+        .collect();
+    let force = body.force(&shifted);
+    assert!(force.iter().flatten().all(|v| v.abs() < 1e-13));
+    let y = perturbed(&body, 5);
+    let force = body.force(&y);
+    let largest = force.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(largest > 1e-4, "the perturbed state must carry force");
+    for k in 0..3 {
+        let total: f64 = force
+            .iter()
+            .zip(&body.points.volume)
+            .map(|(f, v)| f[k] * v)
+            .sum();
+        assert!(
+            total.abs() < 1e-12 * largest * body.points.len() as f64,
+            "momentum {k}: {total}"
+        );
+    }
+}
+
+/// max over entries |J_AD − J_FD| / max |J_FD|, the FD tangent from central differences of the
+/// force itself (each probe advancing the trial history from the same committed one).
+fn tangent_error(body: &mut Body, y: &[[f64; 3]]) -> f64 {
+    let pattern = Arc::new(BlockPattern::two_hop(&body.bonds));
+    let mut tangent = BlockTangent::zeros(pattern);
+    body.physics
+        .tangent_with(
+            &body.bonds,
+            &body.points,
+            Configuration {
+                position: y,
+                bond_damage: body.damage.as_deref(),
+                history: &body.history,
+            },
+            TangentMethod::AutomaticDifferentiation,
+            &mut tangent,
+        )
+        .unwrap();
+    let h = 1e-6;
+    let mut largest = 0.0f64;
+    let mut worst = 0.0f64;
+    // A few columns spread over the body (interior and surface points).
+    for j in [0usize, 43, 100, 129, 215] {
+        for l in 0..3 {
+            let mut plus = y.to_vec();
+            plus[j][l] += h;
+            let mut minus = y.to_vec();
+            minus[j][l] -= h;
+            let (fp, fm) = (body.force(&plus), body.force(&minus));
+            for i in 0..y.len() {
+                for k in 0..3 {
+                    let fd = body.points.volume[i] * (fp[i][k] - fm[i][k]) / (2.0 * h);
+                    let ad = tangent.block(i, j).map_or(0.0, |b| b[k][l]);
+                    largest = largest.max(fd.abs());
+                    worst = worst.max((ad - fd).abs());
+                }
+            }
+        }
+    }
+    assert!(largest > 0.0);
+    worst / largest
+}
+
+#[test]
+fn the_automatic_differentiation_tangent_matches_finite_differences() {
+    let mut body = Body::new(0.05);
+    // A committed step with stress, then a trial state away from it.
+    let start = perturbed(&body, 2);
+    body.force(&start);
+    body.commit();
+    let y = perturbed(&body, 9);
+    let error = tangent_error(&mut body, &y);
+    assert!(error < 1e-6, "relative error {error}");
+}
+
+#[test]
+fn the_tangent_matches_finite_differences_with_damaged_bonds() {
+    let mut body = Body::new(0.05);
+    let mut rng = Rng::new(4);
+    let bonds = &body.bonds;
+    let mut damage = vec![0.0f32; bonds.num_bonds()];
+    for i in 0..bonds.num_points() {
+        for b in bonds.range(i) {
+            let j = bonds.neighbor[b] as usize;
+            if j > i && rng.uniform() < 0.2 {
+                let back = bonds.offsets[j] + bonds.family(j).binary_search(&(i as u32)).unwrap();
+                damage[b] = 1.0;
+                damage[back] = 1.0;
+            }
+        }
+    }
+    body.damage = Some(damage);
+    let y = perturbed(&body, 6);
+    let error = tangent_error(&mut body, &y);
+    assert!(error < 1e-6, "relative error {error}");
+}
+
+#[test]
+fn coplanar_points_have_a_singular_shape_tensor_named_at_setup() {
+    // One layer of points: every family lies in the plane z = 0.
+    let x: Vec<[f64; 3]> = lattice(4).into_iter().filter(|p| p[2] == 0.0).collect();
+    let mut points = PointCloud::default();
+    for p in &x {
+        points.push(*p, 1.0, 0);
+    }
+    let bonds = brute_force_bonds(&x, HORIZON);
+    let mut m = material(0.0);
+    let error = m
+        .setup(
+            &ReferenceView::of(&bonds, &points),
+            (0..x.len() as u32).collect(),
+        )
+        .unwrap_err();
+    assert!(
+        matches!(error, MaterialError::SingularShapeTensor { point: 0, intact_bonds } if intact_bonds == bonds.family_size(0)),
+        "{error:?}"
+    );
+}
+
+#[test]
+fn a_point_whose_bonds_all_broke_carries_no_stress_and_the_force_stays_finite() {
+    let mut body = Body::new(0.05);
+    let p = 0;
+    let mut damage = vec![0.0f32; body.bonds.num_bonds()];
+    for b in body.bonds.range(p) {
+        let j = body.bonds.neighbor[b] as usize;
+        let back = body.bonds.offsets[j] + body.bonds.family(j).binary_search(&(p as u32)).unwrap();
+        damage[b] = 1.0;
+        damage[back] = 1.0;
+    }
+    body.damage = Some(damage);
+    let y = perturbed(&body, 8);
+    let force = body.force(&y);
+    assert!(force.iter().flatten().all(|v| v.is_finite()));
+    assert_eq!(force[p], [0.0; 3]);
+    assert_eq!(body.tensor_field(fields::CAUCHY_STRESS, p), Tensor::zeros());
+}
