@@ -120,19 +120,42 @@ fn misspelled_key_at_top_level_and_in_solver() {
 }
 
 #[test]
-fn key_of_another_material_model_is_explained() {
+fn key_of_another_material_model_is_a_warning_naming_it() {
+    // Peridigm does not validate material lists, so decks carry keys of other models (issue:
+    // "keys Peridigm accepts elsewhere without effect are warnings, not errors").
     let text = base_with(
         "Density: 7800.0",
-        "Density: 7800.0\n      Yield Stress: 1.0e8",
+        "Density: 7800.0\n      Yield Stress: 1.0e8\n      Hourglass Coefficient: 0.02",
     );
-    let line = line_containing(&text, "Yield Stress");
-    let message = error_message(yaml(&text));
-    assert_error(
-        &message,
-        YAML_NAME,
-        line,
-        "Materials → Steel → Yield Stress",
-        &["not a parameter of the \"Elastic\" material model"],
+    let deck = yaml(&text).expect("a key of another model is accepted");
+    for key in ["Yield Stress", "Hourglass Coefficient"] {
+        let line = line_containing(&text, key);
+        assert!(
+            deck.warnings
+                .iter()
+                .any(|w| w.contains(&format!("Materials → Steel → {key}"))
+                    && w.contains(&format!(":{line}:"))
+                    && w.contains("no effect")),
+            "{key}: {:?}",
+            deck.warnings
+        );
+    }
+}
+
+#[test]
+fn a_top_level_key_peridigm_reads_without_effect_is_a_warning() {
+    let text = base_with(
+        "Peridigm:\n",
+        "Peridigm:\n  Enable Bond-Associated Hypoelastic Model: false\n",
+    );
+    let deck = yaml(&text).expect("the key is accepted");
+    assert!(
+        deck.warnings
+            .iter()
+            .any(|w| w.contains("Enable Bond-Associated Hypoelastic Model")
+                && w.contains("no effect")),
+        "{:?}",
+        deck.warnings
     );
 }
 

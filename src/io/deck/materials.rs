@@ -520,6 +520,14 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Material, DeckError> 
 
     let model = read_model(ctx, &mut list, model_name, &mut ignored)?;
     let model_label = model_name.to_string();
+    // Peridigm ignores the parameters of other models (its material lists are not
+    // validated), so decks carry them, e.g. `Hourglass Coefficient` on an `Elastic` material:
+    // a warning, not an error.
+    for key in MODEL_KEYS {
+        if !ignored.iter().any(|(k, _)| k == key) {
+            ignored.push((key, "a parameter of other material models, not of this one"));
+        }
+    }
     list.finish_with(ctx, &ignored, |key| {
         if MODEL_KEYS.contains(&key) || ELASTIC_KEYS.contains(&key) || key == "Density" {
             Some(format!(

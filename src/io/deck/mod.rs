@@ -327,6 +327,16 @@ fn read_top_entry(ctx: &mut Ctx, deck: &mut Deck, f: &Field) -> Result<(), DeckE
             deck.compute_classes = named_lists(ctx, f, "compute class", output::read_compute_class)?
         }
         "Data Loader" => deck.data_loader = Some(read_data_loader(ctx, f)?),
+        // Read by Peridigm's parameter list but used by no model it ships (the bond-associated
+        // correspondence models read their own keys).
+        "Enable Bond-Associated Hypoelastic Model" => {
+            f.bool(ctx)?;
+            ctx.warn(
+                f.line(),
+                &[key.to_string()],
+                "accepted but has no effect: no material model reads this top-level key",
+            );
+        }
         _ if key.contains("Solver") && key.contains("Output") => {
             return Err(f.err(ctx, "the name contains both \"Solver\" and \"Output\", so Peridigm would read it as both; rename it"));
         }
