@@ -8,10 +8,21 @@ use crate::io::deck::{Deck, Integrator, PointSource, QuickGridGenerator};
 /// solvers on the native backend (the distributed linear and nonlinear solves are
 /// Trilinos'), and contact in a deck with an implicit
 /// solver (contact acts only in `Verlet` steps, where [`crate::contact::Contact::on_ranks`]
-/// gives every rank the one-rank candidates and forces).
+/// gives every rank the one-rank candidates and forces), and materials with history (its
+/// staged fields are not exchanged between ranks).
 pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), Unsupported> {
     for solver in &deck.solvers {
         crate::backend::factory::check_ranks(solver, ranks)?;
+    }
+    for material in &deck.materials {
+        let declared = crate::material::material_entry(material.model.deck_name())
+            .map(|entry| entry.declaration);
+        if let Some(declaration) = declared.filter(|d| d.fields.iter().any(|f| f.staged)) {
+            return Err(Unsupported(format!(
+                "material \"{}\" ({}) on {ranks} ranks is not available: its history fields are not exchanged between ranks yet; run on one rank (threads: `--threads`)",
+                material.name, declaration.deck_name
+            )));
+        }
     }
     if deck.contact.is_some() {
         if let Some(solver) = deck
