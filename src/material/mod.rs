@@ -34,7 +34,10 @@ pub use bond_based::{BondBased, BondBasedParameters};
 pub use correspondence::{
     fields as correspondence_fields, CORRESPONDENCE_FIELDS, CORRESPONDENCE_OUTPUTS,
 };
-pub(crate) use correspondence::{ElasticCorrespondence, ElasticStress, StressModel};
+pub(crate) use correspondence::{
+    ElasticCorrespondence, ElasticPlasticCorrespondence, ElasticStress, HardeningPlasticStress,
+    IsotropicHardeningCorrespondence, PerfectlyPlasticStress, StressModel,
+};
 pub use elastic_constants::{ElasticConstants, ElasticInput, PlanarAssumption};
 pub use influence::{InfluenceFunction, UserInfluence};
 pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};

@@ -6,8 +6,9 @@
 //! Adding a model is its file, one line in [`MATERIALS`] and its tests.
 
 use super::{
-    BondBased, ElasticCorrespondence, ElasticStress, InfluenceFunction, LinearPeridynamicSolid,
-    Material, MaterialError, StressModel,
+    BondBased, ElasticCorrespondence, ElasticPlasticCorrespondence, ElasticStress,
+    HardeningPlasticStress, InfluenceFunction, IsotropicHardeningCorrespondence,
+    LinearPeridynamicSolid, Material, MaterialError, PerfectlyPlasticStress, StressModel,
 };
 use crate::model::ModelDeclaration;
 
@@ -29,9 +30,20 @@ pub struct MaterialInput {
     pub planar_thickness: Option<f64>,
     /// `Discretization → Influence Function` ω(ζ, δ).
     pub influence: InfluenceFunction,
-    /// `Hourglass Coefficient` C_hg of a correspondence model (dimensionless, ≥ 0); `None`
-    /// for other models.
-    pub hourglass_coefficient: Option<f64>,
+    /// The deck's `Material Model` with the model's own parameters (e.g. a correspondence
+    /// model's `Hourglass Coefficient`, `Yield Stress`); `None` when a material is built by
+    /// hand without a deck.
+    pub model: Option<crate::io::deck::MaterialModel>,
+}
+
+impl MaterialInput {
+    /// The deck's model parameters, or a clear error naming what the model needs.
+    pub fn model_parameters(
+        &self,
+        key: &'static str,
+    ) -> Result<&crate::io::deck::MaterialModel, MaterialError> {
+        self.model.as_ref().ok_or(MaterialError::Missing { key })
+    }
 }
 
 impl MaterialInput {
@@ -69,6 +81,14 @@ pub static MATERIALS: &[MaterialEntry] = &[
         declaration: &<ElasticStress as StressModel>::DECLARATION,
         build: ElasticCorrespondence::build,
     },
+    MaterialEntry {
+        declaration: &<PerfectlyPlasticStress as StressModel>::DECLARATION,
+        build: ElasticPlasticCorrespondence::build,
+    },
+    MaterialEntry {
+        declaration: &<HardeningPlasticStress as StressModel>::DECLARATION,
+        build: IsotropicHardeningCorrespondence::build,
+    },
 ];
 
 /// The entry of the model called `deck_name` in decks (`Material Model`), if this build runs it.
@@ -81,6 +101,26 @@ pub fn material_entry(deck_name: &str) -> Option<&'static MaterialEntry> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Deck parameters for the model called `name` (plain ones for models without any).
+    fn deck_model_named(name: &str) -> crate::io::deck::MaterialModel {
+        use crate::io::deck::MaterialModel as M;
+        match name {
+            "Elastic Plastic Correspondence" => M::ElasticPlasticCorrespondence {
+                hourglass_coefficient: 0.0,
+                yield_stress: 1.0,
+            },
+            "Isotropic Hardening Correspondence" => M::IsotropicHardeningCorrespondence {
+                hourglass_coefficient: 0.0,
+                yield_stress: 1.0,
+                hardening_modulus: 0.1,
+                flaw: None,
+            },
+            _ => M::ElasticCorrespondence {
+                hourglass_coefficient: 0.0,
+            },
+        }
+    }
 
     #[test]
     fn deck_names_are_unique_and_the_built_material_reports_its_declaration() {
@@ -99,7 +139,7 @@ mod tests {
                 shear_modulus: Some(1.0),
                 planar_thickness: None,
                 influence: InfluenceFunction::One,
-                hourglass_coefficient: Some(0.0),
+                model: Some(deck_model_named(name)),
             };
             let material = (entry.build)(&input).unwrap();
             assert_eq!(material.model_name(), name);
@@ -118,7 +158,7 @@ mod tests {
             shear_modulus: None,
             planar_thickness: None,
             influence: InfluenceFunction::One,
-            hourglass_coefficient: None,
+            model: None,
         };
         let error = (material_entry("Elastic").unwrap().build)(&input).err();
         assert_eq!(

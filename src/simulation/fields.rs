@@ -268,6 +268,16 @@ impl FieldSource for Fields<'_> {
                     family.map(|&j| points.volume[j as usize]).sum()
                 })
                 .collect(),
+            "Equivalent_Plastic_Strain" => {
+                match self
+                    .state
+                    .history
+                    .field(crate::material::correspondence_fields::EQUIVALENT_PLASTIC_STRAIN)
+                {
+                    Some(field) => return Some(Cow::Borrowed(field.trial())),
+                    None => vec![0.0; n],
+                }
+            }
             // σ_vm = √(3/2 s:s), s the deviator of the Cauchy stress.
             "Von_Mises_Stress" => self
                 .history_tensor(crate::material::correspondence_fields::CAUCHY_STRESS)

@@ -8,7 +8,7 @@
 //! many steps it is the usual hypoelastic rate form.
 
 use super::kinematics::{deviator, lift, trace, Tensor};
-use super::StressModel;
+use super::{StressModel, StressState};
 use crate::material::{positive, MaterialError, MaterialInput};
 use crate::model::{ModelDeclaration, Reach};
 use crate::tangent::Scalar;
@@ -47,13 +47,36 @@ impl StressModel for ElasticStress {
         })
     }
 
-    fn unrotated_stress<T: Scalar>(&self, start: &Tensor<f64>, increment: &Tensor<T>) -> Tensor<T> {
-        let volumetric = trace(increment) * self.bulk_modulus;
-        let mut stress =
-            lift::<T>(start) + deviator(increment).map(|x| x * (2.0 * self.shear_modulus));
-        for k in 0..3 {
-            stress[(k, k)] += volumetric;
+    fn advance<T: Scalar>(
+        &self,
+        start: &StressState<f64>,
+        increment: &Tensor<T>,
+        _position: [f64; 3],
+    ) -> StressState<T> {
+        StressState {
+            unrotated: elastic_trial(
+                &start.unrotated,
+                increment,
+                self.bulk_modulus,
+                self.shear_modulus,
+            ),
+            equivalent_plastic_strain: T::from(start.equivalent_plastic_strain),
         }
-        stress
     }
+}
+
+/// `σ̃_n + 2μ dev(d Δt) + K tr(d Δt) I`: the elastic update (and the elastic trial of the
+/// plastic models).
+pub(crate) fn elastic_trial<T: Scalar>(
+    start: &Tensor<f64>,
+    increment: &Tensor<T>,
+    bulk_modulus: f64,
+    shear_modulus: f64,
+) -> Tensor<T> {
+    let volumetric = trace(increment) * bulk_modulus;
+    let mut stress = lift::<T>(start) + deviator(increment).map(|x| x * (2.0 * shear_modulus));
+    for k in 0..3 {
+        stress[(k, k)] += volumetric;
+    }
+    stress
 }

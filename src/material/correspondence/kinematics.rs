@@ -171,8 +171,8 @@ pub(crate) struct StepStart {
     pub left_stretch: Tensor<f64>,
     /// R_n.
     pub rotation: Tensor<f64>,
-    /// Unrotated Cauchy stress σ̃_n (pressure).
-    pub unrotated_stress: Tensor<f64>,
+    /// σ̃_n and ε̄_p at the start of the step.
+    pub stress: super::StressState<f64>,
 }
 
 /// A row-major 3×3 array as a tensor.

@@ -37,10 +37,12 @@
 pub(crate) mod kinematics;
 
 mod elastic;
+mod plastic;
 #[cfg(test)]
 mod tests;
 
 pub(crate) use elastic::ElasticStress;
+pub(crate) use plastic::{HardeningPlasticStress, PerfectlyPlasticStress};
 
 use rayon::prelude::*;
 
@@ -63,9 +65,22 @@ use crate::tangent::{
 
 /// `Elastic Correspondence`: the correspondence family with the hypoelastic stress model.
 pub(crate) type ElasticCorrespondence = Correspondence<ElasticStress>;
+/// `Elastic Plastic Correspondence`: J2 perfect plasticity.
+pub(crate) type ElasticPlasticCorrespondence = Correspondence<PerfectlyPlasticStress>;
+/// `Isotropic Hardening Correspondence`: J2 with linear isotropic hardening.
+pub(crate) type IsotropicHardeningCorrespondence = Correspondence<HardeningPlasticStress>;
 
-/// The constitutive part of a correspondence model: how the unrotated Cauchy stress advances
-/// over a step.
+/// What a stress model advances at a point over a step.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StressState<T: Scalar> {
+    /// Unrotated Cauchy stress σ̃ (pressure).
+    pub unrotated: Tensor<T>,
+    /// Equivalent plastic strain ε̄_p (dimensionless; stays 0 in elastic models).
+    pub equivalent_plastic_strain: T,
+}
+
+/// The constitutive part of a correspondence model: how the unrotated Cauchy stress (and its
+/// internal variable) advance over a step.
 pub(crate) trait StressModel: std::fmt::Debug + Clone + Send + Sync + 'static {
     /// What the model declares (deck name and keys, fields, outputs).
     const DECLARATION: ModelDeclaration;
@@ -73,9 +88,15 @@ pub(crate) trait StressModel: std::fmt::Debug + Clone + Send + Sync + 'static {
     /// The model's constants from the deck (K and μ come from `input`).
     fn from_input(input: &MaterialInput) -> Result<Self, MaterialError>;
 
-    /// σ̃ at the end of the step from σ̃ at its start (`start`, pressure) and the unrotated
-    /// strain increment `d Δt` (dimensionless), generic over the scalar for the AD tangent.
-    fn unrotated_stress<T: Scalar>(&self, start: &Tensor<f64>, increment: &Tensor<T>) -> Tensor<T>;
+    /// The state at the end of the step from the state at its start and the unrotated strain
+    /// increment `d Δt` (dimensionless), at the point of reference position `position`
+    /// (models with a flaw), generic over the scalar for the AD tangent.
+    fn advance<T: Scalar>(
+        &self,
+        start: &StressState<f64>,
+        increment: &Tensor<T>,
+        position: [f64; 3],
+    ) -> StressState<T>;
 }
 
 /// The staged point fields of every correspondence model (9 numbers per point, row-major).
@@ -92,6 +113,8 @@ pub mod fields {
     pub const CAUCHY_STRESS: &str = "Cauchy_Stress";
     /// P K⁻¹, read by the neighbours' force pass.
     pub const STRESS_SHAPE: &str = "Correspondence_Piola_Stress_Shape_Inverse";
+    /// ε̄_p, Peridigm's `Equivalent_Plastic_Strain` (one number per point).
+    pub const EQUIVALENT_PLASTIC_STRAIN: &str = "Equivalent_Plastic_Strain";
 }
 
 /// The declaration of a staged 3×3 point field.
@@ -112,6 +135,12 @@ pub const CORRESPONDENCE_FIELDS: &[FieldDeclaration] = &[
     tensor_field(fields::UNROTATED_STRESS),
     tensor_field(fields::CAUCHY_STRESS),
     tensor_field(fields::STRESS_SHAPE),
+    FieldDeclaration {
+        name: fields::EQUIVALENT_PLASTIC_STRAIN,
+        carrier: FieldCarrier::Point,
+        bytes_per_value: 8,
+        staged: true,
+    },
 ];
 
 /// The outputs every correspondence model provides.
@@ -120,6 +149,7 @@ pub const CORRESPONDENCE_OUTPUTS: &[&str] = &[
     "Unrotated_Cauchy_Stress",
     "Von_Mises_Stress",
     "Hourglass_Force_Density",
+    "Equivalent_Plastic_Strain",
 ];
 
 /// A correspondence material of one block (see the module docs).
@@ -150,14 +180,18 @@ struct PointUpdate<T: Scalar> {
     cauchy_stress: Tensor<T>,
     /// P K⁻¹.
     stress_shape: Tensor<T>,
+    equivalent_plastic_strain: T,
 }
 
 impl<S: StressModel> Correspondence<S> {
     /// The registry's constructor.
     pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        let hourglass_coefficient = input.hourglass_coefficient.ok_or(MaterialError::Missing {
-            key: "Hourglass Coefficient",
-        })?;
+        let hourglass_coefficient = input
+            .model_parameters("Hourglass Coefficient")?
+            .hourglass_coefficient()
+            .ok_or(MaterialError::Missing {
+                key: "Hourglass Coefficient",
+            })?;
         if !(hourglass_coefficient.is_finite() && hourglass_coefficient >= 0.0) {
             return Err(MaterialError::NotNonNegative {
                 key: "Hourglass Coefficient",
@@ -228,9 +262,12 @@ impl<S: StressModel> Correspondence<S> {
         let deformation_gradient = first_term * lift::<T>(&shape_inverse);
         let f_inverse = inverse(&deformation_gradient)?;
         let step = flanagan_taylor(&deformation_gradient, start)?;
-        let unrotated_stress = self
-            .stress
-            .unrotated_stress(&start.unrotated_stress, &step.unrotated_strain_increment);
+        let advanced = self.stress.advance(
+            &start.stress,
+            &step.unrotated_strain_increment,
+            family.position[point.global],
+        );
+        let unrotated_stress = advanced.unrotated;
         let cauchy_stress = step.rotation * unrotated_stress * step.rotation.transpose();
         let jacobian = determinant(&deformation_gradient);
         let piola = (cauchy_stress * f_inverse.transpose()).map(|x| x * jacobian);
@@ -241,6 +278,7 @@ impl<S: StressModel> Correspondence<S> {
             unrotated_stress,
             cauchy_stress,
             stress_shape: piola * lift::<T>(&shape_inverse),
+            equivalent_plastic_strain: advanced.equivalent_plastic_strain,
         })
     }
 
@@ -297,7 +335,19 @@ impl<S: StressModel> Correspondence<S> {
             deformation_gradient: read(fields::DEFORMATION_GRADIENT) + identity::<f64>(),
             left_stretch: read(fields::LEFT_STRETCH) + identity::<f64>(),
             rotation: read(fields::ROTATION) + identity::<f64>(),
-            unrotated_stress: read(fields::UNROTATED_STRESS),
+            stress: StressState {
+                unrotated: read(fields::UNROTATED_STRESS),
+                equivalent_plastic_strain: {
+                    let field = history
+                        .field(fields::EQUIVALENT_PLASTIC_STRAIN)
+                        .expect("the run allocates every field a correspondence model declares");
+                    if committed {
+                        field.committed()[p]
+                    } else {
+                        field.trial()[p]
+                    }
+                },
+            },
         }
     }
 
@@ -548,6 +598,16 @@ impl<S: StressModel> Material for Correspondence<S> {
         write(fields::UNROTATED_STRESS, &|u| u.unrotated_stress);
         write(fields::CAUCHY_STRESS, &|u| u.cauchy_stress);
         write(fields::STRESS_SHAPE, &|u| u.stress_shape);
+        let field = history
+            .field_mut(fields::EQUIVALENT_PLASTIC_STRAIN)
+            .expect("the run allocates every field a correspondence model declares");
+        let (committed, trial) = field.committed_and_trial();
+        for (&p, update) in self.points.iter().zip(&updates) {
+            let p = p as usize;
+            trial[p] = update
+                .as_ref()
+                .map_or(committed[p], |u| u.equivalent_plastic_strain);
+        }
     }
 
     fn add_hourglass_force_density(

@@ -32,7 +32,9 @@ fn material(hourglass: f64) -> Box<dyn Material> {
         shear_modulus: Some(SHEAR),
         planar_thickness: None,
         influence: InfluenceFunction::ParabolicDecay,
-        hourglass_coefficient: Some(hourglass),
+        model: Some(crate::io::deck::MaterialModel::ElasticCorrespondence {
+            hourglass_coefficient: hourglass,
+        }),
     })
     .unwrap()
 }
@@ -406,4 +408,136 @@ fn a_point_whose_bonds_all_broke_carries_no_stress_and_the_force_stays_finite() 
     assert!(force.iter().flatten().all(|v| v.is_finite()));
     assert_eq!(force[p], [0.0; 3]);
     assert_eq!(body.tensor_field(fields::CAUCHY_STRESS, p), Tensor::zeros());
+}
+
+/// J2 with the constants of the issue's check: E = 211 GPa, ν = 0 (μ = E/2, K = E/3),
+/// σ_y = 460 MPa, H = 5 GPa.
+fn j2(flaw: Option<crate::io::deck::Flaw>) -> plastic::J2 {
+    plastic::J2 {
+        bulk_modulus: 211e9 / 3.0,
+        shear_modulus: 211e9 / 2.0,
+        yield_stress: 460e6,
+        hardening_modulus: 5e9,
+        flaw,
+    }
+}
+
+fn uniaxial_strain(e: f64) -> Tensor<f64> {
+    Tensor::from_diagonal(&nalgebra::Vector3::new(e, 0.0, 0.0))
+}
+
+fn von_mises(s: &Tensor<f64>) -> f64 {
+    let d = kinematics::deviator(s);
+    (1.5 * d.iter().map(|x| x * x).sum::<f64>()).sqrt()
+}
+
+#[test]
+fn j2_hardening_under_uniaxial_strain_matches_the_closed_form() {
+    // With ν = 0 the trial von Mises stress of a uniaxial strain ε is 2με, and the radial
+    // return gives σ_vm = Y + H(2με − Y)/(3μ + H): 781.0 MPa at ε = 10 % (issue 13's figures).
+    let model = j2(None);
+    let start = StressState {
+        unrotated: Tensor::zeros(),
+        equivalent_plastic_strain: 0.0,
+    };
+    let end = model.advance(&start, &uniaxial_strain(0.1), [0.0; 3]);
+    let (mu, y, h): (f64, f64, f64) = (211e9 / 2.0, 460e6, 5e9);
+    let expected = y + h * (2.0 * mu * 0.1 - y) / (3.0 * mu + h);
+    assert!((expected / 1e6 - 781.0).abs() < 0.05, "{expected}");
+    assert!((von_mises(&end.unrotated) - expected).abs() < 1e-9 * expected);
+    let plastic = (2.0 * mu * 0.1 - y) / (3.0 * mu + h);
+    assert!((end.equivalent_plastic_strain - plastic).abs() < 1e-15);
+}
+
+#[test]
+fn j2_yields_at_the_closed_form_strain() {
+    // Uniaxial strain with ν = 0: σ_vm = 2με, so yield at ε_y = Y/(2μ).
+    let model = j2(None);
+    let start = StressState {
+        unrotated: Tensor::zeros(),
+        equivalent_plastic_strain: 0.0,
+    };
+    let yield_strain = 460e6 / 211e9;
+    let below = model.advance(&start, &uniaxial_strain(0.999 * yield_strain), [0.0; 3]);
+    assert_eq!(below.equivalent_plastic_strain, 0.0);
+    assert!((von_mises(&below.unrotated) - 0.999 * 460e6).abs() < 1e-6);
+    let above = model.advance(&start, &uniaxial_strain(1.001 * yield_strain), [0.0; 3]);
+    assert!(above.equivalent_plastic_strain > 0.0);
+    // Committed in two increments the same total strain gives the same state (linear
+    // hardening, radial path).
+    let half = model.advance(&start, &uniaxial_strain(0.05), [0.0; 3]);
+    let two_steps = model.advance(&half, &uniaxial_strain(0.05), [0.0; 3]);
+    let one_step = model.advance(&start, &uniaxial_strain(0.1), [0.0; 3]);
+    assert!(max_difference(&two_steps.unrotated, &one_step.unrotated) < 1e-6 * 781e6);
+}
+
+#[test]
+fn a_flaw_lowers_the_yield_stress_where_it_sits() {
+    let flaw = crate::io::deck::Flaw {
+        location: [1.0, 0.0, 0.0],
+        size: 0.5,
+        magnitude: 0.5,
+    };
+    let model = j2(Some(flaw));
+    let start = StressState {
+        unrotated: Tensor::zeros(),
+        equivalent_plastic_strain: 0.0,
+    };
+    let strain = uniaxial_strain(0.8 * 460e6 / 211e9);
+    let at_flaw = model.advance(&start, &strain, [1.0, 0.0, 0.0]);
+    let far = model.advance(&start, &strain, [5.0, 0.0, 0.0]);
+    assert!(at_flaw.equivalent_plastic_strain > 0.0);
+    assert_eq!(far.equivalent_plastic_strain, 0.0);
+}
+
+#[test]
+fn the_plastic_tangent_matches_finite_differences_while_yielding() {
+    // Moduli of the lattice body; a yield stress low enough that the perturbed state yields.
+    let mut body = Body::new(0.05);
+    let mut m = IsotropicHardeningCorrespondence::build(&MaterialInput {
+        density: 2.0,
+        horizon: HORIZON,
+        bulk_modulus: BULK,
+        shear_modulus: Some(SHEAR),
+        planar_thickness: None,
+        influence: InfluenceFunction::ParabolicDecay,
+        model: Some(
+            crate::io::deck::MaterialModel::IsotropicHardeningCorrespondence {
+                hourglass_coefficient: 0.05,
+                yield_stress: 2e-3,
+                hardening_modulus: 0.3,
+                flaw: None,
+            },
+        ),
+    })
+    .unwrap();
+    m.setup(
+        &ReferenceView::of(&body.bonds, &body.points),
+        (0..body.points.len() as u32).collect(),
+    )
+    .unwrap();
+    body.physics = Physics::new(
+        vec![BlockPhysics {
+            material: m,
+            damage: None,
+        }],
+        &body.points,
+        &body.bonds,
+    );
+    let start = perturbed(&body, 2);
+    body.force(&start);
+    body.commit();
+    let y = perturbed(&body, 9);
+    body.force(&y);
+    let yielding = body
+        .history
+        .field(fields::EQUIVALENT_PLASTIC_STRAIN)
+        .unwrap()
+        .trial()
+        .iter()
+        .filter(|&&e| e > 0.0)
+        .count();
+    assert!(yielding > body.points.len() / 4, "{yielding} points yield");
+    let error = tangent_error(&mut body, &y);
+    assert!(error < 1e-6, "relative error {error}");
 }

@@ -1,0 +1,220 @@
+//! J2 plasticity of the correspondence family, Peridigm's `Elastic Plastic Correspondence`
+//! (perfect plasticity) and `Isotropic Hardening Correspondence` (linear isotropic hardening,
+//! optional flaw), reference §1.3.
+//!
+//! Radial return in the unrotated frame (Simo & Hughes 1998, box 3.1): the elastic trial
+//! `σ̃_tr = σ̃_n + 2μ dev(d Δt) + K tr(d Δt) I` with deviator s_tr and von Mises stress
+//! `q_tr = √(3/2 s_tr:s_tr)` is admissible when `q_tr ≤ σ_y + H ε̄_p,n`; otherwise
+//!
+//! `Δε̄_p = (q_tr − σ_y − H ε̄_p,n)/(3μ + H)`, `s = (1 − 3μ Δε̄_p/q_tr) s_tr`,
+//! `ε̄_p = ε̄_p,n + Δε̄_p`,
+//!
+//! with H = 0 for perfect plasticity. With `Enable Flaw` the yield stress at reference position
+//! X is `σ_y (1 − A exp(−|X − X_f|²/s²))` (`Flaw Magnitude` A, `Flaw Location X/Y/Z` X_f,
+//! `Flaw Size` s).
+//!
+//! Written over the generic scalar, the return map's derivative is the consistent tangent of
+//! the active branch (the automatic-differentiation tangent).
+
+use super::elastic::elastic_trial;
+use super::kinematics::{deviator, trace, Tensor};
+use super::{StressModel, StressState};
+use crate::io::deck::{Flaw, MaterialModel};
+use crate::material::{positive, MaterialError, MaterialInput};
+use crate::model::{ModelDeclaration, Reach};
+use crate::tangent::Scalar;
+
+/// The constants of J2 plasticity with linear isotropic hardening.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct J2 {
+    /// K (pressure).
+    pub(crate) bulk_modulus: f64,
+    /// μ (pressure).
+    pub(crate) shear_modulus: f64,
+    /// σ_y (pressure).
+    pub(crate) yield_stress: f64,
+    /// H (pressure).
+    pub(crate) hardening_modulus: f64,
+    /// The flaw, if any.
+    pub(crate) flaw: Option<Flaw>,
+}
+
+impl J2 {
+    fn new(
+        input: &MaterialInput,
+        yield_stress: f64,
+        hardening_modulus: f64,
+        flaw: Option<Flaw>,
+    ) -> Result<Self, MaterialError> {
+        if !(hardening_modulus.is_finite() && hardening_modulus >= 0.0) {
+            return Err(MaterialError::NotNonNegative {
+                key: "Hardening Modulus",
+                value: hardening_modulus,
+            });
+        }
+        Ok(Self {
+            bulk_modulus: positive("Bulk Modulus", input.bulk_modulus)?,
+            shear_modulus: positive("Shear Modulus", input.required_shear_modulus()?)?,
+            yield_stress: positive("Yield Stress", yield_stress)?,
+            hardening_modulus,
+            flaw,
+        })
+    }
+
+    /// σ_y at reference position `x`, reduced by the flaw when there is one.
+    fn yield_stress_at(&self, x: [f64; 3]) -> f64 {
+        match &self.flaw {
+            Some(flaw) => {
+                let distance_squared: f64 = (0..3).map(|k| (x[k] - flaw.location[k]).powi(2)).sum();
+                let reduction =
+                    flaw.magnitude * (-distance_squared / (flaw.size * flaw.size)).exp();
+                self.yield_stress * (1.0 - reduction)
+            }
+            None => self.yield_stress,
+        }
+    }
+
+    /// The radial return (module docs).
+    pub(crate) fn advance<T: Scalar>(
+        &self,
+        start: &StressState<f64>,
+        increment: &Tensor<T>,
+        position: [f64; 3],
+    ) -> StressState<T> {
+        let trial = elastic_trial(
+            &start.unrotated,
+            increment,
+            self.bulk_modulus,
+            self.shear_modulus,
+        );
+        let flow_stress = self.yield_stress_at(position)
+            + self.hardening_modulus * start.equivalent_plastic_strain;
+        let s = deviator(&trial);
+        let squared = s.iter().fold(T::from(0.0), |sum, &x| sum + x * x) * 1.5;
+        if squared.re() <= flow_stress * flow_stress {
+            return StressState {
+                unrotated: trial,
+                equivalent_plastic_strain: T::from(start.equivalent_plastic_strain),
+            };
+        }
+        let von_mises = squared.sqrt();
+        let increment_plastic =
+            (von_mises - flow_stress) * (1.0 / (3.0 * self.shear_modulus + self.hardening_modulus));
+        let scale = T::from(1.0) - increment_plastic * (3.0 * self.shear_modulus) / von_mises;
+        let mean = trace(&trial) * (1.0 / 3.0);
+        let mut unrotated = s.map(|x| x * scale);
+        for k in 0..3 {
+            unrotated[(k, k)] += mean;
+        }
+        StressState {
+            unrotated,
+            equivalent_plastic_strain: increment_plastic + start.equivalent_plastic_strain,
+        }
+    }
+}
+
+/// `Elastic Plastic Correspondence`: J2 perfect plasticity (`Yield Stress`).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PerfectlyPlasticStress(pub(crate) J2);
+
+/// `Isotropic Hardening Correspondence`: J2 with linear isotropic hardening (`Yield Stress`,
+/// `Hardening Modulus`, optional flaw).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct HardeningPlasticStress(pub(crate) J2);
+
+const PLASTIC_KEYS: &[&str] = &[
+    "Density",
+    "Bulk Modulus",
+    "Shear Modulus",
+    "Young's Modulus",
+    "Poisson's Ratio",
+    "Hourglass Coefficient",
+    "Yield Stress",
+    "Tangent",
+    "Finite Difference Probe Length",
+];
+
+impl StressModel for PerfectlyPlasticStress {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
+        deck_name: "Elastic Plastic Correspondence",
+        deck_keys: PLASTIC_KEYS,
+        reach: Reach::TwoHop,
+        fields: super::CORRESPONDENCE_FIELDS,
+        outputs: super::CORRESPONDENCE_OUTPUTS,
+    };
+
+    fn from_input(input: &MaterialInput) -> Result<Self, MaterialError> {
+        match input.model_parameters("Yield Stress")? {
+            MaterialModel::ElasticPlasticCorrespondence { yield_stress, .. } => {
+                Ok(Self(J2::new(input, *yield_stress, 0.0, None)?))
+            }
+            _ => Err(MaterialError::Missing {
+                key: "Yield Stress",
+            }),
+        }
+    }
+
+    fn advance<T: Scalar>(
+        &self,
+        start: &StressState<f64>,
+        increment: &Tensor<T>,
+        position: [f64; 3],
+    ) -> StressState<T> {
+        self.0.advance(start, increment, position)
+    }
+}
+
+impl StressModel for HardeningPlasticStress {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
+        deck_name: "Isotropic Hardening Correspondence",
+        deck_keys: &[
+            "Density",
+            "Bulk Modulus",
+            "Shear Modulus",
+            "Young's Modulus",
+            "Poisson's Ratio",
+            "Hourglass Coefficient",
+            "Yield Stress",
+            "Hardening Modulus",
+            "Enable Flaw",
+            "Flaw Location X",
+            "Flaw Location Y",
+            "Flaw Location Z",
+            "Flaw Size",
+            "Flaw Magnitude",
+            "Tangent",
+            "Finite Difference Probe Length",
+        ],
+        reach: Reach::TwoHop,
+        fields: super::CORRESPONDENCE_FIELDS,
+        outputs: super::CORRESPONDENCE_OUTPUTS,
+    };
+
+    fn from_input(input: &MaterialInput) -> Result<Self, MaterialError> {
+        match input.model_parameters("Hardening Modulus")? {
+            MaterialModel::IsotropicHardeningCorrespondence {
+                yield_stress,
+                hardening_modulus,
+                flaw,
+                ..
+            } => Ok(Self(J2::new(
+                input,
+                *yield_stress,
+                *hardening_modulus,
+                *flaw,
+            )?)),
+            _ => Err(MaterialError::Missing {
+                key: "Hardening Modulus",
+            }),
+        }
+    }
+
+    fn advance<T: Scalar>(
+        &self,
+        start: &StressState<f64>,
+        increment: &Tensor<T>,
+        position: [f64; 3],
+    ) -> StressState<T> {
+        self.0.advance(start, increment, position)
+    }
+}
