@@ -30,7 +30,7 @@
 //! | [`setup`] | deck → [`model::Model`] and the blocks' physics; the run plan `peridyn check` prints |
 //! | [`model`] | the immutable description: [`model::Model`], points, node sets, bond lists, and what models declare about themselves ([`model::ModelDeclaration`]) |
 //! | [`state`] | where is the body now? Everything that evolves: kinematics, forces, bond damage and material history as staged (trial/committed) fields |
-//! | [`material`], [`damage`] | the physics of bonds (PMB, LPS, critical stretch); [`material::MATERIALS`] and [`damage::DAMAGE_MODELS`] are the one list of models |
+//! | [`material`], [`damage`] | the physics of bonds (PMB, LPS, the correspondence family, critical stretch); [`material::MATERIALS`] and [`damage::DAMAGE_MODELS`] are the one list of models |
 //! | [`contact`] | short-range forces between points that are not bonded |
 //! | [`physics`] | the one internal-force path every solver calls |
 //! | [`compute`] | derived outputs such as the deformation gradient |
@@ -52,9 +52,11 @@
 //! 4. body force at t_{n+1};
 //! 5. ghost positions refreshed ([`parallel::Ranks::refresh`]; nothing on one rank);
 //! 6. damage (bonds beyond their limit break before the force is computed);
-//! 7. internal force density (state-based models first compute their dilatation);
+//! 7. internal force density (materials with history first advance it from its committed
+//!    values, state-based models compute their dilatation);
 //! 8. contact force (when the deck has a `Contact` section);
-//! 9. the state commits (explicit steps accept every step; no copy is kept, so this is free);
+//! 9. the state commits (explicit steps accept every step; bond damage keeps no copy, so this
+//!    is free; material history copies its trial values);
 //! 10. `a = (f + f_contact + b)/ρ`, second half kick;
 //! 11. stability monitor and outputs.
 //!
