@@ -200,7 +200,7 @@ impl Run<'_> {
         if let Some(progress) = progress {
             progress.finish();
         }
-        self.log_contact(solver, physics);
+        self.log_contact(solver, state);
         agree(self.ranks.communicator(), pending.map_or(Ok(()), Err))?;
         self.summary.steps += steps;
         Ok(())
@@ -280,8 +280,8 @@ impl Run<'_> {
 
     /// The contact statistics at the end of an explicit solver list (rank 0's share on N
     /// ranks, with the partner points it received).
-    fn log_contact(&self, solver: &Solver, physics: &Physics) {
-        let Some(contact) = physics.contact.as_ref().filter(|_| self.root()) else {
+    fn log_contact(&self, solver: &Solver, state: &State) {
+        let Some(contact) = state.contact.as_ref().filter(|_| self.root()) else {
             return;
         };
         if self.ranks.ranks() == 1 {

@@ -85,12 +85,13 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
 }
 
 /// The state at the first solver's initial time: at rest, with intact bond damage when a block
-/// has a damage model and the material history its materials declare, then the deck's initial
-/// conditions.
+/// has a damage model, no contact search yet and the material history its materials declare,
+/// then the deck's initial conditions.
 fn initial_state(deck: &Deck, model: &Model, physics: &Physics) -> Result<State, RunError> {
     let t0 = deck.solvers.first().map_or(0.0, |s| s.initial_time);
     let mut state = State::at_rest(&model.points.position, t0, model.boundary.has_body_force())
-        .with_bond_damage(physics.has_bond_damage().then(|| model.bonds.num_bonds()));
+        .with_bond_damage(physics.has_bond_damage().then(|| model.bonds.num_bonds()))
+        .with_contact(physics.contact.as_ref().map(|c| c.initial_state()));
     state.history = History::allocate(
         physics
             .blocks

@@ -23,6 +23,7 @@
 //! [`StepReport`] is this rank's share, to be summed over ranks.
 
 use crate::boundary::BoundaryError;
+use crate::contact::ContactState;
 use crate::model::Model;
 use crate::parallel::{Communicator, Ranks, SerialRanks};
 use crate::physics::Physics;
@@ -177,12 +178,12 @@ impl VelocityVerlet {
         let t_from = state.time;
         let t_to = self.time_after(step);
         let positions = &model.points.position;
-        if let Some(contact) = &mut physics.contact {
+        if let Some(contact) = &physics.contact {
+            let contact_state = contact_state(&mut state.contact);
+            let current = &state.current_position;
             match contact_communicator(contact, ranks) {
-                Some(comm) => {
-                    contact.scheduled_search_on_ranks(comm, step, &state.current_position)
-                }
-                None => contact.scheduled_search(step, model, &state.current_position),
+                Some(comm) => contact.scheduled_search_on_ranks(contact_state, comm, step, current),
+                None => contact.scheduled_search(contact_state, step, model, current),
             }
         }
 
@@ -253,7 +254,7 @@ impl VelocityVerlet {
         let volume = &model.points.volume;
         let constrained = &self.constrained;
         let external = state.external_force_density.as_deref();
-        let contact = physics.contact.as_ref().map(|c| c.force_density());
+        let contact = state.contact.as_ref().map(|c| c.force_density());
         let density = &physics.density;
         let force = &state.force_density;
         let ghost = self.ghost.as_deref();
@@ -306,6 +307,13 @@ fn contact_communicator<'r>(
     contact.is_on_ranks().then(|| ranks.communicator())
 }
 
+/// The contact part of a state whose physics has contact.
+fn contact_state(contact: &mut Option<ContactState>) -> &mut ContactState {
+    contact
+        .as_mut()
+        .expect("the state of a run with contact carries its contact state (State::with_contact)")
+}
+
 /// Internal force density at `state.current_position` into `state.force_density`, then the
 /// contact force (if any, kept by the contact model). Returns broken bonds.
 fn internal_and_contact_force(
@@ -321,13 +329,15 @@ fn internal_and_contact_force(
         state.bond_damage.as_mut().map(Staged::trial_mut),
         &mut state.force_density,
     );
-    if let Some(contact) = &mut physics.contact {
+    if let Some(contact) = &physics.contact {
+        let contact_state = contact_state(&mut state.contact);
+        let (current, velocity) = (&state.current_position, &state.velocity);
         match contact_communicator(contact, ranks) {
             Some(comm) => {
-                contact.compute_force_on_ranks(comm, &state.current_position, &state.velocity);
+                contact.compute_force_on_ranks(contact_state, comm, current, velocity);
             }
             None => {
-                contact.compute_force(model, &state.current_position, &state.velocity);
+                contact.compute_force(contact_state, model, current, velocity);
             }
         }
     }
@@ -363,7 +373,7 @@ fn evaluate_acceleration_with(
     ranks: &dyn Ranks,
 ) -> usize {
     let broken = internal_and_contact_force(model, physics, state, ranks);
-    let contact = physics.contact.as_ref().map(|c| c.force_density());
+    let contact = state.contact.as_ref().map(|c| c.force_density());
     let external = state.external_force_density.as_deref();
     let density = &physics.density;
     state
