@@ -174,30 +174,44 @@ impl VelocityVerlet {
         step: u64,
         ranks: &mut dyn Ranks,
     ) -> Result<StepReport, BoundaryError> {
-        let dt = self.settings.time_step;
-        let t_from = state.time;
         let t_to = self.time_after(step);
-        let positions = &model.points.position;
-        if let Some(contact) = &physics.contact {
-            let contact_state = contact_state(&mut state.contact);
-            let current = &state.current_position;
-            match contact_communicator(contact, ranks) {
-                Some(comm) => contact.scheduled_search_on_ranks(contact_state, comm, step, current),
-                None => contact.scheduled_search(contact_state, step, model, current),
+        scheduled_contact_search(model, physics, state, step, ranks);
+        // A failing expression (it may fail at one rank's points only) is reported at the end
+        // of the step: every rank of a distributed run must still join the halo exchange and
+        // the collectives of contact, or the others wait for it forever. The state of a failed
+        // step is not used.
+        let mut failure = self.kick_and_drift(model, state, t_to);
+        if let Some(b) = &mut state.external_force_density {
+            if let Err(error) = model.boundary.body_force(&model.points.position, t_to, b) {
+                failure.get_or_insert(error);
             }
         }
+        if let Err(error) = set_damage_time(physics, t_to) {
+            failure.get_or_insert(error);
+        }
+        ranks.refresh(&mut state.current_position);
+        let broken_bonds = internal_and_contact_force(model, physics, state, ranks);
+        state.commit();
+        let (free_kinetic_energy, supplied_work) = self.second_half_kick(model, physics, state);
+        match failure {
+            Some(error) => Err(error),
+            None => Ok(StepReport {
+                free_kinetic_energy,
+                supplied_work,
+                broken_bonds,
+            }),
+        }
+    }
 
-        // Half kick everywhere and, at points without a prescribed component, the drift in the
-        // same pass over memory; the drift of the other points waits for the velocities the
-        // kinematic conditions prescribe (they touch only those points).
-        // Y = (X + u) + Δt v and u += Δt v, in this order of operations, as Peridigm does:
-        // the extension e = |Y| − ζ cancels most digits, so the rounding of Y shows in forces.
-        let drift = |u: &mut [f64; 3], v: &[f64; 3], y: &mut [f64; 3], x: &[f64; 3]| {
-            for k in 0..3 {
-                y[k] = x[k] + u[k] + dt * v[k];
-                u[k] += dt * v[k];
-            }
-        };
+    /// The first half kick, the drift and the kinematic conditions, up to time `t_to`: half
+    /// kick everywhere and, at points without a prescribed component, the drift in the same
+    /// pass over memory; the drift of the other points waits for the velocities the kinematic
+    /// conditions prescribe (they touch only those points). Returns a failing prescribed
+    /// expression, if any (the step still runs to its end, see [`VelocityVerlet::step_with`]).
+    fn kick_and_drift(&self, model: &Model, state: &mut State, t_to: f64) -> Option<BoundaryError> {
+        let dt = self.settings.time_step;
+        let t_from = state.time;
+        let positions = &model.points.position;
         state
             .velocity
             .par_iter_mut()
@@ -211,14 +225,10 @@ impl VelocityVerlet {
                     v[k] += 0.5 * dt * a[k];
                 }
                 if fixed == 0 {
-                    drift(u, v, y, x);
+                    drift(dt, u, v, y, x);
                 }
             });
-        // A failing expression (it may fail at one rank's points only) is reported at the end
-        // of the step: every rank of a distributed run must still join the halo exchange and
-        // the collectives of contact, or the others wait for it forever. The state of a failed
-        // step is not used.
-        let mut failure = {
+        let failure = {
             let (displacement, velocity) = (&state.displacement, &mut state.velocity);
             model
                 .boundary
@@ -230,6 +240,7 @@ impl VelocityVerlet {
         for &p in &self.constrained_points {
             let p = p as usize;
             drift(
+                dt,
                 &mut state.displacement[p],
                 &state.velocity[p],
                 &mut state.current_position[p],
@@ -237,20 +248,14 @@ impl VelocityVerlet {
             );
         }
         state.time = t_to;
-        if let Some(b) = &mut state.external_force_density {
-            if let Err(error) = model.boundary.body_force(positions, t_to, b) {
-                failure.get_or_insert(error);
-            }
-        }
-        if let Err(error) = set_damage_time(physics, t_to) {
-            failure.get_or_insert(error);
-        }
-        ranks.refresh(&mut state.current_position);
-        let broken_bonds = internal_and_contact_force(model, physics, state, ranks);
-        state.commit();
+        failure
+    }
 
-        // a = (f_int + f_contact + b)/ρ (as `evaluate_acceleration`), the work, the second half
-        // kick and the kinetic energy in one pass.
+    /// a = (f_int + f_contact + b)/ρ (as `evaluate_acceleration`), the work, the second half
+    /// kick and the kinetic energy in one pass. Returns the kinetic energy of the free
+    /// components and the work supplied over the step.
+    fn second_half_kick(&self, model: &Model, physics: &Physics, state: &mut State) -> (f64, f64) {
+        let dt = self.settings.time_step;
         let volume = &model.points.volume;
         let constrained = &self.constrained;
         let external = state.external_force_density.as_deref();
@@ -258,7 +263,7 @@ impl VelocityVerlet {
         let density = &physics.density;
         let force = &state.force_density;
         let ghost = self.ghost.as_deref();
-        let (free_kinetic_energy, supplied_work) = state
+        state
             .velocity
             .par_iter_mut()
             .zip(state.acceleration.par_iter_mut())
@@ -286,14 +291,36 @@ impl VelocityVerlet {
                 }
                 (0.5 * density[i] * volume[i] * kinetic, work)
             })
-            .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
-        match failure {
-            Some(error) => Err(error),
-            None => Ok(StepReport {
-                free_kinetic_energy,
-                supplied_work,
-                broken_bonds,
-            }),
+            .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1))
+    }
+}
+
+/// The drift of one point over Δt = `dt`: Y = (X + u) + Δt v and u += Δt v, in this order of
+/// operations, as Peridigm does: the extension e = |Y| − ζ cancels most digits, so the
+/// rounding of Y shows in forces.
+#[inline(always)]
+fn drift(dt: f64, u: &mut [f64; 3], v: &[f64; 3], y: &mut [f64; 3], x: &[f64; 3]) {
+    for k in 0..3 {
+        y[k] = x[k] + u[k] + dt * v[k];
+        u[k] += dt * v[k];
+    }
+}
+
+/// Contact's scheduled search at the start of step `step` (Peridigm's `Search Frequency`),
+/// when the run has contact.
+fn scheduled_contact_search(
+    model: &Model,
+    physics: &Physics,
+    state: &mut State,
+    step: u64,
+    ranks: &dyn Ranks,
+) {
+    if let Some(contact) = &physics.contact {
+        let contact_state = contact_state(&mut state.contact);
+        let current = &state.current_position;
+        match contact_communicator(contact, ranks) {
+            Some(comm) => contact.scheduled_search_on_ranks(contact_state, comm, step, current),
+            None => contact.scheduled_search(contact_state, step, model, current),
         }
     }
 }
