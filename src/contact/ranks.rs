@@ -117,8 +117,8 @@ impl Contact {
     /// Turns the contact of the *global* model (from [`Contact::from_deck`] with the model
     /// every rank holds) into rank `rank`'s share: `partition` is the run's partition and
     /// `local_points[l]` the global index of local point l of the rank's model (increasing).
-    /// Forces are then kept in the local numbering ([`Contact::force_density`]) and filled at
-    /// owned points only; the rank must call [`Contact::compute_force_on_ranks`] and
+    /// Forces are then kept in the local numbering ([`ContactState::force_density`]) and
+    /// filled at owned points only; the rank must call [`Contact::compute_force_on_ranks`] and
     /// [`Contact::scheduled_search_on_ranks`] instead of the serial methods.
     ///
     /// Cost: a search moves 3 numbers per contact point to every rank and grids all contact
