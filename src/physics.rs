@@ -25,7 +25,8 @@ pub struct Physics {
     pub coefficients: Vec<PointCoefficients>,
     /// Density of every point (from its block's material).
     pub density: Vec<f64>,
-    /// Short-range contact, only when the deck has a `Contact` section.
+    /// Short-range contact, only when the deck has a `Contact` section (its settings; the
+    /// last search and force are the state's, [`crate::state::State::contact`]).
     pub contact: Option<crate::contact::Contact>,
     /// Both directions (i→j, j→i) of every bond that joins two blocks when damage is active.
     /// Each block's damage model only updates its own rows, so without this a bond between a

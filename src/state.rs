@@ -2,7 +2,7 @@
 //! per point or per directed bond).
 //!
 //! The model (points, bonds, blocks) is immutable after setup; the state is what changes:
-//! kinematics, forces, bond damage and material history. Fields that a step may change and
+//! kinematics, forces, bond damage, material history and contact's last search. Fields that a step may change and
 //! then either accept or abandon are [`Staged`]: they hold the trial values every force
 //! evaluation reads and writes, and, while a solver asks for it, a committed copy. Commit and
 //! restore are one operation on the whole state ([`State::commit`], [`State::restore`]):
@@ -15,6 +15,7 @@
 //!
 //! A restart file writes this one object.
 
+use crate::contact::ContactState;
 use crate::model::{FieldCarrier, FieldDeclaration};
 
 /// A field that a step may change and then accept or abandon.
@@ -180,7 +181,7 @@ pub static NO_HISTORY: History = History::empty();
 
 /// Everything of a run that evolves. Fields exist only when the run needs them (the external
 /// force only with a body force, bond damage only with a damage model, history only for the
-/// fields its models declare).
+/// fields its models declare, contact only with a `Contact` section).
 #[derive(Debug, Clone, Default)]
 pub struct State {
     /// Time t (s).
@@ -202,6 +203,9 @@ pub struct State {
     pub bond_damage: Option<Staged<f32>>,
     /// Material history fields the models declared.
     pub history: History,
+    /// Contact's last search and force ([`crate::contact::Contact::initial_state`]), when the
+    /// run has contact. Explicit steps only, which commit every step: not staged.
+    pub contact: Option<ContactState>,
 }
 
 impl State {
@@ -218,6 +222,7 @@ impl State {
             current_position: reference.to_vec(),
             bond_damage: None,
             history: History::default(),
+            contact: None,
         }
     }
 
@@ -225,6 +230,12 @@ impl State {
     /// is given (some block has a damage model).
     pub fn with_bond_damage(mut self, bonds: Option<usize>) -> Self {
         self.bond_damage = bonds.map(|len| Staged::filled(len, 0.0));
+        self
+    }
+
+    /// The same state with `contact` (`Some` exactly when the run has contact).
+    pub fn with_contact(mut self, contact: Option<ContactState>) -> Self {
+        self.contact = contact;
         self
     }
 

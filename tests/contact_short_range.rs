@@ -167,10 +167,13 @@ fn zero_beyond_radius_repulsive_inside_equal_and_opposite_and_not_between_bonded
         ],
     );
     let (a, b, d, c) = (s.run(0), s.run(1), s.run(2), s.run(3));
-    let mut contact = s.contact();
+    let contact = s.contact();
+    let mut contact_state = contact.initial_state();
     let y = s.model.points.position.clone();
     let v = vec![[0.0; 3]; y.len()];
-    let f = contact.compute_force(&s.model, &y, &v).to_vec();
+    let f = contact
+        .compute_force(&mut contact_state, &s.model, &y, &v)
+        .to_vec();
 
     assert!(
         !contact.may_touch(&s.model, a, d),
@@ -205,11 +208,13 @@ fn zero_beyond_radius_repulsive_inside_equal_and_opposite_and_not_between_bonded
             "axis {axis}: {total:?}"
         );
     }
-    assert_eq!(contact.statistics().pairs_in_contact, 2);
+    assert_eq!(contact_state.statistics().pairs_in_contact, 2);
 
     // Move B just outside r_c: nothing acts on A any more.
     let y = s.positions_with(&[(1, [0.4000001, 0.0, 0.0])]);
-    let f = contact.compute_force(&s.model, &y, &v).to_vec();
+    let f = contact
+        .compute_force(&mut contact_state, &s.model, &y, &v)
+        .to_vec();
     assert_eq!(f[a], [0.0; 3]);
 }
 
@@ -226,8 +231,11 @@ fn friction_acts_against_sliding_with_peridigms_magnitude() {
     let mut v = vec![[0.0; 3]; 2];
     v[a] = [5.0, 2.0, 0.0]; // the normal part (x) must not matter
     v[b] = [0.0, -1.0, 0.0];
-    let mut contact = s.contact();
-    let f = contact.compute_force(&s.model, &y, &v).to_vec();
+    let contact = s.contact();
+    let mut contact_state = contact.initial_state();
+    let f = contact
+        .compute_force(&mut contact_state, &s.model, &y, &v)
+        .to_vec();
     let normal = expected_magnitude(k, rc, 0.3, delta, 1.0);
     // Peridigm: friction μ |F_n| against the tangential velocity relative to the pair (+y for A).
     assert!(close(f[a][0], -normal));
@@ -257,7 +265,8 @@ fn named_block_pairs_use_their_own_models() {
             (10.3, 0.0, 0.0, 4, 1.0),
         ],
     );
-    let mut contact = s.contact();
+    let contact = s.contact();
+    let mut contact_state = contact.initial_state();
     assert_eq!(contact.pair_model(0, 1).unwrap().spring_constant, 1.0);
     assert_eq!(contact.pair_model(1, 0).unwrap().spring_constant, 1.0);
     assert_eq!(contact.pair_model(2, 3).unwrap().spring_constant, 7.0);
@@ -265,7 +274,9 @@ fn named_block_pairs_use_their_own_models() {
     assert_eq!(contact.pair_model(3, 3).unwrap().spring_constant, 1.0);
     let y = s.model.points.position.clone();
     let v = vec![[0.0; 3]; y.len()];
-    let f = contact.compute_force(&s.model, &y, &v).to_vec();
+    let f = contact
+        .compute_force(&mut contact_state, &s.model, &y, &v)
+        .to_vec();
     let soft = f[s.run(0)][0];
     let stiff = f[s.run(2)][0];
     assert!(close(soft, -expected_magnitude(1.0, rc, 0.3, delta, 1.0)));
@@ -293,10 +304,13 @@ fn general_and_self_contact_choose_the_models_of_their_pairs() {
         );
         let s = Setup::new(&deck_text(2, 0.2, false, &contact), &mesh);
         assert_eq!(s.model.bonds.num_bonds(), 0);
-        let mut c = s.contact();
+        let c = s.contact();
+        let mut contact_state = c.initial_state();
         let y = s.model.points.position.clone();
         let v = vec![[0.0; 3]; y.len()];
-        let f = c.compute_force(&s.model, &y, &v).to_vec();
+        let f = c
+            .compute_force(&mut contact_state, &s.model, &y, &v)
+            .to_vec();
         // Force on A from B (same block, along x) and from C (other block, along y).
         f[s.run(0)]
     };
@@ -329,7 +343,8 @@ fn rebound(search_frequency: u64) -> ([[f64; 3]; 2], peridyn::contact::ContactSt
     assert_eq!(s.model.bonds.num_bonds(), 0);
     let mut physics = s.physics();
     let (a, b) = (s.run(0), s.run(1));
-    let mut state = State::at_rest(&s.model.points.position, 0.0, false);
+    let mut state = State::at_rest(&s.model.points.position, 0.0, false)
+        .with_contact(physics.contact.as_ref().map(|c| c.initial_state()));
     state.velocity[a] = [1.0, 0.0, 0.0];
     state.velocity[b] = [-1.0, 0.0, 0.0];
     // Gap to close: 1.0 − 0.4 at relative speed 2 (0.3 s), contact lasts π/ω ≈ 0.031 s.
@@ -345,12 +360,7 @@ fn rebound(search_frequency: u64) -> ([[f64; 3]; 2], peridyn::contact::ContactSt
     integrator
         .initialize(&s.model, &mut physics, &mut state)
         .unwrap();
-    let initial_candidates = physics
-        .contact
-        .as_ref()
-        .unwrap()
-        .statistics()
-        .candidate_pairs;
+    let initial_candidates = state.contact.as_ref().unwrap().statistics().candidate_pairs;
     assert_eq!(
         initial_candidates, 0,
         "points start beyond the search radius"
@@ -360,7 +370,7 @@ fn rebound(search_frequency: u64) -> ([[f64; 3]; 2], peridyn::contact::ContactSt
             .step(&s.model, &mut physics, &mut state, step)
             .unwrap();
     }
-    let stats = physics.contact.as_ref().unwrap().statistics();
+    let stats = state.contact.as_ref().unwrap().statistics();
     ([state.velocity[a], state.velocity[b]], stats, omega * dt)
 }
 

@@ -105,7 +105,9 @@ impl ContactStatistics {
     }
 }
 
-/// The contact state of a run: settings, pair models, candidates and the contact force.
+/// The contact of a run: settings, pair models and the points that take part, fixed after
+/// setup. What changes during the run (the last search, the contact force) is its
+/// [`ContactState`], part of the run's [`crate::state::State`].
 #[derive(Debug, Clone)]
 pub struct Contact {
     /// `Search Frequency` (steps, ≥ 1).
@@ -121,17 +123,56 @@ pub struct Contact {
     blocks: usize,
     /// Points of blocks with any interaction (ascending run order).
     points: Vec<u32>,
-    /// Positions of `points` at the last search.
-    searched_at: Vec<[f64; 3]>,
-    candidates: Option<CandidateList>,
     /// Bonds without a reverse (so that the search strikes out bonded pairs from one side).
     one_way_bonds: OneWayBonds,
     backend: SearchBackend,
+    /// Points of the model the contact force density covers (the rank's local points on
+    /// ranks).
+    force_points: usize,
+    /// One rank's share of a distributed run (`None` in serial runs).
+    ranks: Option<Box<ranks::OnRanks>>,
+}
+
+/// What contact changes during a run: the last search (positions and candidate rows), the
+/// contact force of the last evaluation and the counts for the log; on ranks also the partner
+/// exchange of the last search. Made by [`Contact::initial_state`]; a default value is a
+/// state without contact.
+#[derive(Debug, Clone, Default)]
+pub struct ContactState {
+    /// Positions of the contact points (the owned ones on ranks) at the last search.
+    searched_at: Vec<[f64; 3]>,
+    /// The candidate rows of the last search (`None` before the first).
+    candidates: Option<CandidateList>,
     /// Contact force density of every point (force/length³).
     force_density: Vec<[f64; 3]>,
     statistics: ContactStatistics,
-    /// One rank's share of a distributed run (`None` in serial runs).
-    ranks: Option<Box<ranks::OnRanks>>,
+    /// One rank's partner exchange (`None` in serial runs).
+    ranks: Option<Box<ranks::RankState>>,
+}
+
+impl ContactState {
+    /// The candidate list of the last search (`None` before the first).
+    pub fn candidates(&self) -> Option<&CandidateList> {
+        self.candidates.as_ref()
+    }
+
+    /// Contact force density of every point at the last evaluation (force/length³).
+    pub fn force_density(&self) -> &[[f64; 3]] {
+        &self.force_density
+    }
+
+    /// Search counts and list sizes so far.
+    pub fn statistics(&self) -> ContactStatistics {
+        self.statistics
+    }
+
+    /// Records a search that found `list` and took `seconds`.
+    fn searched(&mut self, list: CandidateList, seconds: f64) {
+        self.statistics.candidate_pairs = list.pairs();
+        self.statistics.max_candidate_pairs = self.statistics.max_candidate_pairs.max(list.pairs());
+        self.statistics.search_seconds += seconds;
+        self.candidates = Some(list);
+    }
 }
 
 /// The pair laws: which model acts between two blocks.
@@ -366,14 +407,23 @@ impl Contact {
             pair_model,
             blocks,
             points,
-            searched_at: Vec::new(),
-            candidates: None,
             one_way_bonds: OneWayBonds::new(&model.bonds),
             backend: SearchBackend::Auto,
-            force_density: vec![[0.0; 3]; model.points.len()],
-            statistics: ContactStatistics::default(),
+            force_points: model.points.len(),
             ranks: None,
         }))
+    }
+
+    /// The state of a run before its first search: no candidates, no force.
+    pub fn initial_state(&self) -> ContactState {
+        ContactState {
+            force_density: vec![[0.0; 3]; self.force_points],
+            ranks: self
+                .ranks
+                .as_deref()
+                .map(|ranks| Box::new(ranks.initial_state())),
+            ..ContactState::default()
+        }
     }
 
     /// Search radius R actually used (length): max(`Search Radius`, r_c,max(1 + skin fraction)).
@@ -399,21 +449,6 @@ impl Contact {
     /// Points that take part in contact (ascending run order).
     pub fn points(&self) -> &[u32] {
         &self.points
-    }
-
-    /// The candidate list of the last search (`None` before the first).
-    pub fn candidates(&self) -> Option<&CandidateList> {
-        self.candidates.as_ref()
-    }
-
-    /// Contact force density of every point at the last evaluation (force/length³).
-    pub fn force_density(&self) -> &[[f64; 3]] {
-        &self.force_density
-    }
-
-    /// Search counts and list sizes so far.
-    pub fn statistics(&self) -> ContactStatistics {
-        self.statistics
     }
 
     /// Sets the search structure (for benchmarks and cross-checks; results do not depend on it).
@@ -444,7 +479,7 @@ impl Contact {
     }
 
     /// Searches now at `current` (positions of every point, run order).
-    pub fn search(&mut self, model: &Model, current: &[[f64; 3]]) {
+    pub fn search(&self, state: &mut ContactState, model: &Model, current: &[[f64; 3]]) {
         assert!(
             self.ranks.is_none(),
             "the contact of a distributed run searches through search_on_ranks"
@@ -458,51 +493,55 @@ impl Contact {
             Some((&model.bonds, &self.one_way_bonds)),
             |i, j| self.blocks_interact(model, i, j),
         );
-        self.searched_at = self.points.iter().map(|&p| current[p as usize]).collect();
-        self.statistics.candidate_pairs = list.pairs();
-        self.statistics.max_candidate_pairs = self.statistics.max_candidate_pairs.max(list.pairs());
-        self.statistics.search_seconds += start.elapsed().as_secs_f64();
-        self.candidates = Some(list);
+        state.searched_at = self.points.iter().map(|&p| current[p as usize]).collect();
+        state.searched(list, start.elapsed().as_secs_f64());
     }
 
     /// Peridigm's schedule: searches at the start of step `step` (1-based) when it is a
     /// multiple of `Search Frequency`, with the positions at the start of the step.
-    pub fn scheduled_search(&mut self, step: u64, model: &Model, current: &[[f64; 3]]) {
+    pub fn scheduled_search(
+        &self,
+        state: &mut ContactState,
+        step: u64,
+        model: &Model,
+        current: &[[f64; 3]],
+    ) {
         if step % self.search_frequency == 0 {
-            self.search(model, current);
-            self.statistics.scheduled_searches += 1;
+            self.search(state, model, current);
+            state.statistics.scheduled_searches += 1;
         }
     }
 
     /// True when the candidate list may miss a pair at `current`: no search yet, or some point
     /// moved more than (R − r_c,max)/2 since the last one.
-    pub fn needs_search(&self, current: &[[f64; 3]]) -> bool {
-        self.candidates.is_none()
-            || 2.0 * max_displacement(&self.points, &self.searched_at, current)
+    pub fn needs_search(&self, state: &ContactState, current: &[[f64; 3]]) -> bool {
+        state.candidates.is_none()
+            || 2.0 * max_displacement(&self.points, &state.searched_at, current)
                 > self.search_radius - self.max_contact_radius
     }
 
     /// Contact force density at positions `current` and velocities `velocity` (the mid-step
     /// velocity inside a Verlet step, as in Peridigm), after searching first if the skin rule
     /// asks for it. Returns the force density of every point.
-    pub fn compute_force(
-        &mut self,
+    pub fn compute_force<'s>(
+        &self,
+        state: &'s mut ContactState,
         model: &Model,
         current: &[[f64; 3]],
         velocity: &[[f64; 3]],
-    ) -> &[[f64; 3]] {
+    ) -> &'s [[f64; 3]] {
         assert!(
             self.ranks.is_none(),
             "the contact of a distributed run computes through compute_force_on_ranks"
         );
-        if self.candidates.is_none() {
-            self.search(model, current);
-            self.statistics.initial_searches += 1;
-        } else if self.needs_search(current) {
-            self.search(model, current);
-            self.statistics.early_searches += 1;
+        if state.candidates.is_none() {
+            self.search(state, model, current);
+            state.statistics.initial_searches += 1;
+        } else if self.needs_search(state, current) {
+            self.search(state, model, current);
+            state.statistics.early_searches += 1;
         }
-        let candidates = self.candidates.as_ref().expect("searched above");
+        let candidates = state.candidates.as_ref().expect("searched above");
         let laws = PairLaws {
             models: &self.models,
             pair_model: &self.pair_model,
@@ -516,7 +555,7 @@ impl Contact {
             velocity,
         };
         let reject_beyond = self.reject_beyond();
-        let in_contact: usize = self
+        let in_contact: usize = state
             .force_density
             .par_iter_mut()
             .enumerate()
@@ -527,8 +566,8 @@ impl Contact {
                 touching
             })
             .sum();
-        self.statistics.pairs_in_contact = in_contact / 2;
-        &self.force_density
+        state.statistics.pairs_in_contact = in_contact / 2;
+        &state.force_density
     }
 }
 

@@ -35,7 +35,9 @@
 //! points and their partners. A search against a halo of neighbouring subdomains' bounding
 //! boxes grown by R would make it O(N/P + surface).
 
-use super::{find_candidates_for, force_on_point, max_displacement, Contact, OneWayBonds};
+use super::{
+    find_candidates_for, force_on_point, max_displacement, Contact, ContactState, OneWayBonds,
+};
 use super::{PairLaws, PointData};
 use crate::model::BondList;
 use crate::model::Model;
@@ -64,6 +66,26 @@ pub(super) struct OnRanks {
     /// the other rows are empty.
     bonded: BondList,
     no_one_way: OneWayBonds,
+}
+
+impl OnRanks {
+    /// The rank's part of [`Contact::initial_state`]: no partners yet.
+    pub(super) fn initial_state(&self) -> RankState {
+        let n = self.owner.len();
+        RankState {
+            current: vec![[0.0; 3]; n],
+            velocity: vec![[0.0; 3]; n],
+            partners: PartnerExchange::default(),
+            max_received: 0,
+            received: Vec::new(),
+        }
+    }
+}
+
+/// What the contact of one rank changes during a run besides the serial state (global
+/// numbering): the partner exchange of the last search and its buffers.
+#[derive(Debug, Clone)]
+pub(super) struct RankState {
     /// Positions and velocities; valid at owned contact points and received partners.
     current: Vec<[f64; 3]>,
     velocity: Vec<[f64; 3]>,
@@ -74,12 +96,29 @@ pub(super) struct OnRanks {
     received: Vec<(u32, [f64; 6])>,
 }
 
+impl ContactState {
+    /// The rank's partner exchange.
+    fn rank_state(&mut self) -> &mut RankState {
+        self.ranks
+            .as_deref_mut()
+            .expect("the contact state of a serial run has no ranks")
+    }
+
+    /// Partner points this rank receives at each force evaluation since the last search, and
+    /// the most after any search (0 in serial runs).
+    pub fn received_partners(&self) -> (usize, usize) {
+        self.ranks.as_ref().map_or((0, 0), |r| {
+            (r.partners.volume().received_points, r.max_received)
+        })
+    }
+}
+
 impl Contact {
     /// Turns the contact of the *global* model (from [`Contact::from_deck`] with the model
     /// every rank holds) into rank `rank`'s share: `partition` is the run's partition and
     /// `local_points[l]` the global index of local point l of the rank's model (increasing).
-    /// Forces are then kept in the local numbering ([`Contact::force_density`]) and filled at
-    /// owned points only; the rank must call [`Contact::compute_force_on_ranks`] and
+    /// Forces are then kept in the local numbering ([`ContactState::force_density`]) and
+    /// filled at owned points only; the rank must call [`Contact::compute_force_on_ranks`] and
     /// [`Contact::scheduled_search_on_ranks`] instead of the serial methods.
     ///
     /// Cost: a search moves 3 numbers per contact point to every rank and grids all contact
@@ -152,7 +191,7 @@ impl Contact {
             bonded.offsets.push(bonded.neighbor.len());
         }
         self.one_way_bonds = OneWayBonds::none(0);
-        self.force_density = vec![[0.0; 3]; local_points.len()];
+        self.force_points = local_points.len();
         self.ranks = Some(Box::new(OnRanks {
             rank,
             owner: partition.owner.clone(),
@@ -165,11 +204,6 @@ impl Contact {
             volume: global.points.volume.clone(),
             bonded,
             no_one_way: OneWayBonds::none(n),
-            current: vec![[0.0; 3]; n],
-            velocity: vec![[0.0; 3]; n],
-            partners: PartnerExchange::default(),
-            max_received: 0,
-            received: Vec::new(),
         }));
         self
     }
@@ -179,46 +213,37 @@ impl Contact {
         self.ranks.is_some()
     }
 
-    /// Partner points this rank receives at each force evaluation since the last search, and
-    /// the most after any search (0 in serial runs).
-    pub fn received_partners(&self) -> (usize, usize) {
-        self.ranks.as_ref().map_or((0, 0), |r| {
-            (r.partners.volume().received_points, r.max_received)
-        })
-    }
-
     /// Searches now (collective): gathers the positions of all contact points from `current`
     /// (this rank's local positions), searches the rows of the owned points and rebuilds the
     /// partner exchange.
-    pub fn search_on_ranks(&mut self, comm: &dyn Communicator, current: &[[f64; 3]]) {
+    pub fn search_on_ranks(
+        &self,
+        state: &mut ContactState,
+        comm: &dyn Communicator,
+        current: &[[f64; 3]],
+    ) {
         let start = Instant::now();
-        let (radius, backend) = (self.search_radius, self.backend);
-        let blocks = self.blocks;
-        let pair_model = &self.pair_model;
-        let points = &self.points;
-        let ranks = self
-            .ranks
-            .as_deref_mut()
-            .expect("the contact of a serial run has no ranks");
+        let ranks = self.on_ranks_part();
+        let exchange = state.rank_state();
         let mut mine = Vec::with_capacity(3 * ranks.owned_local.len());
         for &l in &ranks.owned_local {
             mine.extend_from_slice(&current[l as usize]);
         }
         let all = comm.all_gather(&mine, &ranks.gather_counts);
         for (k, &g) in ranks.gather_order.iter().enumerate() {
-            ranks.current[g as usize] = [all[3 * k], all[3 * k + 1], all[3 * k + 2]];
+            exchange.current[g as usize] = [all[3 * k], all[3 * k + 1], all[3 * k + 2]];
         }
         let block = &ranks.block;
         let list = find_candidates_for(
-            points,
+            &self.points,
             &ranks.owned_global,
-            &ranks.current,
-            radius,
-            backend,
+            &exchange.current,
+            self.search_radius,
+            self.backend,
             Some((&ranks.bonded, &ranks.no_one_way)),
-            |i, j| pair_model[block[i] as usize * blocks + block[j] as usize].is_some(),
+            |i, j| self.pair_model[block[i] as usize * self.blocks + block[j] as usize].is_some(),
         );
-        ranks.partners = PartnerExchange::build(
+        exchange.partners = PartnerExchange::build(
             ranks.rank,
             &ranks.owner,
             ranks
@@ -226,46 +251,52 @@ impl Contact {
                 .iter()
                 .map(|&g| (g, list.row(g as usize))),
         );
-        ranks.max_received = ranks
+        exchange.max_received = exchange
             .max_received
-            .max(ranks.partners.volume().received_points);
-        self.searched_at = ranks
+            .max(exchange.partners.volume().received_points);
+        state.searched_at = ranks
             .owned_local
             .iter()
             .map(|&l| current[l as usize])
             .collect();
-        self.statistics.candidate_pairs = list.pairs();
-        self.statistics.max_candidate_pairs = self.statistics.max_candidate_pairs.max(list.pairs());
-        self.statistics.search_seconds += start.elapsed().as_secs_f64();
-        self.candidates = Some(list);
+        state.searched(list, start.elapsed().as_secs_f64());
+    }
+
+    /// The rank's share of the contact.
+    fn on_ranks_part(&self) -> &OnRanks {
+        self.ranks
+            .as_deref()
+            .expect("the contact of a serial run has no ranks")
     }
 
     /// [`Contact::scheduled_search`] on one rank (collective; the schedule is the same on
     /// every rank).
     pub fn scheduled_search_on_ranks(
-        &mut self,
+        &self,
+        state: &mut ContactState,
         comm: &dyn Communicator,
         step: u64,
         current: &[[f64; 3]],
     ) {
         if step % self.search_frequency == 0 {
-            self.search_on_ranks(comm, current);
-            self.statistics.scheduled_searches += 1;
+            self.search_on_ranks(state, comm, current);
+            state.statistics.scheduled_searches += 1;
         }
     }
 
     /// The skin rule over all ranks (collective): true when no search ran yet or some contact
     /// point of any rank moved more than (R − r_c,max)/2 since the last search.
-    pub fn needs_search_on_ranks(&mut self, comm: &dyn Communicator, current: &[[f64; 3]]) -> bool {
-        if self.candidates.is_none() {
+    pub fn needs_search_on_ranks(
+        &self,
+        state: &ContactState,
+        comm: &dyn Communicator,
+        current: &[[f64; 3]],
+    ) -> bool {
+        if state.candidates.is_none() {
             return true;
         }
-        let owned = &self
-            .ranks
-            .as_deref()
-            .expect("the contact of a serial run has no ranks")
-            .owned_local;
-        let local = max_displacement(owned, &self.searched_at, current);
+        let owned = &self.on_ranks_part().owned_local;
+        let local = max_displacement(owned, &state.searched_at, current);
         2.0 * comm.max(local) > self.search_radius - self.max_contact_radius
     }
 
@@ -274,32 +305,38 @@ impl Contact {
     /// of every owned contact point over its candidate row. `current` and `velocity` are the
     /// local arrays (owned entries must be up to date; ghost entries are not read). Returns the
     /// force density in local numbering (zero at ghosts).
-    pub fn compute_force_on_ranks(
-        &mut self,
+    pub fn compute_force_on_ranks<'s>(
+        &self,
+        state: &'s mut ContactState,
         comm: &dyn Communicator,
         current: &[[f64; 3]],
         velocity: &[[f64; 3]],
-    ) -> &[[f64; 3]] {
-        if self.candidates.is_none() {
-            self.search_on_ranks(comm, current);
-            self.statistics.initial_searches += 1;
-        } else if self.needs_search_on_ranks(comm, current) {
-            self.search_on_ranks(comm, current);
-            self.statistics.early_searches += 1;
+    ) -> &'s [[f64; 3]] {
+        if state.candidates.is_none() {
+            self.search_on_ranks(state, comm, current);
+            state.statistics.initial_searches += 1;
+        } else if self.needs_search_on_ranks(state, comm, current) {
+            self.search_on_ranks(state, comm, current);
+            state.statistics.early_searches += 1;
         }
         let reject_beyond = self.reject_beyond();
-        let ranks = self
+        let ranks = self.on_ranks_part();
+        let exchange = state
             .ranks
             .as_deref_mut()
-            .expect("the contact of a serial run has no ranks");
+            .expect("the contact state of a serial run has no ranks");
         for (&g, &l) in ranks.owned_global.iter().zip(&ranks.owned_local) {
-            ranks.current[g as usize] = current[l as usize];
-            ranks.velocity[g as usize] = velocity[l as usize];
+            exchange.current[g as usize] = current[l as usize];
+            exchange.velocity[g as usize] = velocity[l as usize];
         }
-        ranks.received.clear();
+        exchange.received.clear();
         {
-            let (y, v, received) = (&ranks.current, &ranks.velocity, &mut ranks.received);
-            ranks.partners.exchange(
+            let (y, v, received) = (
+                &exchange.current,
+                &exchange.velocity,
+                &mut exchange.received,
+            );
+            exchange.partners.exchange(
                 comm,
                 6,
                 |p, out| {
@@ -309,11 +346,11 @@ impl Contact {
                 |p, values| received.push((p, std::array::from_fn(|k| values[k]))),
             );
         }
-        for &(p, values) in &ranks.received {
-            ranks.current[p as usize] = [values[0], values[1], values[2]];
-            ranks.velocity[p as usize] = [values[3], values[4], values[5]];
+        for &(p, values) in &exchange.received {
+            exchange.current[p as usize] = [values[0], values[1], values[2]];
+            exchange.velocity[p as usize] = [values[3], values[4], values[5]];
         }
-        let candidates = self.candidates.as_ref().expect("searched above");
+        let candidates = state.candidates.as_ref().expect("searched above");
         let laws = PairLaws {
             models: &self.models,
             pair_model: &self.pair_model,
@@ -323,8 +360,8 @@ impl Contact {
             block: &ranks.block,
             horizon: &ranks.horizon,
             volume: &ranks.volume,
-            current: &ranks.current,
-            velocity: &ranks.velocity,
+            current: &exchange.current,
+            velocity: &exchange.velocity,
         };
         let forces: Vec<([f64; 3], usize)> = ranks
             .owned_global
@@ -339,13 +376,13 @@ impl Contact {
                 )
             })
             .collect();
-        self.force_density.fill([0.0; 3]);
+        state.force_density.fill([0.0; 3]);
         let mut touching = 0;
         for (&l, (force, count)) in ranks.owned_local.iter().zip(forces) {
-            self.force_density[l as usize] = force;
+            state.force_density[l as usize] = force;
             touching += count;
         }
-        self.statistics.pairs_in_contact = touching / 2;
-        &self.force_density
+        state.statistics.pairs_in_contact = touching / 2;
+        &state.force_density
     }
 }

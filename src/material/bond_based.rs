@@ -171,6 +171,14 @@ impl BondBased {
     fn half(&self) -> f64 {
         0.5 * self.micromodulus
     }
+
+    /// The block's points and those whose force is computed.
+    fn pass_points(&self) -> PassPoints<'_> {
+        PassPoints {
+            block: &self.points,
+            gather: self.force_points.as_deref(),
+        }
+    }
 }
 
 /// Bonds of one row evaluated together: the loop body works on `[f64; LANES]` arrays so that
@@ -248,20 +256,33 @@ fn bond_scale_squared(pair: f64, zeta: f64, squared: f64) -> f64 {
     }
 }
 
-/// `F_i = Σ_j c_ij (1−d) V_j (|Y| − ζ)/(ζ|Y|) (Y_j − Y_i)` over the row of point `i`, whose
-/// bonds start at global bond index `first_bond`.
+/// The bond-list row of one point.
+#[derive(Clone, Copy)]
+struct BondRow<'a> {
+    /// Global bond index of the row's first bond.
+    first_bond: usize,
+    /// The neighbours j, in row order.
+    neighbors: &'a [u32],
+    /// The reference lengths ζ of the row's bonds (length).
+    lengths: &'a [f64],
+}
+
+/// `F_i = Σ_j c_ij (1−d) V_j (|Y| − ζ)/(ζ|Y|) (Y_j − Y_i)` over the bond-list `row` of the
+/// point at `yi`.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn row_force<D: Integrity, K: PairStiffness>(
     yi: [f64; 3],
-    first_bond: usize,
-    neighbors: &[u32],
-    lengths: &[f64],
+    row: BondRow<'_>,
     y: &[[f64; 3]],
     volume: &[f64],
     damage: D,
     stiffness: K,
 ) -> [f64; 3] {
+    let BondRow {
+        first_bond,
+        neighbors,
+        lengths,
+    } = row;
     let mut sum = [[0.0; LANES]; 3];
     let full = neighbors.len() - neighbors.len() % LANES;
     for start in (0..full).step_by(LANES) {
@@ -330,16 +351,12 @@ impl Rows<'_> {
         for &i in chunk {
             let i = i as usize;
             let range = bonds.range(i);
-            let f = row_force(
-                y[i],
-                range.start,
-                &bonds.neighbor[range.clone()],
-                &bonds.reference_length[range],
-                y,
-                self.reference.volume,
-                damage,
-                stiffness,
-            );
+            let row = BondRow {
+                first_bond: range.start,
+                neighbors: &bonds.neighbor[range.clone()],
+                lengths: &bonds.reference_length[range],
+            };
+            let f = row_force(y[i], row, y, self.reference.volume, damage, stiffness);
             let out = &mut out[i - base];
             for k in 0..3 {
                 out[k] += f[k];
@@ -542,23 +559,23 @@ impl PairPlan {
         self.pair_start[self.pair_start.len() - 1]
     }
 
-    /// Adds the force density of every point of the block (of `gather` alone, a subset of the
-    /// block's points, when given) to `force_density`, breaking first the bonds `breaker`
-    /// breaks in every pair; returns the directed bonds broken. `scale` is scratch space
-    /// (resized here).
-    #[allow(clippy::too_many_arguments)]
+    /// Adds the force density of every point of the block (of the points to gather alone,
+    /// when a subset) to `force_density`, breaking first the bonds `breaker` breaks in every
+    /// pair; returns the directed bonds broken. `scale` is scratch space (resized here).
     fn run<D: Integrity, B: Breaker>(
         &self,
-        points: &[u32],
-        gather: Option<&[u32]>,
+        points: PassPoints<'_>,
         scale: &mut Vec<f64>,
         force_density: &mut [[f64; 3]],
         rows: PairRows<'_>,
         damage: D,
         breaker: B,
-        wide: bool,
     ) -> usize {
         use rayon::prelude::*;
+        let PassPoints {
+            block: points,
+            gather,
+        } = points;
         assert!(force_density.len() >= rows.y.len());
         scale.resize(self.num_pairs(), 0.0);
         // Pass 1: each task owns the scale slots of its points' upper pairs.
@@ -582,7 +599,6 @@ impl PairPlan {
                         out,
                         damage,
                         breaker,
-                        wide,
                     )
                 }
             })
@@ -660,6 +676,14 @@ fn gathered_row(
     sum.map(|s| (s[0] + s[1]) + (s[2] + s[3]))
 }
 
+/// The points a pair pass serves: the block's points, whose upper pairs it computes, and
+/// the subset whose force it gathers (all of them when `None`).
+#[derive(Clone, Copy)]
+struct PassPoints<'a> {
+    block: &'a [u32],
+    gather: Option<&'a [u32]>,
+}
+
 /// What the pair loop reads.
 #[derive(Clone, Copy)]
 struct PairRows<'a> {
@@ -668,11 +692,13 @@ struct PairRows<'a> {
     y: &'a [[f64; 3]],
     /// c (the block is closed, so c_ij = c).
     micromodulus: f64,
+    /// Run the AVX2 build of the loop ([`wide_vectors_available`]).
+    wide: bool,
 }
 
 impl PairRows<'_> {
-    /// [`PairRows::chunk`] built for AVX2 when `wide`, else for the baseline target (the same
-    /// result bitwise, as for the gather loop).
+    /// [`PairRows::chunk`] built for AVX2 when [`PairRows::wide`], else for the baseline
+    /// target (the same result bitwise, as for the gather loop).
     ///
     /// # Safety
     /// As [`PairRows::chunk`].
@@ -684,14 +710,12 @@ impl PairRows<'_> {
         out: &mut [f64],
         damage: D,
         breaker: B,
-        wide: bool,
     ) -> usize {
         #[cfg(target_arch = "x86_64")]
-        if wide {
+        if self.wide {
             // SAFETY: AVX2 was detected at run time; the rest as the caller guarantees.
             return unsafe { self.chunk_avx2(points, upper_start, out, damage, breaker) };
         }
-        let _ = wide;
         // SAFETY: as the caller guarantees.
         unsafe { self.chunk(points, upper_start, out, damage, breaker) }
     }
@@ -1043,28 +1067,25 @@ impl Material for BondBased {
                 volume: reference.volume,
                 y: current.position,
                 micromodulus: uniform.0,
+                wide,
             };
             let scale = &mut self.pair_scratch.take();
             match current.bond_damage {
                 None => plan.run(
-                    &self.points,
-                    self.force_points.as_deref(),
+                    self.pass_points(),
                     scale,
                     force_density,
                     pairs,
                     Undamaged,
                     NoBreaking,
-                    wide,
                 ),
                 Some(d) => plan.run(
-                    &self.points,
-                    self.force_points.as_deref(),
+                    self.pass_points(),
                     scale,
                     force_density,
                     pairs,
                     Damaged(d),
                     NoBreaking,
-                    wide,
                 ),
             };
             self.pair_scratch.keep(std::mem::take(scale));
@@ -1192,6 +1213,7 @@ impl BreakingForcePass for BondBased {
             y: position,
             // As `add_force_density` (c/2 doubled: exactly c).
             micromodulus: 2.0 * self.half(),
+            wide: wide_vectors_available(),
         };
         let fused = FusedCriticalStretch {
             limit: StretchLimit::new(critical_stretch),
@@ -1203,14 +1225,12 @@ impl BreakingForcePass for BondBased {
         // one lower point, and the block is closed with symmetric families: the plan exists).
         let scale = &mut self.pair_scratch.take();
         let broken = plan.run(
-            &self.points,
-            self.force_points.as_deref(),
+            self.pass_points(),
             scale,
             force_density,
             pairs,
             fused,
             fused,
-            wide_vectors_available(),
         );
         self.pair_scratch.keep(std::mem::take(scale));
         broken

@@ -177,6 +177,8 @@ struct Rows<'a> {
     /// The force pass runs over a subset of `points` ([`Material::restrict_forces`]), whose
     /// chunks are not contiguous runs of `points`.
     force_subset: bool,
+    /// Run the AVX2 builds of the loops ([`wide_vectors_available`]).
+    wide: bool,
 }
 
 impl Rows<'_> {
@@ -290,13 +292,12 @@ impl Rows<'_> {
         broken
     }
 
-    /// [`Rows::dilatation`] built for AVX2 when `wide` ([`wide_vectors_available`]), else for
-    /// the baseline target; bitwise the same result (same IEEE operations in the same order,
-    /// no fused multiply-add).
+    /// [`Rows::dilatation`] built for AVX2 when [`Rows::wide`], else for the baseline target;
+    /// bitwise the same result (same IEEE operations in the same order, no fused
+    /// multiply-add).
     ///
     /// # Safety
     /// As [`Rows::dilatation`].
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     unsafe fn dilatation_dispatch<W: BondWeights, D: Integrity, B: RowBreaker>(
         &self,
@@ -306,14 +307,12 @@ impl Rows<'_> {
         weights: W,
         damage: D,
         breaker: B,
-        wide: bool,
     ) -> usize {
         #[cfg(target_arch = "x86_64")]
-        if wide {
+        if self.wide {
             // SAFETY: AVX2 was detected at run time; the rest as the caller guarantees.
             return unsafe { self.dilatation_avx2(chunk, base, out, weights, damage, breaker) };
         }
-        let _ = wide;
         // SAFETY: as the caller guarantees.
         unsafe { self.dilatation(chunk, base, out, weights, damage, breaker) }
     }
@@ -344,7 +343,6 @@ impl Rows<'_> {
         coefficients: &mut [PointCoefficients],
         weights: W,
         fused: FusedCriticalStretch,
-        wide: bool,
     ) -> usize {
         let broken = AtomicUsize::new(0);
         for_each_chunk(
@@ -355,9 +353,8 @@ impl Rows<'_> {
                 // SAFETY: the caller gives `fused` a pointer to the whole bond-damage array,
                 // borrowed mutably for this call; each chunk touches only the rows of its own
                 // points (the `RowBreaker` contract).
-                let newly = unsafe {
-                    self.dilatation_dispatch(chunk, base, out, weights, fused, fused, wide)
-                };
+                let newly =
+                    unsafe { self.dilatation_dispatch(chunk, base, out, weights, fused, fused) };
                 broken.fetch_add(newly, Ordering::Relaxed);
             },
         );
@@ -465,9 +462,8 @@ impl Rows<'_> {
         }
     }
 
-    /// [`Rows::add_force`] built for AVX2 when `wide`, else for the baseline target (bitwise
-    /// the same result, as [`Rows::dilatation_dispatch`]).
-    #[allow(clippy::too_many_arguments)]
+    /// [`Rows::add_force`] built for AVX2 when [`Rows::wide`], else for the baseline target
+    /// (bitwise the same result, as [`Rows::dilatation_dispatch`]).
     #[inline(always)]
     fn add_force_dispatch<W: BondWeights, D: Integrity>(
         &self,
@@ -477,15 +473,13 @@ impl Rows<'_> {
         out: &mut [[f64; 3]],
         weights: W,
         damage: D,
-        wide: bool,
     ) {
         #[cfg(target_arch = "x86_64")]
-        if wide {
+        if self.wide {
             // SAFETY: AVX2 was detected at run time.
             unsafe { self.add_force_avx2(coefficients, chunk, base, out, weights, damage) };
             return;
         }
-        let _ = wide;
         self.add_force(coefficients, chunk, base, out, weights, damage);
     }
 
@@ -771,6 +765,7 @@ impl LinearPeridynamicSolid {
             bulk: self.parameters.bulk_modulus,
             shear: self.parameters.shear_modulus,
             force_subset: self.force_points.is_some(),
+            wide: wide_vectors_available(),
         }
     }
 }
@@ -860,7 +855,6 @@ impl Material for LinearPeridynamicSolid {
         coefficients: &mut [PointCoefficients],
     ) {
         let rows = self.rows(reference, current);
-        let wide = wide_vectors_available();
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             for_each_chunk(
                 &self.points,
@@ -868,7 +862,7 @@ impl Material for LinearPeridynamicSolid {
                 &|i| i as usize,
                 &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
                     // SAFETY: `NoBreaking` touches no damage.
-                    unsafe { rows.dilatation_dispatch(chunk, base, out, w, d, NoBreaking, wide) };
+                    unsafe { rows.dilatation_dispatch(chunk, base, out, w, d, NoBreaking) };
                 },
             )
         })
@@ -888,7 +882,6 @@ impl Material for LinearPeridynamicSolid {
         force_density: &mut [[f64; 3]],
     ) {
         let rows = self.rows(reference, current);
-        let wide = wide_vectors_available();
         let force_points = self.force_points.as_deref().unwrap_or(&self.points);
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             for_each_chunk(
@@ -896,7 +889,7 @@ impl Material for LinearPeridynamicSolid {
                 force_density,
                 &|i| i as usize,
                 &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
-                    rows.add_force_dispatch(coefficients, chunk, base, out, w, d, wide)
+                    rows.add_force_dispatch(coefficients, chunk, base, out, w, d)
                 },
             )
         })
@@ -987,16 +980,13 @@ impl BreakingCoefficientPass for LinearPeridynamicSolid {
             history: &crate::state::NO_HISTORY,
         };
         let rows = self.rows(reference, &current);
-        let wide = wide_vectors_available();
         let fused = FusedCriticalStretch {
             limit: StretchLimit::new(critical_stretch),
             damage: bond_damage.as_mut_ptr(),
         };
         match self.weights.as_deref() {
-            None => rows.fused_dilatation(coefficients, UnitWeights, fused, wide),
-            Some(weights) => {
-                rows.fused_dilatation(coefficients, StoredWeights(weights), fused, wide)
-            }
+            None => rows.fused_dilatation(coefficients, UnitWeights, fused),
+            Some(weights) => rows.fused_dilatation(coefficients, StoredWeights(weights), fused),
         }
     }
 }

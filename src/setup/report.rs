@@ -361,9 +361,21 @@ fn parallel_plan(deck: &Deck, explicit: bool, implicit: bool) -> ParallelPlan {
 
 /// Builds the plan for a model set up from `deck`.
 pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
-    let n = model.points.len() as u64;
-    let bonds = model.bonds.num_bonds() as u64;
-    let mut plan = RunPlan {
+    let used = used_declarations(deck, model);
+    let physics = physics_plan(deck, model, &used);
+    let fields = field_plans(model, &used, physics.contact);
+    let memory = memory_plans(deck, model, &fields, physics.state_based, physics.implicit);
+    let mut outputs = Vec::new();
+    for output in &deck.outputs {
+        let variables = requested_variables(deck, output)?;
+        outputs.push(OutputPlan {
+            name: output.name.clone(),
+            file: OutputFile::file_name(&output.filename, &variables),
+            frequency: output.frequency,
+            variables: variables.into_iter().map(|v| v.name).collect(),
+        });
+    }
+    Ok(RunPlan {
         deck: deck.path.display().to_string(),
         discretization: match &deck.discretization.source {
             PointSource::Exodus { .. } => "Exodus",
@@ -371,12 +383,35 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
             PointSource::PdQuickGrid { .. } => "PdQuickGrid",
         }
         .into(),
-        points: n as usize,
-        bonds: bonds as usize,
+        points: model.points.len(),
+        bonds: model.bonds.num_bonds(),
         warnings: deck.warnings.clone(),
         unsupported: unsupported_features(deck),
-        ..RunPlan::default()
-    };
+        blocks: block_plans(deck, model),
+        node_sets: node_set_plans(model),
+        parallel: parallel_plan(deck, physics.explicit, physics.implicit),
+        physics,
+        fields,
+        memory_total: memory.iter().map(|m| m.bytes).sum(),
+        memory,
+        solvers: deck
+            .solvers
+            .iter()
+            .map(|solver| SolverPlan {
+                name: solver.name.clone(),
+                kind: solver.integrator.deck_name().into(),
+                initial_time: solver.initial_time,
+                final_time: solver.final_time,
+            })
+            .collect(),
+        time_step: time_step_plan(deck, model),
+        outputs,
+    })
+}
+
+/// Points, bonds, family sizes and horizons of every block.
+fn block_plans(deck: &Deck, model: &Model) -> Vec<BlockPlan> {
+    let mut plans = Vec::new();
     for block in &model.blocks {
         let entry = &deck.blocks[block.deck_block];
         let sizes: Vec<usize> = block
@@ -389,7 +424,7 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
             .material(&entry.material)
             .map(|m| m.model.deck_name().to_string())
             .unwrap_or_default();
-        plan.blocks.push(BlockPlan {
+        plans.push(BlockPlan {
             name: block.info.name.clone(),
             id: block.info.id,
             material: entry.material.clone(),
@@ -408,8 +443,15 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
             horizon_max: horizons.fold(0.0, f64::max),
         });
     }
-    for (name, points) in model.node_sets.iter() {
-        plan.node_sets.push(NodeSetPlan {
+    plans
+}
+
+/// Every node set, with whether the mesh or the deck defines it.
+fn node_set_plans(model: &Model) -> Vec<NodeSetPlan> {
+    model
+        .node_sets
+        .iter()
+        .map(|(name, points)| NodeSetPlan {
             name: name.to_string(),
             points: points.len(),
             source: if model.mesh_node_set_names.iter().any(|m| m == name) {
@@ -418,32 +460,37 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
                 "deck"
             }
             .into(),
-        });
-    }
+        })
+        .collect()
+}
 
-    let used = used_declarations(deck, model);
+/// Which passes the run needs (state-based dilatation, damage, contact, explicit and
+/// implicit solvers with the tangent pattern).
+fn physics_plan(deck: &Deck, model: &Model, used: &UsedModels) -> PhysicsPlan {
     let reach = used.material_reach().unwrap_or(Reach::OneHop);
-    let state_based = reach == Reach::TwoHop;
     let damage = model
         .blocks
         .iter()
         .any(|b| deck.blocks[b.deck_block].damage_model.is_some());
-    let explicit = deck.solvers.iter().any(|s| !s.integrator.is_implicit());
     let implicit = deck.solvers.iter().any(|s| s.integrator.is_implicit());
-    plan.physics = PhysicsPlan {
-        state_based,
+    PhysicsPlan {
+        state_based: reach == Reach::TwoHop,
         damage,
         contact: deck.contact.is_some(),
-        explicit,
+        explicit: deck.solvers.iter().any(|s| !s.integrator.is_implicit()),
         implicit,
         tangent_pattern: implicit.then(|| reach.pattern_name().to_string()),
-    };
+    }
+}
 
-    plan.parallel = parallel_plan(deck, explicit, implicit);
-
+/// The fields the run allocates, per point and per bond, with their bytes.
+fn field_plans(model: &Model, used: &UsedModels, contact: bool) -> Vec<FieldPlan> {
+    let n = model.points.len() as u64;
+    let bonds = model.bonds.num_bonds() as u64;
+    let mut fields = Vec::new();
     let vector = 24 * n;
     let mut field = |name: &str, per: &str, bytes: u64| {
-        plan.fields.push(FieldPlan {
+        fields.push(FieldPlan {
             name: name.into(),
             per: per.into(),
             bytes,
@@ -473,26 +520,33 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
     for (name, bytes) in declared_on(FieldCarrier::Bond) {
         field(name, "bond", bytes * bonds);
     }
-    if plan.physics.contact {
+    if contact {
         field("Contact_Force_Density", "point", vector);
     }
+    fields
+}
+
+/// Memory by part: the `fields` per point and per bond, and the tangent of implicit solvers
+/// (assembled, two-hop when `state_based`, or only its diagonal blocks when Jacobian-free).
+fn memory_plans(
+    deck: &Deck,
+    model: &Model,
+    fields: &[FieldPlan],
+    state_based: bool,
+    implicit: bool,
+) -> Vec<MemoryPlan> {
+    let n = model.points.len() as u64;
+    let bonds = model.bonds.num_bonds() as u64;
+    let total = |per: &str| -> u64 {
+        fields
+            .iter()
+            .filter(|f| f.per == per)
+            .map(|f| f.bytes)
+            .sum()
+    };
     let mut memory = vec![
-        (
-            "points and state",
-            plan.fields
-                .iter()
-                .filter(|f| f.per == "point")
-                .map(|f| f.bytes)
-                .sum(),
-        ),
-        (
-            "bonds",
-            plan.fields
-                .iter()
-                .filter(|f| f.per == "bond")
-                .map(|f| f.bytes)
-                .sum(),
-        ),
+        ("points and state", total("point")),
+        ("bonds", total("bond")),
     ];
     let assembled = deck.solvers.iter().any(|s| {
         s.integrator.is_implicit()
@@ -515,47 +569,29 @@ pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
         // Jacobian-free Newton–Krylov keeps only the 3×3 diagonal blocks.
         memory.push(("block-diagonal tangent (Jacobian-free)", n * 9 * 8));
     }
-    plan.memory = memory
+    memory
         .into_iter()
         .map(|(part, bytes)| MemoryPlan {
             part: part.into(),
             bytes,
         })
-        .collect();
-    plan.memory_total = plan.memory.iter().map(|m| m.bytes).sum();
+        .collect()
+}
 
-    for solver in &deck.solvers {
-        plan.solvers.push(SolverPlan {
-            name: solver.name.clone(),
-            kind: solver.integrator.deck_name().into(),
-            initial_time: solver.initial_time,
-            final_time: solver.final_time,
-        });
-    }
-    let first_verlet = deck.solvers.iter().find_map(|s| match &s.integrator {
+/// The time step of the first `Verlet` solver: the stable estimate, the safety factor and the
+/// steps it gives (none without a Verlet solver or an estimate).
+fn time_step_plan(deck: &Deck, model: &Model) -> Option<TimeStepPlan> {
+    let (solver, verlet) = deck.solvers.iter().find_map(|s| match &s.integrator {
         Integrator::Verlet(v) => Some((s, v)),
         _ => None,
-    });
-    if let Some((solver, verlet)) = first_verlet {
-        if let Some(estimate) = critical_time_step(deck, model) {
-            let used = verlet.safety_factor * verlet.fixed_dt.unwrap_or(estimate);
-            plan.time_step = Some(TimeStepPlan {
-                estimate,
-                safety_factor: verlet.safety_factor,
-                fixed: verlet.fixed_dt,
-                used,
-                steps: ((solver.final_time - solver.initial_time) / used).floor() as u64,
-            });
-        }
-    }
-    for output in &deck.outputs {
-        let variables = requested_variables(deck, output)?;
-        plan.outputs.push(OutputPlan {
-            name: output.name.clone(),
-            file: OutputFile::file_name(&output.filename, &variables),
-            frequency: output.frequency,
-            variables: variables.into_iter().map(|v| v.name).collect(),
-        });
-    }
-    Ok(plan)
+    })?;
+    let estimate = critical_time_step(deck, model)?;
+    let used = verlet.safety_factor * verlet.fixed_dt.unwrap_or(estimate);
+    Some(TimeStepPlan {
+        estimate,
+        safety_factor: verlet.safety_factor,
+        fixed: verlet.fixed_dt,
+        used,
+        steps: ((solver.final_time - solver.initial_time) / used).floor() as u64,
+    })
 }

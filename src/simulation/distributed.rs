@@ -28,7 +28,7 @@
 use super::agreement::{agree, collective};
 use super::driver::Run;
 use super::outputs::{DistributedOutputs, RunOutputs};
-use super::{initial_state, prepare_compute_classes, RunError, RunSummary};
+use super::{build_physics, initial_state, prepare_compute_classes, RunError, RunSummary};
 use crate::discretization::FamilyRule;
 use crate::io::deck::Deck;
 use crate::model::Model;
@@ -125,8 +125,7 @@ pub fn run_distributed(
     comm.sum(&mut bonds);
     // From here on, failures may differ between ranks: every step agrees.
     let prepared = (|| -> Result<_, RunError> {
-        let mut physics = setup::build_physics(deck, &sub.model)
-            .map_err(|e| RunError::Unsupported(e.to_string()))?;
+        let mut physics = build_physics(deck, &sub.model)?;
         // Ghost forces are never used: only the owned points' are computed.
         let ghost = sub.ghost_mask();
         physics.restrict_forces(&|p| !ghost[p as usize]);
@@ -164,23 +163,13 @@ pub fn run_distributed(
         model,
     } = &mut sub;
     let mut ranks = SubdomainRanks::new(comm, plan, ghosts.clone(), global, model);
-    let mut run = Run {
-        model,
-        ranks: &mut ranks,
-        ghosts: Some(ghosts),
-        compute_classes: &compute_classes,
-        outputs: RunOutputs::Ranks {
-            outputs,
-            partition,
-            owned,
-        },
-        summary: RunSummary::default(),
-        nonlinear_iterations: None,
+    let outputs = RunOutputs::Ranks {
+        outputs,
+        partition,
+        owned,
     };
-    let mut summary = match run.solve(deck, &mut physics, &mut state) {
-        Ok(()) => run.finish()?,
-        Err(error) => return Err(run.abandon(error)),
-    };
+    let run = Run::new(model, &mut ranks, Some(ghosts), &compute_classes, outputs);
+    let mut summary = run.complete(deck, &mut physics, &mut state)?;
     summary.broken_bonds = broken_bonds(comm, &sub, &state) - broken_at_start;
     Ok(summary)
 }

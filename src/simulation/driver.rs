@@ -37,6 +37,41 @@ pub(super) struct Run<'a> {
     pub nonlinear_iterations: Option<f64>,
 }
 
+impl<'a> Run<'a> {
+    /// A run of this rank's `model` that has not started.
+    pub fn new(
+        model: &'a Model,
+        ranks: &'a mut dyn Ranks,
+        ghosts: Option<Vec<bool>>,
+        compute_classes: &'a [PreparedComputeClass],
+        outputs: RunOutputs<'a>,
+    ) -> Self {
+        Self {
+            model,
+            ranks,
+            ghosts,
+            compute_classes,
+            outputs,
+            summary: RunSummary::default(),
+            nonlinear_iterations: None,
+        }
+    }
+
+    /// Runs every solver list of `deck` in order, then closes the results files: the summary,
+    /// or the error to report ([`Run::finish`], [`Run::abandon`]).
+    pub fn complete(
+        mut self,
+        deck: &Deck,
+        physics: &mut Physics,
+        state: &mut State,
+    ) -> Result<RunSummary, RunError> {
+        match self.solve(deck, physics, state) {
+            Ok(()) => self.finish(),
+            Err(error) => Err(self.abandon(error)),
+        }
+    }
+}
+
 impl Run<'_> {
     /// Runs every solver list of `deck` in order. On failure the results files are closed
     /// (frames written so far stay readable) and the error returned.
@@ -200,7 +235,7 @@ impl Run<'_> {
         if let Some(progress) = progress {
             progress.finish();
         }
-        self.log_contact(solver, physics);
+        self.log_contact(solver, state);
         agree(self.ranks.communicator(), pending.map_or(Ok(()), Err))?;
         self.summary.steps += steps;
         Ok(())
@@ -280,8 +315,8 @@ impl Run<'_> {
 
     /// The contact statistics at the end of an explicit solver list (rank 0's share on N
     /// ranks, with the partner points it received).
-    fn log_contact(&self, solver: &Solver, physics: &Physics) {
-        let Some(contact) = physics.contact.as_ref().filter(|_| self.root()) else {
+    fn log_contact(&self, solver: &Solver, state: &State) {
+        let Some(contact) = state.contact.as_ref().filter(|_| self.root()) else {
             return;
         };
         if self.ranks.ranks() == 1 {

@@ -199,11 +199,11 @@ impl FieldSource for Fields<'_> {
                     .collect(),
             ),
             // Zero without a Contact section (no contact acts).
-            "Contact_Force_Density" => match &self.physics.contact {
+            "Contact_Force_Density" => match &state.contact {
                 Some(contact) => Cow::Borrowed(contact.force_density()),
                 None => Cow::Owned(vec![[0.0; 3]; points.len()]),
             },
-            "Contact_Force" => Cow::Owned(match &self.physics.contact {
+            "Contact_Force" => Cow::Owned(match &state.contact {
                 Some(contact) => contact
                     .force_density()
                     .iter()

@@ -61,36 +61,35 @@ fn energy_floor_of(physics: &Physics, volume: impl Fn(u32) -> f64) -> f64 {
 /// Runs every solver list of the deck in order on one state, writing outputs to `dir`.
 /// Output frames already written stay valid whatever happens later.
 pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunError> {
-    let mut physics =
-        setup::build_physics(deck, model).map_err(|e| RunError::Unsupported(e.to_string()))?;
+    let mut physics = build_physics(deck, model)?;
     let compute_classes =
         prepare_compute_classes(&deck.compute_classes, model).map_err(RunError::Unsupported)?;
     let mut state = initial_state(deck, model, &physics)?;
     let mut ranks = SerialRanks {
         points: model.points.len(),
     };
-    let mut run = Run {
-        model,
-        ranks: &mut ranks,
-        ghosts: None,
-        compute_classes: &compute_classes,
-        outputs: RunOutputs::one_rank(deck, model, dir)?,
-        summary: RunSummary::default(),
-        nonlinear_iterations: None,
-    };
-    match run.solve(deck, &mut physics, &mut state) {
-        Ok(()) => run.finish(),
-        Err(error) => Err(run.abandon(error)),
-    }
+    let outputs = RunOutputs::one_rank(deck, model, dir)?;
+    Run::new(model, &mut ranks, None, &compute_classes, outputs).complete(
+        deck,
+        &mut physics,
+        &mut state,
+    )
+}
+
+/// The physics of this rank's `model` (the whole model on one rank); a model or key this
+/// build cannot run is [`RunError::Unsupported`].
+fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, RunError> {
+    setup::build_physics(deck, model).map_err(|e| RunError::Unsupported(e.to_string()))
 }
 
 /// The state at the first solver's initial time: at rest, with intact bond damage when a block
-/// has a damage model and the material history its materials declare, then the deck's initial
-/// conditions.
+/// has a damage model, no contact search yet and the material history its materials declare,
+/// then the deck's initial conditions.
 fn initial_state(deck: &Deck, model: &Model, physics: &Physics) -> Result<State, RunError> {
     let t0 = deck.solvers.first().map_or(0.0, |s| s.initial_time);
     let mut state = State::at_rest(&model.points.position, t0, model.boundary.has_body_force())
-        .with_bond_damage(physics.has_bond_damage().then(|| model.bonds.num_bonds()));
+        .with_bond_damage(physics.has_bond_damage().then(|| model.bonds.num_bonds()))
+        .with_contact(physics.contact.as_ref().map(|c| c.initial_state()));
     state.history = History::allocate(
         physics
             .blocks

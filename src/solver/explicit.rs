@@ -23,6 +23,7 @@
 //! [`StepReport`] is this rank's share, to be summed over ranks.
 
 use crate::boundary::BoundaryError;
+use crate::contact::ContactState;
 use crate::model::Model;
 use crate::parallel::{Communicator, Ranks, SerialRanks};
 use crate::physics::Physics;
@@ -173,30 +174,44 @@ impl VelocityVerlet {
         step: u64,
         ranks: &mut dyn Ranks,
     ) -> Result<StepReport, BoundaryError> {
-        let dt = self.settings.time_step;
-        let t_from = state.time;
         let t_to = self.time_after(step);
-        let positions = &model.points.position;
-        if let Some(contact) = &mut physics.contact {
-            match contact_communicator(contact, ranks) {
-                Some(comm) => {
-                    contact.scheduled_search_on_ranks(comm, step, &state.current_position)
-                }
-                None => contact.scheduled_search(step, model, &state.current_position),
+        scheduled_contact_search(model, physics, state, step, ranks);
+        // A failing expression (it may fail at one rank's points only) is reported at the end
+        // of the step: every rank of a distributed run must still join the halo exchange and
+        // the collectives of contact, or the others wait for it forever. The state of a failed
+        // step is not used.
+        let mut failure = self.kick_and_drift(model, state, t_to);
+        if let Some(b) = &mut state.external_force_density {
+            if let Err(error) = model.boundary.body_force(&model.points.position, t_to, b) {
+                failure.get_or_insert(error);
             }
         }
+        if let Err(error) = set_damage_time(physics, t_to) {
+            failure.get_or_insert(error);
+        }
+        ranks.refresh(&mut state.current_position);
+        let broken_bonds = internal_and_contact_force(model, physics, state, ranks);
+        state.commit();
+        let (free_kinetic_energy, supplied_work) = self.second_half_kick(model, physics, state);
+        match failure {
+            Some(error) => Err(error),
+            None => Ok(StepReport {
+                free_kinetic_energy,
+                supplied_work,
+                broken_bonds,
+            }),
+        }
+    }
 
-        // Half kick everywhere and, at points without a prescribed component, the drift in the
-        // same pass over memory; the drift of the other points waits for the velocities the
-        // kinematic conditions prescribe (they touch only those points).
-        // Y = (X + u) + Δt v and u += Δt v, in this order of operations, as Peridigm does:
-        // the extension e = |Y| − ζ cancels most digits, so the rounding of Y shows in forces.
-        let drift = |u: &mut [f64; 3], v: &[f64; 3], y: &mut [f64; 3], x: &[f64; 3]| {
-            for k in 0..3 {
-                y[k] = x[k] + u[k] + dt * v[k];
-                u[k] += dt * v[k];
-            }
-        };
+    /// The first half kick, the drift and the kinematic conditions, up to time `t_to`: half
+    /// kick everywhere and, at points without a prescribed component, the drift in the same
+    /// pass over memory; the drift of the other points waits for the velocities the kinematic
+    /// conditions prescribe (they touch only those points). Returns a failing prescribed
+    /// expression, if any (the step still runs to its end, see [`VelocityVerlet::step_with`]).
+    fn kick_and_drift(&self, model: &Model, state: &mut State, t_to: f64) -> Option<BoundaryError> {
+        let dt = self.settings.time_step;
+        let t_from = state.time;
+        let positions = &model.points.position;
         state
             .velocity
             .par_iter_mut()
@@ -210,14 +225,10 @@ impl VelocityVerlet {
                     v[k] += 0.5 * dt * a[k];
                 }
                 if fixed == 0 {
-                    drift(u, v, y, x);
+                    drift(dt, u, v, y, x);
                 }
             });
-        // A failing expression (it may fail at one rank's points only) is reported at the end
-        // of the step: every rank of a distributed run must still join the halo exchange and
-        // the collectives of contact, or the others wait for it forever. The state of a failed
-        // step is not used.
-        let mut failure = {
+        let failure = {
             let (displacement, velocity) = (&state.displacement, &mut state.velocity);
             model
                 .boundary
@@ -229,6 +240,7 @@ impl VelocityVerlet {
         for &p in &self.constrained_points {
             let p = p as usize;
             drift(
+                dt,
                 &mut state.displacement[p],
                 &state.velocity[p],
                 &mut state.current_position[p],
@@ -236,28 +248,22 @@ impl VelocityVerlet {
             );
         }
         state.time = t_to;
-        if let Some(b) = &mut state.external_force_density {
-            if let Err(error) = model.boundary.body_force(positions, t_to, b) {
-                failure.get_or_insert(error);
-            }
-        }
-        if let Err(error) = set_damage_time(physics, t_to) {
-            failure.get_or_insert(error);
-        }
-        ranks.refresh(&mut state.current_position);
-        let broken_bonds = internal_and_contact_force(model, physics, state, ranks);
-        state.commit();
+        failure
+    }
 
-        // a = (f_int + f_contact + b)/ρ (as `evaluate_acceleration`), the work, the second half
-        // kick and the kinetic energy in one pass.
+    /// a = (f_int + f_contact + b)/ρ (as `evaluate_acceleration`), the work, the second half
+    /// kick and the kinetic energy in one pass. Returns the kinetic energy of the free
+    /// components and the work supplied over the step.
+    fn second_half_kick(&self, model: &Model, physics: &Physics, state: &mut State) -> (f64, f64) {
+        let dt = self.settings.time_step;
         let volume = &model.points.volume;
         let constrained = &self.constrained;
         let external = state.external_force_density.as_deref();
-        let contact = physics.contact.as_ref().map(|c| c.force_density());
+        let contact = state.contact.as_ref().map(|c| c.force_density());
         let density = &physics.density;
         let force = &state.force_density;
         let ghost = self.ghost.as_deref();
-        let (free_kinetic_energy, supplied_work) = state
+        state
             .velocity
             .par_iter_mut()
             .zip(state.acceleration.par_iter_mut())
@@ -285,14 +291,36 @@ impl VelocityVerlet {
                 }
                 (0.5 * density[i] * volume[i] * kinetic, work)
             })
-            .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
-        match failure {
-            Some(error) => Err(error),
-            None => Ok(StepReport {
-                free_kinetic_energy,
-                supplied_work,
-                broken_bonds,
-            }),
+            .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1))
+    }
+}
+
+/// The drift of one point over Δt = `dt`: Y = (X + u) + Δt v and u += Δt v, in this order of
+/// operations, as Peridigm does: the extension e = |Y| − ζ cancels most digits, so the
+/// rounding of Y shows in forces.
+#[inline(always)]
+fn drift(dt: f64, u: &mut [f64; 3], v: &[f64; 3], y: &mut [f64; 3], x: &[f64; 3]) {
+    for k in 0..3 {
+        y[k] = x[k] + u[k] + dt * v[k];
+        u[k] += dt * v[k];
+    }
+}
+
+/// Contact's scheduled search at the start of step `step` (Peridigm's `Search Frequency`),
+/// when the run has contact.
+fn scheduled_contact_search(
+    model: &Model,
+    physics: &Physics,
+    state: &mut State,
+    step: u64,
+    ranks: &dyn Ranks,
+) {
+    if let Some(contact) = &physics.contact {
+        let contact_state = contact_state(&mut state.contact);
+        let current = &state.current_position;
+        match contact_communicator(contact, ranks) {
+            Some(comm) => contact.scheduled_search_on_ranks(contact_state, comm, step, current),
+            None => contact.scheduled_search(contact_state, step, model, current),
         }
     }
 }
@@ -304,6 +332,13 @@ fn contact_communicator<'r>(
     ranks: &'r dyn Ranks,
 ) -> Option<&'r dyn Communicator> {
     contact.is_on_ranks().then(|| ranks.communicator())
+}
+
+/// The contact part of a state whose physics has contact.
+fn contact_state(contact: &mut Option<ContactState>) -> &mut ContactState {
+    contact
+        .as_mut()
+        .expect("the state of a run with contact carries its contact state (State::with_contact)")
 }
 
 /// Internal force density at `state.current_position` into `state.force_density`, then the
@@ -322,13 +357,15 @@ fn internal_and_contact_force(
         &mut state.history,
         &mut state.force_density,
     );
-    if let Some(contact) = &mut physics.contact {
+    if let Some(contact) = &physics.contact {
+        let contact_state = contact_state(&mut state.contact);
+        let (current, velocity) = (&state.current_position, &state.velocity);
         match contact_communicator(contact, ranks) {
             Some(comm) => {
-                contact.compute_force_on_ranks(comm, &state.current_position, &state.velocity);
+                contact.compute_force_on_ranks(contact_state, comm, current, velocity);
             }
             None => {
-                contact.compute_force(model, &state.current_position, &state.velocity);
+                contact.compute_force(contact_state, model, current, velocity);
             }
         }
     }
@@ -364,7 +401,7 @@ fn evaluate_acceleration_with(
     ranks: &dyn Ranks,
 ) -> usize {
     let broken = internal_and_contact_force(model, physics, state, ranks);
-    let contact = physics.contact.as_ref().map(|c| c.force_density());
+    let contact = state.contact.as_ref().map(|c| c.force_density());
     let external = state.external_force_density.as_deref();
     let density = &physics.density;
     state

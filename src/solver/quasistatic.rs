@@ -143,141 +143,65 @@ pub fn run<E: From<QuasiStaticError>>(
     collective: &mut dyn Collective,
     mut on_step: impl FnMut(&Physics, &State, &mut dyn Collective, &LoadStepReport) -> Result<(), E>,
 ) -> Result<Vec<LoadStepReport>, E> {
-    let constrained = model.boundary.constrained_dofs();
-    // On several ranks every rank runs this loop in step; rank 0 alone writes the log.
-    let root = collective.rank() == 0;
+    let stepping = LoadStepping {
+        model,
+        settings,
+        constrained: model.boundary.constrained_dofs(),
+        // On several ranks every rank runs this loop in step; rank 0 alone writes the log.
+        root: collective.rank() == 0,
+    };
+    let mut schedule = LoadSchedule {
+        times: settings.times.clone(),
+        k: 1,
+        cuts_this_step: 0,
+        total_cuts: 0,
+    };
     let mut reports = Vec::new();
-    let mut times = settings.times.clone();
-    let mut total_cuts = 0u64;
-    let mut cuts_this_step = 0u64;
-    let mut k = 1;
     let run_start = Instant::now();
-    while k < times.len() {
-        let (from, to) = (times[k - 1], times[k]);
-        let dt = to - from;
+    while let Some((number, from, to)) = schedule.current() {
         let step_start = Instant::now();
-        let start_displacement = state.displacement.clone();
-        let predictor_velocity = state.velocity.clone();
-        let mut system =
-            ImplicitSystem::new(DofMap::new(model.points.len(), &constrained, &[]), state);
-        let loads = set_loads(model, physics, state, &start_displacement, from, to);
-        // A condition may fail at some points only, hence on some ranks only: all stop.
-        if any_failed(collective, loads.is_err()) {
-            return Err(loads
-                .err()
-                .unwrap_or(QuasiStaticError::Solve {
-                    step: k,
-                    time: to,
-                    source: SolveError::OtherRank,
-                })
-                .into());
-        }
-        if settings.predictor && (!reports.is_empty() || settings.predict_first_step) {
-            for &dof in &system.dofs.free {
-                state.displacement[dof / 3][dof % 3] += predictor_velocity[dof / 3][dof % 3] * dt;
-            }
-        }
-        collective.refresh(&mut state.displacement);
-        let tolerance = tolerance(
-            &mut system,
-            model,
-            physics,
-            state,
-            settings,
-            &constrained,
-            collective,
-        )
-        .map_err(|source| QuasiStaticError::Solve {
-            step: k,
-            time: to,
-            source,
-        })?;
-        if root {
-            eprintln!(
-                "Load step {k}, initial time = {from:e}, final time = {to:e}, convergence criterion = {tolerance:e}"
-            );
-        }
-        let newton_settings = NewtonSettings {
-            max_iterations: settings.max_iterations,
-            tolerance,
-            measure: settings.measure,
-            line_search: settings.line_search,
-            print_iterations: root,
-            verbose: settings.verbose && root,
+        let step = LoadStep {
+            number,
+            from,
+            to,
+            start_displacement: state.displacement.clone(),
+            start_velocity: state.velocity.clone(),
         };
+        let mut system = ImplicitSystem::new(
+            DofMap::new(model.points.len(), &stepping.constrained, &[]),
+            state,
+        );
+        let predict = settings.predictor && (!reports.is_empty() || settings.predict_first_step);
+        let tolerance = stepping.begin(&step, physics, state, &mut system, predict, collective)?;
         let parts = Physical {
             system: &mut system,
             model,
             physics,
             state,
             collective,
-            constrained: &constrained,
+            constrained: &stepping.constrained,
         };
-        let report = nonlinear.solve(parts, &newton_settings);
-        let failure = match &report {
-            Err(source) => Some(source.to_string()),
-            Ok(r) if !r.converged => Some(format!(
-                "residual {:.4e} above the tolerance {tolerance:.4e} after {} iterations",
-                r.residual_history.last().unwrap_or(&f64::INFINITY),
-                r.iterations
-            )),
-            Ok(_) => None,
-        };
-        if let Some(reason) = failure {
-            if can_cut(settings, cuts_this_step, total_cuts) {
-                if root {
+        let report = nonlinear.solve(parts, &stepping.newton_settings(tolerance));
+        if let Some(reason) = failure(&report, tolerance) {
+            if schedule.cut(settings) {
+                if stepping.root {
                     eprintln!("Warning: {reason}; cutting the load step in half and redoing it.");
                 }
-                cut(&mut times, k, settings);
-                (cuts_this_step, total_cuts) = (cuts_this_step + 1, total_cuts + 1);
-                restore(state, &start_displacement, &predictor_velocity);
+                step.restore(state);
                 continue;
             }
         }
-        let report = report.map_err(|source| QuasiStaticError::Solve {
-            step: k,
-            time: to,
-            source,
-        })?;
-        let measure = *report.residual_history.last().unwrap_or(&f64::INFINITY);
-        if !report.converged {
-            if measure < ACCEPTANCE_FACTOR * tolerance {
-                eprintln!(
-                    "Warning:  Accepting current solution and progressing to next load step."
-                );
-            } else {
-                // Leave the state as the last accepted step left it (what a `Switch to
-                // Verlet` continues from, and what the output already shows).
-                restore(state, &start_displacement, &predictor_velocity);
-                state.update_current_position(&model.points.position);
-                state.time = from;
-                return Err(QuasiStaticError::NotConverged {
-                    step: k,
-                    from,
-                    to,
-                    measure,
-                    tolerance,
-                    iterations: report.iterations,
-                }
-                .into());
-            }
-        }
-        if root && !nonlinear.logs_after_each_iteration() {
+        let report = report.map_err(|source| step.solve_error(source))?;
+        stepping.accept_or_stop(&step, state, &report, tolerance)?;
+        if stepping.root && !nonlinear.logs_after_each_iteration() {
             eprintln!(
-                "  iteration {}: residual = {measure:e}",
-                report.iterations + 1
+                "  iteration {}: residual = {:e}",
+                report.iterations + 1,
+                final_measure(&report)
             );
         }
-        for (v, (u, u0)) in state
-            .velocity
-            .iter_mut()
-            .zip(state.displacement.iter().zip(&start_displacement))
-        {
-            *v = [0, 1, 2].map(|c| (u[c] - u0[c]) / dt);
-        }
-        state.time = to;
-        state.commit();
-        if root {
+        step.commit(state);
+        if stepping.root {
             eprintln!(
                 "  cpu time for load step = {:.3} sec., cumulative cpu time = {:.3} sec.",
                 step_start.elapsed().as_secs_f64(),
@@ -289,14 +213,215 @@ pub fn run<E: From<QuasiStaticError>>(
             time: to,
             tolerance,
             newton: report,
-            cuts: cuts_this_step,
+            cuts: schedule.accept(),
         };
         on_step(physics, state, collective, &accepted)?;
         reports.push(accepted);
-        cuts_this_step = 0;
-        k += 1;
     }
     Ok(reports)
+}
+
+/// What every load step of one run reads.
+struct LoadStepping<'a> {
+    model: &'a Model,
+    settings: &'a QuasiStaticSettings,
+    /// Prescribed dofs (`3·p + component`), sorted.
+    constrained: Vec<usize>,
+    /// This rank writes the log (rank 0).
+    root: bool,
+}
+
+/// The load-step times with the cuts made so far, and the step being solved.
+struct LoadSchedule {
+    times: Vec<f64>,
+    /// The step being solved: from `times[k − 1]` to `times[k]` (1-based).
+    k: usize,
+    cuts_this_step: u64,
+    total_cuts: u64,
+}
+
+/// One load step being solved: its number, times and where it started.
+struct LoadStep {
+    /// 1-based number among the steps tried (cut steps count once per half).
+    number: usize,
+    from: f64,
+    to: f64,
+    /// u and v at the start of the step (what a redone or rejected step goes back to).
+    start_displacement: Vec<[f64; 3]>,
+    start_velocity: Vec<[f64; 3]>,
+}
+
+impl LoadSchedule {
+    /// The step to solve (number, start and end time), `None` after the last.
+    fn current(&self) -> Option<(usize, f64, f64)> {
+        (self.k < self.times.len()).then(|| (self.k, self.times[self.k - 1], self.times[self.k]))
+    }
+
+    /// Halves the current step when `Adaptive Load-Stepping` allows one more cut; false
+    /// when it does not.
+    fn cut(&mut self, settings: &QuasiStaticSettings) -> bool {
+        if !can_cut(settings, self.cuts_this_step, self.total_cuts) {
+            return false;
+        }
+        cut(&mut self.times, self.k, settings);
+        self.cuts_this_step += 1;
+        self.total_cuts += 1;
+        true
+    }
+
+    /// Moves on after the current step was accepted; returns the cuts it took.
+    fn accept(&mut self) -> u64 {
+        self.k += 1;
+        std::mem::take(&mut self.cuts_this_step)
+    }
+}
+
+impl LoadStepping<'_> {
+    /// Steps 1–3 of the module docs: the loads at the end of the step, the predictor when
+    /// `predict`, and the tolerance (logged). Every rank stops when a condition fails on one.
+    fn begin(
+        &self,
+        step: &LoadStep,
+        physics: &mut Physics,
+        state: &mut State,
+        system: &mut ImplicitSystem,
+        predict: bool,
+        collective: &mut dyn Collective,
+    ) -> Result<f64, QuasiStaticError> {
+        let (from, to) = (step.from, step.to);
+        let loads = set_loads(
+            self.model,
+            physics,
+            state,
+            &step.start_displacement,
+            from,
+            to,
+        );
+        // A condition may fail at some points only, hence on some ranks only: all stop.
+        if any_failed(collective, loads.is_err()) {
+            return Err(loads
+                .err()
+                .unwrap_or_else(|| step.solve_error(SolveError::OtherRank)));
+        }
+        if predict {
+            let dt = to - from;
+            for &dof in &system.dofs.free {
+                state.displacement[dof / 3][dof % 3] += step.start_velocity[dof / 3][dof % 3] * dt;
+            }
+        }
+        collective.refresh(&mut state.displacement);
+        let tolerance = tolerance(
+            system,
+            self.model,
+            physics,
+            state,
+            self.settings,
+            &self.constrained,
+            collective,
+        )
+        .map_err(|source| step.solve_error(source))?;
+        if self.root {
+            let k = step.number;
+            eprintln!(
+                "Load step {k}, initial time = {from:e}, final time = {to:e}, convergence criterion = {tolerance:e}"
+            );
+        }
+        Ok(tolerance)
+    }
+
+    /// Newton's settings for a step with `tolerance`.
+    fn newton_settings(&self, tolerance: f64) -> NewtonSettings {
+        NewtonSettings {
+            max_iterations: self.settings.max_iterations,
+            tolerance,
+            measure: self.settings.measure,
+            line_search: self.settings.line_search,
+            print_iterations: self.root,
+            verbose: self.settings.verbose && self.root,
+        }
+    }
+
+    /// Rule 5 of the module docs for a step that could not be cut: an unconverged step within
+    /// [`ACCEPTANCE_FACTOR`] × `tolerance` is accepted with a warning; otherwise the state goes
+    /// back to the start of the step (what a `Switch to Verlet` continues from, and what the
+    /// output already shows) and the run stops.
+    fn accept_or_stop(
+        &self,
+        step: &LoadStep,
+        state: &mut State,
+        report: &NewtonReport,
+        tolerance: f64,
+    ) -> Result<(), QuasiStaticError> {
+        if report.converged {
+            return Ok(());
+        }
+        let measure = final_measure(report);
+        if measure < ACCEPTANCE_FACTOR * tolerance {
+            eprintln!("Warning:  Accepting current solution and progressing to next load step.");
+            return Ok(());
+        }
+        step.restore(state);
+        state.update_current_position(&self.model.points.position);
+        state.time = step.from;
+        Err(QuasiStaticError::NotConverged {
+            step: step.number,
+            from: step.from,
+            to: step.to,
+            measure,
+            tolerance,
+            iterations: report.iterations,
+        })
+    }
+}
+
+impl LoadStep {
+    /// A failure of the linear algebra in this step.
+    fn solve_error(&self, source: SolveError) -> QuasiStaticError {
+        QuasiStaticError::Solve {
+            step: self.number,
+            time: self.to,
+            source,
+        }
+    }
+
+    /// Puts the state back to the start of the step (it is redone, or the run stops).
+    fn restore(&self, state: &mut State) {
+        state.restore();
+        state.displacement.copy_from_slice(&self.start_displacement);
+        state.velocity.copy_from_slice(&self.start_velocity);
+    }
+
+    /// Step 6 of the module docs: v = (u − u_n)/Δt, the time, and the staged fields committed.
+    fn commit(&self, state: &mut State) {
+        let dt = self.to - self.from;
+        for (v, (u, u0)) in state
+            .velocity
+            .iter_mut()
+            .zip(state.displacement.iter().zip(&self.start_displacement))
+        {
+            *v = [0, 1, 2].map(|c| (u[c] - u0[c]) / dt);
+        }
+        state.time = self.to;
+        state.commit();
+    }
+}
+
+/// Why Newton's answer cannot be taken as it is (an error, or not converged), if so.
+fn failure(report: &Result<NewtonReport, SolveError>, tolerance: f64) -> Option<String> {
+    match report {
+        Err(source) => Some(source.to_string()),
+        Ok(r) if !r.converged => Some(format!(
+            "residual {:.4e} above the tolerance {tolerance:.4e} after {} iterations",
+            r.residual_history.last().unwrap_or(&f64::INFINITY),
+            r.iterations
+        )),
+        Ok(_) => None,
+    }
+}
+
+/// The last convergence measure of a Newton solve (∞ without one).
+fn final_measure(report: &NewtonReport) -> f64 {
+    *report.residual_history.last().unwrap_or(&f64::INFINITY)
 }
 
 /// Sets u = u_n + prescribed increments, the body force and the damage time for the step.
@@ -387,13 +512,6 @@ fn cut(times: &mut Vec<f64>, k: usize, settings: &QuasiStaticSettings) {
     }
     refined.extend_from_slice(&times[end..]);
     *times = refined;
-}
-
-/// Puts the state back to the start of a step that is redone.
-fn restore(state: &mut State, displacement: &[[f64; 3]], velocity: &[[f64; 3]]) {
-    state.restore();
-    state.displacement.copy_from_slice(displacement);
-    state.velocity.copy_from_slice(velocity);
 }
 
 #[cfg(test)]

@@ -626,17 +626,37 @@ fn gather_ordinary<K: ForceState>(
     current: &CurrentView<'_>,
     tangent: &mut BlockTangent,
 ) -> Result<(), TangentError> {
-    use crate::model::point_chunks::for_each_chunk;
-    use std::sync::atomic::{AtomicUsize, Ordering};
-
     let bonds = reference.bonds;
-    let volume = reference.volume;
     let n_points = bonds.num_points();
     let mut member = vec![false; n_points];
     for &i in points {
         member[i as usize] = true;
     }
-    // Pass 1 (bond arrays indexed globally; entries of other blocks' points stay unused).
+    let data = bond_derivatives(kernel, points, reference, current)?;
+    let sums = point_sums(points, reference, &data);
+    let derivatives = OrdinaryDerivatives {
+        bonds,
+        volume: reference.volume,
+        data: &data,
+        sums: &sums,
+        member: &member,
+        sorted_rows: (0..n_points).all(|i| bonds.family(i).is_sorted()),
+    };
+    derivatives.add_rows(tangent)
+}
+
+/// Pass 1 of [`gather_ordinary`]: the [`OrdinaryBond`] derivatives of every bond of the
+/// block's points (indexed by global bond; entries of other blocks' points stay unused).
+fn bond_derivatives<K: ForceState>(
+    kernel: &K,
+    points: &[u32],
+    reference: &ReferenceView<'_>,
+    current: &CurrentView<'_>,
+) -> Result<Vec<OrdinaryBond>, TangentError> {
+    use crate::model::point_chunks::for_each_chunk;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    let bonds = reference.bonds;
     let mut data = vec![OrdinaryBond::default(); bonds.num_bonds()];
     let first_bad = AtomicUsize::new(usize::MAX);
     for_each_chunk(
@@ -671,17 +691,32 @@ fn gather_ordinary<K: ForceState>(
             }
         },
     );
-    let bad = first_bad.into_inner();
-    if bad != usize::MAX {
-        return Err(TangentError::NonFinite {
+    match first_bad.into_inner() {
+        usize::MAX => Ok(data),
+        bad => Err(TangentError::NonFinite {
             point: bad,
             input_id: None,
-        });
+        }),
     }
-    let data = &data[..];
-    let weighted = |b: &OrdinaryBond| b.direction.map(|c| b.weight * c);
-    // G_i and Q_i of the block's points.
-    let mut sums = vec![[[0.0; 3]; 2]; n_points];
+}
+
+/// `q_n = β_n M_n`.
+#[inline(always)]
+fn weighted(bond: &OrdinaryBond) -> [f64; 3] {
+    bond.direction.map(|c| bond.weight * c)
+}
+
+/// `[G_i, Q_i]` of the block's points (zero for other points) from pass 1's `data`.
+fn point_sums(
+    points: &[u32],
+    reference: &ReferenceView<'_>,
+    data: &[OrdinaryBond],
+) -> Vec<[[f64; 3]; 2]> {
+    use crate::model::point_chunks::for_each_chunk;
+
+    let bonds = reference.bonds;
+    let volume = reference.volume;
+    let mut sums = vec![[[0.0; 3]; 2]; bonds.num_points()];
     for_each_chunk(
         points,
         &mut sums[..],
@@ -703,162 +738,175 @@ fn gather_ordinary<K: ForceState>(
             }
         },
     );
-    let sums = &sums[..];
-    let sorted_rows = (0..n_points).all(|i| bonds.family(i).is_sorted());
-    // Bond index of i→r in i's row.
-    let reverse = |i: usize, r: usize| -> usize {
-        let family = bonds.family(i);
-        let found = if sorted_rows {
+    sums
+}
+
+/// What pass 2 of [`gather_ordinary`] reads: pass 1's derivatives and the block's points.
+struct OrdinaryDerivatives<'a> {
+    bonds: &'a BondList,
+    /// Volume of every point (length³).
+    volume: &'a [f64],
+    /// The derivatives of every bond of the block's points (global bond index).
+    data: &'a [OrdinaryBond],
+    /// `[G_i, Q_i]` of every point (zero outside the block).
+    sums: &'a [[[f64; 3]; 2]],
+    /// Whether each point is one of the block's.
+    member: &'a [bool],
+    /// Every bond-list row is sorted, so reverse bonds are found by binary search.
+    sorted_rows: bool,
+}
+
+impl OrdinaryDerivatives<'_> {
+    /// Bond index of i→r in i's row.
+    fn reverse(&self, i: usize, r: usize) -> usize {
+        let family = self.bonds.family(i);
+        let found = if self.sorted_rows {
             family.binary_search(&(r as u32)).ok()
         } else {
             family.iter().position(|&j| j as usize == r)
         };
-        bonds.offsets[i] + found.expect("families are symmetric (j in i's iff i in j's)")
-    };
-    let pattern = tangent.pattern.clone();
-    let offsets = pattern.offsets();
-    let diagonal_only = pattern.is_diagonal_only();
-    let all: Vec<u32> = (0..n_points as u32).collect();
-    let missing = AtomicUsize::new(usize::MAX);
-    let missing_column = AtomicUsize::new(usize::MAX);
-    for_each_chunk(
-        &all,
-        &mut tangent.blocks[..],
-        &|r| offsets[r as usize],
-        &|chunk: &[u32], base: usize, out: &mut [Block]| {
-            // slot[c] = position of column c in the current row (u32::MAX: not stored).
-            let mut slot = if diagonal_only {
-                Vec::new()
-            } else {
-                vec![u32::MAX; n_points]
-            };
-            for &r in chunk {
-                let r = r as usize;
-                let family = bonds.family(r);
-                if !member[r] && !family.iter().any(|&i| member[i as usize]) {
-                    continue;
-                }
-                let row = &mut out[offsets[r] - base..offsets[r + 1] - base];
-                let columns = pattern.row(r);
-                if diagonal_only {
-                    add_diagonal_block(
-                        &mut row[0],
-                        r,
-                        bonds,
-                        volume,
-                        data,
-                        sums,
-                        &member,
-                        &reverse,
-                    );
-                    continue;
-                }
-                for (p, &c) in columns.iter().enumerate() {
-                    slot[c as usize] = p as u32;
-                }
-                let mut lost = None;
-                let mut add = |row: &mut [Block], c: usize, block: &Block| match slot[c] {
-                    u32::MAX => lost = Some(c),
-                    p => add_scaled(&mut row[p as usize], 1.0, block),
+        self.bonds.offsets[i] + found.expect("families are symmetric (j in i's iff i in j's)")
+    }
+
+    /// Pass 2: adds every row that a block point reaches to `tangent`, one task per chunk of
+    /// rows.
+    fn add_rows(&self, tangent: &mut BlockTangent) -> Result<(), TangentError> {
+        use crate::model::point_chunks::for_each_chunk;
+        use std::sync::atomic::{AtomicUsize, Ordering};
+
+        let n_points = self.bonds.num_points();
+        let pattern = tangent.pattern.clone();
+        let offsets = pattern.offsets();
+        let diagonal_only = pattern.is_diagonal_only();
+        let all: Vec<u32> = (0..n_points as u32).collect();
+        let missing = AtomicUsize::new(usize::MAX);
+        let missing_column = AtomicUsize::new(usize::MAX);
+        for_each_chunk(
+            &all,
+            &mut tangent.blocks[..],
+            &|r| offsets[r as usize],
+            &|chunk: &[u32], base: usize, out: &mut [Block]| {
+                // slot[c] = position of column c in the current row (u32::MAX: not stored).
+                let mut slot = if diagonal_only {
+                    Vec::new()
+                } else {
+                    vec![u32::MAX; n_points]
                 };
-                if member[r] {
-                    let [g, q_total] = sums[r];
-                    let mut diagonal = outer(g, q_total).map(|l| l.map(|v| -v));
-                    for b in bonds.range(r) {
-                        let bond = &data[b];
-                        let j = bonds.neighbor[b] as usize;
-                        let d = bond.stiffness(volume[r] * volume[j]);
-                        let mut block = outer(g, weighted(bond));
-                        add_scaled(&mut block, 1.0, &d);
-                        add(row, j, &block);
-                        add_scaled(&mut diagonal, -1.0, &d);
-                    }
-                    add(row, r, &diagonal);
-                }
-                for &i in family {
-                    let i = i as usize;
-                    if !member[i] {
+                for &r in chunk {
+                    let r = r as usize;
+                    let family = self.bonds.family(r);
+                    if !self.member[r] && !family.iter().any(|&i| self.member[i as usize]) {
                         continue;
                     }
-                    let m = reverse(i, r);
-                    let bond = &data[m];
-                    let s = volume[i] * volume[r];
-                    let d = bond.stiffness(s);
-                    let p = bond.direction.map(|c| -s * bond.coupling * c);
-                    let mut to_i = d;
-                    add_scaled(&mut to_i, -1.0, &outer(p, sums[i][1]));
-                    add(row, i, &to_i);
-                    add(row, r, &d.map(|l| l.map(|v| -v)));
-                    if bond.coupling != 0.0 {
-                        for b in bonds.range(i) {
-                            let k = bonds.neighbor[b] as usize;
-                            add(row, k, &outer(p, weighted(&data[b])));
+                    let row = &mut out[offsets[r] - base..offsets[r + 1] - base];
+                    if diagonal_only {
+                        self.add_diagonal_block(&mut row[0], r);
+                        continue;
+                    }
+                    let columns = pattern.row(r);
+                    for (p, &c) in columns.iter().enumerate() {
+                        slot[c as usize] = p as u32;
+                    }
+                    let lost = self.add_row(r, row, &slot);
+                    for &c in columns {
+                        slot[c as usize] = u32::MAX;
+                    }
+                    if let Some(c) = lost {
+                        if missing.fetch_min(r, Ordering::Relaxed) > r {
+                            missing_column.store(c, Ordering::Relaxed);
                         }
                     }
                 }
-                for &c in columns {
-                    slot[c as usize] = u32::MAX;
-                }
-                if let Some(c) = lost {
-                    if missing.fetch_min(r, Ordering::Relaxed) > r {
-                        missing_column.store(c, Ordering::Relaxed);
-                    }
+            },
+        );
+        let row = missing.into_inner();
+        if row != usize::MAX {
+            return Err(TangentError::PatternTooSmall {
+                row,
+                column: missing_column.into_inner(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Adds row r's blocks (see [`gather_ordinary`]) to `row`, whose column c sits at
+    /// `slot[c]`. Returns a column the pattern lacks, if any.
+    #[inline]
+    fn add_row(&self, r: usize, row: &mut [Block], slot: &[u32]) -> Option<usize> {
+        let (bonds, volume, data, sums) = (self.bonds, self.volume, self.data, self.sums);
+        let mut lost = None;
+        let mut add = |row: &mut [Block], c: usize, block: &Block| match slot[c] {
+            u32::MAX => lost = Some(c),
+            p => add_scaled(&mut row[p as usize], 1.0, block),
+        };
+        if self.member[r] {
+            let [g, q_total] = sums[r];
+            let mut diagonal = outer(g, q_total).map(|l| l.map(|v| -v));
+            for b in bonds.range(r) {
+                let bond = &data[b];
+                let j = bonds.neighbor[b] as usize;
+                let d = bond.stiffness(volume[r] * volume[j]);
+                let mut block = outer(g, weighted(bond));
+                add_scaled(&mut block, 1.0, &d);
+                add(row, j, &block);
+                add_scaled(&mut diagonal, -1.0, &d);
+            }
+            add(row, r, &diagonal);
+        }
+        for &i in bonds.family(r) {
+            let i = i as usize;
+            if !self.member[i] {
+                continue;
+            }
+            let m = self.reverse(i, r);
+            let bond = &data[m];
+            let s = volume[i] * volume[r];
+            let d = bond.stiffness(s);
+            let p = bond.direction.map(|c| -s * bond.coupling * c);
+            let mut to_i = d;
+            add_scaled(&mut to_i, -1.0, &outer(p, sums[i][1]));
+            add(row, i, &to_i);
+            add(row, r, &d.map(|l| l.map(|v| -v)));
+            if bond.coupling != 0.0 {
+                for b in bonds.range(i) {
+                    let k = bonds.neighbor[b] as usize;
+                    add(row, k, &outer(p, weighted(&data[b])));
                 }
             }
-        },
-    );
-    let row = missing.into_inner();
-    if row != usize::MAX {
-        return Err(TangentError::PatternTooSmall {
-            row,
-            column: missing_column.into_inner(),
-        });
+        }
+        lost
     }
-    Ok(())
-}
 
-/// Adds J_rr from the block's points: the column-r terms of [`gather_ordinary`], summed in
-/// the same order, so the block diagonal is bitwise the diagonal of the full tangent.
-#[allow(clippy::too_many_arguments)]
-fn add_diagonal_block(
-    target: &mut Block,
-    r: usize,
-    bonds: &BondList,
-    volume: &[f64],
-    data: &[OrdinaryBond],
-    sums: &[[[f64; 3]; 2]],
-    member: &[bool],
-    reverse: &impl Fn(usize, usize) -> usize,
-) {
-    if member[r] {
-        let [g, q_total] = sums[r];
-        let mut diagonal = outer(g, q_total).map(|l| l.map(|v| -v));
-        for b in bonds.range(r) {
-            let j = bonds.neighbor[b] as usize;
-            add_scaled(
-                &mut diagonal,
-                -1.0,
-                &data[b].stiffness(volume[r] * volume[j]),
-            );
+    /// Adds J_rr from the block's points: the column-r terms of [`gather_ordinary`], summed
+    /// in the same order, so the block diagonal is bitwise the diagonal of the full tangent.
+    fn add_diagonal_block(&self, target: &mut Block, r: usize) {
+        let (bonds, volume, data) = (self.bonds, self.volume, self.data);
+        if self.member[r] {
+            let [g, q_total] = self.sums[r];
+            let mut diagonal = outer(g, q_total).map(|l| l.map(|v| -v));
+            for b in bonds.range(r) {
+                let j = bonds.neighbor[b] as usize;
+                add_scaled(
+                    &mut diagonal,
+                    -1.0,
+                    &data[b].stiffness(volume[r] * volume[j]),
+                );
+            }
+            add_scaled(target, 1.0, &diagonal);
         }
-        add_scaled(target, 1.0, &diagonal);
-    }
-    for &i in bonds.family(r) {
-        let i = i as usize;
-        if !member[i] {
-            continue;
-        }
-        let bond = &data[reverse(i, r)];
-        let s = volume[i] * volume[r];
-        let d = bond.stiffness(s);
-        add_scaled(target, 1.0, &d.map(|l| l.map(|v| -v)));
-        if bond.coupling != 0.0 {
-            let p = bond.direction.map(|c| -s * bond.coupling * c);
-            add_scaled(
-                target,
-                1.0,
-                &outer(p, bond.direction.map(|c| bond.weight * c)),
-            );
+        for &i in bonds.family(r) {
+            let i = i as usize;
+            if !self.member[i] {
+                continue;
+            }
+            let bond = &data[self.reverse(i, r)];
+            let s = volume[i] * volume[r];
+            let d = bond.stiffness(s);
+            add_scaled(target, 1.0, &d.map(|l| l.map(|v| -v)));
+            if bond.coupling != 0.0 {
+                let p = bond.direction.map(|c| -s * bond.coupling * c);
+                add_scaled(target, 1.0, &outer(p, weighted(bond)));
+            }
         }
     }
 }

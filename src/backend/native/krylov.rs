@@ -311,53 +311,16 @@ pub fn gmres_matrix_free(
         for (v_i, r_i) in basis[0].iter_mut().zip(&r) {
             *v_i = r_i / beta;
         }
-        // Column j of the Hessenberg matrix (j + 2 entries), rotated into R as we go.
-        let mut hessenberg: Vec<Vec<f64>> = Vec::new();
-        let mut cosines: Vec<f64> = Vec::new();
-        let mut sines: Vec<f64> = Vec::new();
-        // Right-hand side of the least-squares problem, β e₁ rotated.
-        let mut g = vec![beta];
-        let mut size = 0;
-        while size < restart && iterations < limit {
-            let j = size;
+        let mut least_squares = RotatedLeastSquares::new(beta);
+        while least_squares.size() < restart && iterations < limit {
+            let j = least_squares.size();
             preconditioner(&basis[j], &mut z);
             apply(&z, &mut w)?;
-            let mut h = vec![0.0; j + 2];
-            for (i, v) in basis.iter().take(j + 1).enumerate() {
-                let coefficient = dot(&w, v);
-                h[i] = coefficient;
-                axpy(-coefficient, v, &mut w);
-            }
-            let w_norm = norm(&w);
-            if !w_norm.is_finite() {
-                return Err(SolveError::NonFinite {
-                    what: "the matrix-vector product".to_string(),
-                });
-            }
-            h[j + 1] = w_norm;
-            for i in 0..j {
-                let (c, s) = (cosines[i], sines[i]);
-                let (a, b) = (h[i], h[i + 1]);
-                h[i] = c * a + s * b;
-                h[i + 1] = -s * a + c * b;
-            }
-            let radius = h[j].hypot(h[j + 1]);
-            let (c, s) = if radius == 0.0 {
-                (1.0, 0.0)
-            } else {
-                (h[j] / radius, h[j + 1] / radius)
-            };
-            h[j] = radius;
-            h[j + 1] = 0.0;
-            cosines.push(c);
-            sines.push(s);
-            g.push(-s * g[j]);
-            g[j] *= c;
-            hessenberg.push(h);
-            size += 1;
+            let (h, w_norm) = orthogonalise(&basis[..=j], &mut w)?;
+            // ‖b − A x‖ for the x this cycle would give now (exact arithmetic).
+            let cycle_residual = least_squares.push(h);
             iterations += 1;
-            // |g[j + 1]| is ‖b − A x‖ for the x this cycle would give now (exact arithmetic).
-            if g[j + 1].abs() <= tolerance || w_norm == 0.0 {
+            if cycle_residual <= tolerance || w_norm == 0.0 {
                 break;
             }
             if basis.len() <= j + 1 {
@@ -367,25 +330,8 @@ pub fn gmres_matrix_free(
                 *v_i = w_i / w_norm;
             }
         }
-        // Back substitution R y = g, then x += M⁻¹ (V y).
-        let mut y = vec![0.0; size];
-        for i in (0..size).rev() {
-            let mut sum = g[i];
-            for (k, y_k) in y.iter().enumerate().take(size).skip(i + 1) {
-                sum -= hessenberg[k][i] * y_k;
-            }
-            let diagonal = hessenberg[i][i];
-            if diagonal == 0.0 {
-                return Err(SolveError::Breakdown {
-                    method: METHOD,
-                    reason: format!(
-                        "the (preconditioned) matrix is singular on the Krylov space after \
-                         {iterations} iterations; check the constraints or use LU"
-                    ),
-                });
-            }
-            y[i] = sum / diagonal;
-        }
+        // x += M⁻¹ (V y).
+        let y = least_squares.solve(iterations)?;
         w.fill(0.0);
         for (v, y_i) in basis.iter().zip(&y) {
             axpy(*y_i, v, &mut w);
@@ -400,6 +346,104 @@ pub fn gmres_matrix_free(
                 what: "the residual".to_string(),
             });
         }
+    }
+}
+
+/// Modified Gram–Schmidt of `w` against the orthonormal `basis` (j + 1 vectors): returns the
+/// Hessenberg column (j + 2 entries, the last ‖w‖ after orthogonalisation) and ‖w‖.
+fn orthogonalise(basis: &[Vec<f64>], w: &mut [f64]) -> Result<(Vec<f64>, f64), SolveError> {
+    let j = basis.len() - 1;
+    let mut h = vec![0.0; j + 2];
+    for (i, v) in basis.iter().enumerate() {
+        let coefficient = dot(w, v);
+        h[i] = coefficient;
+        axpy(-coefficient, v, w);
+    }
+    let w_norm = norm(w);
+    if !w_norm.is_finite() {
+        return Err(SolveError::NonFinite {
+            what: "the matrix-vector product".to_string(),
+        });
+    }
+    h[j + 1] = w_norm;
+    Ok((h, w_norm))
+}
+
+/// The least-squares problem of one GMRES cycle, min ‖β e₁ − H y‖, kept triangular with
+/// Givens rotations as the Hessenberg columns arrive.
+struct RotatedLeastSquares {
+    /// Column j of the Hessenberg matrix (j + 2 entries), rotated into R.
+    hessenberg: Vec<Vec<f64>>,
+    cosines: Vec<f64>,
+    sines: Vec<f64>,
+    /// Right-hand side of the least-squares problem, β e₁ rotated.
+    g: Vec<f64>,
+}
+
+impl RotatedLeastSquares {
+    fn new(beta: f64) -> Self {
+        Self {
+            hessenberg: Vec::new(),
+            cosines: Vec::new(),
+            sines: Vec::new(),
+            g: vec![beta],
+        }
+    }
+
+    /// Columns so far.
+    fn size(&self) -> usize {
+        self.hessenberg.len()
+    }
+
+    /// Rotates the next column `h` (j + 2 entries) into R; returns |g[j + 1]|, the residual
+    /// norm of the least-squares solution with the columns so far.
+    fn push(&mut self, mut h: Vec<f64>) -> f64 {
+        let j = self.size();
+        for i in 0..j {
+            let (c, s) = (self.cosines[i], self.sines[i]);
+            let (a, b) = (h[i], h[i + 1]);
+            h[i] = c * a + s * b;
+            h[i + 1] = -s * a + c * b;
+        }
+        let radius = h[j].hypot(h[j + 1]);
+        let (c, s) = if radius == 0.0 {
+            (1.0, 0.0)
+        } else {
+            (h[j] / radius, h[j + 1] / radius)
+        };
+        h[j] = radius;
+        h[j + 1] = 0.0;
+        self.cosines.push(c);
+        self.sines.push(s);
+        self.g.push(-s * self.g[j]);
+        self.g[j] *= c;
+        self.hessenberg.push(h);
+        self.g[j + 1].abs()
+    }
+
+    /// Back substitution R y = g; `Breakdown` (after `iterations` in all) when R is singular.
+    fn solve(&self, iterations: usize) -> Result<Vec<f64>, SolveError> {
+        let size = self.size();
+        let (hessenberg, g) = (&self.hessenberg, &self.g);
+        let mut y = vec![0.0; size];
+        for i in (0..size).rev() {
+            let mut sum = g[i];
+            for (k, y_k) in y.iter().enumerate().take(size).skip(i + 1) {
+                sum -= hessenberg[k][i] * y_k;
+            }
+            let diagonal = hessenberg[i][i];
+            if diagonal == 0.0 {
+                return Err(SolveError::Breakdown {
+                    method: "GMRES",
+                    reason: format!(
+                        "the (preconditioned) matrix is singular on the Krylov space after \
+                         {iterations} iterations; check the constraints or use LU"
+                    ),
+                });
+            }
+            y[i] = sum / diagonal;
+        }
+        Ok(y)
     }
 }
 

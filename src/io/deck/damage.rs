@@ -2,7 +2,7 @@
 
 use super::discretization::{read_bond_filter, BondFilter};
 use super::error::DeckError;
-use super::reader::{Ctx, Field};
+use super::reader::{Ctx, Field, ListReader};
 
 /// One named damage model (an entry of `Damage Models`).
 #[derive(Debug, Clone, PartialEq)]
@@ -95,27 +95,7 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<DamageModel, DeckErro
         .require(ctx, "Damage Model", "the damage law")?
         .choice(ctx, MODELS)?;
     let kind = match model {
-        "Critical Stretch" => {
-            let stretch = list.positive_opt(ctx, "Critical Stretch")?;
-            let energy = list.positive_opt(ctx, "Critical Energy Release Rate")?;
-            let critical_stretch = match (stretch, energy) {
-                (Some(s), None) => StretchLimit::Stretch(s),
-                (None, Some(g)) => StretchLimit::EnergyReleaseRate(g),
-                _ => {
-                    return Err(ctx.error(
-                        Some(list.line),
-                        &list.path,
-                        "give exactly one of \"Critical Stretch\" and \"Critical Energy Release Rate\" \
-                         (the second derives s_c = sqrt(5 G0 / (9 K horizon)) for each block)",
-                    ))
-                }
-            };
-            DamageKind::CriticalStretch {
-                critical_stretch,
-                thermal_expansion_coefficient: list
-                    .f64_opt(ctx, "Thermal Expansion Coefficient")?,
-            }
-        }
+        "Critical Stretch" => read_critical_stretch(ctx, &mut list)?,
         "Interface Aware" => {
             let critical_stretch = list.positive_req(ctx, "Critical Stretch")?;
             DamageKind::InterfaceAware {
@@ -130,88 +110,116 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<DamageModel, DeckErro
                 .name(ctx)?,
             thermal_expansion_coefficient: list.f64_opt(ctx, "Thermal Expansion Coefficient")?,
         },
-        "Initial Damage" => {
-            let mut filters = list.list_req(ctx, "Bond Filters")?;
-            let mut bond_filters = Vec::new();
-            for f in filters.all() {
-                bond_filters.push(read_bond_filter(
-                    ctx,
-                    &f,
-                    &["Rectangular_Plane", "Exodus Mesh"],
-                )?);
-            }
-            if bond_filters.is_empty() {
-                return Err(ctx.error(
-                    Some(filters.line),
-                    &filters.path,
-                    "Initial Damage needs at least one bond filter",
-                ));
-            }
-            DamageKind::InitialDamage { bond_filters }
-        }
-        "Johnson Cook" => {
-            let damage_parameters = [
-                list.f64_req(ctx, "Damage Parameter 1")?,
-                list.f64_req(ctx, "Damage Parameter 2")?,
-                list.f64_req(ctx, "Damage Parameter 3")?,
-            ];
-            let critical = list.require(ctx, "Critical Damage", "a number in (0, 1]")?;
-            let critical_damage = critical.positive(ctx)?;
-            if critical_damage > 1.0 {
-                return Err(
-                    critical.err(ctx, format!("must not exceed 1, found {critical_damage}"))
-                );
-            }
-            let threshold =
-                list.require(ctx, "Threshold Damage", "a number below Critical Damage")?;
-            let threshold_damage = threshold.non_negative(ctx)?;
-            if threshold_damage >= critical_damage {
-                return Err(threshold.err(
-                    ctx,
-                    format!("must be smaller than Critical Damage ({critical_damage})"),
-                ));
-            }
-            DamageKind::JohnsonCook {
-                damage_parameters,
-                critical_damage,
-                threshold_damage,
-                critical_damage_to_neglect: list
-                    .positive_opt(ctx, "Critical Damage To Neglect Material Point")?
-                    .unwrap_or(0.95),
-            }
-        }
-        "Von Mises Stress" => {
-            let critical_von_mises_stress = list.positive_req(ctx, "Critical Von Mises Stress")?;
-            let critical_damage = list.positive_opt(ctx, "Critical Damage")?.unwrap_or(1.0);
-            let threshold_damage = list
-                .non_negative_opt(ctx, "Threshold Damage")?
-                .unwrap_or(0.99);
-            if threshold_damage >= critical_damage {
-                let line = list
-                    .get("Threshold Damage")
-                    .or_else(|| list.get("Critical Damage"))
-                    .map_or(list.line, |f| f.line());
-                return Err(ctx.error(
-                    Some(line),
-                    &list.path,
-                    format!("Threshold Damage ({threshold_damage}) must be smaller than Critical Damage ({critical_damage})"),
-                ));
-            }
-            DamageKind::VonMisesStress {
-                critical_von_mises_stress,
-                critical_damage,
-                threshold_damage,
-                critical_damage_to_neglect: list
-                    .positive_opt(ctx, "Critical Damage To Neglect Material Point")?
-                    .unwrap_or(0.95),
-            }
-        }
+        "Initial Damage" => read_initial_damage(ctx, &mut list)?,
+        "Johnson Cook" => read_johnson_cook(ctx, &mut list)?,
+        "Von Mises Stress" => read_von_mises_stress(ctx, &mut list)?,
         _ => unreachable!("choice() returns one of MODELS"),
     };
     list.finish(ctx, &[])?;
     Ok(DamageModel {
         name: field.key().to_string(),
         kind,
+    })
+}
+
+/// `Critical Stretch`: exactly one of `Critical Stretch` and `Critical Energy Release Rate`.
+fn read_critical_stretch(ctx: &mut Ctx, list: &mut ListReader) -> Result<DamageKind, DeckError> {
+    let stretch = list.positive_opt(ctx, "Critical Stretch")?;
+    let energy = list.positive_opt(ctx, "Critical Energy Release Rate")?;
+    let critical_stretch =
+        match (stretch, energy) {
+            (Some(s), None) => StretchLimit::Stretch(s),
+            (None, Some(g)) => StretchLimit::EnergyReleaseRate(g),
+            _ => return Err(ctx.error(
+                Some(list.line),
+                &list.path,
+                "give exactly one of \"Critical Stretch\" and \"Critical Energy Release Rate\" \
+                 (the second derives s_c = sqrt(5 G0 / (9 K horizon)) for each block)",
+            )),
+        };
+    Ok(DamageKind::CriticalStretch {
+        critical_stretch,
+        thermal_expansion_coefficient: list.f64_opt(ctx, "Thermal Expansion Coefficient")?,
+    })
+}
+
+/// `Initial Damage`: at least one `Rectangular_Plane` or `Exodus Mesh` bond filter.
+fn read_initial_damage(ctx: &mut Ctx, list: &mut ListReader) -> Result<DamageKind, DeckError> {
+    let mut filters = list.list_req(ctx, "Bond Filters")?;
+    let mut bond_filters = Vec::new();
+    for f in filters.all() {
+        bond_filters.push(read_bond_filter(
+            ctx,
+            &f,
+            &["Rectangular_Plane", "Exodus Mesh"],
+        )?);
+    }
+    if bond_filters.is_empty() {
+        return Err(ctx.error(
+            Some(filters.line),
+            &filters.path,
+            "Initial Damage needs at least one bond filter",
+        ));
+    }
+    Ok(DamageKind::InitialDamage { bond_filters })
+}
+
+/// `Johnson Cook`: three damage parameters, 0 ≤ threshold < critical ≤ 1.
+fn read_johnson_cook(ctx: &mut Ctx, list: &mut ListReader) -> Result<DamageKind, DeckError> {
+    let damage_parameters = [
+        list.f64_req(ctx, "Damage Parameter 1")?,
+        list.f64_req(ctx, "Damage Parameter 2")?,
+        list.f64_req(ctx, "Damage Parameter 3")?,
+    ];
+    let critical = list.require(ctx, "Critical Damage", "a number in (0, 1]")?;
+    let critical_damage = critical.positive(ctx)?;
+    if critical_damage > 1.0 {
+        return Err(critical.err(ctx, format!("must not exceed 1, found {critical_damage}")));
+    }
+    let threshold = list.require(ctx, "Threshold Damage", "a number below Critical Damage")?;
+    let threshold_damage = threshold.non_negative(ctx)?;
+    if threshold_damage >= critical_damage {
+        return Err(threshold.err(
+            ctx,
+            format!("must be smaller than Critical Damage ({critical_damage})"),
+        ));
+    }
+    Ok(DamageKind::JohnsonCook {
+        damage_parameters,
+        critical_damage,
+        threshold_damage,
+        critical_damage_to_neglect: list
+            .positive_opt(ctx, "Critical Damage To Neglect Material Point")?
+            .unwrap_or(0.95),
+    })
+}
+
+/// `Von Mises Stress`: the critical stress, and threshold < critical damage (defaults 0.99
+/// and 1).
+fn read_von_mises_stress(ctx: &mut Ctx, list: &mut ListReader) -> Result<DamageKind, DeckError> {
+    let critical_von_mises_stress = list.positive_req(ctx, "Critical Von Mises Stress")?;
+    let critical_damage = list.positive_opt(ctx, "Critical Damage")?.unwrap_or(1.0);
+    let threshold_damage = list
+        .non_negative_opt(ctx, "Threshold Damage")?
+        .unwrap_or(0.99);
+    if threshold_damage >= critical_damage {
+        let line = list
+            .get("Threshold Damage")
+            .or_else(|| list.get("Critical Damage"))
+            .map_or(list.line, |f| f.line());
+        return Err(ctx.error(
+            Some(line),
+            &list.path,
+            format!("Threshold Damage ({threshold_damage}) must be smaller than Critical Damage ({critical_damage})"),
+        ));
+    }
+    Ok(DamageKind::VonMisesStress {
+        critical_von_mises_stress,
+        critical_damage,
+        threshold_damage,
+        critical_damage_to_neglect: list
+            .positive_opt(ctx, "Critical Damage To Neglect Material Point")?
+            .unwrap_or(0.95),
     })
 }
 
