@@ -282,34 +282,24 @@ impl<S: StressModel> Correspondence<S> {
         })
     }
 
-    /// The force state of one bond from i's side (force/length⁶), given i's `P K⁻¹` and F.
-    #[allow(clippy::too_many_arguments)]
-    fn bond_force_state<T: Scalar>(
-        &self,
-        stress_shape: &Tensor<T>,
-        deformation_gradient: &Tensor<T>,
-        xi: [f64; 3],
-        dy: [T; 3],
-        zeta: f64,
-        weight: f64,
-        intact: f64,
-    ) -> [T; 3] {
+    /// The force state of one bond from the side of the point whose `P K⁻¹` and F are
+    /// `tensors` (force/length⁶).
+    fn bond_force_state<T: Scalar>(&self, tensors: &PointTensors<T>, bond: &Bond<T>) -> [T; 3] {
+        let (xi, dy) = (bond.xi, bond.dy);
+        let a = &tensors.stress_shape;
         let mut force: [T; 3] = std::array::from_fn(|r| {
-            (stress_shape[(r, 0)] * xi[0]
-                + stress_shape[(r, 1)] * xi[1]
-                + stress_shape[(r, 2)] * xi[2])
-                * weight
+            (a[(r, 0)] * xi[0] + a[(r, 1)] * xi[1] + a[(r, 2)] * xi[2]) * bond.weight
         });
         let length_squared = dy[0] * dy[0] + dy[1] * dy[1] + dy[2] * dy[2];
-        if self.hourglass_coefficient > 0.0 && intact > 0.0 && length_squared.re() > 0.0 {
+        if self.hourglass_coefficient > 0.0 && bond.intact > 0.0 && length_squared.re() > 0.0 {
+            let f = &tensors.deformation_gradient;
             let mut departure_dot_dy = T::from(0.0);
             for r in 0..3 {
-                let predicted = deformation_gradient[(r, 0)] * xi[0]
-                    + deformation_gradient[(r, 1)] * xi[1]
-                    + deformation_gradient[(r, 2)] * xi[2];
+                let predicted = f[(r, 0)] * xi[0] + f[(r, 1)] * xi[1] + f[(r, 2)] * xi[2];
                 departure_dot_dy += (predicted - dy[r]) * dy[r];
             }
-            let magnitude = -departure_dot_dy * (intact * self.hourglass_constant() / zeta)
+            let magnitude = -departure_dot_dy
+                * (bond.intact * self.hourglass_constant() / bond.zeta)
                 / length_squared.sqrt();
             for r in 0..3 {
                 force[r] += magnitude * dy[r];
@@ -380,7 +370,14 @@ impl<S: StressModel> Correspondence<S> {
         let family = self.family(reference, current);
         let force_points = self.force_points.as_deref().unwrap_or(&self.points);
         let positions = current.position;
-        let no_stress = Tensor::<f64>::zeros();
+        let tensors_of = |p: usize| PointTensors {
+            stress_shape: if with_stress {
+                at(stress_shape, p)
+            } else {
+                Tensor::zeros()
+            },
+            deformation_gradient: at(gradient, p) + identity::<f64>(),
+        };
         for_each_chunk(
             force_points,
             force_density,
@@ -388,32 +385,21 @@ impl<S: StressModel> Correspondence<S> {
             &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
                 for &i in chunk {
                     let i = i as usize;
-                    let (a_i, f_i) = if with_stress {
-                        (at(stress_shape, i), at(gradient, i) + identity::<f64>())
-                    } else {
-                        (no_stress, at(gradient, i) + identity::<f64>())
-                    };
+                    let here = tensors_of(i);
                     let mut total = [0.0; 3];
                     let row_start = self.local_row_start(i);
                     for (n, b) in family.bonds.range(i).enumerate() {
                         let j = family.bonds.neighbor[b] as usize;
-                        let weight = self.weights[row_start + n];
                         let intact = family.intact(b);
-                        let xi = family.xi(i, b);
-                        let back = [-xi[0], -xi[1], -xi[2]];
-                        let dy: [f64; 3] =
-                            std::array::from_fn(|r| positions[j][r] - positions[i][r]);
-                        let minus_dy = [-dy[0], -dy[1], -dy[2]];
-                        let zeta = family.bonds.reference_length[b];
-                        let (a_j, f_j) = if with_stress {
-                            (at(stress_shape, j), at(gradient, j) + identity::<f64>())
-                        } else {
-                            (no_stress, at(gradient, j) + identity::<f64>())
+                        let bond = Bond {
+                            xi: family.xi(i, b),
+                            dy: std::array::from_fn(|r| positions[j][r] - positions[i][r]),
+                            zeta: family.bonds.reference_length[b],
+                            weight: self.weights[row_start + n] * intact,
+                            intact,
                         };
-                        let w = weight * intact;
-                        let from_i = self.bond_force_state(&a_i, &f_i, xi, dy, zeta, w, intact);
-                        let from_j =
-                            self.bond_force_state(&a_j, &f_j, back, minus_dy, zeta, w, intact);
+                        let from_i = self.bond_force_state(&here, &bond);
+                        let from_j = self.bond_force_state(&tensors_of(j), &bond.reversed());
                         let v = family.volume[j];
                         for r in 0..3 {
                             total[r] += (from_i[r] - from_j[r]) * v;
@@ -436,6 +422,39 @@ impl<S: StressModel> Correspondence<S> {
             .binary_search(&(i as u32))
             .expect("the force pass visits only block points");
         self.local_offsets[k]
+    }
+}
+
+/// What a point contributes to the force states of its bonds.
+struct PointTensors<T: Scalar> {
+    /// P K⁻¹ (zero for the hourglass force alone).
+    stress_shape: Tensor<T>,
+    /// F.
+    deformation_gradient: Tensor<T>,
+}
+
+/// One bond seen from one of its ends.
+struct Bond<T: Scalar> {
+    /// ξ = X_j − X_i.
+    xi: [f64; 3],
+    /// Δy = Y_j − Y_i.
+    dy: [T; 3],
+    /// ζ = |ξ|.
+    zeta: f64,
+    /// ω (1 − d).
+    weight: f64,
+    /// 1 − d.
+    intact: f64,
+}
+
+impl<T: Scalar> Bond<T> {
+    /// The same bond seen from its other end (ξ and Δy reversed).
+    fn reversed(&self) -> Self {
+        Self {
+            xi: self.xi.map(|x| -x),
+            dy: self.dy.map(|x| -x),
+            ..*self
+        }
     }
 }
 
@@ -728,20 +747,21 @@ impl<S: StressModel> ForceState for CorrespondenceForceState<'_, S> {
             t.fill([zero; 3]);
             return;
         };
+        let tensors = PointTensors {
+            stress_shape: update.stress_shape,
+            deformation_gradient: update.deformation_gradient,
+        };
         let row_start = self.family.local_offsets[point.local];
         for (n, b) in self.family.bonds.range(point.global).enumerate() {
             let intact = self.family.intact(b);
-            let weight = self.family.weights[row_start + n] * intact;
-            let dy: [T; 3] = std::array::from_fn(|r| y[n + 1][r] - y[0][r]);
-            t[n] = self.material.bond_force_state(
-                &update.stress_shape,
-                &update.deformation_gradient,
-                self.family.xi(point.global, b),
-                dy,
-                self.family.bonds.reference_length[b],
-                weight,
+            let bond = Bond {
+                xi: self.family.xi(point.global, b),
+                dy: std::array::from_fn(|r| y[n + 1][r] - y[0][r]),
+                zeta: self.family.bonds.reference_length[b],
+                weight: self.family.weights[row_start + n] * intact,
                 intact,
-            );
+            };
+            t[n] = self.material.bond_force_state(&tensors, &bond);
         }
     }
 
