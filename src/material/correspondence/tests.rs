@@ -214,10 +214,7 @@ fn a_rigid_rotation_of_ninety_degrees_in_one_step_gives_no_stress_and_no_force()
     for (p, force) in force.iter().enumerate() {
         let sigma = body.tensor_field(fields::CAUCHY_STRESS, p);
         assert!(sigma.abs().max() < 1e-14, "σ at point {p}: {sigma}");
-        assert!(
-            force.iter().all(|v| v.abs() < 1e-13),
-            "force at point {p}"
-        );
+        assert!(force.iter().all(|v| v.abs() < 1e-13), "force at point {p}");
         let rotation = body.tensor_field(fields::ROTATION, p) + Tensor::identity();
         assert!(max_difference(&rotation, &q) < 1e-14, "R at point {p}");
     }
