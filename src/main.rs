@@ -73,6 +73,8 @@ enum Command {
     Bench(cli::bench::BenchArgs),
     /// Young's modulus of a tensile run from its gauge and grip-reaction globals (CSV).
     Modulus(cli::modulus::ModulusArgs),
+    /// Write the roadmap's dog-bone tensile specimen: points, node sets and a deck.
+    Dogbone(cli::dogbone::DogboneArgs),
 }
 
 /// `peridyn run --backend`.
@@ -380,6 +382,9 @@ fn main() -> ExitCode {
         Command::Modulus(args) => cli::modulus::main(args)
             .map_err(invalid)
             .and_then(|table| emit(&table)),
+        Command::Dogbone(args) => cli::dogbone::main(args)
+            .map_err(invalid)
+            .and_then(|summary| emit(&summary)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
