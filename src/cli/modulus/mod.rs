@@ -8,7 +8,7 @@
 //! * engineering strain ε = (u_top − u_bottom) / L₀,
 //! * engineering stress σ = |F| / A (A the initial cross-section of the gauge section, given
 //!   on the command line in the deck's length units squared),
-//! * E = σ / ε, in the deck's stress units (dyne/cm² for CGS decks, Pa for SI).
+//! * E = σ / |ε|, in the deck's stress units (dyne/cm² for CGS decks, Pa for SI).
 //!
 //! The unloaded frame (ε = 0 and F = 0, the initial state) is skipped; a frame with ε = 0
 //! under load has no modulus and is an error.
@@ -165,9 +165,10 @@ pub struct Sample {
 }
 
 impl Sample {
-    /// Secant modulus E = σ / ε (stress units).
+    /// Secant modulus E = σ / |ε| (stress units; σ is a magnitude, so compression gives a
+    /// positive E too).
     pub fn modulus(&self) -> f64 {
-        self.stress / self.strain
+        self.stress / self.strain.abs()
     }
 }
 
@@ -352,6 +353,15 @@ Top_Reaction_ForceX,Top_Reaction_ForceY,Top_Reaction_ForceZ
         assert!(table.contains("2.000000e12"), "{table}");
         assert!(table.contains("200.00"), "{table}");
         assert!(table.contains("+0.00 %"), "{table}");
+    }
+
+    #[test]
+    fn compression_gives_the_same_modulus() {
+        let pulled = KNOWN.replace("0.001,0,0,-0.001", "-0.001,0,0,0.001");
+        let history = History::parse(&pulled, Path::new("run.csv")).unwrap();
+        let samples = samples(&history, &args(0.2)).unwrap();
+        assert!(samples[0].strain < 0.0);
+        assert!((samples[0].modulus() / 2e12 - 1.0).abs() < 1e-12);
     }
 
     #[test]
