@@ -220,6 +220,8 @@ Peridigm:
       Number of Load Steps: 4
       Absolute Tolerance: 1.0
       Maximum Solver Iterations: 10
+  # The strain gauge: the points nearest (0, ±1.27, 0) cm, 1 inch apart; the load cells: the
+  # grip reactions.
   Compute Class Parameters:
 ",
     );
