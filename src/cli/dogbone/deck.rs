@@ -225,7 +225,16 @@ Peridigm:
   Compute Class Parameters:
 ",
     );
-    let [top, bottom] = names.gauge;
+    text.push_str(&compute_classes(names.gauge));
+    text.push_str(&output_section(name));
+    text
+}
+
+/// The gauge (`Nearest_Point_Data` at the upper and lower gauge points) and the load cells
+/// (`Block_Data` sums of `Force` over the grips), with the labels `peridyn modulus` reads.
+fn compute_classes(gauge: [[f64; 3]; 2]) -> String {
+    let [top, bottom] = gauge;
+    let mut text = String::new();
     text.push_str(&nearest_point(
         "Strain Gage Top Initial Position",
         top,
@@ -258,7 +267,12 @@ Peridigm:
             "    {title}:\n      Compute Class: \"Block_Data\"\n      Calculation Type: \"Sum\"\n      Block: \"{block}\"\n      Variable: \"Force\"\n      Output Label: \"{label}\"\n"
         ));
     }
-    text.push_str(&format!(
+    text
+}
+
+/// The Exodus output with the globals the CSV carries.
+fn output_section(name: &str) -> String {
+    format!(
         "  Output:
     Output File Type: \"ExodusII\"
     Output Filename: \"{name}\"
@@ -275,6 +289,5 @@ Peridigm:
       Top_Reaction_Force: true
       Bottom_Reaction_Force: true
 "
-    ));
-    text
+    )
 }
