@@ -71,6 +71,10 @@ enum Command {
     },
     /// Time the explicit-dynamics speed check (the LAMMPS PERI problem); optionally run LAMMPS.
     Bench(cli::bench::BenchArgs),
+    /// Young's modulus of a tensile run from its gauge and grip-reaction globals (CSV).
+    Modulus(cli::modulus::ModulusArgs),
+    /// Write the roadmap's dog-bone tensile specimen: points, node sets and a deck.
+    Dogbone(cli::dogbone::DogboneArgs),
 }
 
 /// `peridyn run --backend`.
@@ -375,6 +379,12 @@ fn main() -> ExitCode {
         Command::Check { deck, json } => check(deck, *json),
         Command::Diff { a, b, comp, then } => diff(a, then, b, comp.as_deref()),
         Command::Bench(args) => cli::bench::main(args).map_err(Into::into),
+        Command::Modulus(args) => cli::modulus::main(args)
+            .map_err(invalid)
+            .and_then(|table| emit(&table)),
+        Command::Dogbone(args) => cli::dogbone::main(args)
+            .map_err(invalid)
+            .and_then(|summary| emit(&summary)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
