@@ -13,6 +13,7 @@
 //! Error messages name the file, the key path written with arrows and the line, e.g.
 //! `wave.yaml:27: Materials → Steel → Densty: unknown key; did you mean "Density"?`.
 
+mod belos;
 mod blocks;
 mod boundary;
 mod contact;
