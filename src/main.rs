@@ -169,11 +169,11 @@ fn run(
     }
     // The session lives to the end of the run: dropping it finalizes MPI.
     #[cfg(any(feature = "mpi", feature = "trilinos"))]
-    let _mpi = peridyn::parallel::MpiSession::start();
+    let _mpi = peridyn::mpi_session::MpiSession::start();
     #[cfg(feature = "mpi")]
-    if let Some(session) = &_mpi {
+    if _mpi.is_some() {
         use peridyn::parallel::Communicator;
-        let comm = session.world();
+        let comm = peridyn::parallel::MpiCommunicator::world();
         if comm.size() > 1 {
             return run_on_ranks(path, output_dir, backend, &comm);
         }

@@ -64,8 +64,6 @@
 mod halo;
 #[cfg(feature = "mpi")]
 mod mpi;
-#[cfg(any(feature = "mpi", feature = "trilinos"))]
-mod mpi_session;
 mod partition;
 mod partner;
 mod ranks;
@@ -77,8 +75,6 @@ pub(crate) mod thread_comm;
 pub use halo::{HaloPlan, HaloValue, HaloVolume};
 #[cfg(feature = "mpi")]
 pub use mpi::MpiCommunicator;
-#[cfg(any(feature = "mpi", feature = "trilinos"))]
-pub use mpi_session::{fortran_handle, CommScope, FortranComm, MpiSession};
 pub use partition::Partition;
 pub use partner::PartnerExchange;
 pub use ranks::{first_failure, Ranks, SerialRanks, SubdomainRanks};

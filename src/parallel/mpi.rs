@@ -12,8 +12,8 @@ pub struct MpiCommunicator {
 }
 
 impl MpiCommunicator {
-    /// `MPI_COMM_WORLD`; MPI is started by [`super::MpiSession`].
-    pub(super) fn world() -> Self {
+    /// `MPI_COMM_WORLD`; MPI is started by [`crate::mpi_session::MpiSession`].
+    pub fn world() -> Self {
         Self {
             world: SimpleCommunicator::world(),
         }

@@ -46,7 +46,7 @@ Teuchos::ParameterList &sublist_at(Teuchos::ParameterList &top,
 void fill_parameter_list(Teuchos::ParameterList &top, rust::Slice<const Parameter> parameters);
 
 // The communicator whose Fortran handle (MPI_Comm_c2f) Rust passed. MPI is started and
-// finalised by Rust (src/parallel/mpi_session.rs); Epetra_MpiComm borrows the communicator.
+// finalised by Rust (src/mpi_session.rs); Epetra_MpiComm borrows the communicator.
 MPI_Comm communicator_from_handle(std::int32_t handle);
 
 // Builds the row map from `owned_rows` (global ids this process owns) on the communicator

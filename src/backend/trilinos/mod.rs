@@ -8,8 +8,8 @@
 //! failure is which [`SolveError`]) happens here; the C++ side only adapts types.
 //!
 //! The Epetra objects live on an `Epetra_MpiComm` built from the communicator Rust hands over
-//! as a Fortran handle ([`crate::parallel::fortran_handle`]). MPI is started and finalised on
-//! the Rust side ([`crate::parallel::MpiSession`]), so a serial run needs no `mpirun`; solves
+//! as a Fortran handle ([`crate::mpi_session::fortran_handle`]). MPI is started and finalised on
+//! the Rust side ([`crate::mpi_session::MpiSession`]), so a serial run needs no `mpirun`; solves
 //! from several threads take turns. `Epetra_SerialComm` is not offered: in
 //! Debian's MPI build of Trilinos, ML talks to `MPI_COMM_WORLD` itself unless the Epetra
 //! communicator hands it another, and fails without MPI ("ML::ERROR:: -1 …
@@ -33,7 +33,7 @@ use self::ffi::bridge;
 use super::native::KrylovSettings;
 use super::{Csr, KrylovReport, LinearSolver, SolveError};
 use crate::io::deck::ParameterValue;
-use crate::parallel::{fortran_handle, CommScope};
+use crate::mpi_session::{fortran_handle, CommScope};
 
 /// Belos solver manager.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -110,7 +110,7 @@ pub struct TrilinosLinearSolver {
     settings: TrilinosSettings,
 }
 
-/// MPI runs with `MPI_THREAD_SERIALIZED` ([`crate::parallel::MpiSession`]): solves from
+/// MPI runs with `MPI_THREAD_SERIALIZED` ([`crate::mpi_session::MpiSession`]): solves from
 /// several threads (cargo's test harness) take turns.
 pub(crate) static MPI_TURN: Mutex<()> = Mutex::new(());
 

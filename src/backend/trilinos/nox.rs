@@ -14,7 +14,7 @@ use super::parameters::flatten;
 use super::MPI_TURN;
 use crate::backend::SolveError;
 use crate::io::deck::ParameterValue;
-use crate::parallel::{fortran_handle, CommScope};
+use crate::mpi_session::{fortran_handle, CommScope};
 
 /// A CSR sparsity pattern over the unknowns (global column ids).
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -9,8 +9,8 @@
 //! less `Output Stream`, which is a C++ stream.
 
 use super::error::DeckError;
+use super::parameters::ParameterValue;
 use super::reader::{suggest, Ctx, Field};
-use super::solver::ParameterValue;
 
 /// The type Belos reads a parameter as.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -22,6 +22,7 @@ mod discretization;
 mod error;
 mod materials;
 mod output;
+mod parameters;
 mod reader;
 mod solver;
 mod tree;
@@ -48,11 +49,12 @@ pub use materials::{
     Material, MaterialModel, PalsInfluence, PlanarKind,
 };
 pub use output::{CalculationType, ComputeClass, ComputeClassKind, Output};
+pub use parameters::ParameterValue;
 pub use solver::{
     AdaptiveLoadStepping, AlgebraicPreconditioner, BelosSettings, BelosSolver, Implicit,
     ImplicitDiffusion, Integrator, LinearBackend, LinearMethod, LinearPreconditioner, LinearSolve,
-    LoadSteps, NoxQuasiStatic, ParameterValue, PeridigmPreconditioner, QuasiStatic, SolveFor,
-    Solver, SwitchToVerlet, Verlet,
+    LoadSteps, NoxQuasiStatic, PeridigmPreconditioner, QuasiStatic, SolveFor, Solver,
+    SwitchToVerlet, Verlet,
 };
 
 use reader::{suggest, Ctx, Field, ListReader};

@@ -1,8 +1,8 @@
 //! Top-level lists whose name contains `Solver`: time span, common switches, one integrator.
 
 use super::error::DeckError;
+use super::parameters::{to_parameter_value, ParameterValue};
 use super::reader::{Ctx, Field, ListReader};
-use super::tree::{Entry, NodeKind, ScalarKind};
 
 /// One `Solver*` list. Several run one after the other in file order, state carried over.
 #[derive(Debug, Clone, PartialEq)]
@@ -324,21 +324,6 @@ pub struct NoxQuasiStatic {
     pub nox: Vec<(String, ParameterValue)>,
 }
 
-/// A generic parameter tree (for lists handed on unchanged, such as NOX's).
-#[derive(Debug, Clone, PartialEq)]
-pub enum ParameterValue {
-    /// A nested list, in file order.
-    List(Vec<(String, ParameterValue)>),
-    /// A string (an empty YAML value is an empty string).
-    String(String),
-    /// An integer.
-    Int(i64),
-    /// A double.
-    Double(f64),
-    /// A boolean.
-    Bool(bool),
-}
-
 /// `Implicit` sublist (Newmark-β).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Implicit {
@@ -402,24 +387,6 @@ const INTEGRATORS: [&str; 5] = [
     "Implicit",
     "ImplicitDiffusion",
 ];
-
-pub(crate) fn to_parameter_value(entry: &Entry) -> ParameterValue {
-    match &entry.value.kind {
-        NodeKind::List(children) => ParameterValue::List(
-            children
-                .iter()
-                .map(|c| (c.key.clone(), to_parameter_value(c)))
-                .collect(),
-        ),
-        NodeKind::Scalar(s) => match s.kind {
-            ScalarKind::String => ParameterValue::String(s.text.clone()),
-            ScalarKind::Null => ParameterValue::String(String::new()),
-            ScalarKind::Int(i) => ParameterValue::Int(i),
-            ScalarKind::Double(d) => ParameterValue::Double(d),
-            ScalarKind::Bool(b) => ParameterValue::Bool(b),
-        },
-    }
-}
 
 /// Reads `Number of Load Steps` / `Time Steps`; returns the steps and the last listed time.
 fn read_load_steps(

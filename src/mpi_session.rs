@@ -1,6 +1,10 @@
 //! The process's MPI environment (features `mpi` or `trilinos`, rsmpi): the one place that
 //! starts and finalises MPI, and hands communicators to C++ libraries as Fortran handles.
 //!
+//! The distributed run's communicator is [`crate::parallel::MpiCommunicator`] (feature `mpi`);
+//! this module only owns the environment, so the backends and the ranks both depend on it and
+//! not on each other.
+//!
 //! A program holds an [`MpiSession`] for its whole run (`peridyn run` does): MPI starts when
 //! it is created and is finalised when it is dropped, which a process under `mpirun` must do
 //! before it exits. Trilinos' `Epetra_MpiComm` needs MPI even on one process, so a build with
@@ -45,12 +49,6 @@ impl MpiSession {
         Some(Self {
             _universe: universe,
         })
-    }
-
-    /// `MPI_COMM_WORLD` as the [`super::Communicator`] of a distributed run.
-    #[cfg(feature = "mpi")]
-    pub fn world(&self) -> super::MpiCommunicator {
-        super::MpiCommunicator::world()
     }
 }
 
