@@ -11,7 +11,7 @@ export CARGO_TERM_COLOR=never
 # needed by the Teuchos and ML headers although the Debian packages do not depend on them.
 apt-get update -o DPkg::Lock::Timeout=600 -qq
 apt-get install -y -qq -o DPkg::Lock::Timeout=600 \
-  libopenmpi-dev openmpi-bin pkg-config cmake g++ \
+  libopenmpi-dev openmpi-bin pkg-config cmake g++ libclang-dev \
   libtrilinos-teuchos-dev libtrilinos-epetra-dev libtrilinos-epetraext-dev libtrilinos-kokkos-dev \
   libtrilinos-belos-dev libtrilinos-ifpack-dev libtrilinos-ml-dev libtrilinos-nox-dev
 # Only for Trilinos_DIR / PERIDYN_TRILINOS_CMAKE=1 (find_package(Trilinos) includes these
@@ -19,7 +19,8 @@ apt-get install -y -qq -o DPkg::Lock::Timeout=600 \
 #   libtrilinos-{amesos,amesos2,anasazi,galeri,ifpack2,isorropia,kokkos-kernels,rtop,shylu,
 #   stratimikos,teko,thyra,tpetra,triutils,xpetra,zoltan,zoltan2}-dev
 
-# MPI is initialised on the first solve; a CI container usually runs as root.
+# MPI is started by peridyn (rsmpi, whose mpi-sys needs libclang); a CI container usually
+# runs as root.
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 # One C++ compile at a time: the shim's Belos/ML templates take ~1 GB each.
 export NUM_JOBS=1 CMAKE_BUILD_PARALLEL_LEVEL=1

@@ -43,6 +43,7 @@
 //! | [`io::exodus`], [`io::output`], [`io::history`] | results in Exodus II and CSV, and exodiff-style comparison |
 //! | [`plan`] | what `peridyn check` reports |
 //! | [`parallel`] | who owns which point on N MPI ranks: RCB partition, ghost (halo) plan, the one [`parallel::Ranks`] interface (serial: the no-op [`parallel::SerialRanks`]), what runs on ranks |
+//! | `mpi_session` | who starts and finalises MPI (features `mpi` or `trilinos`), and which communicator handle C++ libraries get |
 //! | [`error`] | why a run stopped ([`error::RunError`], with its exit code) |
 //!
 //! ## Life of an explicit step (velocity Verlet, Peridigm's order)
@@ -94,6 +95,8 @@ pub mod expression;
 pub mod io;
 pub mod material;
 pub mod model;
+#[cfg(any(feature = "mpi", feature = "trilinos"))]
+pub mod mpi_session;
 pub mod neighbors;
 pub mod parallel;
 pub mod physics;

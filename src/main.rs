@@ -171,14 +171,15 @@ fn run(
             .build_global()
             .context("cannot set up the thread pool")?;
     }
-    // The universe lives to the end of the run: dropping it finalizes MPI.
+    // The session lives to the end of the run: dropping it finalizes MPI.
+    #[cfg(any(feature = "mpi", feature = "trilinos"))]
+    let _mpi = peridyn::mpi_session::MpiSession::start();
     #[cfg(feature = "mpi")]
-    let mpi = peridyn::parallel::initialize();
-    #[cfg(feature = "mpi")]
-    if let Some((_, comm)) = &mpi {
+    if _mpi.is_some() {
         use peridyn::parallel::Communicator;
+        let comm = peridyn::parallel::MpiCommunicator::world();
         if comm.size() > 1 {
-            return run_on_ranks(path, output_dir, backend, comm);
+            return run_on_ranks(path, output_dir, backend, &comm);
         }
     }
     let deck = load_with_backend(path, backend)?;

@@ -393,3 +393,47 @@ fn deck_choices_the_trilinos_backend_cannot_honour_are_refused() {
         assert!(error.contains("deck.yaml"), "names the file: {error}");
     }
 }
+
+// ---- Belos parameters from the deck ----
+
+#[test]
+fn a_belos_parameter_replaces_the_setting_peridyn_derives() {
+    use peridyn::io::deck::ParameterValue;
+    let (matrix, rhs, _) = laplacian_problem(N);
+    let mut solver = TrilinosLinearSolver::new(TrilinosSettings {
+        belos_parameters: vec![
+            ("Maximum Iterations".into(), ParameterValue::Int(5)),
+            (
+                "Convergence Tolerance".into(),
+                ParameterValue::Double(1e-13),
+            ),
+        ],
+        ..settings(BelosMethod::BlockCg, TrilinosPreconditioner::None)
+    });
+    let mut x = vec![0.0; N];
+    match solver.solve(&matrix, &rhs, &mut x) {
+        Err(SolveError::NotConverged {
+            iterations,
+            tolerance,
+            ..
+        }) => {
+            // The Krylov settings allow N iterations to 1e-12; the Belos list wins.
+            assert_eq!(iterations, 5);
+            assert_eq!(tolerance, 1e-13);
+        }
+        other => panic!("expected NotConverged, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_deck_belos_iteration_limit_reaches_belos() {
+    let solver = "    Backend: \"Trilinos\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"None\"\n    Linear Solver Tolerance: 1.0e-12";
+    let dir = tempfile::tempdir().unwrap();
+    run_deck(dir.path(), &bar_deck(solver, PULL, SHEAR)).expect("the bar solves without the limit");
+    let limited = format!("{solver}\n    Belos:\n      Maximum Iterations: 2");
+    let dir = tempfile::tempdir().unwrap();
+    let error = run_deck(dir.path(), &bar_deck(&limited, PULL, SHEAR))
+        .expect_err("two CG iterations cannot solve the bar")
+        .to_string();
+    assert!(error.contains("2 iterations"), "{error}");
+}

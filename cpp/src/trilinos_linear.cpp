@@ -6,7 +6,6 @@
 #include <mpi.h>
 
 #include <algorithm>
-#include <cstdlib>
 #include <stdexcept>
 #include <string>
 
@@ -29,18 +28,12 @@ namespace trilinos {
 
 namespace {
 
+static_assert(sizeof(MPI_Fint) == sizeof(std::int32_t), "MPI_Fint is passed as a 32-bit integer");
+
 void check(int code, const char *what) {
   if (code < 0) {
     throw std::runtime_error(std::string(what) + " failed with Epetra error code " +
                              std::to_string(code));
-  }
-}
-
-void finalize_mpi_at_exit() {
-  int finalized = 0;
-  MPI_Finalized(&finalized);
-  if (!finalized) {
-    MPI_Finalize();
   }
 }
 
@@ -59,37 +52,51 @@ void set_ifpack(LinearSystem &system, const char *kind, Teuchos::ParameterList &
 
 } // namespace
 
+Teuchos::ParameterList &sublist_at(Teuchos::ParameterList &top,
+                                   const rust::Vec<rust::String> &path) {
+  Teuchos::ParameterList *list = &top;
+  for (const auto &name : path) {
+    list = &list->sublist(std::string(name));
+  }
+  return *list;
+}
+
+void fill_parameter_list(Teuchos::ParameterList &top, rust::Slice<const Parameter> parameters) {
+  for (const auto &p : parameters) {
+    Teuchos::ParameterList &list = sublist_at(top, p.path);
+    const std::string name(p.name);
+    switch (p.kind) {
+    case ParameterKind::Text:
+      list.set(name, std::string(p.text));
+      break;
+    case ParameterKind::Double:
+      list.set(name, p.number);
+      break;
+    case ParameterKind::Int:
+      list.set(name, static_cast<int>(p.integer));
+      break;
+    case ParameterKind::Bool:
+      list.set(name, p.flag);
+      break;
+    }
+  }
+}
+
+MPI_Comm communicator_from_handle(std::int32_t handle) {
+  return MPI_Comm_f2c(static_cast<MPI_Fint>(handle));
+}
+
 LinearSystem::LinearSystem() = default;
 LinearSystem::~LinearSystem() = default;
 
-bool mpi_initialize() {
-  int initialized = 0;
-  MPI_Initialized(&initialized);
-  if (initialized) {
-    return false;
-  }
-  int provided = 0;
-  if (MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SERIALIZED, &provided) != MPI_SUCCESS) {
-    throw std::runtime_error("MPI_Init_thread failed");
-  }
-  std::atexit(finalize_mpi_at_exit);
-  return true;
-}
-
-std::int32_t mpi_world_size() {
-  int size = 0;
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
-  return size;
-}
-
 std::unique_ptr<LinearSystem>
-new_linear_system(bool mpi_world, rust::Slice<const std::int32_t> owned_rows,
+new_linear_system(std::int32_t communicator, rust::Slice<const std::int32_t> owned_rows,
                   rust::Slice<const std::int32_t> row_gids,
                   rust::Slice<const std::int32_t> row_offsets,
                   rust::Slice<const std::int32_t> column_gids,
                   rust::Slice<const double> values) {
   auto system = std::make_unique<LinearSystem>();
-  system->comm = std::make_unique<Epetra_MpiComm>(mpi_world ? MPI_COMM_WORLD : MPI_COMM_SELF);
+  system->comm = std::make_unique<Epetra_MpiComm>(communicator_from_handle(communicator));
   system->map = std::make_unique<Epetra_Map>(-1, static_cast<int>(owned_rows.size()),
                                              owned_rows.data(), 0, *system->comm);
   int longest_row = 0;
@@ -140,8 +147,7 @@ void set_ml_preconditioner(LinearSystem &system, std::int32_t pde_equations) {
 }
 
 BelosOutcome belos_solve(const LinearSystem &system, bool gmres, rust::Slice<const double> rhs,
-                         rust::Slice<double> x, double relative_tolerance,
-                         std::int32_t max_iterations, std::int32_t gmres_restart) {
+                         rust::Slice<double> x, rust::Slice<const Parameter> parameters) {
   using MV = Epetra_MultiVector;
   using OP = Epetra_Operator;
   auto b = Teuchos::rcp(new Epetra_Vector(View, *system.map, const_cast<double *>(rhs.data())));
@@ -159,16 +165,10 @@ BelosOutcome belos_solve(const LinearSystem &system, bool gmres, rust::Slice<con
   if (!problem->setProblem()) {
     throw std::runtime_error("Belos::LinearProblem::setProblem rejected the system");
   }
-  auto params = Teuchos::rcp(new Teuchos::ParameterList);
-  params->set("Block Size", 1);
-  params->set("Maximum Iterations", static_cast<int>(max_iterations));
-  params->set("Convergence Tolerance", relative_tolerance);
-  params->set("Implicit Residual Scaling", std::string("Norm of RHS"));
-  params->set("Explicit Residual Scaling", std::string("Norm of RHS"));
-  params->set("Verbosity", static_cast<int>(Belos::Errors));
+  auto params = Teuchos::rcp(new Teuchos::ParameterList("Belos"));
+  fill_parameter_list(*params, parameters);
   std::unique_ptr<Belos::SolverManager<double, MV, OP>> solver;
   if (gmres) {
-    params->set("Num Blocks", static_cast<int>(gmres_restart));
     solver = std::make_unique<Belos::BlockGmresSolMgr<double, MV, OP>>(problem, params);
   } else {
     solver = std::make_unique<Belos::BlockCGSolMgr<double, MV, OP>>(problem, params);

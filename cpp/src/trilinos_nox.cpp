@@ -2,6 +2,7 @@
 // arrive here as rust::Error and become a `false` fill, which NOX turns into its own
 // exception; nox_solve rethrows every exception as std::runtime_error for cxx to hand to Rust.
 #include "peridyn/trilinos_nox.hpp"
+#include "peridyn/trilinos_linear.hpp"
 #include "peridyn/src/backend/trilinos/nox_ffi.rs.h"
 
 #include <mpi.h>
@@ -38,37 +39,6 @@ void check(int code, const char *what) {
     throw std::runtime_error(std::string(what) + " failed with Epetra error code " +
                              std::to_string(code));
   }
-}
-
-Teuchos::ParameterList &sublist_at(Teuchos::ParameterList &top, const rust::Vec<rust::String> &path) {
-  Teuchos::ParameterList *list = &top;
-  for (const auto &name : path) {
-    list = &list->sublist(std::string(name));
-  }
-  return *list;
-}
-
-RCP<Teuchos::ParameterList> parameter_list(rust::Slice<const NoxParameter> parameters) {
-  auto top = rcp(new Teuchos::ParameterList("NOX"));
-  for (const auto &p : parameters) {
-    Teuchos::ParameterList &list = sublist_at(*top, p.path);
-    const std::string name(p.name);
-    switch (p.kind) {
-    case NoxValueKind::Text:
-      list.set(name, std::string(p.text));
-      break;
-    case NoxValueKind::Double:
-      list.set(name, p.number);
-      break;
-    case NoxValueKind::Int:
-      list.set(name, static_cast<int>(p.integer));
-      break;
-    case NoxValueKind::Bool:
-      list.set(name, p.flag);
-      break;
-    }
-  }
-  return top;
 }
 
 // A matrix with the CSR pattern (global row ids `rows`, `offsets` into `columns`), all zero.
@@ -241,11 +211,12 @@ RCP<NOX::StatusTest::Combo> status_tests(const NoxLayout &layout) {
 }
 
 NoxOutcome solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows,
-                 const NoxLayout &layout, rust::Slice<const NoxParameter> parameters,
+                 const NoxLayout &layout, rust::Slice<const Parameter> parameters,
                  rust::Slice<double> x) {
-  Epetra_MpiComm comm(layout.mpi_world ? MPI_COMM_WORLD : MPI_COMM_SELF);
+  Epetra_MpiComm comm(communicator_from_handle(layout.communicator));
   Epetra_Map map(-1, static_cast<int>(owned_rows.size()), owned_rows.data(), 0, comm);
-  RCP<Teuchos::ParameterList> params = parameter_list(parameters);
+  auto params = rcp(new Teuchos::ParameterList("NOX"));
+  fill_parameter_list(*params, parameters);
   Teuchos::ParameterList &printing = params->sublist("Printing");
   Teuchos::ParameterList &linear_solver = sublist_at(*params, layout.linear_solver_path);
   auto callbacks = rcp(new Callbacks(problem, owned_rows, layout));
@@ -274,7 +245,7 @@ NoxOutcome solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows
 } // namespace
 
 NoxOutcome nox_solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows,
-                     const NoxLayout &layout, rust::Slice<const NoxParameter> parameters,
+                     const NoxLayout &layout, rust::Slice<const Parameter> parameters,
                      rust::Slice<double> x) {
   try {
     return solve(problem, owned_rows, layout, parameters, x);

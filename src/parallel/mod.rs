@@ -74,7 +74,7 @@ pub(crate) mod thread_comm;
 
 pub use halo::{HaloPlan, HaloValue, HaloVolume};
 #[cfg(feature = "mpi")]
-pub use mpi::{initialize, MpiCommunicator};
+pub use mpi::MpiCommunicator;
 pub use partition::Partition;
 pub use partner::PartnerExchange;
 pub use ranks::{first_failure, Ranks, SerialRanks, SubdomainRanks};

@@ -5,30 +5,19 @@ use mpi::collective::{CommunicatorCollectives, Root, SystemOperation};
 use mpi::datatype::PartitionMut;
 use mpi::point_to_point::{Destination, Source};
 use mpi::topology::{Communicator as _, SimpleCommunicator};
-use mpi::Threading;
 
 /// `MPI_COMM_WORLD` as a [`Communicator`].
 pub struct MpiCommunicator {
     world: SimpleCommunicator,
 }
 
-/// Starts MPI (threads funneled: only the main thread calls MPI, rayon workers never do).
-/// Returns `None` when MPI was already started. The [`mpi::environment::Universe`] must live
-/// until the end of the program: dropping it calls `MPI_Finalize`.
-///
-/// On more than one rank a panic on any rank ends all ranks (`MPI_Abort`) after printing its
-/// message, instead of leaving the others waiting in a collective.
-pub fn initialize() -> Option<(mpi::environment::Universe, MpiCommunicator)> {
-    let (universe, _level) = mpi::initialize_with_threading(Threading::Funneled)?;
-    let world = universe.world();
-    if world.size() > 1 {
-        let previous = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            previous(info);
-            SimpleCommunicator::world().abort(101);
-        }));
+impl MpiCommunicator {
+    /// `MPI_COMM_WORLD`; MPI is started by [`crate::mpi_session::MpiSession`].
+    pub fn world() -> Self {
+        Self {
+            world: SimpleCommunicator::world(),
+        }
     }
-    Some((universe, MpiCommunicator { world }))
 }
 
 impl Communicator for MpiCommunicator {

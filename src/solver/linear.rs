@@ -165,6 +165,7 @@ fn trilinos_strategy(
             krylov,
             pde_equations: 1,
             communicator: Communicator::MpiSelf,
+            belos_parameters: settings.belos_parameters.clone(),
         }),
     )))
 }

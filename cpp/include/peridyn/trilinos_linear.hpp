@@ -8,17 +8,23 @@
 #include <cstdint>
 #include <memory>
 
+#include <mpi.h>
+
 #include "rust/cxx.h"
 
 class Epetra_Comm;
 class Epetra_Map;
 class Epetra_FECrsMatrix;
 class Epetra_Operator;
+namespace Teuchos {
+class ParameterList;
+}
 
 namespace peridyn {
 namespace trilinos {
 
 struct BelosOutcome;
+struct Parameter;
 
 // One distributed matrix with its communicator, row map and (optional) preconditioner. Member
 // order is destruction order in reverse: the preconditioner goes before the matrix it
@@ -33,18 +39,22 @@ public:
   std::unique_ptr<Epetra_Operator> preconditioner;
 };
 
-// MPI_Init_thread(MPI_THREAD_SERIALIZED) unless MPI is already initialised; returns whether
-// this call initialised it (then MPI_Finalize runs at process exit).
-bool mpi_initialize();
-// Size of MPI_COMM_WORLD (MPI must be initialised).
-std::int32_t mpi_world_size();
+// The sublist of `top` reached through the sublist names `path` (created as needed).
+Teuchos::ParameterList &sublist_at(Teuchos::ParameterList &top,
+                                   const rust::Vec<rust::String> &path);
+// Sets every entry of `parameters` (typed, each in its sublist) in `top`.
+void fill_parameter_list(Teuchos::ParameterList &top, rust::Slice<const Parameter> parameters);
 
-// Builds the row map from `owned_rows` (global ids this process owns) on MPI_COMM_WORLD or
-// MPI_COMM_SELF (MPI must be initialised), then fills an Epetra_FECrsMatrix with the CSR rows `row_gids`
+// The communicator whose Fortran handle (MPI_Comm_c2f) Rust passed. MPI is started and
+// finalised by Rust (src/mpi_session.rs); Epetra_MpiComm borrows the communicator.
+MPI_Comm communicator_from_handle(std::int32_t handle);
+
+// Builds the row map from `owned_rows` (global ids this process owns) on the communicator
+// with the Fortran handle `communicator`, then fills an Epetra_FECrsMatrix with the CSR rows `row_gids`
 // (row_offsets / column_gids / values; rows owned by another process are sent to it by
 // GlobalAssemble).
 std::unique_ptr<LinearSystem>
-new_linear_system(bool mpi_world, rust::Slice<const std::int32_t> owned_rows,
+new_linear_system(std::int32_t communicator, rust::Slice<const std::int32_t> owned_rows,
                   rust::Slice<const std::int32_t> row_gids,
                   rust::Slice<const std::int32_t> row_offsets,
                   rust::Slice<const std::int32_t> column_gids,
@@ -63,12 +73,12 @@ void set_ilu_preconditioner(LinearSystem &system, std::int32_t fill_level);
 void set_ml_preconditioner(LinearSystem &system, std::int32_t pde_equations);
 
 // Belos BlockCGSolMgr (left preconditioner) or BlockGmresSolMgr (right preconditioner) with
-// block size 1, residuals scaled by the norm of the right-hand side. `x` is the initial
-// guess on entry and the solution on return.
+// the parameter list built from `parameters` (block size, tolerance, limits and residual
+// scaling are all chosen in Rust). `x` is the initial guess on entry and the solution on
+// return.
 BelosOutcome belos_solve(const LinearSystem &system, bool gmres,
                          rust::Slice<const double> rhs, rust::Slice<double> x,
-                         double relative_tolerance, std::int32_t max_iterations,
-                         std::int32_t gmres_restart);
+                         rust::Slice<const Parameter> parameters);
 
 } // namespace trilinos
 } // namespace peridyn

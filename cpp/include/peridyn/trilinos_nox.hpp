@@ -13,17 +13,17 @@ namespace trilinos {
 
 struct NoxProblem;
 struct NoxLayout;
-struct NoxParameter;
+struct Parameter;
 struct NoxOutcome;
 
 // Builds the NOX group (assembled or matrix-free Jacobian, optional preconditioner matrix),
 // the status tests Combo(OR: FiniteValue, NormF(tolerance, unscaled), MaxIters) and the solver
 // from `parameters`, then steps it until a status test ends it, reporting each iteration to
-// `problem`. The rows are global ids on MPI_COMM_WORLD or MPI_COMM_SELF as the layout says.
+// `problem`. The rows are global ids on the communicator whose Fortran handle the layout holds.
 // `x` is the initial guess on entry and NOX's solution on return. A failing Rust
 // callback makes the fill return false; NOX's exception is rethrown as std::runtime_error.
 NoxOutcome nox_solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows,
-                     const NoxLayout &layout, rust::Slice<const NoxParameter> parameters,
+                     const NoxLayout &layout, rust::Slice<const Parameter> parameters,
                      rust::Slice<double> x);
 
 } // namespace trilinos

@@ -14,22 +14,49 @@ pub(crate) mod bridge {
         achieved_tolerance: f64,
     }
 
+    /// Type of one Teuchos parameter.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    enum ParameterKind {
+        /// `std::string`.
+        Text,
+        /// `double`.
+        Double,
+        /// `int`.
+        Int,
+        /// `bool`.
+        Bool,
+    }
+
+    /// One entry of a Teuchos `ParameterList` (Belos', NOX's): the sublist names leading to it,
+    /// its name and its value.
+    struct Parameter {
+        /// Sublists from the top of the list, outermost first.
+        path: Vec<String>,
+        /// Parameter name.
+        name: String,
+        /// Which of the value fields holds the value.
+        kind: ParameterKind,
+        /// Value of a `Text` parameter.
+        text: String,
+        /// Value of a `Double` parameter.
+        number: f64,
+        /// Value of an `Int` parameter.
+        integer: i32,
+        /// Value of a `Bool` parameter.
+        flag: bool,
+    }
+
     unsafe extern "C++" {
         include!("peridyn/trilinos_linear.hpp");
 
         /// Communicator, row map, matrix and preconditioner of one system.
         type LinearSystem;
 
-        /// Initialises MPI (thread level serialized) unless it already is; true when this
-        /// call did it.
-        fn mpi_initialize() -> Result<bool>;
-        /// Size of `MPI_COMM_WORLD`.
-        fn mpi_world_size() -> i32;
-
-        /// Row map over `owned_rows` on `MPI_COMM_WORLD` (`mpi_world`) or `MPI_COMM_SELF`, and
-        /// an `Epetra_FECrsMatrix` filled from the CSR rows `row_gids`. MPI must be initialised.
+        /// Row map over `owned_rows` on the communicator with the Fortran handle
+        /// `communicator` (`MPI_Comm_c2f`), and an `Epetra_FECrsMatrix` filled from the CSR
+        /// rows `row_gids`.
         fn new_linear_system(
-            mpi_world: bool,
+            communicator: i32,
             owned_rows: &[i32],
             row_gids: &[i32],
             row_offsets: &[i32],
@@ -47,15 +74,14 @@ pub(crate) mod bridge {
         /// ML smoothed aggregation.
         fn set_ml_preconditioner(system: Pin<&mut LinearSystem>, pde_equations: i32) -> Result<()>;
 
-        /// Belos BlockCG (`gmres` false) or BlockGMRES.
+        /// Belos BlockCG (`gmres` false) or BlockGMRES with the parameter list built from
+        /// `parameters` (every setting comes from Rust).
         fn belos_solve(
             system: &LinearSystem,
             gmres: bool,
             rhs: &[f64],
             x: &mut [f64],
-            relative_tolerance: f64,
-            max_iterations: i32,
-            gmres_restart: i32,
+            parameters: &[Parameter],
         ) -> Result<BelosOutcome>;
     }
 }

@@ -7,9 +7,10 @@
 //! return. Everything that is decided (validation, method names, the achieved residual, which
 //! failure is which [`SolveError`]) happens here; the C++ side only adapts types.
 //!
-//! The Epetra objects live on an `Epetra_MpiComm`. MPI is initialised on the first solve if
-//! nobody has (`MPI_THREAD_SERIALIZED`, finalised at process exit), so a serial run needs no
-//! `mpirun`; solves from several threads take turns. `Epetra_SerialComm` is not offered: in
+//! The Epetra objects live on an `Epetra_MpiComm` built from the communicator Rust hands over
+//! as a Fortran handle ([`crate::mpi_session::fortran_handle`]). MPI is started and finalised on
+//! the Rust side ([`crate::mpi_session::MpiSession`]), so a serial run needs no `mpirun`; solves
+//! from several threads take turns. `Epetra_SerialComm` is not offered: in
 //! Debian's MPI build of Trilinos, ML talks to `MPI_COMM_WORLD` itself unless the Epetra
 //! communicator hands it another, and fails without MPI ("ML::ERROR:: -1 …
 //! ml_MultiLevelPreconditioner.cpp, line 2644").
@@ -24,12 +25,15 @@ mod ffi;
 pub mod nox;
 mod nox_ffi;
 pub mod nox_problem;
+mod parameters;
 
 use std::sync::Mutex;
 
 use self::ffi::bridge;
 use super::native::KrylovSettings;
 use super::{Csr, KrylovReport, LinearSolver, SolveError};
+use crate::io::deck::ParameterValue;
+use crate::mpi_session::{fortran_handle, CommScope};
 
 /// Belos solver manager.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -82,6 +86,9 @@ pub struct TrilinosSettings {
     pub pde_equations: u32,
     /// Communicator.
     pub communicator: Communicator,
+    /// Belos parameters that replace the ones derived from the fields above (the deck's
+    /// `Belos` sublist, names and types checked by the deck reader). Default none.
+    pub belos_parameters: Vec<(String, ParameterValue)>,
 }
 
 impl Default for TrilinosSettings {
@@ -92,6 +99,7 @@ impl Default for TrilinosSettings {
             krylov: KrylovSettings::default(),
             pde_equations: 1,
             communicator: Communicator::MpiSelf,
+            belos_parameters: Vec::new(),
         }
     }
 }
@@ -102,8 +110,8 @@ pub struct TrilinosLinearSolver {
     settings: TrilinosSettings,
 }
 
-/// MPI is initialised with `MPI_THREAD_SERIALIZED`: solves from several threads (cargo's test
-/// harness) take turns.
+/// MPI runs with `MPI_THREAD_SERIALIZED` ([`crate::mpi_session::MpiSession`]): solves from
+/// several threads (cargo's test harness) take turns.
 pub(crate) static MPI_TURN: Mutex<()> = Mutex::new(());
 
 impl TrilinosLinearSolver {
@@ -188,10 +196,15 @@ impl TrilinosLinearSolver {
         x: &mut [f64],
     ) -> Result<bridge::BelosOutcome, SolveError> {
         let distributed = matrix.distributed;
-        let mpi_world = distributed || self.settings.communicator == Communicator::MpiWorld;
-        bridge::mpi_initialize().map_err(|e| self.cxx_failure("MPI initialisation", e))?;
-        if mpi_world && !distributed {
-            let size = bridge::mpi_world_size();
+        let scope = if distributed || self.settings.communicator == Communicator::MpiWorld {
+            CommScope::World
+        } else {
+            CommScope::Process
+        };
+        let communicator =
+            fortran_handle(scope).map_err(|e| self.breakdown(format!("MPI: {e}")))?;
+        if scope == CommScope::World && !distributed {
+            let size = communicator.size;
             if size != 1 {
                 return Err(self.breakdown(format!(
                     "MPI_COMM_WORLD has {size} processes, but the matrix holds every row on every process; \
@@ -201,7 +214,7 @@ impl TrilinosLinearSolver {
             }
         }
         let mut system = bridge::new_linear_system(
-            mpi_world,
+            communicator.handle,
             &matrix.rows,
             &matrix.rows,
             &matrix.offsets,
@@ -221,20 +234,64 @@ impl TrilinosLinearSolver {
             }
         }
         .map_err(|e| self.cxx_failure("building the preconditioner", e))?;
-        let krylov = &self.settings.krylov;
-        let limit = krylov.max_iterations.unwrap_or(matrix.unknowns).max(1);
+        let parameters = parameters::flatten(&self.belos_parameters(matrix.unknowns));
         bridge::belos_solve(
             &system,
             self.settings.method == BelosMethod::BlockGmres,
             rhs,
             x,
-            krylov.relative_tolerance,
-            to_i32(limit),
-            to_i32(krylov.restart.clamp(1, limit)),
+            &parameters,
         )
         .map_err(|e| self.cxx_failure("Belos", e))
     }
+
+    /// Belos' parameter list for a system of `unknowns` unknowns: block size 1, the Krylov
+    /// settings (iteration limit default `unknowns`), residuals scaled by ‖b‖, errors only
+    /// printed, then [`TrilinosSettings::belos_parameters`] replacing any of them.
+    fn belos_parameters(&self, unknowns: usize) -> Vec<(String, ParameterValue)> {
+        use ParameterValue::{Double, Int, String as Text};
+        let krylov = &self.settings.krylov;
+        let limit = krylov.max_iterations.unwrap_or(unknowns).max(1);
+        let mut list = vec![
+            ("Block Size", Int(1)),
+            ("Maximum Iterations", Int(limit as i64)),
+            ("Convergence Tolerance", Double(krylov.relative_tolerance)),
+            ("Implicit Residual Scaling", Text("Norm of RHS".into())),
+            ("Explicit Residual Scaling", Text("Norm of RHS".into())),
+            ("Verbosity", Int(BELOS_ERRORS)),
+        ];
+        if self.settings.method == BelosMethod::BlockGmres {
+            list.push(("Num Blocks", Int(krylov.restart.clamp(1, limit) as i64)));
+        }
+        let mut list: Vec<(String, ParameterValue)> = list
+            .into_iter()
+            .map(|(name, value)| (name.to_string(), value))
+            .collect();
+        for (name, value) in &self.settings.belos_parameters {
+            match list.iter_mut().find(|(n, _)| n == name) {
+                Some(slot) => slot.1 = value.clone(),
+                None => list.push((name.clone(), value.clone())),
+            }
+        }
+        list
+    }
+
+    /// The tolerance Belos works to: the deck's `Convergence Tolerance` when given, else the
+    /// Krylov settings'.
+    fn convergence_tolerance(&self) -> f64 {
+        self.settings
+            .belos_parameters
+            .iter()
+            .find_map(|(name, value)| match value {
+                ParameterValue::Double(t) if name == "Convergence Tolerance" => Some(*t),
+                _ => None,
+            })
+            .unwrap_or(self.settings.krylov.relative_tolerance)
+    }
 }
+
+/// `Belos::Errors`, the `Verbosity` that prints errors only.
+const BELOS_ERRORS: i64 = 0;
 
 /// A [`Csr`] with the 32-bit global ids Epetra's `int` maps take.
 struct IndexedCsr<'a> {
@@ -318,7 +375,7 @@ impl LinearSolver for TrilinosLinearSolver {
                 method: self.method_name(),
                 iterations,
                 relative_residual: outcome.achieved_tolerance,
-                tolerance: self.settings.krylov.relative_tolerance,
+                tolerance: self.convergence_tolerance(),
             });
         }
         Ok(KrylovReport {
@@ -395,7 +452,7 @@ impl LinearSolver for TrilinosLinearSolver {
                 method: self.method_name(),
                 iterations,
                 relative_residual,
-                tolerance: self.settings.krylov.relative_tolerance,
+                tolerance: self.convergence_tolerance(),
             });
         }
         Ok(KrylovReport {
@@ -421,9 +478,9 @@ pub fn epetra_multiply(matrix: &Csr, x: &[f64], y: &mut [f64]) -> Result<(), Sol
     let indexed = IndexedCsr::new(matrix)
         .ok_or_else(|| fail("the matrix exceeds Epetra's 32-bit indices".into()))?;
     let _turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
-    bridge::mpi_initialize().map_err(|e| fail(e.what().to_string()))?;
+    let communicator = fortran_handle(CommScope::Process).map_err(fail)?;
     let system = bridge::new_linear_system(
-        false,
+        communicator.handle,
         &indexed.rows,
         &indexed.rows,
         &indexed.offsets,

@@ -10,9 +10,11 @@
 
 pub use super::nox_ffi::NonlinearCallbacks;
 use super::nox_ffi::{bridge, NoxProblem};
-use super::{ffi::bridge as linear_bridge, MPI_TURN};
+use super::parameters::flatten;
+use super::MPI_TURN;
 use crate::backend::SolveError;
 use crate::io::deck::ParameterValue;
+use crate::mpi_session::{fortran_handle, CommScope};
 
 /// A CSR sparsity pattern over the unknowns (global column ids).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -84,56 +86,6 @@ fn narrow(values: &[usize], what: &str) -> Result<Vec<i32>, SolveError> {
         .map_err(|_| failure(format!("{what} exceed Epetra's 32-bit indices (2³¹ − 1)")))
 }
 
-/// The NOX parameter list as flat entries (sublist path, name, typed value).
-pub fn flatten_parameters(tree: &[(String, ParameterValue)]) -> Vec<bridge::NoxParameter> {
-    let mut out = Vec::new();
-    flatten_into(tree, &mut Vec::new(), &mut out);
-    out
-}
-
-fn flatten_into(
-    tree: &[(String, ParameterValue)],
-    path: &mut Vec<String>,
-    out: &mut Vec<bridge::NoxParameter>,
-) {
-    use bridge::NoxValueKind as Kind;
-    for (name, value) in tree {
-        let mut entry = bridge::NoxParameter {
-            path: path.clone(),
-            name: name.clone(),
-            kind: Kind::Text,
-            text: String::new(),
-            number: 0.0,
-            integer: 0,
-            flag: false,
-        };
-        match value {
-            ParameterValue::List(children) => {
-                path.push(name.clone());
-                flatten_into(children, path, out);
-                path.pop();
-                continue;
-            }
-            ParameterValue::String(s) => entry.text = s.clone(),
-            ParameterValue::Double(d) => {
-                entry.kind = Kind::Double;
-                entry.number = *d;
-            }
-            // Teuchos stores these as `int`; a deck integer beyond its range is a deck error
-            // NOX would reject anyway, so it saturates.
-            ParameterValue::Int(i) => {
-                entry.kind = Kind::Int;
-                entry.integer = (*i).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
-            }
-            ParameterValue::Bool(b) => {
-                entry.kind = Kind::Bool;
-                entry.flag = *b;
-            }
-        }
-        out.push(entry);
-    }
-}
-
 /// Runs NOX on `callbacks` from `x` (the initial guess; NOX's last iterate on return) with
 /// the parameter list `parameters` (the deck's NOX keys) and the system `layout`. A solve
 /// that stops unconverged is a report with `converged == false`; errors are callback errors
@@ -183,8 +135,16 @@ pub fn solve(
         Some(p) => csr(&p.pattern, "preconditioner")?,
         None => Default::default(),
     };
+    let scope = if distributed {
+        CommScope::World
+    } else {
+        CommScope::Process
+    };
+    // MPI is started with MPI_THREAD_SERIALIZED: calls into it, this one included, take turns.
+    let turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
+    let communicator = fortran_handle(scope).map_err(|e| failure(format!("MPI: {e}")))?;
     let bridge_layout = bridge::NoxLayout {
-        mpi_world: distributed,
+        communicator: communicator.handle,
         linear_solver_path: layout.linear_solver_path.clone(),
         matrix_free: layout.jacobian.is_none(),
         jacobian_offsets,
@@ -195,14 +155,10 @@ pub fn solve(
         tolerance: layout.tolerance,
         max_iterations: i32::try_from(layout.max_iterations).unwrap_or(i32::MAX),
     };
-    let parameters = flatten_parameters(parameters);
+    let parameters = flatten(parameters);
     let mut problem = NoxProblem::new(callbacks);
-    let outcome = {
-        let _turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
-        linear_bridge::mpi_initialize()
-            .map_err(|e| failure(format!("MPI initialisation: {}", e.what())))?;
-        bridge::nox_solve(&mut problem, &rows, &bridge_layout, &parameters, x)
-    };
+    let outcome = bridge::nox_solve(&mut problem, &rows, &bridge_layout, &parameters, x);
+    drop(turn);
     if let Some(error) = problem.into_error() {
         return Err(error);
     }

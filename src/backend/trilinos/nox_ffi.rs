@@ -76,42 +76,12 @@ impl<'a> NoxProblem<'a> {
 
 #[cxx::bridge(namespace = "peridyn::trilinos")]
 pub(crate) mod bridge {
-    /// Type of one NOX parameter.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-    enum NoxValueKind {
-        /// `std::string`.
-        Text,
-        /// `double`.
-        Double,
-        /// `int`.
-        Int,
-        /// `bool`.
-        Bool,
-    }
-
-    /// One NOX parameter: the sublist names leading to it, its name and its value.
-    struct NoxParameter {
-        /// Sublists from the top of the NOX list, outermost first.
-        path: Vec<String>,
-        /// Parameter name.
-        name: String,
-        /// Which of the value fields holds the value.
-        kind: NoxValueKind,
-        /// Value of a `Text` parameter.
-        text: String,
-        /// Value of a `Double` parameter.
-        number: f64,
-        /// Value of an `Int` parameter.
-        integer: i32,
-        /// Value of a `Bool` parameter.
-        flag: bool,
-    }
-
     /// How the Newton system is built.
     struct NoxLayout {
-        /// The objects live on `MPI_COMM_WORLD` (the rows are this rank's share of a
-        /// distributed system) rather than `MPI_COMM_SELF`.
-        mpi_world: bool,
+        /// Fortran handle (`MPI_Comm_c2f`) of the communicator the objects live on:
+        /// `MPI_COMM_WORLD` when the rows are this rank's share of a distributed system,
+        /// else `MPI_COMM_SELF`.
+        communicator: i32,
         /// Sublists leading to the linear-solver parameters of the chosen direction (e.g.
         /// `Direction`, `Newton`, `Linear Solver`).
         linear_solver_path: Vec<String>,
@@ -167,15 +137,19 @@ pub(crate) mod bridge {
 
     unsafe extern "C++" {
         include!("peridyn/trilinos_nox.hpp");
+        include!("peridyn/src/backend/trilinos/ffi.rs.h");
+
+        /// One NOX parameter (the type is the linear bridge's).
+        type Parameter = crate::backend::trilinos::ffi::bridge::Parameter;
 
         /// Runs NOX from `x` (the initial guess; the solution on return) over the rows
-        /// `owned_rows` of an `Epetra_MpiComm(MPI_COMM_SELF)`, with the NOX parameter list
-        /// built from `parameters`. MPI must be initialised.
+        /// `owned_rows` of an `Epetra_MpiComm` on the layout's communicator, with the NOX
+        /// parameter list built from `parameters`.
         fn nox_solve(
             problem: &mut NoxProblem<'_>,
             owned_rows: &[i32],
             layout: &NoxLayout,
-            parameters: &[NoxParameter],
+            parameters: &[Parameter],
             x: &mut [f64],
         ) -> Result<NoxOutcome>;
     }

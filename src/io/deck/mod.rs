@@ -13,6 +13,7 @@
 //! Error messages name the file, the key path written with arrows and the line, e.g.
 //! `wave.yaml:27: Materials → Steel → Densty: unknown key; did you mean "Density"?`.
 
+mod belos;
 mod blocks;
 mod boundary;
 mod contact;
@@ -21,6 +22,7 @@ mod discretization;
 mod error;
 mod materials;
 mod output;
+mod parameters;
 mod reader;
 mod solver;
 mod tree;
@@ -47,11 +49,12 @@ pub use materials::{
     Material, MaterialModel, PalsInfluence, PlanarKind,
 };
 pub use output::{CalculationType, ComputeClass, ComputeClassKind, Output};
+pub use parameters::ParameterValue;
 pub use solver::{
     AdaptiveLoadStepping, AlgebraicPreconditioner, BelosSettings, BelosSolver, Implicit,
     ImplicitDiffusion, Integrator, LinearBackend, LinearMethod, LinearPreconditioner, LinearSolve,
-    LoadSteps, NoxQuasiStatic, ParameterValue, PeridigmPreconditioner, QuasiStatic, SolveFor,
-    Solver, SwitchToVerlet, Verlet,
+    LoadSteps, NoxQuasiStatic, PeridigmPreconditioner, QuasiStatic, SolveFor, Solver,
+    SwitchToVerlet, Verlet,
 };
 
 use reader::{suggest, Ctx, Field, ListReader};

@@ -1,8 +1,8 @@
 //! Top-level lists whose name contains `Solver`: time span, common switches, one integrator.
 
 use super::error::DeckError;
+use super::parameters::{to_parameter_value, ParameterValue};
 use super::reader::{Ctx, Field, ListReader};
-use super::tree::{Entry, NodeKind, ScalarKind};
 
 /// One `Solver*` list. Several run one after the other in file order, state carried over.
 #[derive(Debug, Clone, PartialEq)]
@@ -44,6 +44,7 @@ pub struct Solver {
 /// | `Linear Solver ILU Level Of Fill` | `Trilinos` with `ILU`: Ifpack's `fact: level-of-fill` | 0 |
 /// | `Linear Solver Tolerance` | relative residual of the Krylov methods | `Belos Relative Tolerance` when given, else 1e-10 |
 /// | `Linear Solver Maximum Iterations` | Krylov iteration limit | `Belos Maximum Iterations`, else the number of unknowns |
+/// | `Belos` | a sublist of Belos parameters (`Backend: "Trilinos"`): `Maximum Iterations`, `Convergence Tolerance`, `Num Blocks`, `Maximum Restarts`, `Verbosity`, `Output Frequency`, … (see [`super::belos`]) | none |
 ///
 /// `Direct` is a sparse Cholesky factorization that falls back to LU when the stiffness is not
 /// positive definite (after bonds break, or with an unstable material state). `Automatic` is
@@ -70,6 +71,10 @@ pub struct LinearSolve {
     pub relative_tolerance: f64,
     /// `Linear Solver Maximum Iterations` (`None`: the number of unknowns).
     pub maximum_iterations: Option<u64>,
+    /// Belos parameters for `Backend: "Trilinos"`: those of Peridigm's `Belos Print Status`,
+    /// then the `Belos` sublist's (names and types checked, in file order); each replaces the
+    /// value peridyn would set, a later one an earlier one (see [`super::belos`]).
+    pub belos_parameters: Vec<(String, ParameterValue)>,
 }
 
 /// `Linear Solver`.
@@ -233,7 +238,9 @@ pub struct BelosSettings {
     pub maximum_iterations: Option<u64>,
     /// `Belos Relative Tolerance` — default 1e-4.
     pub relative_tolerance: f64,
-    /// `Belos Print Status` — default false.
+    /// `Belos Print Status` — default false; true prints Belos' status tests at every
+    /// iteration on `Backend: "Trilinos"` (Belos `Verbosity` errors + warnings + status-test
+    /// details, `Output Frequency` 1).
     pub print_status: bool,
 }
 
@@ -317,21 +324,6 @@ pub struct NoxQuasiStatic {
     pub nox: Vec<(String, ParameterValue)>,
 }
 
-/// A generic parameter tree (for lists handed on unchanged, such as NOX's).
-#[derive(Debug, Clone, PartialEq)]
-pub enum ParameterValue {
-    /// A nested list, in file order.
-    List(Vec<(String, ParameterValue)>),
-    /// A string (an empty YAML value is an empty string).
-    String(String),
-    /// An integer.
-    Int(i64),
-    /// A double.
-    Double(f64),
-    /// A boolean.
-    Bool(bool),
-}
-
 /// `Implicit` sublist (Newmark-β).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Implicit {
@@ -395,24 +387,6 @@ const INTEGRATORS: [&str; 5] = [
     "Implicit",
     "ImplicitDiffusion",
 ];
-
-pub(crate) fn to_parameter_value(entry: &Entry) -> ParameterValue {
-    match &entry.value.kind {
-        NodeKind::List(children) => ParameterValue::List(
-            children
-                .iter()
-                .map(|c| (c.key.clone(), to_parameter_value(c)))
-                .collect(),
-        ),
-        NodeKind::Scalar(s) => match s.kind {
-            ScalarKind::String => ParameterValue::String(s.text.clone()),
-            ScalarKind::Null => ParameterValue::String(String::new()),
-            ScalarKind::Int(i) => ParameterValue::Int(i),
-            ScalarKind::Double(d) => ParameterValue::Double(d),
-            ScalarKind::Bool(b) => ParameterValue::Bool(b),
-        },
-    }
-}
 
 /// Reads `Number of Load Steps` / `Time Steps`; returns the steps and the last listed time.
 fn read_load_steps(
@@ -493,6 +467,10 @@ fn read_belos(ctx: &Ctx, list: &mut ListReader) -> Result<(BelosSettings, bool),
     Ok((settings, given))
 }
 
+/// Belos `Verbosity` of Peridigm's `Belos Print Status: true`: `Belos::Errors + Warnings +
+/// StatusTestDetails` (0 + 0x1 + 0x20).
+const BELOS_STATUS_VERBOSITY: i64 = 0x21;
+
 /// The error for `Backend: "Trilinos"` in a build without the backend.
 pub(crate) const TRILINOS_NOT_BUILT: &str = "Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
      (cargo build --release --features trilinos, with Trilinos and MPI installed: see .ci/trilinos.sh); \
@@ -535,6 +513,61 @@ fn read_linear_solve(
             choice => choice == "Trilinos",
         },
     };
+    let (backend, preconditioner) = read_preconditioner(ctx, list, method, trilinos)?;
+    let relative_tolerance = match list.positive_opt(ctx, "Linear Solver Tolerance")? {
+        Some(t) => t,
+        None => match belos {
+            Some((b, true)) => b.relative_tolerance,
+            _ => 1e-10,
+        },
+    };
+    let maximum_iterations = match list.int_opt(ctx, "Linear Solver Maximum Iterations", 1)? {
+        Some(m) => Some(m as u64),
+        None => belos.and_then(|(b, _)| b.maximum_iterations),
+    };
+    let mut belos_parameters = match belos {
+        // Peridigm's `Belos Print Status`: status-test output at every iteration.
+        Some((b, _)) if b.print_status => vec![
+            (
+                "Verbosity".to_string(),
+                ParameterValue::Int(BELOS_STATUS_VERBOSITY),
+            ),
+            ("Output Frequency".to_string(), ParameterValue::Int(1)),
+        ],
+        _ => Vec::new(),
+    };
+    belos_parameters.extend(match list.get("Belos") {
+        None => Vec::new(),
+        Some(f) if backend_given && !trilinos => {
+            ctx.warn(
+                f.line(),
+                &f.path,
+                "the Belos parameters apply to Backend \"Trilinos\" only; ignored",
+            );
+            Vec::new()
+        }
+        Some(f) => super::belos::read(ctx, &f, method == LinearMethod::Gmres)?,
+    });
+    Ok(LinearSolve {
+        backend,
+        backend_given,
+        method,
+        preconditioner,
+        relative_tolerance,
+        maximum_iterations,
+        belos_parameters,
+    })
+}
+
+/// `Linear Solver Preconditioner` and `Linear Solver ILU Level Of Fill` for the Trilinos
+/// backend (`trilinos`) or the native one; returns the backend with its preconditioner
+/// settings and the native preconditioner (`Block 3x3` on Trilinos).
+fn read_preconditioner(
+    ctx: &mut Ctx,
+    list: &mut ListReader,
+    method: LinearMethod,
+    trilinos: bool,
+) -> Result<(LinearBackend, LinearPreconditioner), DeckError> {
     let given_preconditioner = match list.get("Linear Solver Preconditioner") {
         None => None,
         Some(f) => Some((
@@ -546,8 +579,7 @@ fn read_linear_solve(
     let ilu_fill_level = list
         .int_opt(ctx, "Linear Solver ILU Level Of Fill", 0)?
         .map_or(0, |v| v as u32);
-    let mut preconditioner = LinearPreconditioner::Block3x3;
-    let backend = if trilinos {
+    if trilinos {
         if matches!(
             method,
             LinearMethod::Direct | LinearMethod::Cholesky | LinearMethod::Lu
@@ -573,50 +605,31 @@ fn read_linear_solve(
                 ))
             }
         };
-        LinearBackend::Trilinos {
+        let backend = LinearBackend::Trilinos {
             preconditioner: algebraic,
             ilu_fill_level,
-        }
-    } else {
-        if let Some((choice @ ("ILU" | "ML"), f)) = given_preconditioner {
-            return Err(f.err(
+        };
+        return Ok((backend, LinearPreconditioner::Block3x3));
+    }
+    if let Some((choice @ ("ILU" | "ML"), f)) = given_preconditioner {
+        return Err(f.err(
                 ctx,
                 format!("\"{choice}\" is a Trilinos preconditioner: add Backend: \"Trilinos\" to this solver list, or choose \"Block 3x3\", \"Jacobi\" or \"None\""),
             ));
-        }
-        if let Some(f) = ilu_field {
-            ctx.warn(
-                f.line(),
-                &f.path,
-                "Linear Solver ILU Level Of Fill applies to Backend \"Trilinos\" only; ignored",
-            );
-        }
-        preconditioner = match given_preconditioner {
-            Some(("Jacobi", _)) => LinearPreconditioner::Jacobi,
-            Some(("None", _)) => LinearPreconditioner::None,
-            _ => LinearPreconditioner::Block3x3,
-        };
-        LinearBackend::Native
+    }
+    if let Some(f) = ilu_field {
+        ctx.warn(
+            f.line(),
+            &f.path,
+            "Linear Solver ILU Level Of Fill applies to Backend \"Trilinos\" only; ignored",
+        );
+    }
+    let preconditioner = match given_preconditioner {
+        Some(("Jacobi", _)) => LinearPreconditioner::Jacobi,
+        Some(("None", _)) => LinearPreconditioner::None,
+        _ => LinearPreconditioner::Block3x3,
     };
-    let relative_tolerance = match list.positive_opt(ctx, "Linear Solver Tolerance")? {
-        Some(t) => t,
-        None => match belos {
-            Some((b, true)) => b.relative_tolerance,
-            _ => 1e-10,
-        },
-    };
-    let maximum_iterations = match list.int_opt(ctx, "Linear Solver Maximum Iterations", 1)? {
-        Some(m) => Some(m as u64),
-        None => belos.and_then(|(b, _)| b.maximum_iterations),
-    };
-    Ok(LinearSolve {
-        backend,
-        backend_given,
-        method,
-        preconditioner,
-        relative_tolerance,
-        maximum_iterations,
-    })
+    Ok((LinearBackend::Native, preconditioner))
 }
 
 fn read_adaptive(ctx: &mut Ctx, field: &Field) -> Result<AdaptiveLoadStepping, DeckError> {
@@ -656,27 +669,96 @@ fn read_adaptive(ctx: &mut Ctx, field: &Field) -> Result<AdaptiveLoadStepping, D
 /// `Solve For *` switches in Peridigm).
 pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, DeckError> {
     let mut list = field.list(ctx)?;
-    let present: Vec<Field> = INTEGRATORS.iter().filter_map(|k| list.get(k)).collect();
-    let integrator_field = match present.as_slice() {
-        [] => {
-            return Err(ctx.error(
-                Some(list.line),
-                &list.path,
-                "no time integrator; add exactly one of the sublists Verlet, QuasiStatic, NOXQuasiStatic, Implicit, ImplicitDiffusion",
-            ))
-        }
-        [one] => one,
-        [_, second, ..] => {
-            let names = present.iter().map(|f| f.key()).collect::<Vec<_>>().join(", ");
-            return Err(second.err(ctx, format!("a solver list holds exactly one integrator, found {names}; put each in its own Solver list (they run in file order)")));
-        }
-    };
+    let integrator_field = only_integrator(ctx, &mut list)?;
     let initial_time = list.f64_opt(ctx, "Initial Time")?.unwrap_or(0.0);
     let final_field = list.get("Final Time");
     let final_given = final_field.as_ref().map(|f| f.f64(ctx)).transpose()?;
-    let mut integ = integrator_field.list(ctx)?;
+    let read = read_integrator(ctx, &list, &integrator_field, final_given)?;
+    if read.final_time <= initial_time {
+        let line = final_field.as_ref().map_or(list.line, |f| f.line());
+        let mut path = list.path.clone();
+        path.push("Final Time".into());
+        return Err(ctx.error(
+            Some(line),
+            &path,
+            format!(
+                "Final Time ({}) must be larger than Initial Time ({initial_time})",
+                read.final_time
+            ),
+        ));
+    }
+    let peridigm_preconditioner = read_peridigm_preconditioner(ctx, &mut list)?;
+    let solve_for = read_solve_for(ctx, &mut list, first)?;
+    let integrator = read.integrator;
+    let belos = match &integrator {
+        Integrator::QuasiStatic(q) => Some((&q.belos, read.belos_given)),
+        _ => None,
+    };
+    let mut linear_solve = read_linear_solve(ctx, &mut list, belos)?;
+    // A Peridigm deck that names NOX gets NOX when this build has it.
+    if matches!(integrator, Integrator::NoxQuasiStatic(_))
+        && !linear_solve.backend_given
+        && cfg!(feature = "trilinos")
+    {
+        linear_solve.backend = LinearBackend::TRILINOS_DEFAULT;
+    }
+    let solver = Solver {
+        name: field.key().to_string(),
+        initial_time,
+        final_time: read.final_time,
+        verbose: list.bool_or(ctx, "Verbose", false)?,
+        disable_heuristics: list.bool_or(ctx, "Disable Heuristics", false)?,
+        initialize_predictor_from_previous_solver: list.bool_or(
+            ctx,
+            "Initialize Predictor From Previous Solver",
+            false,
+        )?,
+        jacobian_diagnostics: list.bool_or(ctx, "Jacobian Diagnostics", false)?,
+        peridigm_preconditioner,
+        solve_for,
+        integrator,
+        linear_solve,
+    };
+    list.finish(ctx, &[])?;
+    Ok(solver)
+}
+
+/// The one integrator sublist of a solver list (none or several is an error).
+fn only_integrator<'t>(ctx: &Ctx, list: &mut ListReader<'t>) -> Result<Field<'t>, DeckError> {
+    let mut present: Vec<Field> = INTEGRATORS.iter().filter_map(|k| list.get(k)).collect();
+    match present.len() {
+        0 => Err(ctx.error(
+            Some(list.line),
+            &list.path,
+            "no time integrator; add exactly one of the sublists Verlet, QuasiStatic, NOXQuasiStatic, Implicit, ImplicitDiffusion",
+        )),
+        1 => Ok(present.remove(0)),
+        _ => {
+            let names = present.iter().map(|f| f.key()).collect::<Vec<_>>().join(", ");
+            Err(present[1].err(ctx, format!("a solver list holds exactly one integrator, found {names}; put each in its own Solver list (they run in file order)")))
+        }
+    }
+}
+
+/// An integrator sublist as read, with the solver's final time it implies.
+struct ReadIntegrator {
+    integrator: Integrator,
+    final_time: f64,
+    /// The deck gave `Belos Linear Solver` (QuasiStatic only).
+    belos_given: bool,
+}
+
+/// Reads the integrator sublist `field` of the solver list `list`; `final_given` is the list's
+/// `Final Time`.
+fn read_integrator(
+    ctx: &mut Ctx,
+    list: &ListReader,
+    field: &Field,
+    final_given: Option<f64>,
+) -> Result<ReadIntegrator, DeckError> {
+    let mut integ = field.list(ctx)?;
     let mut belos_given = false;
-    let (integrator, final_time) = match integrator_field.key() {
+    let (integrator, final_time) = match field.key() {
         "Verlet" => {
             let v = Verlet {
                 fixed_dt: integ.positive_opt(ctx, "Fixed dt")?,
@@ -686,105 +768,14 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, 
             (Integrator::Verlet(v), final_given.unwrap_or(1.0))
         }
         "QuasiStatic" => {
-            let (load_steps, last) = read_load_steps(ctx, &mut integ)?;
-            let adaptive = integ.get("Adaptive Load-Stepping");
-            let q = QuasiStatic {
-                load_steps,
-                maximum_solver_iterations: integ
-                    .int_opt(ctx, "Maximum Solver Iterations", 1)?
-                    .unwrap_or(10) as u64,
-                relative_tolerance: integ
-                    .positive_opt(ctx, "Relative Tolerance")?
-                    .unwrap_or(1e-6),
-                absolute_tolerance: integ.positive_opt(ctx, "Absolute Tolerance")?,
-                damped_newton_diagonal_scale_factor: integ
-                    .positive_opt(ctx, "Damped Newton Diagonal Scale Factor")?
-                    .unwrap_or(1.0001),
-                damped_newton_diagonal_shift_factor: integ
-                    .non_negative_opt(ctx, "Damped Newton Diagonal Shift Factor")?
-                    .unwrap_or(1e-5),
-                belos: {
-                    let (settings, given) = read_belos(ctx, &mut integ)?;
-                    belos_given = given;
-                    settings
-                },
-                adaptive_load_stepping: adaptive.map(|f| read_adaptive(ctx, &f)).transpose()?,
-            };
-            integ.finish(ctx, &[])?;
-            let final_time = final_time_for_steps(ctx, &list, final_given, last)?;
+            let (q, last, given) = read_quasi_static(ctx, integ)?;
+            belos_given = given;
+            let final_time = final_time_for_steps(ctx, list, final_given, last)?;
             (Integrator::QuasiStatic(q), final_time)
         }
         "NOXQuasiStatic" => {
-            let (load_steps, last) = read_load_steps(ctx, &mut integ)?;
-            let direction = integ.peek("Direction");
-            let method = direction
-                .as_ref()
-                .and_then(|d| d.node().as_list())
-                .and_then(|entries| {
-                    entries
-                        .iter()
-                        .find(|e| e.key == "Method")
-                        .map(|e| (e, e.value.clone()))
-                });
-            let direction_method = match (&direction, method) {
-                (None, _) => {
-                    return Err(integ.missing(
-                        ctx,
-                        "Direction",
-                        "a list with Method: \"Newton\" or \"NonlinearCG\"",
-                    ))
-                }
-                (Some(d), None) => {
-                    let d = d.list(ctx)?;
-                    return Err(d.missing(ctx, "Method", "\"Newton\" or \"NonlinearCG\""));
-                }
-                (Some(d), Some((entry, _))) => {
-                    let mut path = d.path.clone();
-                    path.push("Method".into());
-                    let f = Field { entry, path };
-                    f.choice(ctx, &["Newton", "NonlinearCG"])?.to_string()
-                }
-            };
-            if let Some(f) = integ.get("Maximum Solver Iterations") {
-                return Err(f.err(ctx, "NOXQuasiStatic spells this \"Max Solver Iterations\" (QuasiStatic uses \"Maximum Solver Iterations\")"));
-            }
-            let max_solver_iterations = integ
-                .int_opt(ctx, "Max Solver Iterations", 1)?
-                .unwrap_or(50) as u64;
-            let relative_tolerance = integ
-                .positive_opt(ctx, "Relative Tolerance")?
-                .unwrap_or(1e-6);
-            let absolute_tolerance = integ.positive_opt(ctx, "Absolute Tolerance")?;
-            let verbose = integ.bool_or(ctx, "Verbose", false)?;
-            let max_age_of_prec = integ.int_opt(ctx, "Max Age Of Prec", 1)?.unwrap_or(200) as u64;
-            let preconditioner_reuse_policy = integ.name_opt(ctx, "Preconditioner Reuse Policy")?;
-            // NOX accepts any parameter, so the rest is handed on; but a near miss of one of
-            // Peridigm's own keys is almost certainly a typo that would be silently ignored.
-            let rest = integ.take_rest();
-            for f in &rest {
-                if NOX_TOP_LEVEL.contains(&f.key()) {
-                    continue;
-                }
-                if let Some(s) = super::reader::suggest(f.key(), NOX_PERIDIGM_KEYS.iter().copied())
-                {
-                    return Err(f.err(ctx, format!("unknown key; did you mean \"{s}\"?")));
-                }
-            }
-            let n = NoxQuasiStatic {
-                load_steps,
-                max_solver_iterations,
-                relative_tolerance,
-                absolute_tolerance,
-                verbose,
-                max_age_of_prec,
-                preconditioner_reuse_policy,
-                direction_method,
-                nox: rest
-                    .into_iter()
-                    .map(|f| (f.key().to_string(), to_parameter_value(f.entry)))
-                    .collect(),
-            };
-            let final_time = final_time_for_steps(ctx, &list, final_given, last)?;
+            let (n, last) = read_nox_quasi_static(ctx, &mut integ)?;
+            let final_time = final_time_for_steps(ctx, list, final_given, last)?;
             (Integrator::NoxQuasiStatic(n), final_time)
         }
         "Implicit" => {
@@ -800,15 +791,12 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, 
                     .unwrap_or(10) as u64,
             };
             integ.finish(ctx, &[])?;
-            let final_time = match final_given {
-                Some(t) => t,
-                None => {
-                    return Err(list.missing(
-                        ctx,
-                        "Final Time",
-                        "a number; the Implicit integrator needs it",
-                    ))
-                }
+            let Some(final_time) = final_given else {
+                return Err(list.missing(
+                    ctx,
+                    "Final Time",
+                    "a number; the Implicit integrator needs it",
+                ));
             };
             (Integrator::Implicit(i), final_time)
         }
@@ -826,29 +814,152 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, 
                 belos: read_belos(ctx, &mut integ)?.0,
             };
             integ.finish(ctx, &[])?;
-            let final_time = final_time_for_steps(ctx, &list, final_given, last)?;
+            let final_time = final_time_for_steps(ctx, list, final_given, last)?;
             (Integrator::ImplicitDiffusion(d), final_time)
         }
         _ => unreachable!("only integrator names are looked up"),
     };
-    if final_time <= initial_time {
-        let line = final_field.as_ref().map_or(list.line, |f| f.line());
-        let mut path = list.path.clone();
-        path.push("Final Time".into());
-        return Err(ctx.error(
-            Some(line),
-            &path,
-            format!("Final Time ({final_time}) must be larger than Initial Time ({initial_time})"),
-        ));
+    Ok(ReadIntegrator {
+        integrator,
+        final_time,
+        belos_given,
+    })
+}
+
+/// Reads a `QuasiStatic` sublist; also returns the last listed load-step time and whether
+/// `Belos Linear Solver` was given.
+fn read_quasi_static(
+    ctx: &mut Ctx,
+    mut integ: ListReader,
+) -> Result<(QuasiStatic, Option<f64>, bool), DeckError> {
+    let (load_steps, last) = read_load_steps(ctx, &mut integ)?;
+    let adaptive = integ.get("Adaptive Load-Stepping");
+    let maximum_solver_iterations = integ
+        .int_opt(ctx, "Maximum Solver Iterations", 1)?
+        .unwrap_or(10) as u64;
+    let relative_tolerance = integ
+        .positive_opt(ctx, "Relative Tolerance")?
+        .unwrap_or(1e-6);
+    let absolute_tolerance = integ.positive_opt(ctx, "Absolute Tolerance")?;
+    let damped_newton_diagonal_scale_factor = integ
+        .positive_opt(ctx, "Damped Newton Diagonal Scale Factor")?
+        .unwrap_or(1.0001);
+    let damped_newton_diagonal_shift_factor = integ
+        .non_negative_opt(ctx, "Damped Newton Diagonal Shift Factor")?
+        .unwrap_or(1e-5);
+    let (belos, belos_given) = read_belos(ctx, &mut integ)?;
+    let q = QuasiStatic {
+        load_steps,
+        maximum_solver_iterations,
+        relative_tolerance,
+        absolute_tolerance,
+        damped_newton_diagonal_scale_factor,
+        damped_newton_diagonal_shift_factor,
+        belos,
+        adaptive_load_stepping: adaptive.map(|f| read_adaptive(ctx, &f)).transpose()?,
+    };
+    integ.finish(ctx, &[])?;
+    Ok((q, last, belos_given))
+}
+
+/// Reads a `NOXQuasiStatic` sublist: Peridigm's own keys typed, every other key kept for NOX;
+/// also returns the last listed load-step time.
+fn read_nox_quasi_static(
+    ctx: &mut Ctx,
+    integ: &mut ListReader,
+) -> Result<(NoxQuasiStatic, Option<f64>), DeckError> {
+    let (load_steps, last) = read_load_steps(ctx, integ)?;
+    let direction_method = read_direction_method(ctx, integ)?;
+    if let Some(f) = integ.get("Maximum Solver Iterations") {
+        return Err(f.err(ctx, "NOXQuasiStatic spells this \"Max Solver Iterations\" (QuasiStatic uses \"Maximum Solver Iterations\")"));
     }
-    let peridigm_preconditioner = match list.get("Peridigm Preconditioner") {
+    let max_solver_iterations = integ
+        .int_opt(ctx, "Max Solver Iterations", 1)?
+        .unwrap_or(50) as u64;
+    let relative_tolerance = integ
+        .positive_opt(ctx, "Relative Tolerance")?
+        .unwrap_or(1e-6);
+    let absolute_tolerance = integ.positive_opt(ctx, "Absolute Tolerance")?;
+    let verbose = integ.bool_or(ctx, "Verbose", false)?;
+    let max_age_of_prec = integ.int_opt(ctx, "Max Age Of Prec", 1)?.unwrap_or(200) as u64;
+    let preconditioner_reuse_policy = integ.name_opt(ctx, "Preconditioner Reuse Policy")?;
+    // NOX accepts any parameter, so the rest is handed on; but a near miss of one of
+    // Peridigm's own keys is almost certainly a typo that would be silently ignored.
+    let rest = integ.take_rest();
+    for f in &rest {
+        if NOX_TOP_LEVEL.contains(&f.key()) {
+            continue;
+        }
+        if let Some(s) = super::reader::suggest(f.key(), NOX_PERIDIGM_KEYS.iter().copied()) {
+            return Err(f.err(ctx, format!("unknown key; did you mean \"{s}\"?")));
+        }
+    }
+    let n = NoxQuasiStatic {
+        load_steps,
+        max_solver_iterations,
+        relative_tolerance,
+        absolute_tolerance,
+        verbose,
+        max_age_of_prec,
+        preconditioner_reuse_policy,
+        direction_method,
+        nox: rest
+            .into_iter()
+            .map(|f| (f.key().to_string(), to_parameter_value(f.entry)))
+            .collect(),
+    };
+    Ok((n, last))
+}
+
+/// `NOXQuasiStatic → Direction → Method`, read in place: the `Direction` list itself stays
+/// in the list for NOX.
+fn read_direction_method(ctx: &mut Ctx, integ: &mut ListReader) -> Result<String, DeckError> {
+    let direction = integ.peek("Direction");
+    let method = direction
+        .as_ref()
+        .and_then(|d| d.node().as_list())
+        .and_then(|entries| entries.iter().find(|e| e.key == "Method"));
+    match (&direction, method) {
+        (None, _) => Err(integ.missing(
+            ctx,
+            "Direction",
+            "a list with Method: \"Newton\" or \"NonlinearCG\"",
+        )),
+        (Some(d), None) => {
+            let d = d.list(ctx)?;
+            Err(d.missing(ctx, "Method", "\"Newton\" or \"NonlinearCG\""))
+        }
+        (Some(d), Some(entry)) => {
+            let mut path = d.path.clone();
+            path.push("Method".into());
+            let f = Field { entry, path };
+            Ok(f.choice(ctx, &["Newton", "NonlinearCG"])?.to_string())
+        }
+    }
+}
+
+/// `Peridigm Preconditioner` (default `Full Tangent`).
+fn read_peridigm_preconditioner(
+    ctx: &mut Ctx,
+    list: &mut ListReader,
+) -> Result<PeridigmPreconditioner, DeckError> {
+    Ok(match list.get("Peridigm Preconditioner") {
         None => PeridigmPreconditioner::FullTangent,
         Some(f) => match f.choice(ctx, &["Full Tangent", "Block 3x3", "None"])? {
             "Block 3x3" => PeridigmPreconditioner::Block3x3,
             "None" => PeridigmPreconditioner::None,
             _ => PeridigmPreconditioner::FullTangent,
         },
-    };
+    })
+}
+
+/// The `Solve For *` switches; only the `first` solver list decides them (as in Peridigm), a
+/// later one gets a warning.
+fn read_solve_for(
+    ctx: &mut Ctx,
+    list: &mut ListReader,
+    first: bool,
+) -> Result<SolveFor, DeckError> {
     let mut solve_for = SolveFor {
         displacement: true,
         temperature: false,
@@ -868,37 +979,7 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, 
             }
         }
     }
-    let belos = match &integrator {
-        Integrator::QuasiStatic(q) => Some((&q.belos, belos_given)),
-        _ => None,
-    };
-    let mut linear_solve = read_linear_solve(ctx, &mut list, belos)?;
-    // A Peridigm deck that names NOX gets NOX when this build has it.
-    if matches!(integrator, Integrator::NoxQuasiStatic(_))
-        && !linear_solve.backend_given
-        && cfg!(feature = "trilinos")
-    {
-        linear_solve.backend = LinearBackend::TRILINOS_DEFAULT;
-    }
-    let solver = Solver {
-        name: field.key().to_string(),
-        initial_time,
-        final_time,
-        verbose: list.bool_or(ctx, "Verbose", false)?,
-        disable_heuristics: list.bool_or(ctx, "Disable Heuristics", false)?,
-        initialize_predictor_from_previous_solver: list.bool_or(
-            ctx,
-            "Initialize Predictor From Previous Solver",
-            false,
-        )?,
-        jacobian_diagnostics: list.bool_or(ctx, "Jacobian Diagnostics", false)?,
-        peridigm_preconditioner,
-        solve_for,
-        integrator,
-        linear_solve,
-    };
-    list.finish(ctx, &[])?;
-    Ok(solver)
+    Ok(solve_for)
 }
 
 fn final_time_for_steps(
@@ -942,8 +1023,18 @@ mod linear_solve_tests {
     use crate::io::deck::{parse_str, DeckFormat};
     use std::path::Path;
 
-    /// A three-point quasi-static bar whose `Solver` list gets `keys`.
+    /// The linear-solver settings of [`deck`] with `keys`.
     fn linear_solve(keys: &str) -> Result<LinearSolve, DeckError> {
+        Ok(deck(keys)?.solvers[0].linear_solve.clone())
+    }
+
+    /// A three-point quasi-static bar whose `Solver` list gets `keys`.
+    fn deck(keys: &str) -> Result<crate::io::deck::Deck, DeckError> {
+        deck_with(keys, "")
+    }
+
+    /// [`deck`] whose `QuasiStatic` list also gets `quasi_static_keys`.
+    fn deck_with(keys: &str, quasi_static_keys: &str) -> Result<crate::io::deck::Deck, DeckError> {
         let text = format!(
             r#"Peridigm:
   Discretization:
@@ -975,14 +1066,101 @@ mod linear_solve_tests {
 {keys}
     QuasiStatic:
       Number of Load Steps: 2
+{quasi_static_keys}
   Output:
     Output Filename: "bar"
     Output Variables:
       Displacement: true
 "#
         );
-        let deck = parse_str(&text, DeckFormat::Yaml, Path::new("linear.yaml"))?;
-        Ok(deck.solvers[0].linear_solve.clone())
+        parse_str(&text, DeckFormat::Yaml, Path::new("linear.yaml"))
+    }
+
+    /// The warnings of the deck of [`linear_solve`] with `keys`.
+    fn warnings(keys: &str) -> Vec<String> {
+        deck(keys).unwrap().warnings
+    }
+
+    #[test]
+    fn the_belos_sublist_is_read_with_belos_types() {
+        let settings = linear_solve(
+            "    Linear Solver: \"GMRES\"\n    Belos:\n      Maximum Iterations: 7\n      Convergence Tolerance: 1\n      Num Blocks: 30\n      Orthogonalization: \"ICGS\"\n      Flexible Gmres: false",
+        )
+        .unwrap();
+        assert_eq!(
+            settings.belos_parameters,
+            vec![
+                ("Maximum Iterations".to_string(), ParameterValue::Int(7)),
+                // Integers are accepted for doubles and stored as doubles (Belos reads a double).
+                (
+                    "Convergence Tolerance".to_string(),
+                    ParameterValue::Double(1.0)
+                ),
+                ("Num Blocks".to_string(), ParameterValue::Int(30)),
+                (
+                    "Orthogonalization".to_string(),
+                    ParameterValue::String("ICGS".into())
+                ),
+                ("Flexible Gmres".to_string(), ParameterValue::Bool(false)),
+            ]
+        );
+        assert!(linear_solve("").unwrap().belos_parameters.is_empty());
+    }
+
+    #[test]
+    fn peridigm_belos_print_status_asks_belos_for_status_output() {
+        let deck = deck_with(
+            "    Belos:\n      Output Frequency: 5",
+            "      Belos Print Status: true",
+        )
+        .unwrap();
+        assert_eq!(
+            deck.solvers[0].linear_solve.belos_parameters,
+            vec![
+                ("Verbosity".to_string(), ParameterValue::Int(0x21)),
+                ("Output Frequency".to_string(), ParameterValue::Int(1)),
+                // The sublist comes last and wins.
+                ("Output Frequency".to_string(), ParameterValue::Int(5)),
+            ]
+        );
+    }
+
+    #[test]
+    fn an_unknown_or_mistyped_belos_parameter_is_an_error_with_its_line() {
+        let error = linear_solve("    Belos:\n      Maximum Iteration: 7")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("did you mean \"Maximum Iterations\""),
+            "{error}"
+        );
+        assert!(error.contains("linear.yaml:29"), "{error}");
+        assert!(error.contains("Belos → Maximum Iteration"), "{error}");
+        let error = linear_solve("    Belos:\n      Output Stream: \"cout\"")
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("unknown Belos parameter"), "{error}");
+        let error = linear_solve("    Belos:\n      Maximum Iterations: 7.5")
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("expected an integer"), "{error}");
+    }
+
+    #[test]
+    fn a_belos_parameter_the_chosen_solver_does_not_read_is_a_warning() {
+        let cg = warnings("    Linear Solver: \"CG\"\n    Belos:\n      Num Blocks: 30");
+        assert!(
+            cg.iter()
+                .any(|w| w.contains("Num Blocks") && w.contains("only Belos BlockGMRES")),
+            "{cg:?}"
+        );
+        let native = warnings("    Backend: \"Native\"\n    Belos:\n      Maximum Iterations: 7");
+        assert!(
+            native
+                .iter()
+                .any(|w| w.contains("Backend \"Trilinos\" only")),
+            "{native:?}"
+        );
     }
 
     #[test]
