@@ -1257,6 +1257,47 @@ mod tests {
     /// Reference positions, volumes, bonds, current positions, bond damage.
     type Body = (Vec<[f64; 3]>, Vec<f64>, BondList, Vec<[f64; 3]>, Vec<f32>);
 
+    #[test]
+    fn the_pair_once_force_matches_the_generic_force_state_sum() {
+        // The pair-once kernel is a fast path of F_i = Σ_j (T_i⟨ξ_ij⟩ − T_j⟨ξ_ji⟩) V_j
+        // (`material::generic_force`): same force to round-off, with damage.
+        let (x, v, bonds, y, damage) = body();
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let all: Vec<u32> = (0..x.len() as u32).collect();
+        let mut m = material();
+        m.setup(&reference, all.clone()).unwrap();
+        let current = CurrentView {
+            position: &y,
+            bond_damage: Some(&damage),
+            history: &crate::state::NO_HISTORY,
+        };
+        let coefficients = vec![PointCoefficients::default(); x.len()];
+        let mut fast = vec![[0.0; 3]; x.len()];
+        m.add_force_density(&reference, &current, &coefficients, &mut fast);
+        let kernel = PmbForceState {
+            bonds: &bonds,
+            half: m.half(),
+            damage: Damaged(&damage),
+        };
+        let mut generic = vec![[0.0; 3]; x.len()];
+        crate::material::generic_force::add_force_density_from_states(
+            &kernel,
+            &all,
+            &reference,
+            &current,
+            &mut generic,
+        );
+        let largest = fast.iter().flatten().fold(0.0f64, |a, f| a.max(f.abs()));
+        assert!(largest > 0.0);
+        for (a, b) in fast.iter().flatten().zip(generic.iter().flatten()) {
+            assert!((a - b).abs() <= 1e-12 * largest, "{a} vs {b}");
+        }
+    }
+
     /// 600 random points (more than two pair-plan chunks), random volumes, displaced by up
     /// to 0.1, with bonds above stretch 0.02 broken.
     fn body() -> Body {

@@ -998,6 +998,83 @@ mod tests {
     use crate::model::test_support::{brute_force_bonds, random_cloud, Rng};
 
     #[test]
+    fn the_coefficient_kernels_match_the_generic_force_state_sum() {
+        // The two-pass kernel (published θ, then t_ij + t_ji) is a fast path of
+        // F_i = Σ_j (T_i⟨ξ_ij⟩ − T_j⟨ξ_ji⟩) V_j (`material::generic_force`): the same force to
+        // round-off, with symmetric damage and both kinds of ω.
+        let mut rng = Rng::new(21);
+        let (x, v) = random_cloud(&mut rng, 400, 6.0);
+        let bonds = brute_force_bonds(&x, 1.7);
+        let y: Vec<[f64; 3]> = x
+            .iter()
+            .map(|p| p.map(|c| c + 0.05 * (2.0 * rng.uniform() - 1.0)))
+            .collect();
+        let mut damage = vec![0.0f32; bonds.num_bonds()];
+        for i in 0..x.len() {
+            for b in bonds.range(i) {
+                let j = bonds.neighbor[b] as usize;
+                if j > i && rng.uniform() < 0.2 {
+                    let back =
+                        bonds.offsets[j] + bonds.family(j).binary_search(&(i as u32)).unwrap();
+                    let d = if rng.uniform() < 0.5 { 1.0 } else { 0.5 };
+                    damage[b] = d;
+                    damage[back] = d;
+                }
+            }
+        }
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let current = CurrentView {
+            position: &y,
+            bond_damage: Some(&damage),
+            history: &crate::state::NO_HISTORY,
+        };
+        let all: Vec<u32> = (0..x.len() as u32).collect();
+        for influence in [InfluenceFunction::One, InfluenceFunction::ParabolicDecay] {
+            let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
+                density: 1.0,
+                bulk_modulus: 3.0,
+                shear_modulus: 1.3,
+                horizon: 1.7,
+                influence,
+            })
+            .unwrap();
+            m.setup(&reference, all.clone()).unwrap();
+            let mut coefficients = vec![PointCoefficients::default(); x.len()];
+            m.compute_point_coefficients(&reference, &current, &mut coefficients);
+            let mut fast = vec![[0.0; 3]; x.len()];
+            m.add_force_density(&reference, &current, &coefficients, &mut fast);
+            let mut generic = vec![[0.0; 3]; x.len()];
+            let sum = |out: &mut Vec<[f64; 3]>| {
+                with_bond_data!(m.weights.as_deref(), current.bond_damage, |w, d| {
+                    let kernel = LpsForceState {
+                        bonds: &bonds,
+                        volume: &v,
+                        local_offsets: &m.local_offsets,
+                        weighted_volume: &m.weighted_volume,
+                        weights: w,
+                        damage: d,
+                        bulk: 3.0,
+                        shear: 1.3,
+                    };
+                    crate::material::generic_force::add_force_density_from_states(
+                        &kernel, &all, &reference, &current, out,
+                    )
+                })
+            };
+            sum(&mut generic);
+            let largest = fast.iter().flatten().fold(0.0f64, |a, f| a.max(f.abs()));
+            assert!(largest > 0.0);
+            for (a, b) in fast.iter().flatten().zip(generic.iter().flatten()) {
+                assert!((a - b).abs() <= 1e-12 * largest, "{a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
     fn fused_breaking_matches_the_separate_update_bitwise() {
         // 500 random points (rows longer than a group of lanes, with tails), displaced at half
         // and then at the full random field so that the second pass meets broken bonds, with

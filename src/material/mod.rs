@@ -26,6 +26,8 @@
 mod bond_based;
 mod correspondence;
 mod elastic_constants;
+#[cfg(test)]
+pub(crate) mod generic_force;
 mod influence;
 mod linear_peridynamic_solid;
 mod registry;
