@@ -30,6 +30,7 @@
 //! | [`setup`] | deck → [`model::Model`] and the blocks' physics; the run plan `peridyn check` prints |
 //! | [`model`] | the immutable description: [`model::Model`], points, node sets, bond lists, and what models declare about themselves ([`model::ModelDeclaration`]) |
 //! | [`state`] | where is the body now? Everything that evolves: kinematics, forces, bond damage and material history as staged (trial/committed) fields |
+//! | [`history`] | staged (trial/committed) fields, the materials' history and the declarations of model fields |
 //! | [`material`], [`damage`] | the physics of bonds (PMB, LPS, the correspondence family, critical stretch); [`material::MATERIALS`] and [`damage::DAMAGE_MODELS`] are the one list of models |
 //! | [`contact`] | short-range forces between points that are not bonded |
 //! | [`physics`] | the one internal-force path every solver calls |
@@ -92,6 +93,7 @@ pub mod damage;
 pub mod discretization;
 pub mod error;
 pub mod expression;
+pub mod history;
 pub mod io;
 pub mod material;
 pub mod model;

@@ -2,11 +2,11 @@
 //! coefficient pass (LPS dilatation), then the force pass, block by block.
 
 use crate::damage::{point_damage, DamageModel};
+use crate::history::{History, NO_HISTORY};
 use crate::material::{
     CriticalStretchFastPath, CurrentView, Material, PointCoefficients, ReferenceView,
 };
 use crate::model::{BondList, PointCloud, Reach};
-use crate::state::{History, NO_HISTORY};
 use crate::tangent::{BlockPattern, BlockTangent, TangentError, TangentMethod};
 
 /// The physics of one block.

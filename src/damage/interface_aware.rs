@@ -406,7 +406,7 @@ mod setup_tests {
             &model.points,
             &stretched,
             Some(&mut damage),
-            &mut crate::state::History::empty(),
+            &mut crate::history::History::empty(),
             &mut force,
         );
         assert_eq!(broken, 6);
@@ -425,7 +425,7 @@ mod setup_tests {
             &model.points,
             &model.points.position.clone(),
             Some(&mut damage),
-            &mut crate::state::History::empty(),
+            &mut crate::history::History::empty(),
             &mut force,
         );
         assert_eq!(again, 0);

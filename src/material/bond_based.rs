@@ -1273,7 +1273,7 @@ mod tests {
         let current = CurrentView {
             position: &y,
             bond_damage: Some(&damage),
-            history: &crate::state::NO_HISTORY,
+            history: &crate::history::NO_HISTORY,
         };
         let coefficients = vec![PointCoefficients::default(); x.len()];
         let mut fast = vec![[0.0; 3]; x.len()];
@@ -1352,7 +1352,7 @@ mod tests {
         let current = CurrentView {
             position: y,
             bond_damage: Some(damage),
-            history: &crate::state::NO_HISTORY,
+            history: &crate::history::NO_HISTORY,
         };
         let mut coefficients = vec![PointCoefficients::default(); n];
         for m in blocks {
@@ -1697,7 +1697,7 @@ mod tests {
         let current = CurrentView {
             position: &x,
             bond_damage: None,
-            history: &crate::state::NO_HISTORY,
+            history: &crate::history::NO_HISTORY,
         };
         m.compute_point_coefficients(&reference, &current, &mut coefficients);
         let mut separate = vec![0.0f32; bonds.num_bonds()];

@@ -977,7 +977,7 @@ impl BreakingCoefficientPass for LinearPeridynamicSolid {
         let current = CurrentView {
             position,
             bond_damage: None,
-            history: &crate::state::NO_HISTORY,
+            history: &crate::history::NO_HISTORY,
         };
         let rows = self.rows(reference, &current);
         let fused = FusedCriticalStretch {
@@ -1030,7 +1030,7 @@ mod tests {
         let current = CurrentView {
             position: &y,
             bond_damage: Some(&damage),
-            history: &crate::state::NO_HISTORY,
+            history: &crate::history::NO_HISTORY,
         };
         let all: Vec<u32> = (0..x.len() as u32).collect();
         for influence in [InfluenceFunction::One, InfluenceFunction::ParabolicDecay] {
@@ -1120,7 +1120,7 @@ mod tests {
                 let current = CurrentView {
                     position: &at,
                     bond_damage: Some(&separate),
-                    history: &crate::state::NO_HISTORY,
+                    history: &crate::history::NO_HISTORY,
                 };
                 m.compute_point_coefficients(&reference, &current, &mut expected);
                 let mut coefficients = vec![PointCoefficients::default(); x.len()];
@@ -1190,7 +1190,7 @@ mod tests {
         let current = CurrentView {
             position: &y,
             bond_damage: None,
-            history: &crate::state::NO_HISTORY,
+            history: &crate::history::NO_HISTORY,
         };
         let mut c = vec![PointCoefficients::default(); x.len()];
         m.compute_point_coefficients(&reference, &current, &mut c);
@@ -1235,7 +1235,7 @@ mod tests {
         let current = CurrentView {
             position: &y,
             bond_damage: None,
-            history: &crate::state::NO_HISTORY,
+            history: &crate::history::NO_HISTORY,
         };
         let mut c = vec![PointCoefficients::default(); x.len()];
         m.compute_point_coefficients(&reference, &current, &mut c);

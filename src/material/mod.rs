@@ -34,7 +34,7 @@ mod registry;
 
 pub use bond_based::{BondBased, BondBasedParameters};
 pub use correspondence::{
-    fields as correspondence_fields, CORRESPONDENCE_FIELDS, CORRESPONDENCE_OUTPUTS,
+    fields as correspondence_fields, Flaw, CORRESPONDENCE_FIELDS, CORRESPONDENCE_OUTPUTS,
 };
 pub(crate) use correspondence::{
     ElasticCorrespondence, ElasticPlasticCorrespondence, ElasticStress, HardeningPlasticStress,
@@ -43,7 +43,10 @@ pub(crate) use correspondence::{
 pub use elastic_constants::{ElasticConstants, ElasticInput, PlanarAssumption};
 pub use influence::{InfluenceFunction, UserInfluence};
 pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};
-pub use registry::{material_entry, MaterialConstructor, MaterialEntry, MaterialInput, MATERIALS};
+pub use registry::{
+    material_entry, CorrespondenceInput, MaterialConstructor, MaterialEntry, MaterialInput,
+    MATERIALS,
+};
 
 use rayon::prelude::*;
 
@@ -201,7 +204,7 @@ pub trait Material: Send + Sync {
         let _ = keep;
     }
 
-    /// Advances the block's history fields ([`crate::state::History`]) to the configuration
+    /// Advances the block's history fields ([`crate::history::History`]) to the configuration
     /// `current` (positions and bond damage; its `history` is empty here): reads their
     /// committed values (the start of the step) and writes their trial values. Runs in every
     /// force evaluation before [`Material::compute_point_coefficients`]; the force pass and
@@ -211,7 +214,7 @@ pub trait Material: Send + Sync {
         &self,
         reference: &ReferenceView<'_>,
         current: &CurrentView<'_>,
-        history: &mut crate::state::History,
+        history: &mut crate::history::History,
     ) {
         let _ = (reference, current, history);
     }

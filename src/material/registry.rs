@@ -30,20 +30,21 @@ pub struct MaterialInput {
     pub planar_thickness: Option<f64>,
     /// `Discretization → Influence Function` ω(ζ, δ).
     pub influence: InfluenceFunction,
-    /// The deck's `Material Model` with the model's own parameters (e.g. a correspondence
-    /// model's `Hourglass Coefficient`, `Yield Stress`); `None` when a material is built by
-    /// hand without a deck.
-    pub model: Option<crate::io::deck::MaterialModel>,
+    /// The parameters of a correspondence model (`None` for other models).
+    pub correspondence: Option<CorrespondenceInput>,
 }
 
-impl MaterialInput {
-    /// The deck's model parameters, or a clear error naming what the model needs.
-    pub fn model_parameters(
-        &self,
-        key: &'static str,
-    ) -> Result<&crate::io::deck::MaterialModel, MaterialError> {
-        self.model.as_ref().ok_or(MaterialError::Missing { key })
-    }
+/// The deck parameters of a correspondence model besides its elastic constants.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CorrespondenceInput {
+    /// `Hourglass Coefficient` C_hg (dimensionless, ≥ 0).
+    pub hourglass_coefficient: f64,
+    /// `Yield Stress` σ_y (pressure) of the plastic models.
+    pub yield_stress: Option<f64>,
+    /// `Hardening Modulus` H (pressure) of `Isotropic Hardening Correspondence`.
+    pub hardening_modulus: Option<f64>,
+    /// `Enable Flaw` with its parameters.
+    pub flaw: Option<super::Flaw>,
 }
 
 impl MaterialInput {
@@ -52,6 +53,16 @@ impl MaterialInput {
         self.shear_modulus.ok_or(MaterialError::Missing {
             key: "Shear Modulus",
         })
+    }
+
+    /// The correspondence parameters, or a clear error naming `key` when the model needs them.
+    pub fn required_correspondence(
+        &self,
+        key: &'static str,
+    ) -> Result<&CorrespondenceInput, MaterialError> {
+        self.correspondence
+            .as_ref()
+            .ok_or(MaterialError::Missing { key })
     }
 }
 
@@ -102,26 +113,6 @@ pub fn material_entry(deck_name: &str) -> Option<&'static MaterialEntry> {
 mod tests {
     use super::*;
 
-    /// Deck parameters for the model called `name` (plain ones for models without any).
-    fn deck_model_named(name: &str) -> crate::io::deck::MaterialModel {
-        use crate::io::deck::MaterialModel as M;
-        match name {
-            "Elastic Plastic Correspondence" => M::ElasticPlasticCorrespondence {
-                hourglass_coefficient: 0.0,
-                yield_stress: 1.0,
-            },
-            "Isotropic Hardening Correspondence" => M::IsotropicHardeningCorrespondence {
-                hourglass_coefficient: 0.0,
-                yield_stress: 1.0,
-                hardening_modulus: 0.1,
-                flaw: None,
-            },
-            _ => M::ElasticCorrespondence {
-                hourglass_coefficient: 0.0,
-            },
-        }
-    }
-
     #[test]
     fn deck_names_are_unique_and_the_built_material_reports_its_declaration() {
         for (k, entry) in MATERIALS.iter().enumerate() {
@@ -139,7 +130,12 @@ mod tests {
                 shear_modulus: Some(1.0),
                 planar_thickness: None,
                 influence: InfluenceFunction::One,
-                model: Some(deck_model_named(name)),
+                correspondence: Some(CorrespondenceInput {
+                    hourglass_coefficient: 0.0,
+                    yield_stress: Some(1.0),
+                    hardening_modulus: Some(0.1),
+                    flaw: None,
+                }),
             };
             let material = (entry.build)(&input).unwrap();
             assert_eq!(material.model_name(), name);
@@ -158,7 +154,7 @@ mod tests {
             shear_modulus: None,
             planar_thickness: None,
             influence: InfluenceFunction::One,
-            model: None,
+            correspondence: None,
         };
         let error = (material_entry("Elastic").unwrap().build)(&input).err();
         assert_eq!(

@@ -78,7 +78,7 @@ fn evaluate(
     let current = CurrentView {
         position: y,
         bond_damage: damage,
-        history: &crate::state::NO_HISTORY,
+        history: &crate::history::NO_HISTORY,
     };
     let mut coefficients = vec![PointCoefficients::default(); n];
     for m in blocks {

@@ -2,6 +2,8 @@
 //! (rank halos, tangent patterns, `peridyn check`, output catalogues) asks the model's registry
 //! entry instead of matching its name.
 
+pub use crate::history::{FieldCarrier, FieldDeclaration};
+
 /// How far the force of a point reaches through the bonds.
 ///
 /// Ordered: [`Reach::OneHop`] < [`Reach::TwoHop`], so the reach of several models is their
@@ -35,41 +37,6 @@ impl Reach {
             Reach::TwoHop => "two-hop",
         }
     }
-}
-
-/// What a field of a model is attached to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FieldCarrier {
-    /// One value per point.
-    Point,
-    /// One value per directed bond, indexed like the bond list.
-    Bond,
-}
-
-impl FieldCarrier {
-    /// The word `peridyn check` prints for the carrier.
-    pub fn name(self) -> &'static str {
-        match self {
-            FieldCarrier::Point => "point",
-            FieldCarrier::Bond => "bond",
-        }
-    }
-}
-
-/// A field a model keeps between force evaluations.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct FieldDeclaration {
-    /// The field's name (Peridigm's, where it has one), e.g. `Weighted_Volume`.
-    pub name: &'static str,
-    /// Point or bond field.
-    pub carrier: FieldCarrier,
-    /// Bytes of one value (8 for `f64`, 4 for `f32`).
-    pub bytes_per_value: u64,
-    /// True when the field evolves with the deformation and is staged: a trial value during a
-    /// load step, committed on acceptance and restored on rejection (bond damage). False for
-    /// fields fixed by the reference configuration or recomputed from the current one in every
-    /// evaluation (LPS weighted volume and dilatation).
-    pub staged: bool,
 }
 
 /// Everything a model declares besides its constructor: its deck name and keys, its reach,

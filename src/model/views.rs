@@ -2,7 +2,7 @@
 //! read.
 
 use super::{BondList, PointCloud};
-use crate::state::History;
+use crate::history::History;
 
 /// The reference configuration of all points (owned and ghost), read by every material.
 #[derive(Debug, Clone, Copy)]
@@ -26,7 +26,7 @@ impl<'a> ReferenceView<'a> {
     }
 }
 
-/// The current configuration of all points.
+/// The current configuration of all points, as materials and damage models read it.
 #[derive(Debug, Clone, Copy)]
 pub struct CurrentView<'a> {
     /// Current positions Y = X + u (length).
@@ -35,6 +35,6 @@ pub struct CurrentView<'a> {
     /// when no damage model is active (all bonds intact).
     pub bond_damage: Option<&'a [f32]>,
     /// The materials' history fields (trial values of this evaluation, committed values of
-    /// the step's start); [`crate::state::NO_HISTORY`] when no model declares any.
+    /// the step's start); [`crate::history::NO_HISTORY`] when no model declares any.
     pub history: &'a History,
 }

@@ -165,7 +165,7 @@ fn build_material(
         shear_modulus: material.shear_modulus(),
         planar_thickness: material.planar_thickness(),
         influence: influence.clone(),
-        model: Some(material.model.clone()),
+        correspondence: material.model.correspondence_input(),
     };
     let mut built =
         (registered.build)(&input).map_err(|e| deck.error_at(&key_material, e.to_string()))?;

@@ -4,7 +4,7 @@
 // Matrix checks read best with explicit row and column indices.
 #![allow(clippy::needless_range_loop)]
 
-use crate::state::{History, NO_HISTORY};
+use crate::history::{History, NO_HISTORY};
 use std::sync::Arc;
 
 use super::*;

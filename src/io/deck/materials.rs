@@ -273,16 +273,7 @@ pub enum PalsInfluence {
     Gaussian,
 }
 
-/// Gaussian flaw that lowers the yield stress: σ_y·(1 − A·exp(−|X − X_f|²/s²)).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Flaw {
-    /// `Flaw Location X/Y/Z` X_f (required with `Enable Flaw`).
-    pub location: [f64; 3],
-    /// `Flaw Size` s (required, > 0).
-    pub size: f64,
-    /// `Flaw Magnitude` A (required).
-    pub magnitude: f64,
-}
+pub use crate::material::Flaw;
 
 /// Plasticity of the hypoelastic correspondence family.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -887,6 +878,35 @@ fn read_tangent(
 }
 
 impl MaterialModel {
+    /// The parameters a correspondence model's constructor reads; `None` for other models.
+    pub fn correspondence_input(&self) -> Option<crate::material::CorrespondenceInput> {
+        use crate::material::CorrespondenceInput;
+        let hourglass_coefficient = self.hourglass_coefficient()?;
+        let mut input = CorrespondenceInput {
+            hourglass_coefficient,
+            yield_stress: None,
+            hardening_modulus: None,
+            flaw: None,
+        };
+        match self {
+            MaterialModel::ElasticPlasticCorrespondence { yield_stress, .. } => {
+                input.yield_stress = Some(*yield_stress);
+            }
+            MaterialModel::IsotropicHardeningCorrespondence {
+                yield_stress,
+                hardening_modulus,
+                flaw,
+                ..
+            } => {
+                input.yield_stress = Some(*yield_stress);
+                input.hardening_modulus = Some(*hardening_modulus);
+                input.flaw = *flaw;
+            }
+            _ => {}
+        }
+        Some(input)
+    }
+
     /// `Hourglass Coefficient` of a correspondence model; `None` for other models.
     pub fn hourglass_coefficient(&self) -> Option<f64> {
         match self {

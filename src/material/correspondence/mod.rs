@@ -28,7 +28,7 @@
 //!
 //! **History.** F, V, R (stored as their difference from the identity, so that a fresh history
 //! is the undeformed state), σ̃, σ and `P K⁻¹` are staged point fields of the run's
-//! [`crate::state::History`]: each force evaluation advances them from the committed values of
+//! [`crate::history::History`]: each force evaluation advances them from the committed values of
 //! the step's start, and a step's acceptance commits them.
 //!
 //! Not yet supported: `Thermal Expansion Coefficient`, and runs on several MPI ranks (the
@@ -42,6 +42,7 @@ mod plastic;
 mod tests;
 
 pub(crate) use elastic::ElasticStress;
+pub use plastic::Flaw;
 pub(crate) use plastic::{HardeningPlasticStress, PerfectlyPlasticStress};
 
 use rayon::prelude::*;
@@ -55,9 +56,9 @@ use super::{
     assert_point_set, checked_tangent_method, local_offsets, positive, CurrentView, Material,
     MaterialError, MaterialInput, PointCoefficients, ReferenceView, PERIDIGM_PI,
 };
+use crate::history::History;
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::{BondList, FieldCarrier, FieldDeclaration, ModelDeclaration};
-use crate::state::History;
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -187,11 +188,8 @@ impl<S: StressModel> Correspondence<S> {
     /// The registry's constructor.
     pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
         let hourglass_coefficient = input
-            .model_parameters("Hourglass Coefficient")?
-            .hourglass_coefficient()
-            .ok_or(MaterialError::Missing {
-                key: "Hourglass Coefficient",
-            })?;
+            .required_correspondence("Hourglass Coefficient")?
+            .hourglass_coefficient;
         if !(hourglass_coefficient.is_finite() && hourglass_coefficient >= 0.0) {
             return Err(MaterialError::NotNonNegative {
                 key: "Hourglass Coefficient",
@@ -535,7 +533,7 @@ impl<S: StressModel> Material for Correspondence<S> {
         let undamaged = CurrentView {
             position: reference.position,
             bond_damage: None,
-            history: &crate::state::NO_HISTORY,
+            history: &crate::history::NO_HISTORY,
         };
         let family = self.family(reference, &undamaged);
         let singular = self

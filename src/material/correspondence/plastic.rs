@@ -19,10 +19,21 @@
 use super::elastic::elastic_trial;
 use super::kinematics::{deviator, trace, Tensor};
 use super::{StressModel, StressState};
-use crate::io::deck::{Flaw, MaterialModel};
 use crate::material::{positive, MaterialError, MaterialInput};
 use crate::model::{ModelDeclaration, Reach};
 use crate::tangent::Scalar;
+
+/// Gaussian flaw that lowers the yield stress: σ_y·(1 − A·exp(−|X − X_f|²/s²)) (Peridigm's
+/// `Enable Flaw` keys).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Flaw {
+    /// `Flaw Location X/Y/Z` X_f (length).
+    pub location: [f64; 3],
+    /// `Flaw Size` s (length, > 0).
+    pub size: f64,
+    /// `Flaw Magnitude` A (dimensionless).
+    pub magnitude: f64,
+}
 
 /// The constants of J2 plasticity with linear isotropic hardening.
 #[derive(Debug, Clone, Copy)]
@@ -144,14 +155,11 @@ impl StressModel for PerfectlyPlasticStress {
     };
 
     fn from_input(input: &MaterialInput) -> Result<Self, MaterialError> {
-        match input.model_parameters("Yield Stress")? {
-            MaterialModel::ElasticPlasticCorrespondence { yield_stress, .. } => {
-                Ok(Self(J2::new(input, *yield_stress, 0.0, None)?))
-            }
-            _ => Err(MaterialError::Missing {
-                key: "Yield Stress",
-            }),
-        }
+        let parameters = input.required_correspondence("Yield Stress")?;
+        let yield_stress = parameters.yield_stress.ok_or(MaterialError::Missing {
+            key: "Yield Stress",
+        })?;
+        Ok(Self(J2::new(input, yield_stress, 0.0, None)?))
     }
 
     fn advance<T: Scalar>(
@@ -191,22 +199,19 @@ impl StressModel for HardeningPlasticStress {
     };
 
     fn from_input(input: &MaterialInput) -> Result<Self, MaterialError> {
-        match input.model_parameters("Hardening Modulus")? {
-            MaterialModel::IsotropicHardeningCorrespondence {
-                yield_stress,
-                hardening_modulus,
-                flaw,
-                ..
-            } => Ok(Self(J2::new(
-                input,
-                *yield_stress,
-                *hardening_modulus,
-                *flaw,
-            )?)),
-            _ => Err(MaterialError::Missing {
-                key: "Hardening Modulus",
-            }),
-        }
+        let parameters = input.required_correspondence("Hardening Modulus")?;
+        let yield_stress = parameters.yield_stress.ok_or(MaterialError::Missing {
+            key: "Yield Stress",
+        })?;
+        let hardening_modulus = parameters.hardening_modulus.ok_or(MaterialError::Missing {
+            key: "Hardening Modulus",
+        })?;
+        Ok(Self(J2::new(
+            input,
+            yield_stress,
+            hardening_modulus,
+            parameters.flaw,
+        )?))
     }
 
     fn advance<T: Scalar>(

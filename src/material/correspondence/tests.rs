@@ -32,8 +32,11 @@ fn material(hourglass: f64) -> Box<dyn Material> {
         shear_modulus: Some(SHEAR),
         planar_thickness: None,
         influence: InfluenceFunction::ParabolicDecay,
-        model: Some(crate::io::deck::MaterialModel::ElasticCorrespondence {
+        correspondence: Some(crate::material::CorrespondenceInput {
             hourglass_coefficient: hourglass,
+            yield_stress: None,
+            hardening_modulus: None,
+            flaw: None,
         }),
     })
     .unwrap()
@@ -412,7 +415,7 @@ fn a_point_whose_bonds_all_broke_carries_no_stress_and_the_force_stays_finite() 
 
 /// J2 with the constants of the check: E = 211 GPa, ν = 0 (μ = E/2, K = E/3),
 /// σ_y = 460 MPa, H = 5 GPa.
-fn j2(flaw: Option<crate::io::deck::Flaw>) -> plastic::J2 {
+fn j2(flaw: Option<crate::material::Flaw>) -> plastic::J2 {
     plastic::J2 {
         bulk_modulus: 211e9 / 3.0,
         shear_modulus: 211e9 / 2.0,
@@ -473,7 +476,7 @@ fn j2_yields_at_the_closed_form_strain() {
 
 #[test]
 fn a_flaw_lowers_the_yield_stress_where_it_sits() {
-    let flaw = crate::io::deck::Flaw {
+    let flaw = crate::material::Flaw {
         location: [1.0, 0.0, 0.0],
         size: 0.5,
         magnitude: 0.5,
@@ -501,14 +504,12 @@ fn the_plastic_tangent_matches_finite_differences_while_yielding() {
         shear_modulus: Some(SHEAR),
         planar_thickness: None,
         influence: InfluenceFunction::ParabolicDecay,
-        model: Some(
-            crate::io::deck::MaterialModel::IsotropicHardeningCorrespondence {
-                hourglass_coefficient: 0.05,
-                yield_stress: 2e-3,
-                hardening_modulus: 0.3,
-                flaw: None,
-            },
-        ),
+        correspondence: Some(crate::material::CorrespondenceInput {
+            hourglass_coefficient: 0.05,
+            yield_stress: Some(2e-3),
+            hardening_modulus: Some(0.3),
+            flaw: None,
+        }),
     })
     .unwrap();
     m.setup(
