@@ -124,15 +124,18 @@ impl J2 {
     }
 }
 
-/// `Elastic Plastic Correspondence`: J2 perfect plasticity (`Yield Stress`).
+/// J2 plasticity as a correspondence stress model: `Isotropic Hardening Correspondence` when
+/// `HARDENING` (`Yield Stress`, `Hardening Modulus`, optional flaw), `Elastic Plastic
+/// Correspondence` (perfect plasticity, `Yield Stress`) otherwise.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct PerfectlyPlasticStress(pub(crate) J2);
+pub(crate) struct PlasticStress<const HARDENING: bool>(pub(crate) J2);
 
-/// `Isotropic Hardening Correspondence`: J2 with linear isotropic hardening (`Yield Stress`,
-/// `Hardening Modulus`, optional flaw).
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct HardeningPlasticStress(pub(crate) J2);
+/// `Elastic Plastic Correspondence`.
+pub(crate) type PerfectlyPlasticStress = PlasticStress<false>;
+/// `Isotropic Hardening Correspondence`.
+pub(crate) type HardeningPlasticStress = PlasticStress<true>;
 
+/// The keys of the perfectly plastic model; the hardening model adds its own after them.
 const PLASTIC_KEYS: &[&str] = &[
     "Density",
     "Bulk Modulus",
@@ -143,12 +146,27 @@ const PLASTIC_KEYS: &[&str] = &[
     "Yield Stress",
     "Tangent",
     "Finite Difference Probe Length",
+    "Hardening Modulus",
+    "Enable Flaw",
+    "Flaw Location X",
+    "Flaw Location Y",
+    "Flaw Location Z",
+    "Flaw Size",
+    "Flaw Magnitude",
 ];
 
-impl StressModel for PerfectlyPlasticStress {
+impl<const HARDENING: bool> StressModel for PlasticStress<HARDENING> {
     const DECLARATION: ModelDeclaration = ModelDeclaration {
-        deck_name: "Elastic Plastic Correspondence",
-        deck_keys: PLASTIC_KEYS,
+        deck_name: if HARDENING {
+            "Isotropic Hardening Correspondence"
+        } else {
+            "Elastic Plastic Correspondence"
+        },
+        deck_keys: if HARDENING {
+            PLASTIC_KEYS
+        } else {
+            PLASTIC_KEYS.split_at(9).0
+        },
         reach: Reach::TwoHop,
         fields: super::CORRESPONDENCE_FIELDS,
         outputs: super::CORRESPONDENCE_OUTPUTS,
@@ -159,50 +177,9 @@ impl StressModel for PerfectlyPlasticStress {
         let yield_stress = parameters.yield_stress.ok_or(MaterialError::Missing {
             key: "Yield Stress",
         })?;
-        Ok(Self(J2::new(input, yield_stress, 0.0, None)?))
-    }
-
-    fn advance<T: Scalar>(
-        &self,
-        start: &StressState<f64>,
-        increment: &Tensor<T>,
-        position: [f64; 3],
-    ) -> StressState<T> {
-        self.0.advance(start, increment, position)
-    }
-}
-
-impl StressModel for HardeningPlasticStress {
-    const DECLARATION: ModelDeclaration = ModelDeclaration {
-        deck_name: "Isotropic Hardening Correspondence",
-        deck_keys: &[
-            "Density",
-            "Bulk Modulus",
-            "Shear Modulus",
-            "Young's Modulus",
-            "Poisson's Ratio",
-            "Hourglass Coefficient",
-            "Yield Stress",
-            "Hardening Modulus",
-            "Enable Flaw",
-            "Flaw Location X",
-            "Flaw Location Y",
-            "Flaw Location Z",
-            "Flaw Size",
-            "Flaw Magnitude",
-            "Tangent",
-            "Finite Difference Probe Length",
-        ],
-        reach: Reach::TwoHop,
-        fields: super::CORRESPONDENCE_FIELDS,
-        outputs: super::CORRESPONDENCE_OUTPUTS,
-    };
-
-    fn from_input(input: &MaterialInput) -> Result<Self, MaterialError> {
-        let parameters = input.required_correspondence("Hardening Modulus")?;
-        let yield_stress = parameters.yield_stress.ok_or(MaterialError::Missing {
-            key: "Yield Stress",
-        })?;
+        if !HARDENING {
+            return Ok(Self(J2::new(input, yield_stress, 0.0, None)?));
+        }
         let hardening_modulus = parameters.hardening_modulus.ok_or(MaterialError::Missing {
             key: "Hardening Modulus",
         })?;
