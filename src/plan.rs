@@ -86,7 +86,8 @@ pub struct NodeSetPlan {
 /// Which physics run.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct PhysicsPlan {
-    /// Any state-based material (needs a dilatation pass).
+    /// Any state-based material (a per-point pass before the forces: the LPS dilatation, a
+    /// correspondence deformation gradient and stress).
     pub state_based: bool,
     /// Any block with a damage model (allocates bond damage).
     pub damage: bool,
@@ -264,7 +265,7 @@ impl RunPlan {
         let p = &self.physics;
         let yes = |b: bool| if b { "yes" } else { "no" };
         writeln!(f, "\nphysics")?;
-        writeln!(f, "  state-based dilatation pass  {}", yes(p.state_based))?;
+        writeln!(f, "  state-based point pass       {}", yes(p.state_based))?;
         writeln!(f, "  bond damage                  {}", yes(p.damage))?;
         writeln!(f, "  contact search               {}", yes(p.contact))?;
         writeln!(f, "  explicit dynamics            {}", yes(p.explicit))?;
