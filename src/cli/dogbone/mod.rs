@@ -17,6 +17,10 @@ use geometry::DogBone;
 /// Fewest points: below this the gauge section is less than three cells wide.
 pub const MIN_POINTS: usize = 500;
 
+/// Most points: beyond this the lattice alone would take gigabytes, and a run of it (about
+/// 60 bonds and 2 kB of state and bonds per point) more memory than any one machine has.
+pub const MAX_POINTS: usize = 50_000_000;
+
 /// Command-line options of `peridyn dogbone`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct DogboneArgs {
@@ -80,6 +84,12 @@ pub fn main(args: &DogboneArgs) -> Result<String, DogboneError> {
     if args.points < MIN_POINTS {
         return Err(DogboneError::Options(format!(
             "--points {} is too few; at least {MIN_POINTS}",
+            args.points
+        )));
+    }
+    if args.points > MAX_POINTS {
+        return Err(DogboneError::Options(format!(
+            "--points {} is too many; at most {MAX_POINTS}",
             args.points
         )));
     }
