@@ -232,17 +232,15 @@ impl<S: StressModel> Correspondence<S> {
     }
 
     /// The update of point `point` with its family at `y` (`y[0]` the point, `y[1 + n]` its n-th
-    /// neighbour) from the committed `start`; `None` when its shape tensor or deformation
-    /// gradient is singular.
+    /// neighbour) from the committed `start`, given its shape tensor's inverse
+    /// ([`Family::shape_inverse`]); `None` when its deformation gradient is singular.
     fn point_update<T: Scalar>(
         &self,
         family: &Family<'_>,
         point: PointIndex,
         y: &[[T; 3]],
-        start: &StepStart,
+        (start, shape_inverse): (&StepStart, &Tensor<f64>),
     ) -> Option<PointUpdate<T>> {
-        let (shape, _) = family.shape_tensor(point);
-        let shape_inverse = inverse(&shape)?;
         let mut first_term = kinematics::zero::<T>();
         for (n, b) in family.bonds.range(point.global).enumerate() {
             let weight = family.weight(point, n, b);
@@ -257,7 +255,7 @@ impl<S: StressModel> Correspondence<S> {
                 }
             }
         }
-        let deformation_gradient = first_term * lift::<T>(&shape_inverse);
+        let deformation_gradient = first_term * lift::<T>(shape_inverse);
         let f_inverse = inverse(&deformation_gradient)?;
         let step = flanagan_taylor(&deformation_gradient, start)?;
         let advanced = self.stress.advance(
@@ -275,7 +273,7 @@ impl<S: StressModel> Correspondence<S> {
             rotation: step.rotation,
             unrotated_stress,
             cauchy_stress,
-            stress_shape: piola * lift::<T>(&shape_inverse),
+            stress_shape: piola * lift::<T>(shape_inverse),
             equivalent_plastic_strain: advanced.equivalent_plastic_strain,
         })
     }
@@ -306,44 +304,11 @@ impl<S: StressModel> Correspondence<S> {
         force
     }
 
-    /// The committed start of the step of point `p` (global index).
-    fn step_start(history: &History, p: usize, committed: bool) -> StepStart {
-        let read = |name: &str| {
-            let field = history
-                .field(name)
-                .expect("the run allocates every field a correspondence model declares");
-            let values = if committed {
-                field.committed()
-            } else {
-                field.trial()
-            };
-            from_row_major(&values[9 * p..9 * p + 9])
-        };
-        StepStart {
-            deformation_gradient: read(fields::DEFORMATION_GRADIENT) + identity::<f64>(),
-            left_stretch: read(fields::LEFT_STRETCH) + identity::<f64>(),
-            rotation: read(fields::ROTATION) + identity::<f64>(),
-            stress: StressState {
-                unrotated: read(fields::UNROTATED_STRESS),
-                equivalent_plastic_strain: {
-                    let field = history
-                        .field(fields::EQUIVALENT_PLASTIC_STRAIN)
-                        .expect("the run allocates every field a correspondence model declares");
-                    if committed {
-                        field.committed()[p]
-                    } else {
-                        field.trial()[p]
-                    }
-                },
-            },
-        }
-    }
-
-    /// The positions of point `p`'s family, `y[0]` the point.
-    fn family_positions(bonds: &BondList, position: &[[f64; 3]], p: usize) -> Vec<[f64; 3]> {
-        std::iter::once(position[p])
-            .chain(bonds.family(p).iter().map(|&j| position[j as usize]))
-            .collect()
+    /// The positions of point `p`'s family into `y` (`y[0]` the point).
+    fn family_positions(bonds: &BondList, position: &[[f64; 3]], p: usize, y: &mut Vec<[f64; 3]>) {
+        y.clear();
+        y.push(position[p]);
+        y.extend(bonds.family(p).iter().map(|&j| position[j as usize]));
     }
 
     /// Adds the force density of the block's points: stress and hourglass terms, or the
@@ -456,6 +421,57 @@ impl<T: Scalar> Bond<T> {
     }
 }
 
+/// What a history field holds for a point without a deformation gradient.
+#[derive(Clone, Copy)]
+enum Held {
+    /// Its committed value (kinematics and unrotated stress stay where they were).
+    Committed,
+    /// Zero (it carries no stress).
+    Zero,
+}
+
+/// The committed history of the correspondence fields, looked up once per evaluation.
+#[derive(Clone, Copy)]
+struct CommittedHistory<'a> {
+    deformation_gradient: &'a [f64],
+    left_stretch: &'a [f64],
+    rotation: &'a [f64],
+    unrotated_stress: &'a [f64],
+    equivalent_plastic_strain: &'a [f64],
+}
+
+impl<'a> CommittedHistory<'a> {
+    fn of(history: &'a History) -> Self {
+        let committed = |name: &str| {
+            history
+                .field(name)
+                .expect("the run allocates every field a correspondence model declares")
+                .committed()
+        };
+        Self {
+            deformation_gradient: committed(fields::DEFORMATION_GRADIENT),
+            left_stretch: committed(fields::LEFT_STRETCH),
+            rotation: committed(fields::ROTATION),
+            unrotated_stress: committed(fields::UNROTATED_STRESS),
+            equivalent_plastic_strain: committed(fields::EQUIVALENT_PLASTIC_STRAIN),
+        }
+    }
+
+    /// The committed start of the step of point `p` (global index).
+    fn start(&self, p: usize) -> StepStart {
+        let read = |values: &[f64]| from_row_major(&values[9 * p..9 * p + 9]);
+        StepStart {
+            deformation_gradient: read(self.deformation_gradient) + identity::<f64>(),
+            left_stretch: read(self.left_stretch) + identity::<f64>(),
+            rotation: read(self.rotation) + identity::<f64>(),
+            stress: StressState {
+                unrotated: read(self.unrotated_stress),
+                equivalent_plastic_strain: self.equivalent_plastic_strain[p],
+            },
+        }
+    }
+}
+
 /// What the per-point kinematics read: the reference families, ω and the bond damage.
 struct Family<'a> {
     bonds: &'a BondList,
@@ -480,6 +496,11 @@ impl Family<'_> {
     fn weight(&self, point: PointIndex, n: usize, b: usize) -> f64 {
         let omega = self.weights[self.local_offsets[point.local] + n];
         omega * self.intact(b) * self.volume[self.bonds.neighbor[b] as usize]
+    }
+
+    /// K⁻¹ of `point`, `None` when K is singular.
+    fn shape_inverse(&self, point: PointIndex) -> Option<Tensor<f64>> {
+        inverse(&self.shape_tensor(point).0)
     }
 
     /// K of `point` and its number of intact bonds.
@@ -576,45 +597,56 @@ impl<S: StressModel> Material for Correspondence<S> {
         history: &mut History,
     ) {
         let family = self.family(reference, current);
+        let committed = CommittedHistory::of(history);
         let updates: Vec<Option<PointUpdate<f64>>> = self
             .points
             .par_iter()
             .enumerate()
-            .map(|(local, &p)| {
+            .map_init(Vec::new, |y, (local, &p)| {
                 let p = p as usize;
-                let y = Self::family_positions(family.bonds, current.position, p);
-                let start = Self::step_start(history, p, true);
+                Self::family_positions(family.bonds, current.position, p, y);
                 let point = PointIndex { global: p, local };
-                self.point_update(&family, point, &y, &start)
+                let shape_inverse = family.shape_inverse(point)?;
+                let start = committed.start(p);
+                self.point_update(&family, point, y, (&start, &shape_inverse))
             })
             .collect();
-        let mut write = |name: &str, value: &dyn Fn(&PointUpdate<f64>) -> Tensor<f64>| {
-            let field = history
-                .field_mut(name)
-                .expect("the run allocates every field a correspondence model declares");
-            let (committed, trial) = field.committed_and_trial();
-            for (&p, update) in self.points.iter().zip(&updates) {
-                let range = 9 * p as usize..9 * p as usize + 9;
-                match update {
-                    Some(update) => trial[range].copy_from_slice(&to_row_major(&value(update))),
-                    // A point without a deformation gradient keeps its committed kinematics
-                    // and carries no stress.
-                    None if name == fields::STRESS_SHAPE || name == fields::CAUCHY_STRESS => {
-                        trial[range].fill(0.0)
+        // A point without a deformation gradient keeps its committed kinematics and carries
+        // no stress.
+        let mut write =
+            |name: &str, held: Held, value: &dyn Fn(&PointUpdate<f64>) -> Tensor<f64>| {
+                let field = history
+                    .field_mut(name)
+                    .expect("the run allocates every field a correspondence model declares");
+                let (committed, trial) = field.committed_and_trial();
+                for (&p, update) in self.points.iter().zip(&updates) {
+                    let range = 9 * p as usize..9 * p as usize + 9;
+                    match (update, held) {
+                        (Some(update), _) => {
+                            trial[range].copy_from_slice(&to_row_major(&value(update)))
+                        }
+                        (None, Held::Zero) => trial[range].fill(0.0),
+                        (None, Held::Committed) => {
+                            trial[range.clone()].copy_from_slice(&committed[range])
+                        }
                     }
-                    None => trial[range.clone()].copy_from_slice(&committed[range]),
                 }
-            }
-        };
+            };
         let minus_identity = |m: Tensor<f64>| m - identity::<f64>();
-        write(fields::DEFORMATION_GRADIENT, &|u| {
+        write(fields::DEFORMATION_GRADIENT, Held::Committed, &|u| {
             minus_identity(u.deformation_gradient)
         });
-        write(fields::LEFT_STRETCH, &|u| minus_identity(u.left_stretch));
-        write(fields::ROTATION, &|u| minus_identity(u.rotation));
-        write(fields::UNROTATED_STRESS, &|u| u.unrotated_stress);
-        write(fields::CAUCHY_STRESS, &|u| u.cauchy_stress);
-        write(fields::STRESS_SHAPE, &|u| u.stress_shape);
+        write(fields::LEFT_STRETCH, Held::Committed, &|u| {
+            minus_identity(u.left_stretch)
+        });
+        write(fields::ROTATION, Held::Committed, &|u| {
+            minus_identity(u.rotation)
+        });
+        write(fields::UNROTATED_STRESS, Held::Committed, &|u| {
+            u.unrotated_stress
+        });
+        write(fields::CAUCHY_STRESS, Held::Zero, &|u| u.cauchy_stress);
+        write(fields::STRESS_SHAPE, Held::Zero, &|u| u.stress_shape);
         let field = history
             .field_mut(fields::EQUIVALENT_PLASTIC_STRAIN)
             .expect("the run allocates every field a correspondence model declares");
@@ -691,10 +723,23 @@ impl<S: StressModel> Material for Correspondence<S> {
         method: TangentMethod,
         tangent: &mut BlockTangent,
     ) -> Result<(), TangentError> {
+        let family = self.family(reference, current);
+        let shape_inverses = self
+            .points
+            .par_iter()
+            .enumerate()
+            .map(|(local, &p)| {
+                family.shape_inverse(PointIndex {
+                    global: p as usize,
+                    local,
+                })
+            })
+            .collect();
         let kernel = CorrespondenceForceState {
             material: self,
-            family: self.family(reference, current),
-            history: current.history,
+            family,
+            committed: CommittedHistory::of(current.history),
+            shape_inverses,
         };
         assemble(
             &kernel,
@@ -725,7 +770,10 @@ fn well_conditioned(shape: &Tensor<f64>) -> bool {
 struct CorrespondenceForceState<'a, S: StressModel> {
     material: &'a Correspondence<S>,
     family: Family<'a>,
-    history: &'a History,
+    committed: CommittedHistory<'a>,
+    /// K⁻¹ of each block point (block order; `None` when singular), computed once per
+    /// assembly instead of once per perturbed evaluation.
+    shape_inverses: Vec<Option<Tensor<f64>>>,
 }
 
 impl<S: StressModel> ForceState for CorrespondenceForceState<'_, S> {
@@ -740,8 +788,12 @@ impl<S: StressModel> ForceState for CorrespondenceForceState<'_, S> {
         t: &mut [[T; 3]],
     ) {
         let zero = T::from(0.0);
-        let start = Correspondence::<S>::step_start(self.history, point.global, true);
-        let Some(update) = self.material.point_update(&self.family, point, y, &start) else {
+        let start = self.committed.start(point.global);
+        let update = self.shape_inverses[point.local].and_then(|shape_inverse| {
+            self.material
+                .point_update(&self.family, point, y, (&start, &shape_inverse))
+        });
+        let Some(update) = update else {
             t.fill([zero; 3]);
             return;
         };
