@@ -61,8 +61,8 @@
 //! exact for 0/1 damage; for fractional damage it is the energy of the softened spring.)
 
 use super::{
-    assert_point_set, checked_tangent_method, positive, CurrentView, Damaged, Integrity, Material,
-    MaterialError, MaterialInput, PointCoefficients, ReferenceView, Undamaged,
+    assert_point_set, checked_tangent_method, kept_points, positive, CurrentView, Damaged,
+    Integrity, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView, Undamaged,
 };
 use super::{BreakingForcePass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
@@ -1022,8 +1022,7 @@ impl Material for BondBased {
     }
 
     fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        let kept: Vec<u32> = self.points.iter().copied().filter(|&p| keep(p)).collect();
-        self.force_points = (kept.len() < self.points.len()).then_some(kept);
+        self.force_points = kept_points(&self.points, keep);
     }
 
     fn compute_point_coefficients(

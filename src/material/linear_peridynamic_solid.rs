@@ -20,9 +20,9 @@
 
 use super::influence::InfluenceFunction;
 use super::{
-    assert_point_set, checked_tangent_method, local_offsets, positive, BondWeights, CurrentView,
-    Damaged, Integrity, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
-    StoredWeights, Undamaged, UnitWeights,
+    assert_point_set, checked_tangent_method, kept_points, local_offsets, positive, BondWeights,
+    CurrentView, Damaged, Integrity, Material, MaterialError, MaterialInput, PointCoefficients,
+    ReferenceView, StoredWeights, Undamaged, UnitWeights,
 };
 use super::{BreakingCoefficientPass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
@@ -844,8 +844,7 @@ impl Material for LinearPeridynamicSolid {
     }
 
     fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        let kept: Vec<u32> = self.points.iter().copied().filter(|&p| keep(p)).collect();
-        self.force_points = (kept.len() < self.points.len()).then_some(kept);
+        self.force_points = kept_points(&self.points, keep);
     }
 
     fn compute_point_coefficients(

@@ -518,6 +518,13 @@ impl Integrity for FusedCriticalStretch {
     }
 }
 
+/// The points of `points` for which `keep` is true, or `None` when that is all of them
+/// ([`Material::restrict_forces`]).
+pub(crate) fn kept_points(points: &[u32], keep: &dyn Fn(u32) -> bool) -> Option<Vec<u32>> {
+    let kept: Vec<u32> = points.iter().copied().filter(|&p| keep(p)).collect();
+    (kept.len() < points.len()).then_some(kept)
+}
+
 /// Block-local bond offsets: `local[k]` is where point `points[k]`'s row starts in arrays
 /// that store only the block's bonds (length `points.len() + 1`).
 pub(crate) fn local_offsets(bonds: &BondList, points: &[u32]) -> Vec<usize> {

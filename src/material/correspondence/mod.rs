@@ -53,8 +53,8 @@ use self::kinematics::{
 };
 use super::influence::InfluenceFunction;
 use super::{
-    assert_point_set, checked_tangent_method, local_offsets, positive, CurrentView, Material,
-    MaterialError, MaterialInput, PointCoefficients, ReferenceView, PERIDIGM_PI,
+    assert_point_set, checked_tangent_method, kept_points, local_offsets, positive, CurrentView,
+    Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView, PERIDIGM_PI,
 };
 use crate::history::History;
 use crate::model::point_chunks::for_each_chunk;
@@ -586,8 +586,7 @@ impl<S: StressModel> Material for Correspondence<S> {
     }
 
     fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        let kept: Vec<u32> = self.points.iter().copied().filter(|&p| keep(p)).collect();
-        self.force_points = (kept.len() < self.points.len()).then_some(kept);
+        self.force_points = kept_points(&self.points, keep);
     }
 
     fn update_history(
