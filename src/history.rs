@@ -128,6 +128,8 @@ impl<T: Copy> Staged<T> {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct History {
     fields: Vec<(FieldDeclaration, Staged<f64>)>,
+    /// Δt of the step the trial values advance over (s); see [`History::step_duration`].
+    step_duration: f64,
 }
 
 impl History {
@@ -153,7 +155,10 @@ impl History {
             values.keep_committed();
             fields.push((*field, values));
         }
-        Self { fields }
+        Self {
+            fields,
+            step_duration: 0.0,
+        }
     }
 
     /// The field called `name`, if a model declared it.
@@ -172,6 +177,21 @@ impl History {
             .map(|(_, values)| values)
     }
 
+    /// Δt of the step whose trial values the force evaluations compute (s): the load step of
+    /// an implicit solver, the time step of an explicit one. Rate-dependent models read it
+    /// (`Viscoplastic Needleman Correspondence`); the time integrators set it at the start of
+    /// every step ([`History::set_step_duration`]). 0 until then: no time passes, so a
+    /// rate-dependent model responds elastically (the force evaluation at rest before the
+    /// first step).
+    pub fn step_duration(&self) -> f64 {
+        self.step_duration
+    }
+
+    /// Sets Δt of the step about to be solved (see [`History::step_duration`]).
+    pub fn set_step_duration(&mut self, duration: f64) {
+        self.step_duration = duration;
+    }
+
     /// The declared fields, in declaration order.
     pub fn declared(&self) -> impl Iterator<Item = &FieldDeclaration> {
         self.fields.iter().map(|(f, _)| f)
@@ -179,7 +199,10 @@ impl History {
 
     /// The history of a run without history fields.
     pub const fn empty() -> Self {
-        Self { fields: Vec::new() }
+        Self {
+            fields: Vec::new(),
+            step_duration: 0.0,
+        }
     }
 
     /// Applies `action` to every field (tests that stage history by hand).

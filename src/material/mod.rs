@@ -34,11 +34,13 @@ mod registry;
 
 pub use bond_based::{BondBased, BondBasedParameters};
 pub use correspondence::{
-    fields as correspondence_fields, Flaw, CORRESPONDENCE_FIELDS, CORRESPONDENCE_OUTPUTS,
+    fields as correspondence_fields, Flaw, NeedlemanParameters, CORRESPONDENCE_FIELDS,
+    CORRESPONDENCE_OUTPUTS,
 };
 pub(crate) use correspondence::{
     ElasticCorrespondence, ElasticPlasticCorrespondence, ElasticStress, HardeningPlasticStress,
-    IsotropicHardeningCorrespondence, PerfectlyPlasticStress, StressModel,
+    IsotropicHardeningCorrespondence, NeedlemanStress, PerfectlyPlasticStress, StressModel,
+    ViscoplasticNeedlemanCorrespondence,
 };
 pub use elastic_constants::{ElasticConstants, ElasticInput, PlanarAssumption};
 pub use influence::{InfluenceFunction, UserInfluence};

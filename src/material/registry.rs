@@ -8,7 +8,8 @@
 use super::{
     BondBased, ElasticCorrespondence, ElasticPlasticCorrespondence, ElasticStress,
     HardeningPlasticStress, InfluenceFunction, IsotropicHardeningCorrespondence,
-    LinearPeridynamicSolid, Material, MaterialError, PerfectlyPlasticStress, StressModel,
+    LinearPeridynamicSolid, Material, MaterialError, NeedlemanStress, PerfectlyPlasticStress,
+    StressModel, ViscoplasticNeedlemanCorrespondence,
 };
 use crate::model::ModelDeclaration;
 
@@ -45,6 +46,8 @@ pub struct CorrespondenceInput {
     pub hardening_modulus: Option<f64>,
     /// `Enable Flaw` with its parameters.
     pub flaw: Option<super::Flaw>,
+    /// The flow-stress parameters of `Viscoplastic Needleman Correspondence`.
+    pub viscoplastic: Option<super::NeedlemanParameters>,
 }
 
 impl MaterialInput {
@@ -100,6 +103,10 @@ pub static MATERIALS: &[MaterialEntry] = &[
         declaration: &<HardeningPlasticStress as StressModel>::DECLARATION,
         build: IsotropicHardeningCorrespondence::build,
     },
+    MaterialEntry {
+        declaration: &<NeedlemanStress as StressModel>::DECLARATION,
+        build: ViscoplasticNeedlemanCorrespondence::build,
+    },
 ];
 
 /// The entry of the model called `deck_name` in decks (`Material Model`), if this build runs it.
@@ -135,6 +142,13 @@ mod tests {
                     yield_stress: Some(1.0),
                     hardening_modulus: Some(0.1),
                     flaw: None,
+                    viscoplastic: Some(super::super::NeedlemanParameters {
+                        strain_hardening_exponent: 0.1,
+                        rate_hardening_exponent: 0.02,
+                        reference_strain_rate: 1.0,
+                        reference_strain_0: 0.01,
+                        reference_strain_1: 1.0,
+                    }),
                 }),
             };
             let material = (entry.build)(&input).unwrap();

@@ -129,6 +129,7 @@ impl VelocityVerlet {
         // Explicit steps accept every step: no committed copy of the staged fields is kept
         // (an implicit solver before this one may have kept one), so committing is free.
         state.drop_committed();
+        state.history.set_step_duration(self.settings.time_step);
         let positions = &model.points.position;
         // A failure is reported after the force evaluation, whose exchanges and collectives
         // every rank of a distributed run must join (see `step_with`).

@@ -106,6 +106,7 @@ pub fn run<E: From<NewmarkError>>(
     for step in 1..=settings.steps {
         let from = settings.initial_time + (step - 1) as f64 * dt;
         let to = settings.initial_time + step as f64 * dt;
+        state.history.set_step_duration(dt);
         let u_n = state.displacement.clone();
         let mut predictor = vec![[0.0; 3]; n];
         let mut velocity_predictor = vec![[0.0; 3]; n];

@@ -167,6 +167,7 @@ pub fn run<E: From<QuasiStaticError>>(
             start_displacement: state.displacement.clone(),
             start_velocity: state.velocity.clone(),
         };
+        state.history.set_step_duration(to - from);
         let mut system = ImplicitSystem::new(
             DofMap::new(model.points.len(), &stepping.constrained, &[]),
             state,

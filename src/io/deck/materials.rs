@@ -887,6 +887,7 @@ impl MaterialModel {
             yield_stress: None,
             hardening_modulus: None,
             flaw: None,
+            viscoplastic: None,
         };
         match self {
             MaterialModel::ElasticPlasticCorrespondence { yield_stress, .. } => {
@@ -901,6 +902,26 @@ impl MaterialModel {
                 input.yield_stress = Some(*yield_stress);
                 input.hardening_modulus = Some(*hardening_modulus);
                 input.flaw = *flaw;
+            }
+            MaterialModel::ViscoplasticNeedlemanCorrespondence {
+                yield_stress,
+                strain_hardening_exponent,
+                rate_hardening_exponent,
+                reference_strain_rate,
+                reference_strain_0,
+                reference_strain_1,
+                flaw,
+                ..
+            } => {
+                input.yield_stress = Some(*yield_stress);
+                input.flaw = *flaw;
+                input.viscoplastic = Some(crate::material::NeedlemanParameters {
+                    strain_hardening_exponent: *strain_hardening_exponent,
+                    rate_hardening_exponent: *rate_hardening_exponent,
+                    reference_strain_rate: *reference_strain_rate,
+                    reference_strain_0: *reference_strain_0,
+                    reference_strain_1: *reference_strain_1,
+                });
             }
             _ => {}
         }

@@ -8,7 +8,7 @@
 //! many steps it is the usual hypoelastic rate form.
 
 use super::kinematics::{deviator, lift, trace, Tensor};
-use super::{StressModel, StressState};
+use super::{PointStep, StressModel, StressState};
 use crate::material::{positive, MaterialError, MaterialInput};
 use crate::model::{ModelDeclaration, Reach};
 use crate::tangent::Scalar;
@@ -51,7 +51,7 @@ impl StressModel for ElasticStress {
         &self,
         start: &StressState<f64>,
         increment: &Tensor<T>,
-        _position: [f64; 3],
+        _step: &PointStep,
     ) -> StressState<T> {
         StressState {
             unrotated: elastic_trial(

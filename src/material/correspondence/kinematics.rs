@@ -173,6 +173,8 @@ pub(crate) struct StepStart {
     pub rotation: Tensor<f64>,
     /// σ̃_n and ε̄_p at the start of the step.
     pub stress: super::StressState<f64>,
+    /// Δt of the step (s).
+    pub duration: f64,
 }
 
 /// A row-major 3×3 array as a tensor.

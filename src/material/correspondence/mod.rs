@@ -40,10 +40,13 @@ mod elastic;
 mod plastic;
 #[cfg(test)]
 mod tests;
+mod viscoplastic;
 
 pub(crate) use elastic::ElasticStress;
 pub use plastic::Flaw;
 pub(crate) use plastic::{HardeningPlasticStress, PerfectlyPlasticStress};
+pub use viscoplastic::NeedlemanParameters;
+pub(crate) use viscoplastic::NeedlemanStress;
 
 use rayon::prelude::*;
 
@@ -70,6 +73,8 @@ pub(crate) type ElasticCorrespondence = Correspondence<ElasticStress>;
 pub(crate) type ElasticPlasticCorrespondence = Correspondence<PerfectlyPlasticStress>;
 /// `Isotropic Hardening Correspondence`: J2 with linear isotropic hardening.
 pub(crate) type IsotropicHardeningCorrespondence = Correspondence<HardeningPlasticStress>;
+/// `Viscoplastic Needleman Correspondence`: rate-dependent J2 with Needleman's flow stress.
+pub(crate) type ViscoplasticNeedlemanCorrespondence = Correspondence<NeedlemanStress>;
 
 /// What a stress model advances at a point over a step.
 #[derive(Debug, Clone, Copy)]
@@ -90,14 +95,23 @@ pub(crate) trait StressModel: std::fmt::Debug + Clone + Send + Sync + 'static {
     fn from_input(input: &MaterialInput) -> Result<Self, MaterialError>;
 
     /// The state at the end of the step from the state at its start and the unrotated strain
-    /// increment `d Δt` (dimensionless), at the point of reference position `position`
-    /// (models with a flaw), generic over the scalar for the AD tangent.
+    /// increment `d Δt` (dimensionless), at the point and over the step of `step`, generic
+    /// over the scalar for the AD tangent.
     fn advance<T: Scalar>(
         &self,
         start: &StressState<f64>,
         increment: &Tensor<T>,
-        position: [f64; 3],
+        step: &PointStep,
     ) -> StressState<T>;
+}
+
+/// Where and over how long a stress model advances a point.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PointStep {
+    /// The point's reference position X (length; models with a flaw).
+    pub position: [f64; 3],
+    /// Δt of the step (s; rate-dependent models), [`History::step_duration`].
+    pub duration: f64,
 }
 
 /// The staged point fields of every correspondence model (9 numbers per point, row-major).
@@ -261,7 +275,10 @@ impl<S: StressModel> Correspondence<S> {
         let advanced = self.stress.advance(
             &start.stress,
             &step.unrotated_strain_increment,
-            family.position[point.global],
+            &PointStep {
+                position: family.position[point.global],
+                duration: start.duration,
+            },
         );
         let unrotated_stress = advanced.unrotated;
         let cauchy_stress = step.rotation * unrotated_stress * step.rotation.transpose();
@@ -438,6 +455,8 @@ struct CommittedHistory<'a> {
     rotation: &'a [f64],
     unrotated_stress: &'a [f64],
     equivalent_plastic_strain: &'a [f64],
+    /// Δt of the step.
+    duration: f64,
 }
 
 impl<'a> CommittedHistory<'a> {
@@ -454,6 +473,7 @@ impl<'a> CommittedHistory<'a> {
             rotation: committed(fields::ROTATION),
             unrotated_stress: committed(fields::UNROTATED_STRESS),
             equivalent_plastic_strain: committed(fields::EQUIVALENT_PLASTIC_STRAIN),
+            duration: history.step_duration(),
         }
     }
 
@@ -468,6 +488,7 @@ impl<'a> CommittedHistory<'a> {
                 unrotated: read(self.unrotated_stress),
                 equivalent_plastic_strain: self.equivalent_plastic_strain[p],
             },
+            duration: self.duration,
         }
     }
 }

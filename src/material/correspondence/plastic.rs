@@ -18,7 +18,7 @@
 
 use super::elastic::elastic_trial;
 use super::kinematics::{deviator, trace, Tensor};
-use super::{StressModel, StressState};
+use super::{PointStep, StressModel, StressState};
 use crate::material::{positive, MaterialError, MaterialInput};
 use crate::model::{ModelDeclaration, Reach};
 use crate::tangent::Scalar;
@@ -33,6 +33,22 @@ pub struct Flaw {
     pub size: f64,
     /// `Flaw Magnitude` A (dimensionless).
     pub magnitude: f64,
+}
+
+impl Flaw {
+    /// `yield_stress` at reference position `x`: σ_y (1 − A exp(−|X − X_f|²/s²)) with a flaw,
+    /// σ_y without one.
+    pub(crate) fn reduced(flaw: Option<&Flaw>, yield_stress: f64, x: [f64; 3]) -> f64 {
+        match flaw {
+            Some(flaw) => {
+                let distance_squared: f64 = (0..3).map(|k| (x[k] - flaw.location[k]).powi(2)).sum();
+                let reduction =
+                    flaw.magnitude * (-distance_squared / (flaw.size * flaw.size)).exp();
+                yield_stress * (1.0 - reduction)
+            }
+            None => yield_stress,
+        }
+    }
 }
 
 /// The constants of J2 plasticity with linear isotropic hardening.
@@ -74,15 +90,7 @@ impl J2 {
 
     /// σ_y at reference position `x`, reduced by the flaw when there is one.
     fn yield_stress_at(&self, x: [f64; 3]) -> f64 {
-        match &self.flaw {
-            Some(flaw) => {
-                let distance_squared: f64 = (0..3).map(|k| (x[k] - flaw.location[k]).powi(2)).sum();
-                let reduction =
-                    flaw.magnitude * (-distance_squared / (flaw.size * flaw.size)).exp();
-                self.yield_stress * (1.0 - reduction)
-            }
-            None => self.yield_stress,
-        }
+        Flaw::reduced(self.flaw.as_ref(), self.yield_stress, x)
     }
 
     /// The radial return (module docs).
@@ -90,7 +98,7 @@ impl J2 {
         &self,
         start: &StressState<f64>,
         increment: &Tensor<T>,
-        position: [f64; 3],
+        step: &PointStep,
     ) -> StressState<T> {
         let trial = elastic_trial(
             &start.unrotated,
@@ -98,7 +106,7 @@ impl J2 {
             self.bulk_modulus,
             self.shear_modulus,
         );
-        let flow_stress = self.yield_stress_at(position)
+        let flow_stress = self.yield_stress_at(step.position)
             + self.hardening_modulus * start.equivalent_plastic_strain;
         let s = deviator(&trial);
         let squared = s.iter().fold(T::from(0.0), |sum, &x| sum + x * x) * 1.5;
@@ -195,8 +203,8 @@ impl<const HARDENING: bool> StressModel for PlasticStress<HARDENING> {
         &self,
         start: &StressState<f64>,
         increment: &Tensor<T>,
-        position: [f64; 3],
+        step: &PointStep,
     ) -> StressState<T> {
-        self.0.advance(start, increment, position)
+        self.0.advance(start, increment, step)
     }
 }

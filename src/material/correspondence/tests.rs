@@ -37,6 +37,7 @@ fn material(hourglass: f64) -> Box<dyn Material> {
             yield_stress: None,
             hardening_modulus: None,
             flaw: None,
+            viscoplastic: None,
         }),
     })
     .unwrap()
@@ -44,6 +45,11 @@ fn material(hourglass: f64) -> Box<dyn Material> {
 
 impl Body {
     fn new(hourglass: f64) -> Self {
+        Self::with(material(hourglass))
+    }
+
+    /// The lattice body of material `m`, steps of 1 s.
+    fn with(mut m: Box<dyn Material>) -> Self {
         let mut rng = Rng::new(11);
         let x = lattice(6);
         let mut points = PointCloud::default();
@@ -52,7 +58,6 @@ impl Body {
         }
         let bonds = brute_force_bonds(&x, HORIZON);
         let reference = ReferenceView::of(&bonds, &points);
-        let mut m = material(hourglass);
         m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
         let physics = Physics::new(
             vec![BlockPhysics {
@@ -62,7 +67,8 @@ impl Body {
             &points,
             &bonds,
         );
-        let history = History::allocate(CORRESPONDENCE_FIELDS, x.len(), bonds.num_bonds());
+        let mut history = History::allocate(CORRESPONDENCE_FIELDS, x.len(), bonds.num_bonds());
+        history.set_step_duration(1.0);
         Self {
             points,
             bonds,
@@ -425,6 +431,14 @@ fn j2(flaw: Option<crate::material::Flaw>) -> plastic::J2 {
     }
 }
 
+/// A point at reference position `position`, over a step of 1 s.
+fn at(position: [f64; 3]) -> PointStep {
+    PointStep {
+        position,
+        duration: 1.0,
+    }
+}
+
 fn uniaxial_strain(e: f64) -> Tensor<f64> {
     Tensor::from_diagonal(&nalgebra::Vector3::new(e, 0.0, 0.0))
 }
@@ -443,7 +457,7 @@ fn j2_hardening_under_uniaxial_strain_matches_the_closed_form() {
         unrotated: Tensor::zeros(),
         equivalent_plastic_strain: 0.0,
     };
-    let end = model.advance(&start, &uniaxial_strain(0.1), [0.0; 3]);
+    let end = model.advance(&start, &uniaxial_strain(0.1), &at([0.0; 3]));
     let (mu, y, h): (f64, f64, f64) = (211e9 / 2.0, 460e6, 5e9);
     let expected = y + h * (2.0 * mu * 0.1 - y) / (3.0 * mu + h);
     assert!((expected / 1e6 - 781.0).abs() < 0.05, "{expected}");
@@ -461,16 +475,24 @@ fn j2_yields_at_the_closed_form_strain() {
         equivalent_plastic_strain: 0.0,
     };
     let yield_strain = 460e6 / 211e9;
-    let below = model.advance(&start, &uniaxial_strain(0.999 * yield_strain), [0.0; 3]);
+    let below = model.advance(
+        &start,
+        &uniaxial_strain(0.999 * yield_strain),
+        &at([0.0; 3]),
+    );
     assert_eq!(below.equivalent_plastic_strain, 0.0);
     assert!((von_mises(&below.unrotated) - 0.999 * 460e6).abs() < 1e-6);
-    let above = model.advance(&start, &uniaxial_strain(1.001 * yield_strain), [0.0; 3]);
+    let above = model.advance(
+        &start,
+        &uniaxial_strain(1.001 * yield_strain),
+        &at([0.0; 3]),
+    );
     assert!(above.equivalent_plastic_strain > 0.0);
     // Committed in two increments the same total strain gives the same state (linear
     // hardening, radial path).
-    let half = model.advance(&start, &uniaxial_strain(0.05), [0.0; 3]);
-    let two_steps = model.advance(&half, &uniaxial_strain(0.05), [0.0; 3]);
-    let one_step = model.advance(&start, &uniaxial_strain(0.1), [0.0; 3]);
+    let half = model.advance(&start, &uniaxial_strain(0.05), &at([0.0; 3]));
+    let two_steps = model.advance(&half, &uniaxial_strain(0.05), &at([0.0; 3]));
+    let one_step = model.advance(&start, &uniaxial_strain(0.1), &at([0.0; 3]));
     assert!(max_difference(&two_steps.unrotated, &one_step.unrotated) < 1e-6 * 781e6);
 }
 
@@ -487,8 +509,8 @@ fn a_flaw_lowers_the_yield_stress_where_it_sits() {
         equivalent_plastic_strain: 0.0,
     };
     let strain = uniaxial_strain(0.8 * 460e6 / 211e9);
-    let at_flaw = model.advance(&start, &strain, [1.0, 0.0, 0.0]);
-    let far = model.advance(&start, &strain, [5.0, 0.0, 0.0]);
+    let at_flaw = model.advance(&start, &strain, &at([1.0, 0.0, 0.0]));
+    let far = model.advance(&start, &strain, &at([5.0, 0.0, 0.0]));
     assert!(at_flaw.equivalent_plastic_strain > 0.0);
     assert_eq!(far.equivalent_plastic_strain, 0.0);
 }
@@ -509,6 +531,7 @@ fn the_plastic_tangent_matches_finite_differences_while_yielding() {
             yield_stress: Some(2e-3),
             hardening_modulus: Some(0.3),
             flaw: None,
+            viscoplastic: None,
         }),
     })
     .unwrap();
@@ -541,4 +564,199 @@ fn the_plastic_tangent_matches_finite_differences_while_yielding() {
     assert!(yielding > body.points.len() / 4, "{yielding} points yield");
     let error = tangent_error(&mut body, &y);
     assert!(error < 1e-6, "relative error {error}");
+}
+
+/// Needleman's model with the J2 constants of [`j2`] (E = 211 GPa, ν = 0, σ_y = 460 MPa) and
+/// the given N, m, ε̇_ref, ε₀ (ε₁ = 1e30: no softening term).
+fn needleman(
+    strain_hardening_exponent: f64,
+    rate_hardening_exponent: f64,
+    reference_strain_rate: f64,
+    reference_strain_0: f64,
+) -> NeedlemanStress {
+    NeedlemanStress {
+        bulk_modulus: 211e9 / 3.0,
+        shear_modulus: 211e9 / 2.0,
+        yield_stress: 460e6,
+        parameters: NeedlemanParameters {
+            strain_hardening_exponent,
+            rate_hardening_exponent,
+            reference_strain_rate,
+            reference_strain_0,
+            reference_strain_1: 1e30,
+        },
+        flaw: None,
+    }
+}
+
+fn unstressed() -> StressState<f64> {
+    StressState {
+        unrotated: Tensor::zeros(),
+        equivalent_plastic_strain: 0.0,
+    }
+}
+
+#[test]
+fn needleman_without_rate_dependence_is_the_hardening_radial_return() {
+    // m = 0, N = 1, ε₁ → ∞: Y = σ_y (1 + ε̄_p/ε₀), linear hardening with H = σ_y/ε₀. With
+    // ε₀ = 460 MPa / 5 GPa = 0.092, H = 5 GPa and issue 13's closed form applies:
+    // σ_vm = Y + H(2με − Y)/(3μ + H) = 781.0 MPa at ε = 10 %, ε̄_p = (2με − Y)/(3μ + H).
+    let model = needleman(1.0, 0.0, 1.0, 460e6 / 5e9);
+    let end = model.advance(&unstressed(), &uniaxial_strain(0.1), &at([0.0; 3]));
+    let (mu, y, h): (f64, f64, f64) = (211e9 / 2.0, 460e6, 5e9);
+    let expected = y + h * (2.0 * mu * 0.1 - y) / (3.0 * mu + h);
+    assert!((expected / 1e6 - 781.0).abs() < 0.05, "{expected}");
+    assert!((von_mises(&end.unrotated) - expected).abs() < 1e-9 * expected);
+    let plastic = (2.0 * mu * 0.1 - y) / (3.0 * mu + h);
+    assert!((end.equivalent_plastic_strain - plastic).abs() < 1e-12);
+    // Below σ_y (trial σ_vm = 2με with ν = 0) the step is elastic.
+    let below = model.advance(
+        &unstressed(),
+        &uniaxial_strain(0.99 * y / (2.0 * mu)),
+        &at([0.0; 3]),
+    );
+    assert_eq!(below.equivalent_plastic_strain, 0.0);
+}
+
+#[test]
+fn needleman_with_linear_rate_hardening_matches_its_closed_form() {
+    // N = 0, m = 1, ε₁ → ∞: Y = σ_y √(2/3) Δλ/(Δt ε̇_ref), so g(Δλ) = |s_tr| − (2μ + c) Δλ
+    // with c = (2/3) σ_y/(Δt ε̇_ref) (module docs of `viscoplastic`): Δλ = |s_tr|/(2μ + c),
+    // σ_vm = q_tr c/(2μ + c) and ε̄_p = (2/3) q_tr/(2μ + c), q_tr = 2με under uniaxial strain
+    // with ν = 0. ε = 1 %, ε̇_ref = 1e-3/s, Δt = 1 s: c = 306.67 GPa, σ_vm = 1.2500 GPa.
+    let model = needleman(0.0, 1.0, 1e-3, 1.0);
+    let (mu, y, e): (f64, f64, f64) = (211e9 / 2.0, 460e6, 0.01);
+    let end = model.advance(&unstressed(), &uniaxial_strain(e), &at([0.0; 3]));
+    let c = 2.0 / 3.0 * y / 1e-3;
+    let trial = 2.0 * mu * e;
+    let expected = trial * c / (2.0 * mu + c);
+    assert!((expected / 1e9 - 1.2500).abs() < 5e-5, "{expected}");
+    assert!((von_mises(&end.unrotated) - expected).abs() < 1e-9 * expected);
+    let plastic = 2.0 / 3.0 * trial / (2.0 * mu + c);
+    assert!((end.equivalent_plastic_strain - plastic).abs() < 1e-12);
+    // Rate hardening: the same strain in half the time meets a stiffer flow stress.
+    let fast = model.advance(
+        &unstressed(),
+        &uniaxial_strain(e),
+        &PointStep {
+            position: [0.0; 3],
+            duration: 0.5,
+        },
+    );
+    assert!(von_mises(&fast.unrotated) > von_mises(&end.unrotated));
+}
+
+#[test]
+fn needleman_flows_only_when_time_passes() {
+    // With m > 0 a step of no duration leaves no time for viscous flow: the trial stands.
+    let model = needleman(0.1, 0.05, 1.0, 0.01);
+    let strain = uniaxial_strain(0.01);
+    let instant = PointStep {
+        position: [0.0; 3],
+        duration: 0.0,
+    };
+    let end = model.advance(&unstressed(), &strain, &instant);
+    assert_eq!(end.equivalent_plastic_strain, 0.0);
+    // Trial von Mises stress 2με (ν = 0).
+    assert!((von_mises(&end.unrotated) - 211e9 * 0.01).abs() < 1e-6 * 211e9 * 0.01);
+    let flowing = model.advance(&unstressed(), &strain, &at([0.0; 3]));
+    assert!(flowing.equivalent_plastic_strain > 0.0);
+}
+
+/// A `Viscoplastic Needleman Correspondence` block with the lattice body's moduli and a yield
+/// stress low enough that the perturbed states yield.
+fn needleman_body() -> Body {
+    Body::with(
+        ViscoplasticNeedlemanCorrespondence::build(&MaterialInput {
+            density: 2.0,
+            horizon: HORIZON,
+            bulk_modulus: BULK,
+            shear_modulus: Some(SHEAR),
+            planar_thickness: None,
+            influence: InfluenceFunction::ParabolicDecay,
+            correspondence: Some(crate::material::CorrespondenceInput {
+                hourglass_coefficient: 0.05,
+                yield_stress: Some(2e-3),
+                hardening_modulus: None,
+                flaw: None,
+                viscoplastic: Some(NeedlemanParameters {
+                    strain_hardening_exponent: 0.2,
+                    rate_hardening_exponent: 0.1,
+                    reference_strain_rate: 1.0,
+                    reference_strain_0: 0.01,
+                    reference_strain_1: 1.0,
+                }),
+            }),
+        })
+        .unwrap(),
+    )
+}
+
+fn yielding_points(body: &Body) -> usize {
+    body.history
+        .field(fields::EQUIVALENT_PLASTIC_STRAIN)
+        .unwrap()
+        .trial()
+        .iter()
+        .filter(|&&e| e > 0.0)
+        .count()
+}
+
+#[test]
+fn the_needleman_tangent_matches_finite_differences_undamaged_and_damaged() {
+    let mut body = needleman_body();
+    let start = perturbed(&body, 2);
+    body.force(&start);
+    body.commit();
+    let y = perturbed(&body, 9);
+    body.force(&y);
+    assert!(yielding_points(&body) > body.points.len() / 4);
+    let error = tangent_error(&mut body, &y);
+    assert!(error < 1e-6, "relative error {error}");
+
+    let mut rng = Rng::new(4);
+    let bonds = &body.bonds;
+    let mut damage = vec![0.0f32; bonds.num_bonds()];
+    for i in 0..bonds.num_points() {
+        for b in bonds.range(i) {
+            let j = bonds.neighbor[b] as usize;
+            if j > i && rng.uniform() < 0.2 {
+                let back = bonds.offsets[j] + bonds.family(j).binary_search(&(i as u32)).unwrap();
+                damage[b] = 1.0;
+                damage[back] = 1.0;
+            }
+        }
+    }
+    body.damage = Some(damage);
+    let error = tangent_error(&mut body, &y);
+    assert!(error < 1e-6, "relative error with damage {error}");
+}
+
+#[test]
+fn needleman_conserves_momentum_and_a_rigid_rotation_gives_no_stress() {
+    let mut body = needleman_body();
+    let y = perturbed(&body, 5);
+    let force = body.force(&y);
+    assert!(yielding_points(&body) > 0);
+    let largest = force.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    for k in 0..3 {
+        let total: f64 = force
+            .iter()
+            .zip(&body.points.volume)
+            .map(|(f, v)| f[k] * v)
+            .sum();
+        assert!(
+            total.abs() < 1e-12 * largest * body.points.len() as f64,
+            "momentum {k}: {total}"
+        );
+    }
+    let q = rotation_about_z(std::f64::consts::FRAC_PI_2);
+    let rotated = body.affine(&q);
+    let force = body.force(&rotated);
+    assert!(force.iter().flatten().all(|v| v.abs() < 1e-13));
+    for p in 0..body.points.len() {
+        let sigma = body.tensor_field(fields::CAUCHY_STRESS, p);
+        assert!(sigma.abs().max() < 1e-14, "σ at point {p}: {sigma}");
+    }
+    assert_eq!(yielding_points(&body), 0);
 }
