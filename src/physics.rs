@@ -319,6 +319,28 @@ impl Physics {
         }
     }
 
+    /// Peridigm's `Partial_Stress` of every point at `current` with `bond_damage`
+    /// ([`crate::material::Material::partial_stress`]; zero where the model has none).
+    pub fn partial_stress(
+        &self,
+        bonds: &BondList,
+        points: &PointCloud,
+        current: &[[f64; 3]],
+        bond_damage: Option<&[f32]>,
+        out: &mut [[f64; 9]],
+    ) {
+        let reference = ReferenceView::of(bonds, points);
+        let view = CurrentView {
+            position: current,
+            bond_damage,
+            history: &NO_HISTORY,
+        };
+        out.fill([0.0; 9]);
+        for block in &self.blocks {
+            block.material.partial_stress(&reference, &view, out);
+        }
+    }
+
     /// The hourglass-control force density of every point (correspondence models; zero
     /// elsewhere) at `current` with `bond_damage`, from the history of the last force
     /// evaluation.

@@ -42,23 +42,27 @@ pub fn deformation_gradient(
     (0..reference.len())
         .into_par_iter()
         .map(|i| {
-            let mut k = [[0.0; 3]; 3];
+            let family = Family {
+                bonds,
+                reference,
+                volume,
+                bond_damage,
+            };
+            let Some(k_inv) = inverse(&family.shape_tensor(i)) else {
+                return [f64::NAN; 9];
+            };
             let mut n = [[0.0; 3]; 3];
             for b in bonds.range(i) {
                 let j = bonds.neighbor[b] as usize;
-                let weight = volume[j] * (1.0 - bond_damage.map_or(0.0, |d| f64::from(d[b])));
+                let weight = family.weight(b);
                 let xi = [0, 1, 2].map(|a| reference[j][a] - reference[i][a]);
                 let eta = [0, 1, 2].map(|a| current[j][a] - current[i][a]);
                 for r in 0..3 {
                     for s in 0..3 {
-                        k[r][s] += weight * xi[r] * xi[s];
                         n[r][s] += weight * eta[r] * xi[s];
                     }
                 }
             }
-            let Some(k_inv) = inverse(&k) else {
-                return [f64::NAN; 9];
-            };
             let mut f = [0.0; 9];
             for r in 0..3 {
                 for s in 0..3 {
@@ -68,6 +72,62 @@ pub fn deformation_gradient(
             f
         })
         .collect()
+}
+
+/// Peridigm's `Shape_Tensor_Inverse` (written by its `Deformation_Gradient` compute class):
+/// K⁻¹ of every point with the weights of [`deformation_gradient`], row-major (length⁻⁵);
+/// NaN where K is singular.
+pub fn shape_tensor_inverse(
+    bonds: &BondList,
+    reference: &[[f64; 3]],
+    volume: &[f64],
+    bond_damage: Option<&[f32]>,
+) -> Vec<[f64; 9]> {
+    let family = Family {
+        bonds,
+        reference,
+        volume,
+        bond_damage,
+    };
+    (0..reference.len())
+        .into_par_iter()
+        .map(|i| match inverse(&family.shape_tensor(i)) {
+            Some(k_inv) => std::array::from_fn(|k| k_inv[k / 3][k % 3]),
+            None => [f64::NAN; 9],
+        })
+        .collect()
+}
+
+/// The reference families and the weights (1−d) V_j of both outputs.
+struct Family<'a> {
+    bonds: &'a BondList,
+    reference: &'a [[f64; 3]],
+    volume: &'a [f64],
+    bond_damage: Option<&'a [f32]>,
+}
+
+impl Family<'_> {
+    /// (1−d) V_j of bond `b`.
+    fn weight(&self, b: usize) -> f64 {
+        let j = self.bonds.neighbor[b] as usize;
+        self.volume[j] * (1.0 - self.bond_damage.map_or(0.0, |d| f64::from(d[b])))
+    }
+
+    /// K = Σ_j (1−d) V_j ξ⊗ξ of point `i`.
+    fn shape_tensor(&self, i: usize) -> Mat3 {
+        let mut k = [[0.0; 3]; 3];
+        for b in self.bonds.range(i) {
+            let j = self.bonds.neighbor[b] as usize;
+            let weight = self.weight(b);
+            let xi = [0, 1, 2].map(|a| self.reference[j][a] - self.reference[i][a]);
+            for r in 0..3 {
+                for s in 0..3 {
+                    k[r][s] += weight * xi[r] * xi[s];
+                }
+            }
+        }
+        k
+    }
 }
 
 #[cfg(test)]
@@ -129,6 +189,42 @@ mod tests {
     }
 
     #[test]
+    fn the_shape_tensor_inverse_inverts_the_weighted_second_moment_of_the_bonds() {
+        let (x, bonds) = lattice();
+        let volume = vec![2.0; x.len()];
+        let inverses = shape_tensor_inverse(&bonds, &x, &volume, None);
+        // The centre of the 3×3×3 lattice (index 13) has every neighbour within 2 spacings
+        // (all 26 others): its K = Σ V ξ⊗ξ is diagonal with Σ_ξ ξ_x² = 18 lattice units per
+        // axis (9 neighbours at ξ_x = ±1 each, so 2·9·1), times V = 2: K = 36 I, K⁻¹ = I/36.
+        let centre = &inverses[13];
+        for r in 0..3 {
+            for s in 0..3 {
+                let expected = if r == s { 1.0 / 36.0 } else { 0.0 };
+                assert!((centre[3 * r + s] - expected).abs() < 1e-15, "{centre:?}");
+            }
+        }
+        // Every point: K⁻¹ K = I with K summed here independently.
+        for (i, k_inv) in inverses.iter().enumerate() {
+            let mut k = [[0.0; 3]; 3];
+            for b in bonds.range(i) {
+                let j = bonds.neighbor[b] as usize;
+                for r in 0..3 {
+                    for s in 0..3 {
+                        k[r][s] += 2.0 * (x[j][r] - x[i][r]) * (x[j][s] - x[i][s]);
+                    }
+                }
+            }
+            for r in 0..3 {
+                for s in 0..3 {
+                    let product: f64 = (0..3).map(|t| k_inv[3 * r + t] * k[t][s]).sum();
+                    let identity = if r == s { 1.0 } else { 0.0 };
+                    assert!((product - identity).abs() < 1e-13, "point {i}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn a_point_without_a_three_dimensional_family_has_no_gradient() {
         let x = vec![[0.0; 3], [1.0, 0.0, 0.0]];
         let bonds = BondList {
@@ -138,5 +234,7 @@ mod tests {
         };
         let f = deformation_gradient(&bonds, &x, &x, &[1.0, 1.0], None);
         assert!(f[0].iter().all(|v| v.is_nan()));
+        let k_inv = shape_tensor_inverse(&bonds, &x, &[1.0, 1.0], None);
+        assert!(k_inv[0].iter().all(|v| v.is_nan()));
     }
 }

@@ -2,4 +2,4 @@
 
 mod deformation_gradient;
 
-pub use deformation_gradient::deformation_gradient;
+pub use deformation_gradient::{deformation_gradient, shape_tensor_inverse};

@@ -16,7 +16,12 @@
 //! A point whose weighted volume is 0 (no bonds, or ω = 0 on all of them) has no dilatation and
 //! carries no force (Peridigm would divide by zero).
 //!
-//! Not yet supported: `Thermal Expansion Coefficient` (e ← e − αΔTζ) and `Partial_Stress`.
+//! * partial stress (Peridigm's `Partial_Stress` output), `Σ_j t_ij M_ij ⊗ ξ_ij V_j`: the
+//!   force states of the point's own side only, as `elastic.cxx` sums them. Peridigm fills it
+//!   only with `Compute Partial Stress: true`; here it is computed whenever an output asks
+//!   for it (the key is accepted and changes nothing else).
+//!
+//! Not yet supported: `Thermal Expansion Coefficient` (e ← e − αΔTζ).
 
 use super::influence::InfluenceFunction;
 use super::{
@@ -85,6 +90,7 @@ impl LinearPeridynamicSolid {
             "Tangent",
             "Apply Automatic Differentiation Jacobian",
             "Finite Difference Probe Length",
+            "Compute Partial Stress",
         ],
         reach: Reach::TwoHop,
         fields: &[
@@ -101,7 +107,7 @@ impl LinearPeridynamicSolid {
                 staged: false,
             },
         ],
-        outputs: &["Weighted_Volume", "Dilatation"],
+        outputs: &["Weighted_Volume", "Dilatation", "Partial_Stress"],
     };
 
     /// The registry's constructor: ρ, K, μ, δ and ω from `input`.
@@ -934,6 +940,65 @@ impl Material for LinearPeridynamicSolid {
         })
     }
 
+    fn partial_stress(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        out: &mut [[f64; 9]],
+    ) {
+        use rayon::prelude::*;
+        let bonds = reference.bonds;
+        with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
+            let kernel = LpsForceState {
+                bonds,
+                volume: reference.volume,
+                local_offsets: &self.local_offsets,
+                weighted_volume: &self.weighted_volume,
+                weights: w,
+                damage: d,
+                bulk: self.parameters.bulk_modulus,
+                shear: self.parameters.shear_modulus,
+            };
+            let stresses: Vec<[f64; 9]> = self
+                .points
+                .par_iter()
+                .enumerate()
+                .map_init(
+                    || (Vec::new(), Vec::new()),
+                    |(y, t), (local, &p)| {
+                        let p = p as usize;
+                        y.clear();
+                        y.push(current.position[p]);
+                        y.extend(
+                            bonds
+                                .family(p)
+                                .iter()
+                                .map(|&j| current.position[j as usize]),
+                        );
+                        t.clear();
+                        t.resize(bonds.family_size(p), [0.0; 3]);
+                        kernel.force_state(PointIndex { global: p, local }, y, None, t);
+                        let x = reference.position;
+                        let mut stress = [0.0; 9];
+                        for (force, b) in t.iter().zip(bonds.range(p)) {
+                            let j = bonds.neighbor[b] as usize;
+                            let v = reference.volume[j];
+                            for r in 0..3 {
+                                for c in 0..3 {
+                                    stress[3 * r + c] += force[r] * (x[j][c] - x[p][c]) * v;
+                                }
+                            }
+                        }
+                        stress
+                    },
+                )
+                .collect();
+            for (&p, stress) in self.points.iter().zip(stresses) {
+                out[p as usize] = stress;
+            }
+        })
+    }
+
     fn stored_energy_density(
         &self,
         reference: &ReferenceView<'_>,
@@ -1263,5 +1328,51 @@ mod tests {
             }
             assert_eq!(f[i], expected, "force of point {i}");
         }
+    }
+
+    #[test]
+    fn partial_stress_of_an_isotropic_expansion_is_three_k_epsilon_in_the_bulk() {
+        // Y = (1 + ε) X: every bond keeps its direction and e = εζ exactly, so θ = 3ε,
+        // e^d = 0 and t = (9Kε/m) ω ζ (module docs). Then Σ_j t M ⊗ ξ V_j =
+        // (9Kε/m) Σ_j ω ξ⊗ξ V_j, and a family with the lattice's cubic symmetry and equal
+        // volumes has Σ_j ω ξ⊗ξ V_j = (m/3) I: the partial stress is 3Kε I to round-off
+        // (the classical pressure of the expansion), at every point with a full family.
+        let x = crate::model::test_support::lattice(6);
+        let mut points = crate::model::PointCloud::default();
+        for p in &x {
+            points.push(*p, 1.0, 0);
+        }
+        let bonds = brute_force_bonds(&x, 1.6);
+        let reference = ReferenceView::of(&bonds, &points);
+        let mut material = small_material(InfluenceFunction::ParabolicDecay);
+        material
+            .setup(&reference, (0..x.len() as u32).collect())
+            .unwrap();
+        let epsilon = 1e-3;
+        let y: Vec<[f64; 3]> = x.iter().map(|p| p.map(|c| c * (1.0 + epsilon))).collect();
+        let current = CurrentView {
+            position: &y,
+            bond_damage: None,
+            history: &crate::history::NO_HISTORY,
+        };
+        let mut stress = vec![[f64::NAN; 9]; x.len()];
+        material.partial_stress(&reference, &current, &mut stress);
+        let full = (0..x.len()).map(|i| bonds.family_size(i)).max().unwrap();
+        let expected = 3.0 * 3.0 * epsilon;
+        let mut checked = 0;
+        for (i, s) in stress.iter().enumerate() {
+            assert!(s.iter().all(|v| v.is_finite()), "point {i}");
+            if bonds.family_size(i) < full {
+                continue;
+            }
+            checked += 1;
+            for r in 0..3 {
+                for c in 0..3 {
+                    let value = if r == c { expected } else { 0.0 };
+                    assert!((s[3 * r + c] - value).abs() < 1e-13, "point {i}: {s:?}");
+                }
+            }
+        }
+        assert!(checked > 0);
     }
 }

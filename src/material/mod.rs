@@ -233,6 +233,19 @@ pub trait Material: Send + Sync {
         let _ = (reference, current, out);
     }
 
+    /// Writes Peridigm's `Partial_Stress` of the block's points into `out` (row-major,
+    /// pressure): `Σ_j T_ij ⊗ ξ_ij V_j`, T_ij the force state of the bond from the point's own
+    /// side (force/length⁶), as Peridigm's `Elastic` sums it. Models without a partial stress
+    /// (the default) leave `out` as it is.
+    fn partial_stress(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        out: &mut [[f64; 9]],
+    ) {
+        let _ = (reference, current, out);
+    }
+
     /// Writes the [`PointCoefficients`] of the block's points into `coefficients`.
     fn compute_point_coefficients(
         &self,

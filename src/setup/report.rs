@@ -46,6 +46,7 @@ const SUPPORTED_OUTPUTS: &[&str] = &[
     "Angular_Momentum",
     "Global_Angular_Momentum",
     "Deformation_Gradient",
+    "Shape_Tensor_Inverse",
     "Nonlinear_Solver_Iterations",
 ];
 

@@ -335,6 +335,23 @@ impl FieldSource for Fields<'_> {
                 &self.model.points.volume,
                 self.state.bond_damage(),
             ))),
+            "Partial_Stress" => {
+                let mut stress = vec![[0.0; 9]; self.model.points.len()];
+                self.physics.partial_stress(
+                    &self.model.bonds,
+                    &self.model.points,
+                    &self.state.current_position,
+                    self.state.bond_damage(),
+                    &mut stress,
+                );
+                Some(Cow::Owned(stress))
+            }
+            "Shape_Tensor_Inverse" => Some(Cow::Owned(crate::compute::shape_tensor_inverse(
+                &self.model.bonds,
+                &self.model.points.position,
+                &self.model.points.volume,
+                self.state.bond_damage(),
+            ))),
             "Cauchy_Stress" => Some(Cow::Owned(
                 self.history_tensor(crate::material::correspondence_fields::CAUCHY_STRESS),
             )),

@@ -950,7 +950,7 @@ impl MaterialModel {
         }
     }
 
-    /// The `Material Model` string of this model family, as written in decks.
+    /// The `Material Model` string of this model, as written in decks.
     pub fn deck_name(&self) -> &'static str {
         match self {
             MaterialModel::Elastic { .. } => "Elastic",
@@ -968,8 +968,25 @@ impl MaterialModel {
             MaterialModel::ViscoplasticNeedlemanCorrespondence { .. } => {
                 "Viscoplastic Needleman Correspondence"
             }
-            MaterialModel::HypoelasticCorrespondence { .. } => "Hypoelastic Correspondence",
-            MaterialModel::BondAssociatedCorrespondence { .. } => "Bond Associated Correspondence",
+            MaterialModel::HypoelasticCorrespondence { plasticity, .. } => match plasticity {
+                CorrespondencePlasticity::Elastic => "Elastic Hypoelastic Correspondence",
+                CorrespondencePlasticity::PerfectlyPlastic { .. } => {
+                    "Elastic Plastic Hypoelastic Correspondence"
+                }
+                CorrespondencePlasticity::IsotropicHardening { .. } => {
+                    "Isotropic Hardening Hypoelastic Correspondence"
+                }
+            },
+            MaterialModel::BondAssociatedCorrespondence { plasticity, .. } => match plasticity {
+                BondAssociatedPlasticity::Elastic => "Elastic Bond Associated Correspondence",
+                BondAssociatedPlasticity::PerfectlyPlastic { .. } => {
+                    "Elastic Plastic Bond Associated Correspondence"
+                }
+                BondAssociatedPlasticity::PowerLaw { .. }
+                | BondAssociatedPlasticity::SaturationExponential { .. } => {
+                    "Isotropic Hardening Bond Associated Correspondence"
+                }
+            },
             MaterialModel::MultiphysicsElastic { .. } => "Multiphysics Elastic",
             MaterialModel::VectorPoisson => "Vector Poisson",
             MaterialModel::Diffusion { .. } => "Diffusion",
