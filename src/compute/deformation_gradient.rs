@@ -205,18 +205,18 @@ mod tests {
         }
         // Every point: K⁻¹ K = I with K summed here independently.
         for (i, k_inv) in inverses.iter().enumerate() {
-            let mut k = [[0.0; 3]; 3];
-            for b in bonds.range(i) {
-                let j = bonds.neighbor[b] as usize;
-                for r in 0..3 {
-                    for s in 0..3 {
-                        k[r][s] += 2.0 * (x[j][r] - x[i][r]) * (x[j][s] - x[i][s]);
-                    }
-                }
-            }
+            let k = |t: usize, s: usize| -> f64 {
+                bonds
+                    .range(i)
+                    .map(|b| {
+                        let j = bonds.neighbor[b] as usize;
+                        2.0 * (x[j][t] - x[i][t]) * (x[j][s] - x[i][s])
+                    })
+                    .sum()
+            };
             for r in 0..3 {
                 for s in 0..3 {
-                    let product: f64 = (0..3).map(|t| k_inv[3 * r + t] * k[t][s]).sum();
+                    let product: f64 = (0..3).map(|t| k_inv[3 * r + t] * k(t, s)).sum();
                     let identity = if r == s { 1.0 } else { 0.0 };
                     assert!((product - identity).abs() < 1e-13, "point {i}");
                 }
