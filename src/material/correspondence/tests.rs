@@ -760,3 +760,103 @@ fn needleman_conserves_momentum_and_a_rigid_rotation_gives_no_stress() {
     }
     assert_eq!(yielding_points(&body), 0);
 }
+
+/// A one-block QuickGrid deck (4×4×4 points) with the material list `material`.
+fn deck_with(material: &str) -> crate::io::deck::Deck {
+    let text = format!(
+        r#"Peridigm:
+  Discretization:
+    Type: "PdQuickGrid"
+    NeighborhoodType: "Spherical"
+    TensorProduct3DMeshGenerator:
+      X Origin: 0.0
+      Y Origin: 0.0
+      Z Origin: 0.0
+      X Length: 1.0
+      Y Length: 1.0
+      Z Length: 1.0
+      Number Points X: 4
+      Number Points Y: 4
+      Number Points Z: 4
+  Materials:
+    M:
+{material}
+  Blocks:
+    B: {{Block Names: "block_1", Material: "M", Horizon: 0.6}}
+  Solver:
+    Final Time: 1.0
+    QuasiStatic: {{Number of Load Steps: 1}}
+"#
+    );
+    crate::io::deck::parse_str(
+        &text,
+        crate::io::deck::DeckFormat::Yaml,
+        std::path::Path::new("deck.yaml"),
+    )
+    .unwrap()
+}
+
+#[test]
+fn the_keys_of_peridigms_needleman_verification_decks_load_and_build() {
+    // The keys of Peridigm's ViscoplasticNeedlemanFullyPrescribedTension_WithFlaw deck
+    // (reference §1.3 and §3.3): every one is read, none is a warning, and the model builds.
+    let deck = deck_with(
+        r#"      Material Model: "Viscoplastic Needleman Correspondence"
+      Density: 7800.0
+      Young's Modulus: 200.0e9
+      Poisson's Ratio: 0.3
+      Hourglass Coefficient: 0.0
+      Yield Stress: 150.0e6
+      Strain Hardening Exponent: 0.2
+      Rate Hardening Exponent: 0.05
+      Reference Strain Rate: 0.001
+      Reference Strain 0: 0.001
+      Reference Strain 1: 100.0
+      Enable Flaw: true
+      Flaw Location X: 0.5
+      Flaw Location Y: 0.5
+      Flaw Location Z: 0.5
+      Flaw Size: 0.2
+      Flaw Magnitude: 0.1"#,
+    );
+    assert!(deck.warnings.is_empty(), "{:?}", deck.warnings);
+    assert!(crate::setup::report::unsupported_features(&deck).is_empty());
+    let model = crate::setup::build(&deck).unwrap();
+    let physics = crate::setup::build_physics(&deck, &model).unwrap();
+    assert_eq!(
+        physics.blocks[0].material.model_name(),
+        "Viscoplastic Needleman Correspondence"
+    );
+}
+
+#[test]
+fn the_hypoelastic_models_are_refused_by_name() {
+    for (model, extra) in [
+        ("Elastic Hypoelastic Correspondence", ""),
+        (
+            "Elastic Plastic Hypoelastic Correspondence",
+            "\n      Yield Stress: 150.0e6",
+        ),
+        (
+            "Isotropic Hardening Hypoelastic Correspondence",
+            "\n      Yield Stress: 150.0e6\n      Hardening Modulus: 1.0e9",
+        ),
+    ] {
+        let deck = deck_with(&format!(
+            "      Material Model: \"{model}\"\n      Density: 7800.0\n      Young's Modulus: 200.0e9\n      Poisson's Ratio: 0.3\n      Actual Horizon: 0.5{extra}"
+        ));
+        assert_eq!(
+            crate::setup::report::unsupported_features(&deck),
+            vec![format!("material model {model}")]
+        );
+        let points = crate::setup::build(&deck).unwrap();
+        let error = crate::setup::build_physics(&deck, &points)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            error.contains(&format!("\"{model}\" is not available")),
+            "{error}"
+        );
+    }
+}
