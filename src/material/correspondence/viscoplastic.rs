@@ -234,8 +234,13 @@ impl StressModel for NeedlemanStress {
         let slope = self
             .consistency(&flow, Dual64::from(norm.re()), Dual64::new(root, 1.0))
             .eps;
-        let residual = self.consistency(&flow, norm, T::from(root));
-        let multiplier = T::from(root) - residual / slope;
+        // A flat g (softening exactly cancelling 2μ) has no unique root to differentiate:
+        // the multiplier is then held fixed.
+        let multiplier = if slope != 0.0 && slope.is_finite() {
+            T::from(root) - self.consistency(&flow, norm, T::from(root)) / slope
+        } else {
+            T::from(root)
+        };
         let scale = T::from(1.0) - multiplier * (2.0 * self.shear_modulus) / norm;
         let mean = trace(&trial) * (1.0 / 3.0);
         let mut unrotated = s.map(|x| x * scale);
