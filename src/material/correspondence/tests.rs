@@ -31,6 +31,7 @@ fn material(hourglass: f64) -> Box<dyn Material> {
         bulk_modulus: BULK,
         shear_modulus: Some(SHEAR),
         planar_thickness: None,
+        plasticity: None,
         influence: InfluenceFunction::ParabolicDecay,
         correspondence: Some(crate::material::CorrespondenceInput {
             hourglass_coefficient: hourglass,
@@ -503,6 +504,7 @@ fn the_plastic_tangent_matches_finite_differences_while_yielding() {
         bulk_modulus: BULK,
         shear_modulus: Some(SHEAR),
         planar_thickness: None,
+        plasticity: None,
         influence: InfluenceFunction::ParabolicDecay,
         correspondence: Some(crate::material::CorrespondenceInput {
             hourglass_coefficient: 0.05,
