@@ -33,11 +33,13 @@ fn layout() -> OutputLayout {
                 id: 1,
                 name: "block_1".to_string(),
                 nodes: (0..n).filter(|k| k % 3 != 2).collect(),
+                undefined: Vec::new(),
             },
             OutputBlock {
                 id: 2,
                 name: "block_2".to_string(),
                 nodes: (0..n).filter(|k| k % 3 == 2).collect(),
+                undefined: Vec::new(),
             },
         ],
         node_sets: vec![

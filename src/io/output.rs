@@ -241,8 +241,33 @@ pub struct OutputGeometry {
     pub run_index: Vec<u32>,
     /// Blocks: (id, name, original indices of their points).
     pub blocks: Vec<(i64, String, Vec<u32>)>,
+    /// Per block (same order as `blocks`), the output variables its material does not have
+    /// though another material model does (e.g. `Lambda` on an `Elastic` block beside an
+    /// `Elastic Plastic` one): Peridigm defines a material's element variables only on the
+    /// blocks of that material. Missing entries lack nothing.
+    pub block_lacks: Vec<Vec<&'static str>>,
     /// Node sets: (name, original indices).
     pub node_sets: Vec<(String, Vec<u32>)>,
+}
+
+/// The element columns (`Name`, or `NameXX`… of a tensor) of the requested variables that a
+/// block lacks.
+fn undefined_columns(variables: &[RequestedVariable], lacks: Option<&Vec<&str>>) -> Vec<String> {
+    let Some(lacks) = lacks else {
+        return Vec::new();
+    };
+    let mut columns = Vec::new();
+    for v in variables
+        .iter()
+        .filter(|v| lacks.contains(&v.name.as_str()))
+    {
+        match v.kind {
+            VariableKind::ElementScalar => columns.push(v.name.clone()),
+            VariableKind::ElementTensor => columns.extend(components(&v.name, &TENSOR)),
+            _ => {}
+        }
+    }
+    columns
 }
 
 /// One open results file (one deck `Output` list).
@@ -308,6 +333,7 @@ impl OutputFile {
                     id: 1,
                     name: String::new(),
                     nodes: vec![0],
+                    undefined: Vec::new(),
                 }],
                 node_sets: Vec::new(),
                 nodal_variables: nodal,
@@ -322,10 +348,12 @@ impl OutputFile {
                 blocks: geometry
                     .blocks
                     .iter()
-                    .map(|(id, name, nodes)| OutputBlock {
+                    .enumerate()
+                    .map(|(b, (id, name, nodes))| OutputBlock {
                         id: *id,
                         name: name.clone(),
                         nodes: nodes.clone(),
+                        undefined: undefined_columns(&variables, geometry.block_lacks.get(b)),
                     })
                     .collect(),
                 node_sets: geometry
@@ -519,6 +547,7 @@ mod tests {
             coordinates: vec![[0.0; 3], [1.0, 0.0, 0.0]],
             run_index: vec![1, 0],
             blocks: vec![(1, "block_1".into(), vec![0, 1])],
+            block_lacks: Vec::new(),
             node_sets: vec![("Left".into(), vec![0])],
         };
         let variables = ["Displacement", "Volume", "Global_Kinetic_Energy"]

@@ -26,6 +26,7 @@
 mod bond_based;
 mod correspondence;
 mod elastic_constants;
+mod elastic_plastic;
 #[cfg(test)]
 pub(crate) mod generic_force;
 mod influence;
@@ -43,6 +44,9 @@ pub(crate) use correspondence::{
     ViscoplasticNeedlemanCorrespondence,
 };
 pub use elastic_constants::{ElasticConstants, ElasticInput, PlanarAssumption};
+pub use elastic_plastic::{
+    fields as elastic_plastic_fields, yield_value, ElasticPlastic, PlasticityInput,
+};
 pub use influence::{InfluenceFunction, UserInfluence};
 pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};
 pub use registry::{
@@ -94,6 +98,15 @@ pub enum MaterialError {
     Missing {
         /// Deck key, e.g. `Shear Modulus`.
         key: &'static str,
+    },
+    /// The model is defined only for ω = 1 and the deck sets another `Influence Function`.
+    #[error(
+        "material model \"{model}\" is defined only for the influence function \"One\" \
+         (ω = 1); remove `Influence Function` from the `Discretization` list"
+    )]
+    InfluenceNotSupported {
+        /// Peridigm's `Material Model` string.
+        model: &'static str,
     },
     /// The influence function gave a negative or non-finite weight.
     #[error(

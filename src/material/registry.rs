@@ -6,10 +6,10 @@
 //! Adding a model is its file, one line in [`MATERIALS`] and its tests.
 
 use super::{
-    BondBased, ElasticCorrespondence, ElasticPlasticCorrespondence, ElasticStress,
+    BondBased, ElasticCorrespondence, ElasticPlastic, ElasticPlasticCorrespondence, ElasticStress,
     HardeningPlasticStress, InfluenceFunction, IsotropicHardeningCorrespondence,
     LinearPeridynamicSolid, Material, MaterialError, NeedlemanStress, PerfectlyPlasticStress,
-    StressModel, ViscoplasticNeedlemanCorrespondence,
+    PlasticityInput, StressModel, ViscoplasticNeedlemanCorrespondence,
 };
 use crate::model::ModelDeclaration;
 
@@ -27,8 +27,12 @@ pub struct MaterialInput {
     /// Shear modulus μ (pressure) when the deck gives two elastic constants; `None` for
     /// bond-based models, whose Poisson's ratio is fixed.
     pub shear_modulus: Option<f64>,
-    /// `Height` h of a `Plane Strain`/`Plane Stress` bond-based model; `None` in 3D.
+    /// `Height` h of a `Plane Strain`/`Plane Stress` bond-based model, or `Thickness` h of a
+    /// `Planar Problem`; `None` in 3D.
     pub planar_thickness: Option<f64>,
+    /// `Yield Stress` and `Disable Plasticity` of the state-based plastic models (`None` for
+    /// other models).
+    pub plasticity: Option<PlasticityInput>,
     /// `Discretization → Influence Function` ω(ζ, δ).
     pub influence: InfluenceFunction,
     /// The parameters of a correspondence model (`None` for other models).
@@ -92,6 +96,10 @@ pub static MATERIALS: &[MaterialEntry] = &[
         build: LinearPeridynamicSolid::build,
     },
     MaterialEntry {
+        declaration: &ElasticPlastic::DECLARATION,
+        build: ElasticPlastic::build,
+    },
+    MaterialEntry {
         declaration: &<ElasticStress as StressModel>::DECLARATION,
         build: ElasticCorrespondence::build,
     },
@@ -136,6 +144,10 @@ mod tests {
                 bulk_modulus: 1.0,
                 shear_modulus: Some(1.0),
                 planar_thickness: None,
+                plasticity: Some(PlasticityInput {
+                    yield_stress: 1.0,
+                    disabled: false,
+                }),
                 influence: InfluenceFunction::One,
                 correspondence: Some(CorrespondenceInput {
                     hourglass_coefficient: 0.0,
@@ -156,7 +168,7 @@ mod tests {
             assert_eq!(material.declaration(), entry.declaration);
             assert!(std::ptr::eq(material_entry(name).unwrap(), entry));
         }
-        assert!(material_entry("Elastic Plastic").is_none());
+        assert!(material_entry("Elastic Plastic Hardening").is_none());
     }
 
     #[test]
@@ -167,6 +179,7 @@ mod tests {
             bulk_modulus: 1.0,
             shear_modulus: None,
             planar_thickness: None,
+            plasticity: None,
             influence: InfluenceFunction::One,
             correspondence: None,
         };

@@ -164,6 +164,7 @@ fn build_material(
         bulk_modulus,
         shear_modulus: material.shear_modulus(),
         planar_thickness: material.planar_thickness(),
+        plasticity: material.model.plasticity_input(),
         influence: influence.clone(),
         correspondence: material.model.correspondence_input(),
     };

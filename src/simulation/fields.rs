@@ -278,6 +278,14 @@ impl FieldSource for Fields<'_> {
                     None => vec![0.0; n],
                 }
             }
+            "Lambda" => match self
+                .state
+                .history
+                .field(crate::material::elastic_plastic_fields::LAMBDA)
+            {
+                Some(field) => return Some(Cow::Borrowed(field.trial())),
+                None => vec![0.0; n],
+            },
             // σ_vm = √(3/2 s:s), s the deviator of the Cauchy stress.
             "Von_Mises_Stress" => self
                 .history_tensor(crate::material::correspondence_fields::CAUCHY_STRESS)

@@ -103,6 +103,30 @@ impl<'a> RunOutputs<'a> {
     }
 }
 
+/// Per model block, the output variables of other material models that its own material does
+/// not provide ([`OutputGeometry::block_lacks`]).
+fn block_lacks(deck: &Deck, model: &Model) -> Vec<Vec<&'static str>> {
+    let provided = |block: &crate::model::ModelBlock| -> &'static [&'static str] {
+        let entry = &deck.blocks[block.deck_block];
+        deck.material(&entry.material)
+            .and_then(|m| crate::material::material_entry(m.model.deck_name()))
+            .map_or(&[], |e| e.declaration.outputs)
+    };
+    let all: Vec<&'static str> = model.blocks.iter().flat_map(provided).copied().collect();
+    model
+        .blocks
+        .iter()
+        .map(|block| {
+            let own = provided(block);
+            let mut lacks: Vec<&'static str> =
+                all.iter().copied().filter(|v| !own.contains(v)).collect();
+            lacks.sort_unstable();
+            lacks.dedup();
+            lacks
+        })
+        .collect()
+}
+
 /// The outputs of a one-rank run, one file per deck `Output` list.
 pub(super) struct Outputs {
     files: Vec<OutputFile>,
@@ -132,6 +156,7 @@ impl Outputs {
                 .iter()
                 .map(|b| (b.info.id, b.info.name.clone(), original(&b.points)))
                 .collect(),
+            block_lacks: block_lacks(deck, model),
             node_sets: model
                 .node_sets
                 .iter()

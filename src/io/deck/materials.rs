@@ -928,6 +928,27 @@ impl MaterialModel {
         Some(input)
     }
 
+    /// `Yield Stress` and `Disable Plasticity` of the state-based plastic models; `None` for
+    /// other models.
+    pub fn plasticity_input(&self) -> Option<crate::material::PlasticityInput> {
+        match *self {
+            MaterialModel::ElasticPlastic {
+                yield_stress,
+                disable_plasticity,
+                ..
+            }
+            | MaterialModel::ElasticPlasticHardening {
+                yield_stress,
+                disable_plasticity,
+                ..
+            } => Some(crate::material::PlasticityInput {
+                yield_stress,
+                disabled: disable_plasticity,
+            }),
+            _ => None,
+        }
+    }
+
     /// `Hourglass Coefficient` of a correspondence model; `None` for other models.
     pub fn hourglass_coefficient(&self) -> Option<f64> {
         match self {
@@ -1024,10 +1045,14 @@ impl Material {
         self.elastic.as_ref().map(ElasticConstants::shear_modulus)
     }
 
-    /// `Height` h of a planar (`Plane Strain`/`Plane Stress`) bond-based model; `None` in 3D.
+    /// `Height` h of a planar (`Plane Strain`/`Plane Stress`) bond-based model, or `Thickness`
+    /// h of an `Elastic Plastic` `Planar Problem`; `None` in 3D.
     pub fn planar_thickness(&self) -> Option<f64> {
         match &self.model {
             MaterialModel::ElasticBondBased { planar, .. } => planar.map(|(_, height)| height),
+            MaterialModel::ElasticPlastic {
+                planar_thickness, ..
+            } => *planar_thickness,
             _ => None,
         }
     }

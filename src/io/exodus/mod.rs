@@ -95,6 +95,9 @@ pub struct OutputBlock {
     pub name: String,
     /// 0-based indices of the points (nodes) in this block, in output order.
     pub nodes: Vec<u32>,
+    /// Element variables of the layout not defined on this block (its truth-table entries are
+    /// 0 and it has no values of them), e.g. `Lambda` on a block whose material has none.
+    pub undefined: Vec<String>,
 }
 
 /// One node set of a results file.
@@ -106,6 +109,13 @@ pub struct OutputNodeSet {
     pub name: String,
     /// 0-based node indices.
     pub nodes: Vec<u32>,
+}
+
+impl OutputBlock {
+    /// True when element variable `name` has values on this block.
+    pub fn defines(&self, name: &str) -> bool {
+        !self.nodes.is_empty() && !self.undefined.iter().any(|u| u == name)
+    }
 }
 
 /// Everything about a results file that does not change between frames.
@@ -124,7 +134,8 @@ pub struct OutputLayout {
     pub node_sets: Vec<OutputNodeSet>,
     /// Nodal variable names (`name_nod_var`), e.g. `DisplacementX`.
     pub nodal_variables: Vec<String>,
-    /// Element variable names (`name_elem_var`), defined on every block.
+    /// Element variable names (`name_elem_var`), defined on every non-empty block except
+    /// where [`OutputBlock::undefined`] lists them.
     pub element_variables: Vec<String>,
     /// Global variable names (`name_glo_var`).
     pub global_variables: Vec<String>,

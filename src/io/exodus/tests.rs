@@ -20,11 +20,13 @@ fn sample_layout() -> OutputLayout {
                 id: 1,
                 name: "block_1".to_string(),
                 nodes: vec![0, 2, 4],
+                undefined: Vec::new(),
             },
             OutputBlock {
                 id: 7,
                 name: "block_7".to_string(),
                 nodes: vec![1, 3],
+                undefined: Vec::new(),
             },
         ],
         node_sets: vec![
@@ -95,6 +97,32 @@ fn check_frames(file: &ExodusFile, frames: usize) {
             }
         }
         assert_eq!(file.global_values(f).unwrap(), global);
+    }
+}
+
+#[test]
+fn a_variable_undefined_on_a_block_has_a_zero_truth_table_entry_and_no_values_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("truth.e");
+    let mut layout = sample_layout();
+    layout.blocks[1].undefined = vec!["Damage".into()];
+    let mut writer = ExodusWriter::create(&path, &layout).unwrap();
+    let (t, nodal, element, global) = frame_values(0);
+    let nodal: Vec<&[f64]> = nodal.iter().map(Vec::as_slice).collect();
+    let element: Vec<&[f64]> = element.iter().map(Vec::as_slice).collect();
+    writer.write_frame(t, &nodal, &element, &global).unwrap();
+    writer.finish().unwrap();
+    let file = ExodusFile::open(&path).unwrap();
+    for (b, block) in layout.blocks.iter().enumerate() {
+        for (v, field) in element.iter().enumerate() {
+            let expected: Vec<f64> = block.nodes.iter().map(|&n| field[n as usize]).collect();
+            let read = file.element_values(0, v, b).unwrap();
+            if b == 1 && v == 0 {
+                assert_eq!(read, None, "Damage is not defined on block 7");
+            } else {
+                assert_eq!(read, Some(expected), "variable {v} on block {b}");
+            }
+        }
     }
 }
 
@@ -778,6 +806,7 @@ fn as_layout(file: &ExodusFile) -> Option<OutputLayout> {
                 id: b.id,
                 name: b.name.clone(),
                 nodes: b.connectivity.clone(),
+                undefined: Vec::new(),
             })
             .collect(),
         node_sets: file

@@ -32,6 +32,8 @@ pub struct ExodusWriter {
     num_nodes: usize,
     /// Per block: node indices, for splitting element fields.
     block_nodes: Vec<Vec<u32>>,
+    /// Per block and element variable: whether the block has its values.
+    block_defines: Vec<Vec<bool>>,
     num_nodal: usize,
     num_element: usize,
     num_global: usize,
@@ -260,7 +262,10 @@ impl HeaderBuilder {
             );
             for (i, len) in d.block_len.iter().enumerate() {
                 if let Some((n, _)) = *len {
-                    for k in 0..layout.element_variables.len() {
+                    for (k, name) in layout.element_variables.iter().enumerate() {
+                        if !layout.blocks[i].defines(name) {
+                            continue;
+                        }
                         self.var(
                             format!("vals_elem_var{}eb{}", k + 1, i + 1),
                             vec![d.time, n],
@@ -328,8 +333,10 @@ fn write_fixed(
             encode::names(&layout.element_variables, width),
         )?;
         let table = layout.blocks.iter().flat_map(|b| {
-            let defined = i32::from(!b.nodes.is_empty());
-            std::iter::repeat_n(defined, layout.element_variables.len())
+            layout
+                .element_variables
+                .iter()
+                .map(|name| i32::from(b.defines(name)))
         });
         put("elem_var_tab", encode::ints(table))?;
     }
@@ -435,6 +442,14 @@ impl ExodusWriter {
             nc,
             num_nodes: layout.coordinates.len(),
             block_nodes: layout.blocks.iter().map(|b| b.nodes.clone()).collect(),
+            block_defines: layout
+                .blocks
+                .iter()
+                .map(|b| {
+                    let names = layout.element_variables.iter();
+                    names.map(|name| b.defines(name)).collect()
+                })
+                .collect(),
             num_nodal: layout.nodal_variables.len(),
             num_element: layout.element_variables.len(),
             num_global: layout.global_variables.len(),
@@ -499,8 +514,8 @@ impl ExodusWriter {
         for field in nodal {
             slabs.push(encode::doubles(field.iter().copied()));
         }
-        for nodes in self.block_nodes.iter().filter(|n| !n.is_empty()) {
-            for field in element {
+        for (nodes, defines) in self.block_nodes.iter().zip(&self.block_defines) {
+            for (field, _) in element.iter().zip(defines).filter(|(_, &d)| d) {
                 slabs.push(encode::doubles(nodes.iter().map(|&n| field[n as usize])));
             }
         }

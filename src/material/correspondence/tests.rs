@@ -31,6 +31,7 @@ fn material(hourglass: f64) -> Box<dyn Material> {
         bulk_modulus: BULK,
         shear_modulus: Some(SHEAR),
         planar_thickness: None,
+        plasticity: None,
         influence: InfluenceFunction::ParabolicDecay,
         correspondence: Some(crate::material::CorrespondenceInput {
             hourglass_coefficient: hourglass,
@@ -525,6 +526,7 @@ fn the_plastic_tangent_matches_finite_differences_while_yielding() {
         bulk_modulus: BULK,
         shear_modulus: Some(SHEAR),
         planar_thickness: None,
+        plasticity: None,
         influence: InfluenceFunction::ParabolicDecay,
         correspondence: Some(crate::material::CorrespondenceInput {
             hourglass_coefficient: 0.05,
@@ -674,6 +676,7 @@ fn needleman_body() -> Body {
             shear_modulus: Some(SHEAR),
             planar_thickness: None,
             influence: InfluenceFunction::ParabolicDecay,
+            plasticity: None,
             correspondence: Some(crate::material::CorrespondenceInput {
                 hourglass_coefficient: 0.05,
                 yield_stress: Some(2e-3),

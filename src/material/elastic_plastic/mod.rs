@@ -1,0 +1,711 @@
+//! Mitchell's ordinary state-based plasticity, Peridigm's `Elastic Plastic` material
+//! (J. A. Mitchell, "A nonlocal, ordinary, state-based plasticity model for peridynamics",
+//! SAND2011-3166; Peridigm's `elastic_plastic.cxx`; reference §1.3).
+//!
+//! The LPS split of the extension state e = |Y| − ζ into a spherical part θζ/3 and a
+//! deviatoric part e^d = e − θζ/3, with the deviatoric part split again into an elastic and a
+//! plastic part, e^d = e^{de} + e^{dp}. With ω ≡ 1 (the model is defined for it; another
+//! `Influence Function` is refused), per point i:
+//!
+//! * weighted volume `m = Σ_j ζ² V_j` (reference configuration, all bonds), α = 15μ/m;
+//! * dilatation `θ = (3/m) Σ_j (1−d) ζ e V_j`;
+//! * trial deviatoric force state `t^d_tr = α (e^d − e^{dp}_n)` from the plastic extension
+//!   committed at the start of the step, with the norm `‖t^d_tr‖² = Σ_j (1−d)² (t^d_tr)² V_j`
+//!   (damage enters the norm, as in Peridigm);
+//! * yield function `f = ‖t^d_tr‖²/2 − ψ₀`, with ψ₀ from the yield stress σ_y of J2 plasticity
+//!   (matching the von Mises yield surface for any homogeneous deformation of the continuum):
+//!   `ψ₀ = 25 σ_y² / (8π δ⁵)` in 3-D, `ψ₀ = 75 σ_y² / (8π h δ⁴)` with `Planar Problem` and
+//!   `Thickness` h;
+//! * if f ≤ 0 the step is elastic: `t^d = t^d_tr`, `e^{dp}_{n+1} = e^{dp}_n`, `λ_{n+1} = λ_n`;
+//!   otherwise the return to the yield surface ‖t^d‖ = √(2ψ₀) gives
+//!   `Δλ = (‖t^d_tr‖/√(2ψ₀) − 1)/α`, `t^d = √(2ψ₀) t^d_tr/‖t^d_tr‖`,
+//!   `e^{dp}_{n+1} = e^{dp}_n + Δλ t^d`, `λ_{n+1} = λ_n + Δλ`;
+//! * scalar force state `t = (1−d)·[3Kθ/m · ζ + (1−d) t^d]`.
+//!
+//! Since `α (e^d − e^{dp}_{n+1}) = t^d_tr − αΔλ t^d = t^d` in both branches, the deviatoric
+//! force is α times the elastic part of the deviatoric extension left after the step. The force
+//! pass uses that form, `t = (1−d)·[3Kθ/m · ζ + (1−d) α (e − θζ/3 − e^{dp}_{n+1})]`, so that a
+//! point reads only its neighbours' published coefficients (θ, m through
+//! [`PointCoefficients`], with the LPS meaning) and the plastic extension of the reverse bond.
+//! The tangent differentiates the return map itself (from the committed e^{dp}_n), by
+//! automatic differentiation (Peridigm's default) or finite differences.
+//!
+//! `Disable Plasticity: true` makes the yield stress infinite (Peridigm sets it to the largest
+//! double): the model is then the LPS with ω = 1. Peridigm computes the planar ψ₀ into a
+//! variable that shadows the 3-D one and is never read, so its `Planar Problem` runs use the
+//! 3-D ψ₀; here the planar value is used.
+//!
+//! **History.** `Deviatoric_Plastic_Extension` (per bond) and `Lambda` (per point) are staged
+//! fields of the run's [`History`]: each force evaluation computes their trial values from the
+//! committed ones, and only an accepted step commits them.
+//!
+//! **Other blocks.** A bond to a point of another model is evaluated from that point's side with
+//! its published LPS coefficients and the plastic extension stored for the reverse bond (zero
+//! for a model without one); the other model's own force pass does not see this block's
+//! plastic extension (only an `Elastic` neighbour evaluates such bonds, exactly while this side
+//! stays elastic).
+//!
+//! Not provided: `Thermal Expansion Coefficient`, `Stored_Elastic_Energy_Density` (zero, as for
+//! the correspondence models), runs on several MPI ranks (the ranks do not exchange material
+//! history yet).
+
+use rayon::prelude::*;
+
+use super::{
+    assert_point_set, checked_tangent_method, kept_points, local_offsets, positive, CurrentView,
+    Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
+};
+use crate::history::History;
+use crate::model::point_chunks::for_each_chunk;
+use crate::model::{BondList, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
+use crate::tangent::{
+    assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
+    TangentMethod,
+};
+
+#[cfg(test)]
+mod tests;
+
+/// The staged fields of the model.
+pub mod fields {
+    /// e^{dp}, the deviatoric plastic extension of each bond (length).
+    pub const DEVIATORIC_PLASTIC_EXTENSION: &str = "Deviatoric_Plastic_Extension";
+    /// λ = Σ Δλ, the accumulated plastic multiplier of each point (length⁷/force; Peridigm's
+    /// `Lambda`).
+    pub const LAMBDA: &str = "Lambda";
+}
+
+/// A bond without a reverse bond (one-way bonds of variable horizons).
+const NO_REVERSE: usize = usize::MAX;
+
+/// `Elastic Plastic` for one block (see the module docs for the formulas).
+#[derive(Debug, Clone)]
+pub struct ElasticPlastic {
+    density: f64,
+    bulk_modulus: f64,
+    shear_modulus: f64,
+    horizon: f64,
+    /// ψ₀ (force²/length⁹); `None` with `Disable Plasticity`.
+    yield_value: Option<f64>,
+    points: Vec<u32>,
+    /// m per block point (same order as `points`).
+    weighted_volume: Vec<f64>,
+    /// Block-local row starts into `reverse`.
+    local_offsets: Vec<usize>,
+    /// For each block bond i→j, the global index of j→i ([`NO_REVERSE`] when j has no bond
+    /// to i).
+    reverse: Vec<usize>,
+    tangent: TangentMethod,
+    /// The points whose force is computed, when fewer than `points`
+    /// ([`Material::restrict_forces`]).
+    force_points: Option<Vec<u32>>,
+}
+
+/// The deck parameters of the plastic state-based models besides their elastic constants.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlasticityInput {
+    /// `Yield Stress` σ_y (pressure).
+    pub yield_stress: f64,
+    /// `Disable Plasticity`: the yield stress is infinite.
+    pub disabled: bool,
+}
+
+/// ψ₀ = 25σ_y²/(8πδ⁵) in 3-D, 75σ_y²/(8πhδ⁴) in a plane of thickness h (module docs).
+pub fn yield_value(yield_stress: f64, horizon: f64, thickness: Option<f64>) -> f64 {
+    use std::f64::consts::PI;
+    let squared = yield_stress * yield_stress;
+    match thickness {
+        None => 25.0 * squared / (8.0 * PI * horizon.powi(5)),
+        Some(h) => 75.0 * squared / (8.0 * PI * h * horizon.powi(4)),
+    }
+}
+
+impl ElasticPlastic {
+    /// `Elastic Plastic`: state-based (two hops), keeps m and θ per point (not staged) and the
+    /// staged plastic extension per bond and λ per point.
+    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+        deck_name: "Elastic Plastic",
+        deck_keys: &[
+            "Density",
+            "Bulk Modulus",
+            "Shear Modulus",
+            "Young's Modulus",
+            "Poisson's Ratio",
+            "Yield Stress",
+            "Disable Plasticity",
+            "Planar Problem",
+            "Thickness",
+            "Tangent",
+            "Apply Automatic Differentiation Jacobian",
+            "Finite Difference Probe Length",
+        ],
+        reach: Reach::TwoHop,
+        fields: &[
+            FieldDeclaration {
+                name: "Weighted_Volume",
+                carrier: FieldCarrier::Point,
+                bytes_per_value: 8,
+                staged: false,
+            },
+            FieldDeclaration {
+                name: "Dilatation",
+                carrier: FieldCarrier::Point,
+                bytes_per_value: 8,
+                staged: false,
+            },
+            FieldDeclaration {
+                name: fields::DEVIATORIC_PLASTIC_EXTENSION,
+                carrier: FieldCarrier::Bond,
+                bytes_per_value: 8,
+                staged: true,
+            },
+            FieldDeclaration {
+                name: fields::LAMBDA,
+                carrier: FieldCarrier::Point,
+                bytes_per_value: 8,
+                staged: true,
+            },
+        ],
+        outputs: &["Weighted_Volume", "Dilatation", "Lambda"],
+    };
+
+    /// The registry's constructor: ρ, K, μ, δ, σ_y (`Disable Plasticity`) and the planar
+    /// thickness from `input`; ω must be `One`.
+    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
+        Ok(Box::new(Self::new(input)?))
+    }
+
+    /// Validates the parameters (ρ, K, μ, δ, σ_y and the thickness positive and finite, ω
+    /// `One`).
+    pub fn new(input: &MaterialInput) -> Result<Self, MaterialError> {
+        if !input.influence.is_one() {
+            return Err(MaterialError::InfluenceNotSupported {
+                model: Self::DECLARATION.deck_name,
+            });
+        }
+        let plasticity = input.plasticity.ok_or(MaterialError::Missing {
+            key: "Yield Stress",
+        })?;
+        let yield_stress = positive("Yield Stress", plasticity.yield_stress)?;
+        let horizon = positive("Horizon", input.horizon)?;
+        let thickness = input
+            .planar_thickness
+            .map(|h| positive("Thickness", h))
+            .transpose()?;
+        Ok(Self {
+            density: positive("Density", input.density)?,
+            bulk_modulus: positive("Bulk Modulus", input.bulk_modulus)?,
+            shear_modulus: positive("Shear Modulus", input.required_shear_modulus()?)?,
+            horizon,
+            yield_value: (!plasticity.disabled)
+                .then(|| yield_value(yield_stress, horizon, thickness)),
+            points: Vec::new(),
+            weighted_volume: Vec::new(),
+            local_offsets: vec![0],
+            reverse: Vec::new(),
+            tangent: TangentMethod::AutomaticDifferentiation,
+            force_points: None,
+        })
+    }
+
+    fn kernel<'a>(
+        &'a self,
+        reference: &ReferenceView<'a>,
+        damage: Option<&'a [f32]>,
+    ) -> Kernel<'a> {
+        Kernel {
+            bonds: reference.bonds,
+            volume: reference.volume,
+            damage,
+            weighted_volume: &self.weighted_volume,
+            bulk_modulus: self.bulk_modulus,
+            shear_modulus: self.shear_modulus,
+            yield_value: self.yield_value,
+        }
+    }
+
+    /// The committed and trial values of a field the run allocates for this model.
+    fn staged<'h>(history: &'h mut History, name: &str) -> (&'h [f64], &'h mut [f64]) {
+        history
+            .field_mut(name)
+            .expect("the run allocates every field an Elastic Plastic block declares")
+            .committed_and_trial()
+    }
+}
+
+/// What the return map reads, over any scalar (the force uses f64, the tangent dual numbers).
+#[derive(Clone, Copy)]
+struct Kernel<'a> {
+    bonds: &'a BondList,
+    volume: &'a [f64],
+    damage: Option<&'a [f32]>,
+    weighted_volume: &'a [f64],
+    bulk_modulus: f64,
+    shear_modulus: f64,
+    yield_value: Option<f64>,
+}
+
+/// A bond seen from its point: deformed length |Y| (0 for coincident points, which carry no
+/// force) and extension e = |Y| − ζ.
+#[derive(Clone, Copy)]
+struct Stretch<T> {
+    length: T,
+    extension: T,
+}
+
+/// The outcome of the return map at one point.
+#[derive(Clone, Copy, Debug)]
+struct PointResponse<T> {
+    /// θ.
+    dilatation: T,
+    /// 1 in an elastic step, √(2ψ₀)/‖t^d_tr‖ in a plastic one (t^d = scale · t^d_tr).
+    scale: T,
+    /// Δλ (0 in an elastic step).
+    delta_lambda: T,
+}
+
+impl Kernel<'_> {
+    fn intact(&self, b: usize) -> f64 {
+        self.damage.map_or(1.0, |d| 1.0 - f64::from(d[b]))
+    }
+
+    /// The stretch of the n-th bond `b` of the point whose family is at `y`.
+    fn stretch<T: Scalar>(&self, y: &[[T; 3]], n: usize, b: usize) -> Stretch<T> {
+        let d = [0, 1, 2].map(|k| y[n + 1][k] - y[0][k]);
+        let squared = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        // A zero length has no derivative; such a bond carries no force.
+        let length = if squared.re() > 0.0 {
+            squared.sqrt()
+        } else {
+            T::from(0.0)
+        };
+        Stretch {
+            length,
+            extension: length - self.bonds.reference_length[b],
+        }
+    }
+
+    /// α = 15μ/m of `point`; `None` when m = 0 (no bonds: no force).
+    fn alpha(&self, point: PointIndex) -> Option<f64> {
+        let m = self.weighted_volume[point.local];
+        (m > 0.0).then(|| 15.0 * self.shear_modulus / m)
+    }
+
+    /// θ = (3/m) Σ (1−d) ζ e V_j (m > 0).
+    fn dilatation<T: Scalar>(&self, point: PointIndex, y: &[[T; 3]]) -> T {
+        let mut sum = T::from(0.0);
+        for (n, b) in self.bonds.range(point.global).enumerate() {
+            let zeta = self.bonds.reference_length[b];
+            let j = self.bonds.neighbor[b] as usize;
+            sum += self.stretch(y, n, b).extension * (self.intact(b) * zeta * self.volume[j]);
+        }
+        sum * (3.0 / self.weighted_volume[point.local])
+    }
+
+    /// t^d_tr = α (e − θζ/3 − e^{dp}_n) of bond `b`.
+    fn trial_deviatoric<T: Scalar>(
+        alpha: f64,
+        stretch: &Stretch<T>,
+        theta: T,
+        zeta: f64,
+        plastic: f64,
+    ) -> T {
+        (stretch.extension - theta * (zeta / 3.0) - plastic) * alpha
+    }
+
+    /// The return map of `point` (family at `y`) from the committed plastic extension of its
+    /// row, `plastic` (module docs).
+    fn respond<T: Scalar>(
+        &self,
+        point: PointIndex,
+        y: &[[T; 3]],
+        alpha: f64,
+        plastic: &[f64],
+    ) -> PointResponse<T> {
+        let theta = self.dilatation(point, y);
+        let elastic = PointResponse {
+            dilatation: theta,
+            scale: T::from(1.0),
+            delta_lambda: T::from(0.0),
+        };
+        let Some(psi) = self.yield_value else {
+            return elastic;
+        };
+        let mut squared = T::from(0.0);
+        for (n, b) in self.bonds.range(point.global).enumerate() {
+            let zeta = self.bonds.reference_length[b];
+            let j = self.bonds.neighbor[b] as usize;
+            let trial =
+                Self::trial_deviatoric(alpha, &self.stretch(y, n, b), theta, zeta, plastic[n])
+                    * self.intact(b);
+            squared += trial * trial * self.volume[j];
+        }
+        if squared.re() * 0.5 <= psi {
+            return elastic;
+        }
+        let norm = squared.sqrt();
+        let surface = (2.0 * psi).sqrt();
+        PointResponse {
+            dilatation: theta,
+            scale: norm.recip() * surface,
+            delta_lambda: (norm * (1.0 / surface) - 1.0) * (1.0 / alpha),
+        }
+    }
+}
+
+impl Material for ElasticPlastic {
+    fn declaration(&self) -> &'static ModelDeclaration {
+        &Self::DECLARATION
+    }
+
+    fn density(&self) -> f64 {
+        self.density
+    }
+
+    fn bulk_modulus(&self) -> f64 {
+        self.bulk_modulus
+    }
+
+    fn horizon(&self) -> f64 {
+        self.horizon
+    }
+
+    fn weighted_volume(&self) -> Option<&[f64]> {
+        Some(&self.weighted_volume)
+    }
+
+    fn setup(
+        &mut self,
+        reference: &ReferenceView<'_>,
+        points: Vec<u32>,
+    ) -> Result<(), MaterialError> {
+        let bonds = reference.bonds;
+        assert_point_set(&points, bonds.num_points());
+        self.weighted_volume = points
+            .iter()
+            .map(|&i| {
+                bonds
+                    .range(i as usize)
+                    .map(|b| {
+                        let zeta = bonds.reference_length[b];
+                        zeta * zeta * reference.volume[bonds.neighbor[b] as usize]
+                    })
+                    .sum()
+            })
+            .collect();
+        self.local_offsets = local_offsets(bonds, &points);
+        // Rows are sorted, so the reverse bond is found by binary search.
+        self.reverse = points
+            .iter()
+            .flat_map(|&i| {
+                bonds.family(i as usize).iter().map(move |&j| {
+                    bonds
+                        .family(j as usize)
+                        .binary_search(&i)
+                        .map_or(NO_REVERSE, |k| bonds.offsets[j as usize] + k)
+                })
+            })
+            .collect();
+        self.points = points;
+        self.force_points = None;
+        Ok(())
+    }
+
+    fn points(&self) -> &[u32] {
+        &self.points
+    }
+
+    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
+        self.force_points = kept_points(&self.points, keep);
+    }
+
+    fn update_history(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        history: &mut History,
+    ) {
+        let kernel = self.kernel(reference, current.bond_damage);
+        let bonds = reference.bonds;
+        let (committed, trial) = Self::staged(history, fields::DEVIATORIC_PLASTIC_EXTENSION);
+        let responses: Vec<Option<PointResponse<f64>>> = self
+            .points
+            .par_iter()
+            .enumerate()
+            .map_init(Vec::new, |y, (local, &p)| {
+                let point = PointIndex {
+                    global: p as usize,
+                    local,
+                };
+                let alpha = kernel.alpha(point)?;
+                family_positions(bonds, current.position, point.global, y);
+                Some(kernel.respond(point, y, alpha, &committed[bonds.range(point.global)]))
+            })
+            .collect();
+        for_each_chunk(
+            &self.points,
+            trial,
+            &|i| bonds.offsets[i as usize],
+            &|chunk: &[u32], base: usize, out: &mut [f64]| {
+                let mut y = Vec::new();
+                let first = self.points.partition_point(|&p| p < chunk[0]);
+                for (local, &p) in (first..).zip(chunk) {
+                    let point = PointIndex {
+                        global: p as usize,
+                        local,
+                    };
+                    let range = bonds.range(point.global);
+                    let start = &committed[range.clone()];
+                    let row = &mut out[range.start - base..range.end - base];
+                    let (Some(response), Some(alpha)) = (responses[local], kernel.alpha(point))
+                    else {
+                        row.copy_from_slice(start);
+                        continue;
+                    };
+                    if response.delta_lambda == 0.0 {
+                        row.copy_from_slice(start);
+                        continue;
+                    }
+                    family_positions(bonds, current.position, point.global, &mut y);
+                    for (n, b) in range.enumerate() {
+                        let zeta = bonds.reference_length[b];
+                        let deviatoric = Kernel::trial_deviatoric(
+                            alpha,
+                            &kernel.stretch(&y, n, b),
+                            response.dilatation,
+                            zeta,
+                            start[n],
+                        ) * response.scale;
+                        row[n] = start[n] + response.delta_lambda * deviatoric;
+                    }
+                }
+            },
+        );
+        let (committed, trial) = Self::staged(history, fields::LAMBDA);
+        for (&p, response) in self.points.iter().zip(&responses) {
+            let p = p as usize;
+            trial[p] = committed[p] + response.map_or(0.0, |r| r.delta_lambda);
+        }
+    }
+
+    fn compute_point_coefficients(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &mut [PointCoefficients],
+    ) {
+        let kernel = self.kernel(reference, current.bond_damage);
+        let bonds = reference.bonds;
+        for_each_chunk(
+            &self.points,
+            coefficients,
+            &|i| i as usize,
+            &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
+                let mut y = Vec::new();
+                let first = self.points.partition_point(|&p| p < chunk[0]);
+                for (local, &p) in (first..).zip(chunk) {
+                    let point = PointIndex {
+                        global: p as usize,
+                        local,
+                    };
+                    let m = self.weighted_volume[local];
+                    out[point.global - base] = if m > 0.0 {
+                        family_positions(bonds, current.position, point.global, &mut y);
+                        let theta = kernel.dilatation(point, &y);
+                        PointCoefficients {
+                            dilatation: theta,
+                            isotropic: (3.0 * self.bulk_modulus - 5.0 * self.shear_modulus) * theta
+                                / m,
+                            deviatoric: 15.0 * self.shear_modulus / m,
+                        }
+                    } else {
+                        PointCoefficients::default()
+                    };
+                }
+            },
+        );
+    }
+
+    /// `F_i = Σ_j (t_ij + t_ji) V_j M_ij` with, from either end with its coefficients A
+    /// (isotropic), B = α (deviatoric) and θ, `t = (1−d)[(A + Bθ/3) ζ + (1−d) B (e − θζ/3 −
+    /// e^{dp}_{n+1})]` (module docs; A + Bθ/3 = 3Kθ/m).
+    fn add_force_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &[PointCoefficients],
+        force_density: &mut [[f64; 3]],
+    ) {
+        let bonds = reference.bonds;
+        let plastic = current
+            .history
+            .field(fields::DEVIATORIC_PLASTIC_EXTENSION)
+            .expect("the run allocates every field an Elastic Plastic block declares")
+            .trial();
+        let kernel = self.kernel(reference, current.bond_damage);
+        let y = current.position;
+        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        let scalar =
+            |c: &PointCoefficients, zeta: f64, extension: f64, intact: f64, plastic: f64| {
+                let deviatoric = extension - c.dilatation * zeta / 3.0 - plastic;
+                intact
+                    * ((c.isotropic + c.deviatoric * c.dilatation / 3.0) * zeta
+                        + intact * c.deviatoric * deviatoric)
+            };
+        for_each_chunk(
+            force_points,
+            force_density,
+            &|i| i as usize,
+            &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
+                for &i in chunk {
+                    let i = i as usize;
+                    let local = self.local_offsets[self.points.partition_point(|&p| p < i as u32)];
+                    let mut total = [0.0; 3];
+                    for (n, b) in bonds.range(i).enumerate() {
+                        let j = bonds.neighbor[b] as usize;
+                        let d = [0, 1, 2].map(|k| y[j][k] - y[i][k]);
+                        let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                        if length == 0.0 {
+                            continue;
+                        }
+                        let zeta = bonds.reference_length[b];
+                        let extension = length - zeta;
+                        let intact = kernel.intact(b);
+                        let back = self.reverse[local + n];
+                        let plastic_back = if back == NO_REVERSE {
+                            0.0
+                        } else {
+                            plastic[back]
+                        };
+                        let t = scalar(&coefficients[i], zeta, extension, intact, plastic[b])
+                            + scalar(&coefficients[j], zeta, extension, intact, plastic_back);
+                        let scale = t * reference.volume[j] / length;
+                        for k in 0..3 {
+                            total[k] += scale * d[k];
+                        }
+                    }
+                    for k in 0..3 {
+                        out[i - base][k] += total[k];
+                    }
+                }
+            },
+        );
+    }
+
+    fn stored_energy_density(
+        &self,
+        _reference: &ReferenceView<'_>,
+        _current: &CurrentView<'_>,
+        _coefficients: &[PointCoefficients],
+        energy_density: &mut [f64],
+    ) {
+        // Not provided (module docs): the elastic energy needs the plastic extension, which the
+        // energy output does not receive.
+        for &p in &self.points {
+            energy_density[p as usize] = 0.0;
+        }
+    }
+
+    fn tangent_method(&self) -> TangentMethod {
+        self.tangent
+    }
+
+    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
+        if method == TangentMethod::Analytic {
+            return Err(TangentError::NoAnalytic {
+                model: self.model_name(),
+            });
+        }
+        self.tangent = checked_tangent_method(method)?;
+        Ok(())
+    }
+
+    fn add_tangent(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        method: TangentMethod,
+        tangent: &mut BlockTangent,
+    ) -> Result<(), TangentError> {
+        let kernel = ElasticPlasticForceState {
+            kernel: self.kernel(reference, current.bond_damage),
+            committed: current
+                .history
+                .field(fields::DEVIATORIC_PLASTIC_EXTENSION)
+                .expect("the run allocates every field an Elastic Plastic block declares")
+                .committed(),
+        };
+        assemble(
+            &kernel,
+            self.model_name(),
+            &self.points,
+            reference,
+            current,
+            method,
+            tangent,
+        )
+    }
+}
+
+/// The positions of point `p`'s family into `y` (`y[0]` the point).
+fn family_positions(bonds: &BondList, position: &[[f64; 3]], p: usize, y: &mut Vec<[f64; 3]>) {
+    y.clear();
+    y.push(position[p]);
+    y.extend(bonds.family(p).iter().map(|&j| position[j as usize]));
+}
+
+/// The force state of a point for the tangent: the return map from the committed plastic
+/// extension and `t = (1−d)[3Kθ/m · ζ + (1−d) t^d]`, generic over the scalar.
+struct ElasticPlasticForceState<'a> {
+    kernel: Kernel<'a>,
+    /// e^{dp}_n of every bond.
+    committed: &'a [f64],
+}
+
+impl ForceState for ElasticPlasticForceState<'_> {
+    const BOND_LOCAL: bool = false;
+    const ANALYTIC: bool = false;
+
+    fn force_state<T: Scalar>(
+        &self,
+        point: PointIndex,
+        y: &[[T; 3]],
+        _only: Option<usize>,
+        t: &mut [[T; 3]],
+    ) {
+        let kernel = &self.kernel;
+        let zero = T::from(0.0);
+        let Some(alpha) = kernel.alpha(point) else {
+            t.fill([zero; 3]);
+            return;
+        };
+        let range = kernel.bonds.range(point.global);
+        let plastic = &self.committed[range.clone()];
+        let response = kernel.respond(point, y, alpha, plastic);
+        let pressure =
+            response.dilatation * (3.0 * kernel.bulk_modulus / kernel.weighted_volume[point.local]);
+        for (n, b) in range.enumerate() {
+            let stretch = kernel.stretch(y, n, b);
+            t[n] = if stretch.length.re() > 0.0 {
+                let zeta = kernel.bonds.reference_length[b];
+                let intact = kernel.intact(b);
+                let deviatoric = Kernel::trial_deviatoric(
+                    alpha,
+                    &stretch,
+                    response.dilatation,
+                    zeta,
+                    plastic[n],
+                ) * response.scale;
+                let scalar = (pressure * zeta + deviatoric * intact) * intact;
+                let scale = scalar / stretch.length;
+                [0, 1, 2].map(|k| (y[n + 1][k] - y[0][k]) * scale)
+            } else {
+                [zero; 3]
+            };
+        }
+    }
+
+    fn ordinary_derivatives(&self, _point: PointIndex, _y: &[[f64; 3]], _out: &mut [OrdinaryBond]) {
+        unreachable!("Elastic Plastic has no closed-form tangent (ANALYTIC is false)")
+    }
+}
