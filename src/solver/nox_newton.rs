@@ -71,6 +71,12 @@ impl NoxNewton {
             Some(ParameterValue::String(s)) => Some(s),
             _ => None,
         };
+        if solver.peridigm_preconditioner == PeridigmPreconditioner::Amg {
+            return Err(Unsupported(format!(
+                "solver \"{}\": Peridigm Preconditioner \"AMG\" is the native backend's multigrid; with Backend \"Trilinos\" use \"Block 3x3\" with Linear Solver → Preconditioner \"ML\", or Backend \"Native\"",
+                solver.name
+            )));
+        }
         let matrix_free = text(linear_key("Jacobian Operator")).as_deref() == Some("Matrix-Free")
             && solver.peridigm_preconditioner != PeridigmPreconditioner::FullTangent;
         let jacobian = if matrix_free {

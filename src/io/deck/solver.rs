@@ -170,6 +170,10 @@ pub enum LinearPreconditioner {
     Jacobi,
     /// `"None"`.
     None,
+    /// `"AMG"`: peridyn's smoothed-aggregation multigrid (one V-cycle) built on the one-hop
+    /// PMB-like operator of the model ([`crate::tangent::one_hop_operator`]), rebuilt once per
+    /// load step and whenever bonds break.
+    Amg,
 }
 
 /// Which fields are unknowns.
@@ -194,6 +198,9 @@ pub enum PeridigmPreconditioner {
     Block3x3,
     /// `"None"`.
     None,
+    /// `"AMG"` (peridyn): with `Jacobian Operator: "Matrix-Free"`, JFNK preconditioned by
+    /// peridyn's multigrid on the one-hop operator, so no tangent is ever assembled.
+    Amg,
 }
 
 /// The integrator sublist of a solver.
@@ -571,7 +578,7 @@ fn read_preconditioner(
     let given_preconditioner = match list.get("Linear Solver Preconditioner") {
         None => None,
         Some(f) => Some((
-            f.choice(ctx, &["Block 3x3", "Jacobi", "None", "ILU", "ML"])?,
+            f.choice(ctx, &["Block 3x3", "Jacobi", "None", "AMG", "ILU", "ML"])?,
             f,
         )),
     };
@@ -598,10 +605,10 @@ fn read_preconditioner(
             Some(("ML", _)) => AlgebraicPreconditioner::Ml,
             Some(("Jacobi", _)) => AlgebraicPreconditioner::Jacobi,
             Some(("None", _)) => AlgebraicPreconditioner::None,
-            Some((_, f)) => {
+            Some((native, f)) => {
                 return Err(f.err(
                     ctx,
-                    "\"Block 3x3\" is a native preconditioner; with Backend \"Trilinos\" choose \"ILU\", \"ML\", \"Jacobi\" or \"None\"",
+                    format!("\"{native}\" is a native preconditioner; with Backend \"Trilinos\" choose \"ILU\", \"ML\", \"Jacobi\" or \"None\""),
                 ))
             }
         };
@@ -614,7 +621,7 @@ fn read_preconditioner(
     if let Some((choice @ ("ILU" | "ML"), f)) = given_preconditioner {
         return Err(f.err(
                 ctx,
-                format!("\"{choice}\" is a Trilinos preconditioner: add Backend: \"Trilinos\" to this solver list, or choose \"Block 3x3\", \"Jacobi\" or \"None\""),
+                format!("\"{choice}\" is a Trilinos preconditioner: add Backend: \"Trilinos\" to this solver list, or choose \"Block 3x3\", \"AMG\", \"Jacobi\" or \"None\""),
             ));
     }
     if let Some(f) = ilu_field {
@@ -627,6 +634,7 @@ fn read_preconditioner(
     let preconditioner = match given_preconditioner {
         Some(("Jacobi", _)) => LinearPreconditioner::Jacobi,
         Some(("None", _)) => LinearPreconditioner::None,
+        Some(("AMG", _)) => LinearPreconditioner::Amg,
         _ => LinearPreconditioner::Block3x3,
     };
     Ok((LinearBackend::Native, preconditioner))
@@ -945,8 +953,9 @@ fn read_peridigm_preconditioner(
 ) -> Result<PeridigmPreconditioner, DeckError> {
     Ok(match list.get("Peridigm Preconditioner") {
         None => PeridigmPreconditioner::FullTangent,
-        Some(f) => match f.choice(ctx, &["Full Tangent", "Block 3x3", "None"])? {
+        Some(f) => match f.choice(ctx, &["Full Tangent", "Block 3x3", "None", "AMG"])? {
             "Block 3x3" => PeridigmPreconditioner::Block3x3,
+            "AMG" => PeridigmPreconditioner::Amg,
             "None" => PeridigmPreconditioner::None,
             _ => PeridigmPreconditioner::FullTangent,
         },
