@@ -22,7 +22,8 @@ pub struct Solver {
     pub initialize_predictor_from_previous_solver: bool,
     /// `Jacobian Diagnostics` — print asymmetry and conditioning estimates; default false.
     pub jacobian_diagnostics: bool,
-    /// `Peridigm Preconditioner` — default `Full Tangent`.
+    /// `Peridigm Preconditioner` — `Full Tangent` (default), `Block 3x3`, `None`, or peridyn's
+    /// `AMG` (JFNK preconditioned by multigrid on the one-hop operator).
     pub peridigm_preconditioner: PeridigmPreconditioner,
     /// `Solve For Displacement/Temperature/Concentration/Pressure` — which unknowns exist
     /// (Peridigm reads them from the first solver only).
@@ -40,7 +41,7 @@ pub struct Solver {
 /// |---|---|---|
 /// | `Backend` | `Native`, `Trilinos` (a build with Cargo feature `trilinos`) | `Native` |
 /// | `Linear Solver` | `Automatic`, `Direct`, `Cholesky`, `LU`, `CG`, `GMRES`; `Trilinos`: `Automatic` (= `CG`), `CG`, `GMRES` | `CG` when the deck gives `Belos Linear Solver: BlockCG`, `GMRES` for `BlockGMRES`, else `Automatic` |
-/// | `Linear Solver Preconditioner` | `Native`: `Block 3x3`, `Jacobi`, `None`; `Trilinos`: `Jacobi`, `ILU`, `ML`, `None` | `Block 3x3` (`Native`), `ILU` (`Trilinos`) |
+/// | `Linear Solver Preconditioner` | `Native`: `Block 3x3`, `AMG`, `Jacobi`, `None`; `Trilinos`: `Jacobi`, `ILU`, `ML`, `None` | `Block 3x3` (`Native`), `ILU` (`Trilinos`) |
 /// | `Linear Solver ILU Level Of Fill` | `Trilinos` with `ILU`: Ifpack's `fact: level-of-fill` | 0 |
 /// | `Linear Solver Tolerance` | relative residual of the Krylov methods | `Belos Relative Tolerance` when given, else 1e-10 |
 /// | `Linear Solver Maximum Iterations` | Krylov iteration limit | `Belos Maximum Iterations`, else the number of unknowns |
@@ -946,7 +947,7 @@ fn read_direction_method(ctx: &mut Ctx, integ: &mut ListReader) -> Result<String
     }
 }
 
-/// `Peridigm Preconditioner` (default `Full Tangent`).
+/// `Peridigm Preconditioner` (default `Full Tangent`; `AMG` is peridyn's).
 fn read_peridigm_preconditioner(
     ctx: &mut Ctx,
     list: &mut ListReader,
@@ -1181,6 +1182,22 @@ mod linear_solve_tests {
     }
 
     #[test]
+    fn amg_is_a_native_preconditioner_for_newton_and_jfnk() {
+        let settings = linear_solve("    Linear Solver Preconditioner: \"AMG\"").unwrap();
+        assert_eq!(settings.backend, LinearBackend::Native);
+        assert_eq!(settings.preconditioner, LinearPreconditioner::Amg);
+        let solver = &deck("    Peridigm Preconditioner: \"AMG\"")
+            .unwrap()
+            .solvers[0];
+        assert_eq!(solver.peridigm_preconditioner, PeridigmPreconditioner::Amg);
+        let error = linear_solve("    Linear Solver Preconditioner: \"AMGX\"")
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("AMGX") && error.contains("AMG"), "{error}");
+        assert!(error.contains("linear.yaml"), "{error}");
+    }
+
+    #[test]
     fn trilinos_preconditioners_need_the_trilinos_backend() {
         let error = linear_solve("    Linear Solver Preconditioner: \"ILU\"")
             .unwrap_err()
@@ -1197,6 +1214,19 @@ mod linear_solve_tests {
             .to_string();
         assert!(error.contains("--features trilinos"), "{error}");
         assert!(error.contains("Backend"), "{error}");
+    }
+
+    #[cfg(feature = "trilinos")]
+    #[test]
+    fn amg_on_the_trilinos_backend_names_its_alternatives() {
+        let error =
+            linear_solve("    Backend: \"Trilinos\"\n    Linear Solver Preconditioner: \"AMG\"")
+                .unwrap_err()
+                .to_string();
+        assert!(
+            error.contains("\"AMG\" is a native preconditioner") && error.contains("\"ML\""),
+            "{error}"
+        );
     }
 
     #[cfg(feature = "trilinos")]

@@ -153,7 +153,8 @@ impl DenseLu {
                         .total_cmp(&factors[j * n + k].abs())
                 })
                 .expect("k < n");
-            if !(factors[pivot * n + k].abs() > 1e-12 * scale) {
+            let magnitude = factors[pivot * n + k].abs();
+            if magnitude.is_nan() || magnitude <= 1e-12 * scale {
                 return Err(not_positive_definite(format!(
                     "the coarsest operator ({n} unknowns) is singular"
                 )));
