@@ -162,3 +162,59 @@ pub fn rigid_body_modes(position: &[[f64; 3]], free: &[usize]) -> Vec<f64> {
     }
     modes
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two points 2 m apart along x, V = 1 m³, c = 1: k = c V V ξ⊗ξ/|ξ|³ = e_x⊗e_x / 2.
+    fn pair(damage: Option<&[f32]>, dof_index: &[Option<usize>], unknowns: usize) -> Csr {
+        let bonds = BondList {
+            offsets: vec![0, 1, 2],
+            neighbor: vec![1, 0],
+            reference_length: vec![2.0, 2.0],
+        };
+        one_hop_operator(&OneHopInput {
+            position: &[[0.0; 3], [2.0, 0.0, 0.0]],
+            volume: &[1.0, 1.0],
+            bonds: &bonds,
+            micromodulus: &[1.0, 1.0],
+            bond_damage: damage,
+            diagonal_shift: None,
+            dof_index,
+            unknowns,
+        })
+    }
+
+    #[test]
+    fn a_bond_contributes_its_axial_stiffness() {
+        let all: Vec<Option<usize>> = (0..6).map(Some).collect();
+        let k = pair(None, &all, 6);
+        k.assert_valid();
+        assert_eq!(
+            k.row(0),
+            (
+                &[0, 1, 2, 3, 4, 5][..],
+                &[0.5, 0.0, 0.0, -0.5, 0.0, 0.0][..]
+            )
+        );
+        assert_eq!(k.row(4).1, &[0.0; 6][..]);
+        // Point 0 prescribed: one 3×3 block remains, the x stiffness 1/2.
+        let held: Vec<Option<usize>> = [None, None, None, Some(0), Some(1), Some(2)].to_vec();
+        let k = pair(None, &held, 3);
+        assert_eq!(k.row(0), (&[0, 1, 2][..], &[0.5, 0.0, 0.0][..]));
+    }
+
+    #[test]
+    fn a_broken_bond_contributes_nothing() {
+        let all: Vec<Option<usize>> = (0..6).map(Some).collect();
+        let k = pair(Some(&[1.0, 1.0]), &all, 6);
+        assert!(k.values.iter().all(|&v| v == 0.0), "{:?}", k.values);
+    }
+
+    #[test]
+    fn pmb_micromodulus_is_18k_over_pi_delta_to_the_fourth() {
+        let c = pmb_micromodulus(std::f64::consts::PI, 1.0);
+        assert!((c - 18.0).abs() < 1e-14);
+    }
+}
