@@ -246,6 +246,33 @@ fn quasi_static_bar_is_the_same_for_every_native_strategy_and_its_reactions_bala
       Absolute Tolerance: 1.0
       Maximum Solver Iterations: 20",
         "    Final Time: 1.0
+    Linear Solver: \"CG\"
+    Linear Solver Preconditioner: \"AMG\"
+    Linear Solver Tolerance: 1.0e-12
+    QuasiStatic:
+      Number of Load Steps: {steps}
+      Absolute Tolerance: 1.0
+      Maximum Solver Iterations: 20",
+        "    Final Time: 1.0
+    Linear Solver: \"GMRES\"
+    Linear Solver Preconditioner: \"AMG\"
+    Linear Solver Tolerance: 1.0e-12
+    QuasiStatic:
+      Number of Load Steps: {steps}
+      Absolute Tolerance: 1.0
+      Maximum Solver Iterations: 20",
+        "    Final Time: 1.0
+    Peridigm Preconditioner: \"AMG\"
+    NOXQuasiStatic:
+      Number of Load Steps: {steps}
+      Absolute Tolerance: 1.0
+      Max Solver Iterations: 30
+      Direction:
+        Method: \"Newton\"
+        Newton:
+          Linear Solver:
+            Jacobian Operator: \"Matrix-Free\"",
+        "    Final Time: 1.0
     Peridigm Preconditioner: \"Block 3x3\"
     NOXQuasiStatic:
       Number of Load Steps: {steps}

@@ -120,7 +120,7 @@ pub fn native_limitation(solver: &Solver) -> Option<String> {
 
 /// The preconditioner of a Jacobian-free Newton–Krylov solve when `solver` asks for one
 /// (`NOXQuasiStatic` with `Jacobian Operator: "Matrix-Free"` and `Peridigm Preconditioner`
-/// `Block 3x3` or `None`, Peridigm's rule, reference §4.2: `Matrix-Free` with `Full Tangent`
+/// `Block 3x3`, `AMG` or `None`, Peridigm's rule, reference §4.2: `Matrix-Free` with `Full Tangent`
 /// still assembles), `None` when the solver assembles its tangent.
 pub fn matrix_free_preconditioner(solver: &Solver) -> Option<LinearPreconditioner> {
     let Integrator::NoxQuasiStatic(nox) = &solver.integrator else {
@@ -134,6 +134,7 @@ pub fn matrix_free_preconditioner(solver: &Solver) -> Option<LinearPreconditione
     match (matrix_free, solver.peridigm_preconditioner) {
         (true, PeridigmPreconditioner::Block3x3) => Some(LinearPreconditioner::Block3x3),
         (true, PeridigmPreconditioner::None) => Some(LinearPreconditioner::None),
+        (true, PeridigmPreconditioner::Amg) => Some(LinearPreconditioner::Amg),
         _ => None,
     }
 }

@@ -18,12 +18,14 @@
 //! # Ok::<(), peridyn::backend::SolveError>(())
 //! ```
 
+mod amg;
 mod direct;
 mod krylov;
 mod preconditioner;
 
 use std::str::FromStr;
 
+pub use amg::{Amg, COARSE_UNKNOWNS};
 pub use direct::{SparseCholesky, SparseLu};
 pub use krylov::{
     cg_matrix_free, gmres_matrix_free, ConjugateGradient, Gmres, KrylovSettings, Operator,

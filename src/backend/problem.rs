@@ -107,6 +107,32 @@ pub trait NonlinearProblem {
     fn update_unknowns(&mut self) -> Result<bool, SolveError> {
         Ok(false)
     }
+
+    /// A sparse symmetric positive (semi-)definite operator spectrally close to J over this
+    /// rank's unknowns, with its near-null space, for algebraic multigrid (see
+    /// [`PreconditioningOperator`]); `None` when the problem offers none (the default).
+    fn preconditioning_operator(&mut self) -> Result<Option<PreconditioningOperator>, SolveError> {
+        Ok(None)
+    }
+
+    /// A number that changes whenever [`NonlinearProblem::preconditioning_operator`] would
+    /// change at the current iterate (e.g. the count of bonds broken so far in the step), so
+    /// a caller can keep one operator until it does. The default never changes.
+    fn preconditioning_version(&self) -> usize {
+        0
+    }
+}
+
+/// The operator multigrid preconditioners are built on (N/m), e.g. the one-hop PMB-like
+/// stiffness of [`crate::tangent::one_hop_operator`], and its near-null space.
+#[derive(Debug, Clone)]
+pub struct PreconditioningOperator {
+    /// The operator, rows and columns numbered as the unknowns.
+    pub matrix: Csr,
+    /// Row-major, unknowns × `modes` (the rigid-body modes for elasticity, m or m/m).
+    pub null_space: Vec<f64>,
+    /// Number of near-null-space vectors.
+    pub modes: usize,
 }
 
 /// `result` when it holds on every rank of `problem`; on several ranks a failure anywhere is

@@ -1,7 +1,9 @@
 //! Jacobian-free Newton–Krylov: the Newton correction from GMRES on finite-difference
 //! directional derivatives of the one residual, `K v ≈ (r(u) − r(u + εv))/ε`, preconditioned by
-//! the inverted 3×3 diagonal blocks of the tangent (or their diagonal, or nothing). No tangent
-//! is assembled, which is what keeps memory near that of an explicit run.
+//! the inverted 3×3 diagonal blocks of the tangent (or their diagonal, or nothing), or by one
+//! V-cycle of smoothed-aggregation multigrid on the one-hop operator (`AMG`). No tangent is
+//! assembled, which is what keeps memory near that of an explicit run (the one-hop operator
+//! and its hierarchy are O(bonds)).
 
 use crate::backend::native::{
     gmres_matrix_free, KrylovSettings, Preconditioner, PreconditionerOperator,
@@ -9,6 +11,7 @@ use crate::backend::native::{
 use crate::backend::problem::{Evaluation, NonlinearProblem};
 use crate::backend::{block_diagonal_csr, KrylovReport, SolveError};
 use crate::io::deck::LinearPreconditioner;
+use crate::solver::multigrid::MultigridCache;
 
 /// One Jacobian-free solve of `J Δ = rhs` (rhs = −F) at the iterate `x` (see
 /// [`LinearStrategy::MatrixFree`](crate::solver::newton::LinearStrategy::MatrixFree)): J v is
@@ -18,14 +21,19 @@ pub fn solve(
     problem: &mut dyn NonlinearProblem,
     krylov: &KrylovSettings,
     preconditioner: LinearPreconditioner,
+    multigrid: &mut MultigridCache,
     x: &[f64],
     rhs: &[f64],
     correction: &mut [f64],
 ) -> Result<KrylovReport, SolveError> {
     const LAMBDA: f64 = 1e-7;
     let n = problem.len();
+    let amg = match preconditioner {
+        LinearPreconditioner::Amg => Some(multigrid.hierarchy(problem)?),
+        _ => None,
+    };
     let operator = match preconditioner {
-        LinearPreconditioner::None => None,
+        LinearPreconditioner::None | LinearPreconditioner::Amg => None,
         kind => {
             let blocks = problem.block_diagonal(x)?;
             let matrix = block_diagonal_csr(problem.groups(), &blocks);
@@ -61,9 +69,14 @@ pub fn solve(
         Ok(())
     };
     let identity = |r: &[f64], z: &mut [f64]| z.copy_from_slice(r);
-    let report = match &operator {
-        Some(op) => gmres_matrix_free(&mut apply, &|r, z| op.apply(r, z), rhs, correction, krylov),
-        None => gmres_matrix_free(&mut apply, &identity, rhs, correction, krylov),
+    let report = match (&operator, amg) {
+        (Some(op), _) => {
+            gmres_matrix_free(&mut apply, &|r, z| op.apply(r, z), rhs, correction, krylov)
+        }
+        (None, Some(amg)) => {
+            gmres_matrix_free(&mut apply, &|r, z| amg.apply(r, z), rhs, correction, krylov)
+        }
+        (None, None) => gmres_matrix_free(&mut apply, &identity, rhs, correction, krylov),
     };
     problem.move_to(x);
     report

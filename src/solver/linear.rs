@@ -3,10 +3,11 @@
 //!
 //! * `QuasiStatic` and `Implicit`: the peridyn `Linear Solver` keys ([`LinearSolve`]) on the
 //!   native backend; `Direct` is sparse Cholesky, with sparse LU taking over for good once the
-//!   stiffness is found not positive definite.
+//!   stiffness is found not positive definite. `Linear Solver Preconditioner: "AMG"` with `CG`
+//!   or `GMRES` is [`LinearStrategy::Multigrid`].
 //! * `NOXQuasiStatic` on the native backend: `Direction → Newton → Linear Solver → Jacobian
-//!   Operator: "Matrix-Free"` together with `Peridigm Preconditioner: "Block 3x3"` or `"None"`
-//!   selects Jacobian-free Newton–Krylov (Peridigm's rule, reference §4.2: `Matrix-Free` with
+//!   Operator: "Matrix-Free"` together with `Peridigm Preconditioner: "Block 3x3"`, `"AMG"` or
+//!   `"None"` selects Jacobian-free Newton–Krylov (Peridigm's rule, reference §4.2: `Matrix-Free` with
 //!   `Full Tangent` still assembles); anything else is Newton with the assembled tangent and the
 //!   `Linear Solver` keys.
 //! * `Backend: "Trilinos"` (feature `trilinos`): `NOXQuasiStatic` is solved by NOX itself
@@ -85,7 +86,8 @@ pub fn strategy(
     let preconditioner = match settings.preconditioner {
         LinearPreconditioner::Block3x3 => PreconditionerKind::BlockJacobi,
         LinearPreconditioner::Jacobi => PreconditionerKind::Jacobi,
-        LinearPreconditioner::None => PreconditionerKind::None,
+        // Direct methods ignore the preconditioner; the Krylov ones go to `Multigrid` below.
+        LinearPreconditioner::None | LinearPreconditioner::Amg => PreconditionerKind::None,
     };
     let native = |method| {
         NativeLinearSolver::new(
@@ -106,6 +108,16 @@ pub fn strategy(
         LinearMethod::Automatic => LinearMethod::Cg,
         chosen => chosen,
     };
+    if settings.preconditioner == LinearPreconditioner::Amg {
+        let method = match method {
+            LinearMethod::Cg => Some(NativeMethod::Cg),
+            LinearMethod::Gmres => Some(NativeMethod::Gmres),
+            _ => None,
+        };
+        if let Some(method) = method {
+            return Ok(LinearStrategy::Multigrid { method, krylov });
+        }
+    }
     Ok(match method {
         LinearMethod::Automatic => unreachable!("resolved above"),
         LinearMethod::Direct => LinearStrategy::Native {

@@ -7,6 +7,7 @@ pub mod jfnk;
 pub mod linear;
 pub mod measure;
 pub mod monitor;
+pub mod multigrid;
 pub mod newmark;
 pub mod newton;
 #[cfg(feature = "trilinos")]

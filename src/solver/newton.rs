@@ -8,12 +8,15 @@
 //! condition g(α) ≤ (1 − 2·10⁻⁴α) g(0) holds — at most [`MAX_BACKTRACKS`] extra residuals
 //! where Peridigm's scan may spend sixty.
 
-use crate::backend::native::{KrylovSettings, NativeLinearSolver};
+use crate::backend::native::{
+    cg_matrix_free, gmres_matrix_free, KrylovSettings, NativeLinearSolver, NativeMethod,
+};
 use crate::backend::problem::{Evaluation, NonlinearProblem};
 use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
 use crate::io::deck::LinearPreconditioner;
 use crate::solver::jfnk;
 pub use crate::solver::measure::{norm2, ConvergenceMeasure};
+use crate::solver::multigrid::MultigridCache;
 use crate::solver::problem::{Origin, Physical, PhysicsProblem};
 use std::time::Instant;
 
@@ -53,6 +56,15 @@ pub enum LinearStrategy {
     },
     /// Assemble K and hand it to another backend's solver.
     Assembled(Box<dyn LinearSolver>),
+    /// Assemble K and solve with native CG or GMRES preconditioned by one V-cycle of
+    /// smoothed-aggregation multigrid on the problem's one-hop operator (`Linear Solver
+    /// Preconditioner: "AMG"`), built once per Newton solve and rebuilt when bonds break.
+    Multigrid {
+        /// [`NativeMethod::Cg`] or [`NativeMethod::Gmres`].
+        method: NativeMethod,
+        /// Tolerance, iteration limit and restart.
+        krylov: KrylovSettings,
+    },
     /// Jacobian-free Newton–Krylov: GMRES on the directional derivative
     /// `K v ≈ (r(u) − r(u + εv))/ε`, with ε = λ·max|Y|/‖v‖∞, λ = 10⁻⁷ (about √ε_mach: the
     /// probe moves the largest component by λ times the largest coordinate, which balances
@@ -90,12 +102,20 @@ impl LinearStrategy {
                 }
             }
             LinearStrategy::Assembled(solver) => solver.describe(),
+            LinearStrategy::Multigrid { method, .. } => format!(
+                "native {} + AMG (smoothed aggregation on the one-hop operator)",
+                match method {
+                    NativeMethod::Gmres => "GMRES",
+                    _ => "CG",
+                }
+            ),
             LinearStrategy::MatrixFree { preconditioner, .. } => format!(
                 "Jacobian-free Newton–Krylov (GMRES, preconditioner {})",
                 match preconditioner {
                     LinearPreconditioner::Block3x3 => "Block 3x3",
                     LinearPreconditioner::Jacobi => "Jacobi",
                     LinearPreconditioner::None => "none",
+                    LinearPreconditioner::Amg => "AMG",
                 }
             ),
         }
@@ -216,6 +236,7 @@ pub fn solve_problem(
         });
     }
     let mut report = NewtonReport::default();
+    let mut multigrid = MultigridCache::new(settings.verbose);
     let mut x = vec![0.0; problem.len()];
     problem.unknowns(&mut x);
     let mut residual = vec![0.0; problem.len()];
@@ -241,7 +262,14 @@ pub fn solve_problem(
             }
         }
         let mut correction = vec![0.0; problem.len()];
-        let linear_report = correct(problem, linear, &x, &residual, &mut correction)?;
+        let linear_report = correct(
+            problem,
+            linear,
+            &mut multigrid,
+            &x,
+            &residual,
+            &mut correction,
+        )?;
         report.tangent_bytes = report.tangent_bytes.max(problem.jacobian_bytes());
         report.linear_iterations += linear_report.iterations;
         report.linear_method = linear_report.method.clone();
@@ -260,10 +288,12 @@ pub fn solve_problem(
     Ok(report)
 }
 
-/// The Newton correction Δ of J Δ = −F at `x` (`residual` holds F).
+/// The Newton correction Δ of J Δ = −F at `x` (`residual` holds F); `multigrid` keeps the
+/// AMG hierarchy between the corrections of one solve.
 fn correct(
     problem: &mut dyn NonlinearProblem,
     linear: &mut LinearStrategy,
+    multigrid: &mut MultigridCache,
     x: &[f64],
     residual: &[f64],
     correction: &mut [f64],
@@ -283,6 +313,26 @@ fn correct(
             };
             accept_inexact(result)
         }
+        LinearStrategy::Multigrid { method, krylov } => {
+            let matrix = problem.jacobian(x)?;
+            let amg = multigrid.hierarchy(problem)?;
+            let mut apply = |v: &[f64], y: &mut [f64]| {
+                matrix.multiply_parallel(v, y);
+                Ok(())
+            };
+            let precondition = |r: &[f64], z: &mut [f64]| amg.apply(r, z);
+            let krylov_method = match method {
+                NativeMethod::Gmres => gmres_matrix_free,
+                _ => cg_matrix_free,
+            };
+            accept_inexact(krylov_method(
+                &mut apply,
+                &precondition,
+                &rhs,
+                correction,
+                krylov,
+            ))
+        }
         LinearStrategy::MatrixFree {
             krylov,
             preconditioner,
@@ -290,6 +340,7 @@ fn correct(
             problem,
             krylov,
             *preconditioner,
+            multigrid,
             x,
             &rhs,
             correction,

@@ -71,6 +71,12 @@ impl NoxNewton {
             Some(ParameterValue::String(s)) => Some(s),
             _ => None,
         };
+        if solver.peridigm_preconditioner == PeridigmPreconditioner::Amg {
+            return Err(Unsupported(format!(
+                "solver \"{}\": Peridigm Preconditioner \"AMG\" is the native backend's multigrid: add Backend: \"Native\" to this solver list, or choose \"Full Tangent\", \"Block 3x3\" or \"None\"",
+                solver.name
+            )));
+        }
         let matrix_free = text(linear_key("Jacobian Operator")).as_deref() == Some("Matrix-Free")
             && solver.peridigm_preconditioner != PeridigmPreconditioner::FullTangent;
         let jacobian = if matrix_free {
@@ -254,6 +260,11 @@ mod tests {
     /// The NOX solver of a one-block deck whose `Solver` list has `solver_keys` and whose
     /// NOXQuasiStatic `Linear Solver` list has `linear_keys`.
     fn nox_of(solver_keys: &str, linear_keys: &str) -> NoxNewton {
+        nox_result(solver_keys, linear_keys).expect("NOX settings")
+    }
+
+    /// [`nox_of`] before the settings are accepted.
+    fn nox_result(solver_keys: &str, linear_keys: &str) -> Result<NoxNewton, Unsupported> {
         let text = format!(
             r#"Discretization:
   Type: "PdQuickGrid"
@@ -276,7 +287,21 @@ Solver:
 "#
         );
         let deck = parse_str(&text, DeckFormat::Yaml, Path::new("nox.yaml")).expect("deck");
-        NoxNewton::from_deck(&deck.solvers[0]).expect("NOX settings")
+        NoxNewton::from_deck(&deck.solvers[0])
+    }
+
+    #[test]
+    fn amg_is_refused_with_the_native_backend_as_the_way_out() {
+        let Err(error) = nox_result(
+            "  Peridigm Preconditioner: \"AMG\"",
+            "          Jacobian Operator: \"Matrix-Free\"",
+        ) else {
+            panic!("NOX accepted the native AMG");
+        };
+        assert!(
+            error.0.contains("\"AMG\"") && error.0.contains("Backend: \"Native\""),
+            "{error}"
+        );
     }
 
     #[test]

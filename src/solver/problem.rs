@@ -7,7 +7,7 @@
 //! of [`ImplicitSystem::residual`]; every evaluation first refreshes the ghosts, and failures
 //! and reductions are agreed over the ranks through the [`Collective`].
 
-use crate::backend::problem::{Evaluation, NonlinearProblem};
+use crate::backend::problem::{Evaluation, NonlinearProblem, PreconditioningOperator};
 use crate::backend::{Csr, SolveError};
 use crate::model::Model;
 use crate::physics::Physics;
@@ -17,6 +17,7 @@ use crate::solver::collective::{
 use crate::solver::implicit::ImplicitSystem;
 use crate::solver::measure::ConvergenceMeasure;
 use crate::state::State;
+use crate::tangent::{one_hop_operator, pmb_micromodulus, rigid_body_modes, OneHopInput};
 
 /// What the unknowns are measured from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -357,5 +358,54 @@ impl NonlinearProblem for PhysicsProblem<'_> {
         }
         self.hold(deficient);
         Ok(true)
+    }
+
+    /// The one-hop PMB-like operator of [`crate::tangent::one_hop_operator`] with each
+    /// block's bulk modulus and horizon, the current bond damage and, for Newmark, the mass
+    /// term; the six rigid-body modes as its near-null space.
+    fn preconditioning_operator(&mut self) -> Result<Option<PreconditioningOperator>, SolveError> {
+        let Physical {
+            system,
+            model,
+            physics,
+            state,
+            ..
+        } = &self.parts;
+        let micromodulus: Vec<f64> = model
+            .points
+            .block
+            .iter()
+            .map(|&b| {
+                let material = &physics.blocks[b as usize].material;
+                pmb_micromodulus(material.bulk_modulus(), material.horizon())
+            })
+            .collect();
+        let mass: Option<Vec<f64>> = system.inertia.as_ref().map(|inertia| {
+            physics
+                .density
+                .iter()
+                .zip(&model.points.volume)
+                .map(|(rho, v)| rho * v * inertia.factor)
+                .collect()
+        });
+        let matrix = one_hop_operator(&OneHopInput {
+            position: &model.points.position,
+            volume: &model.points.volume,
+            bonds: &model.bonds,
+            micromodulus: &micromodulus,
+            bond_damage: state.bond_damage(),
+            diagonal_shift: mass.as_deref(),
+            dof_index: &system.dofs.index,
+            unknowns: system.dofs.len(),
+        });
+        Ok(Some(PreconditioningOperator {
+            matrix,
+            null_space: rigid_body_modes(&model.points.position, &system.dofs.free),
+            modes: 6,
+        }))
+    }
+
+    fn preconditioning_version(&self) -> usize {
+        self.broken_bonds
     }
 }

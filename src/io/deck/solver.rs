@@ -22,7 +22,8 @@ pub struct Solver {
     pub initialize_predictor_from_previous_solver: bool,
     /// `Jacobian Diagnostics` — print asymmetry and conditioning estimates; default false.
     pub jacobian_diagnostics: bool,
-    /// `Peridigm Preconditioner` — default `Full Tangent`.
+    /// `Peridigm Preconditioner` — `Full Tangent` (default), `Block 3x3`, `None`, or peridyn's
+    /// `AMG` (JFNK preconditioned by multigrid on the one-hop operator).
     pub peridigm_preconditioner: PeridigmPreconditioner,
     /// `Solve For Displacement/Temperature/Concentration/Pressure` — which unknowns exist
     /// (Peridigm reads them from the first solver only).
@@ -40,7 +41,7 @@ pub struct Solver {
 /// |---|---|---|
 /// | `Backend` | `Native`, `Trilinos` (a build with Cargo feature `trilinos`) | `Native` |
 /// | `Linear Solver` | `Automatic`, `Direct`, `Cholesky`, `LU`, `CG`, `GMRES`; `Trilinos`: `Automatic` (= `CG`), `CG`, `GMRES` | `CG` when the deck gives `Belos Linear Solver: BlockCG`, `GMRES` for `BlockGMRES`, else `Automatic` |
-/// | `Linear Solver Preconditioner` | `Native`: `Block 3x3`, `Jacobi`, `None`; `Trilinos`: `Jacobi`, `ILU`, `ML`, `None` | `Block 3x3` (`Native`), `ILU` (`Trilinos`) |
+/// | `Linear Solver Preconditioner` | `Native`: `Block 3x3`, `AMG`, `Jacobi`, `None`; `Trilinos`: `Jacobi`, `ILU`, `ML`, `None` | `Block 3x3` (`Native`), `ILU` (`Trilinos`) |
 /// | `Linear Solver ILU Level Of Fill` | `Trilinos` with `ILU`: Ifpack's `fact: level-of-fill` | 0 |
 /// | `Linear Solver Tolerance` | relative residual of the Krylov methods | `Belos Relative Tolerance` when given, else 1e-10 |
 /// | `Linear Solver Maximum Iterations` | Krylov iteration limit | `Belos Maximum Iterations`, else the number of unknowns |
@@ -170,6 +171,10 @@ pub enum LinearPreconditioner {
     Jacobi,
     /// `"None"`.
     None,
+    /// `"AMG"`: peridyn's smoothed-aggregation multigrid (one V-cycle) built on the one-hop
+    /// PMB-like operator of the model ([`crate::tangent::one_hop_operator`]), rebuilt once per
+    /// load step and whenever bonds break.
+    Amg,
 }
 
 /// Which fields are unknowns.
@@ -194,6 +199,9 @@ pub enum PeridigmPreconditioner {
     Block3x3,
     /// `"None"`.
     None,
+    /// `"AMG"` (peridyn): with `Jacobian Operator: "Matrix-Free"`, JFNK preconditioned by
+    /// peridyn's multigrid on the one-hop operator, so no tangent is ever assembled.
+    Amg,
 }
 
 /// The integrator sublist of a solver.
@@ -571,7 +579,7 @@ fn read_preconditioner(
     let given_preconditioner = match list.get("Linear Solver Preconditioner") {
         None => None,
         Some(f) => Some((
-            f.choice(ctx, &["Block 3x3", "Jacobi", "None", "ILU", "ML"])?,
+            f.choice(ctx, &["Block 3x3", "Jacobi", "None", "AMG", "ILU", "ML"])?,
             f,
         )),
     };
@@ -598,10 +606,10 @@ fn read_preconditioner(
             Some(("ML", _)) => AlgebraicPreconditioner::Ml,
             Some(("Jacobi", _)) => AlgebraicPreconditioner::Jacobi,
             Some(("None", _)) => AlgebraicPreconditioner::None,
-            Some((_, f)) => {
+            Some((native, f)) => {
                 return Err(f.err(
                     ctx,
-                    "\"Block 3x3\" is a native preconditioner; with Backend \"Trilinos\" choose \"ILU\", \"ML\", \"Jacobi\" or \"None\"",
+                    format!("\"{native}\" is a native preconditioner; with Backend \"Trilinos\" choose \"ILU\", \"ML\", \"Jacobi\" or \"None\""),
                 ))
             }
         };
@@ -614,7 +622,7 @@ fn read_preconditioner(
     if let Some((choice @ ("ILU" | "ML"), f)) = given_preconditioner {
         return Err(f.err(
                 ctx,
-                format!("\"{choice}\" is a Trilinos preconditioner: add Backend: \"Trilinos\" to this solver list, or choose \"Block 3x3\", \"Jacobi\" or \"None\""),
+                format!("\"{choice}\" is a Trilinos preconditioner: add Backend: \"Trilinos\" to this solver list, or choose \"Block 3x3\", \"AMG\", \"Jacobi\" or \"None\""),
             ));
     }
     if let Some(f) = ilu_field {
@@ -627,6 +635,7 @@ fn read_preconditioner(
     let preconditioner = match given_preconditioner {
         Some(("Jacobi", _)) => LinearPreconditioner::Jacobi,
         Some(("None", _)) => LinearPreconditioner::None,
+        Some(("AMG", _)) => LinearPreconditioner::Amg,
         _ => LinearPreconditioner::Block3x3,
     };
     Ok((LinearBackend::Native, preconditioner))
@@ -938,15 +947,16 @@ fn read_direction_method(ctx: &mut Ctx, integ: &mut ListReader) -> Result<String
     }
 }
 
-/// `Peridigm Preconditioner` (default `Full Tangent`).
+/// `Peridigm Preconditioner` (default `Full Tangent`; `AMG` is peridyn's).
 fn read_peridigm_preconditioner(
     ctx: &mut Ctx,
     list: &mut ListReader,
 ) -> Result<PeridigmPreconditioner, DeckError> {
     Ok(match list.get("Peridigm Preconditioner") {
         None => PeridigmPreconditioner::FullTangent,
-        Some(f) => match f.choice(ctx, &["Full Tangent", "Block 3x3", "None"])? {
+        Some(f) => match f.choice(ctx, &["Full Tangent", "Block 3x3", "None", "AMG"])? {
             "Block 3x3" => PeridigmPreconditioner::Block3x3,
+            "AMG" => PeridigmPreconditioner::Amg,
             "None" => PeridigmPreconditioner::None,
             _ => PeridigmPreconditioner::FullTangent,
         },
@@ -1172,6 +1182,22 @@ mod linear_solve_tests {
     }
 
     #[test]
+    fn amg_is_a_native_preconditioner_for_newton_and_jfnk() {
+        let settings = linear_solve("    Linear Solver Preconditioner: \"AMG\"").unwrap();
+        assert_eq!(settings.backend, LinearBackend::Native);
+        assert_eq!(settings.preconditioner, LinearPreconditioner::Amg);
+        let solver = &deck("    Peridigm Preconditioner: \"AMG\"")
+            .unwrap()
+            .solvers[0];
+        assert_eq!(solver.peridigm_preconditioner, PeridigmPreconditioner::Amg);
+        let error = linear_solve("    Linear Solver Preconditioner: \"AMGX\"")
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("AMGX") && error.contains("AMG"), "{error}");
+        assert!(error.contains("linear.yaml"), "{error}");
+    }
+
+    #[test]
     fn trilinos_preconditioners_need_the_trilinos_backend() {
         let error = linear_solve("    Linear Solver Preconditioner: \"ILU\"")
             .unwrap_err()
@@ -1188,6 +1214,19 @@ mod linear_solve_tests {
             .to_string();
         assert!(error.contains("--features trilinos"), "{error}");
         assert!(error.contains("Backend"), "{error}");
+    }
+
+    #[cfg(feature = "trilinos")]
+    #[test]
+    fn amg_on_the_trilinos_backend_names_its_alternatives() {
+        let error =
+            linear_solve("    Backend: \"Trilinos\"\n    Linear Solver Preconditioner: \"AMG\"")
+                .unwrap_err()
+                .to_string();
+        assert!(
+            error.contains("\"AMG\" is a native preconditioner") && error.contains("\"ML\""),
+            "{error}"
+        );
     }
 
     #[cfg(feature = "trilinos")]

@@ -1,0 +1,237 @@
+//! Smoothed-aggregation algebraic multigrid (Vaněk, Mandel, Brezina 1996) over point groups of
+//! 1–3 unknowns, used as the preconditioner M⁻¹ = one V-cycle of native CG, GMRES and JFNK.
+//!
+//! Setup, level by level until the operator has at most [`COARSE_UNKNOWNS`] unknowns:
+//! 1. aggregate the nodes (points, then aggregates) by strength of connection
+//!    ([`aggregation`]);
+//! 2. the tentative prolongator T from the near-null space (for elasticity the six rigid-body
+//!    modes), orthonormalised per aggregate; the coarse near-null space is its R factor;
+//! 3. P = (I − ω D⁻¹A) T, ω = 4/(3ρ(D⁻¹A)) ([`prolongator`]);
+//! 4. the Galerkin coarse operator Pᵀ A P.
+//!
+//! The V-cycle smooths with Chebyshev on block Jacobi before and after the coarse correction
+//! and solves the coarsest operator by dense LU ([`cycle`]). The cycle is a fixed linear,
+//! symmetric positive definite map when A is SPD, as CG needs.
+
+mod aggregation;
+mod cycle;
+mod prolongator;
+
+use super::super::{Csr, SolveError};
+use cycle::{not_positive_definite, spectral_radius, Chebyshev, DenseLu};
+
+/// The coarsest level has at most this many unknowns (solved by dense LU: 8 MB, about
+/// 10⁸ flops to factor, once per setup).
+pub const COARSE_UNKNOWNS: usize = 1000;
+
+/// At most this many levels (the finest included).
+const MAX_LEVELS: usize = 12;
+
+/// Strength threshold θ of [`aggregation`] (relative to a node's strongest coupling).
+const STRENGTH_THRESHOLD: f64 = 0.5;
+
+/// A coarsening that keeps more than this fraction of the unknowns has stalled (e.g. every
+/// node its own aggregate); the hierarchy stops there.
+const STALLED_COARSENING: f64 = 0.8;
+
+/// One level above the coarsest.
+#[derive(Debug, Clone)]
+struct Level {
+    operator: Csr,
+    smoother: Chebyshev,
+    prolongator: Csr,
+    restriction: Csr,
+}
+
+/// How the coarsest operator is solved: LU when small, the smoother alone when coarsening
+/// stalled above [`COARSE_UNKNOWNS`] (a dense factor would be too large).
+#[derive(Debug, Clone)]
+enum Coarsest {
+    Lu(DenseLu),
+    Smoother(Chebyshev),
+}
+
+/// The multigrid hierarchy of one operator: apply it with [`Amg::apply`].
+#[derive(Debug, Clone)]
+pub struct Amg {
+    levels: Vec<Level>,
+    coarsest_operator: Csr,
+    coarsest: Coarsest,
+}
+
+impl Amg {
+    /// The hierarchy of the symmetric positive definite `operator`, whose unknowns are grouped
+    /// by `groups` (offsets: group g holds unknowns `groups[g]..groups[g + 1]`, as
+    /// [`super::Preconditioner::BlockJacobi`]), with the near-null space `null_space`
+    /// (row-major: unknowns × `modes`, e.g. the six rigid-body modes of elasticity).
+    ///
+    /// Errors (`Breakdown`): a non-positive or non-finite diagonal entry (not positive
+    /// definite), a singular coarsest operator (e.g. nothing prescribed), or `groups` /
+    /// `null_space` that do not describe the operator's rows.
+    pub fn new(
+        operator: Csr,
+        groups: &[usize],
+        null_space: &[f64],
+        modes: usize,
+    ) -> Result<Self, SolveError> {
+        check_input(&operator, groups, null_space, modes)?;
+        let mut levels = Vec::new();
+        let mut operator = operator;
+        let mut groups = groups.to_vec();
+        let mut null_space = null_space.to_vec();
+        while operator.nrows > COARSE_UNKNOWNS && levels.len() + 1 < MAX_LEVELS {
+            let strong = aggregation::strong_neighbours(&operator, &groups, STRENGTH_THRESHOLD);
+            let aggregates = aggregation::aggregate(&strong);
+            let tentative = prolongator::tentative(&groups, &aggregates, &null_space, modes);
+            if tentative.prolongator.ncols as f64 > STALLED_COARSENING * operator.nrows as f64 {
+                break;
+            }
+            let diagonal = operator.diagonal();
+            let rho = spectral_radius(&operator, |r, z| {
+                z.iter_mut()
+                    .zip(r)
+                    .zip(&diagonal)
+                    .for_each(|((z, r), d)| *z = r / d)
+            });
+            let prolongator = prolongator::smooth(&operator, &tentative.prolongator, rho);
+            let restriction = prolongator::transpose(&prolongator);
+            let coarse = prolongator::multiply(
+                &restriction,
+                &prolongator::multiply(&operator, &prolongator),
+            );
+            let smoother = Chebyshev::new(&operator, &groups)?;
+            levels.push(Level {
+                operator,
+                smoother,
+                prolongator,
+                restriction,
+            });
+            operator = coarse;
+            groups = tentative.coarse_groups;
+            null_space = tentative.coarse_null_space;
+        }
+        let coarsest = if operator.nrows <= 4 * COARSE_UNKNOWNS {
+            Coarsest::Lu(DenseLu::new(&operator)?)
+        } else {
+            Coarsest::Smoother(Chebyshev::new(&operator, &groups)?)
+        };
+        Ok(Self {
+            levels,
+            coarsest_operator: operator,
+            coarsest,
+        })
+    }
+
+    /// Number of levels, the finest and the coarsest included.
+    pub fn levels(&self) -> usize {
+        self.levels.len() + 1
+    }
+
+    /// Σ nnz(A_l) / nnz(A_0): the hierarchy's memory and cycle cost relative to the operator.
+    pub fn operator_complexity(&self) -> f64 {
+        let finest = self
+            .levels
+            .first()
+            .map_or(&self.coarsest_operator, |l| &l.operator)
+            .nnz()
+            .max(1);
+        let total: usize = self.levels.iter().map(|l| l.operator.nnz()).sum::<usize>()
+            + self.coarsest_operator.nnz();
+        total as f64 / finest as f64
+    }
+
+    /// A one-line summary for the log, e.g. `AMG, 3 levels (36000 → 912 unknowns, operator
+    /// complexity 1.21)`.
+    pub fn describe(&self) -> String {
+        let finest = self
+            .levels
+            .first()
+            .map_or(self.coarsest_operator.nrows, |l| l.operator.nrows);
+        format!(
+            "AMG, {} levels ({finest} → {} unknowns, operator complexity {:.2})",
+            self.levels(),
+            self.coarsest_operator.nrows,
+            self.operator_complexity()
+        )
+    }
+
+    /// z = M⁻¹ r: one V-cycle from z = 0.
+    pub fn apply(&self, r: &[f64], z: &mut [f64]) {
+        z.fill(0.0);
+        self.cycle(0, r, z);
+    }
+
+    fn cycle(&self, depth: usize, b: &[f64], x: &mut [f64]) {
+        let Some(level) = self.levels.get(depth) else {
+            match &self.coarsest {
+                Coarsest::Lu(lu) => lu.solve(b, x),
+                Coarsest::Smoother(smoother) => smoother.smooth(&self.coarsest_operator, b, x),
+            }
+            return;
+        };
+        let a = &level.operator;
+        level.smoother.smooth(a, b, x);
+        let mut residual = vec![0.0; b.len()];
+        a.multiply_parallel(x, &mut residual);
+        residual.iter_mut().zip(b).for_each(|(r, b)| *r = b - *r);
+        let mut coarse_b = vec![0.0; level.restriction.nrows];
+        level
+            .restriction
+            .multiply_parallel(&residual, &mut coarse_b);
+        let mut coarse_x = vec![0.0; coarse_b.len()];
+        self.cycle(depth + 1, &coarse_b, &mut coarse_x);
+        level
+            .prolongator
+            .multiply_parallel(&coarse_x, &mut residual);
+        x.iter_mut().zip(&residual).for_each(|(x, c)| *x += c);
+        level.smoother.smooth(a, b, x);
+    }
+}
+
+/// Shapes and the diagonal of the input (see [`Amg::new`]).
+fn check_input(
+    operator: &Csr,
+    groups: &[usize],
+    null_space: &[f64],
+    modes: usize,
+) -> Result<(), SolveError> {
+    let n = operator.nrows;
+    let shape_error = |reason: String| SolveError::Breakdown {
+        method: "AMG",
+        reason,
+    };
+    if operator.ncols != n {
+        return Err(shape_error(format!(
+            "the operator is {n}×{}, not square",
+            operator.ncols
+        )));
+    }
+    if groups.first() != Some(&0)
+        || groups.last() != Some(&n)
+        || groups.windows(2).any(|w| w[0] >= w[1])
+    {
+        return Err(shape_error(format!(
+            "the point groups do not cover the {n} unknowns in increasing order"
+        )));
+    }
+    if modes == 0 || null_space.len() != n * modes {
+        return Err(shape_error(format!(
+            "the near-null space has {} values, not {modes} modes × {n} unknowns",
+            null_space.len()
+        )));
+    }
+    if let Some((row, d)) = operator
+        .diagonal()
+        .into_iter()
+        .enumerate()
+        .find(|(_, d)| !(d.is_finite() && *d > 0.0))
+    {
+        return Err(not_positive_definite(format!(
+            "diagonal entry {d:e} at unknown {row}"
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;
