@@ -25,7 +25,9 @@ mod preconditioner;
 
 use std::str::FromStr;
 
-pub use amg::{Amg, COARSE_UNKNOWNS};
+pub use amg::{
+    one_hop_operator, pmb_micromodulus, rigid_body_modes, Amg, OneHopInput, COARSE_UNKNOWNS,
+};
 pub use direct::{SparseCholesky, SparseLu};
 pub use krylov::{
     cg_matrix_free, gmres_matrix_free, ConjugateGradient, Gmres, KrylovSettings, Operator,

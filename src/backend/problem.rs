@@ -124,7 +124,7 @@ pub trait NonlinearProblem {
 }
 
 /// The operator multigrid preconditioners are built on (N/m), e.g. the one-hop PMB-like
-/// stiffness of [`crate::tangent::one_hop_operator`], and its near-null space.
+/// stiffness of [`crate::backend::native::one_hop_operator`], and its near-null space.
 #[derive(Debug, Clone)]
 pub struct PreconditioningOperator {
     /// The operator, rows and columns numbered as the unknowns.

@@ -7,6 +7,7 @@
 //! of [`ImplicitSystem::residual`]; every evaluation first refreshes the ghosts, and failures
 //! and reductions are agreed over the ranks through the [`Collective`].
 
+use crate::backend::native::{one_hop_operator, pmb_micromodulus, rigid_body_modes, OneHopInput};
 use crate::backend::problem::{Evaluation, NonlinearProblem, PreconditioningOperator};
 use crate::backend::{Csr, SolveError};
 use crate::model::Model;
@@ -17,7 +18,6 @@ use crate::solver::collective::{
 use crate::solver::implicit::ImplicitSystem;
 use crate::solver::measure::ConvergenceMeasure;
 use crate::state::State;
-use crate::tangent::{one_hop_operator, pmb_micromodulus, rigid_body_modes, OneHopInput};
 
 /// What the unknowns are measured from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -360,7 +360,7 @@ impl NonlinearProblem for PhysicsProblem<'_> {
         Ok(true)
     }
 
-    /// The one-hop PMB-like operator of [`crate::tangent::one_hop_operator`] with each
+    /// The one-hop PMB-like operator of [`crate::backend::native::one_hop_operator`] with each
     /// block's bulk modulus and horizon, the current bond damage and, for Newmark, the mass
     /// term; the six rigid-body modes as its near-null space.
     fn preconditioning_operator(&mut self) -> Result<Option<PreconditioningOperator>, SolveError> {

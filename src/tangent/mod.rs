@@ -26,12 +26,10 @@
 
 mod assembly;
 mod matrix;
-mod one_hop;
 mod pattern;
 
 pub(crate) use assembly::{assemble, ForceState, OrdinaryBond, PointIndex, Scalar};
 pub use matrix::BlockTangent;
-pub use one_hop::{one_hop_operator, pmb_micromodulus, rigid_body_modes, OneHopInput};
 pub use pattern::BlockPattern;
 
 /// One 3×3 block: `block[k][l]` = ∂(force component k)/∂(displacement component l).

@@ -15,10 +15,12 @@
 
 mod aggregation;
 mod cycle;
+mod one_hop;
 mod prolongator;
 
 use super::super::{Csr, SolveError};
 use cycle::{not_positive_definite, spectral_radius, Chebyshev, DenseLu};
+pub use one_hop::{one_hop_operator, pmb_micromodulus, rigid_body_modes, OneHopInput};
 
 /// The coarsest level has at most this many unknowns (solved by dense LU: 8 MB, about
 /// 10⁸ flops to factor, once per setup).

@@ -2,10 +2,10 @@
 //! neighbours), the face x = 0 clamped: the 3-D elasticity-like systems of the issue.
 
 use super::Amg;
+use super::{one_hop_operator, rigid_body_modes, OneHopInput};
 use crate::backend::native::{cg_matrix_free, KrylovSettings, SparseCholesky};
 use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
 use crate::model::BondList;
-use crate::tangent::{one_hop_operator, rigid_body_modes, OneHopInput};
 
 /// An n×n×n lattice with its family lists.
 struct Lattice {
