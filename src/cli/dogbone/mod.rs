@@ -193,4 +193,26 @@ mod tests {
         let top = specimen.nearest([0.0, GAUGE_HALF_LENGTH, 0.0]);
         assert!((specimen.points[top].position[1] - GAUGE_HALF_LENGTH).abs() <= specimen.spacing);
     }
+
+    #[test]
+    fn large_specimens_get_the_jacobian_free_multigrid_solver() {
+        let names = |points| deck::DeckNames {
+            name: "bone",
+            command: "peridyn dogbone",
+            points,
+            spacing: 0.1,
+            gauge: [[0.0, 1.27, 0.0], [0.0, -1.27, 0.0]],
+        };
+        let small = deck::deck(&names(deck::JACOBIAN_FREE_ABOVE_POINTS));
+        assert!(small.contains("    QuasiStatic:"), "{small}");
+        assert!(!small.contains("AMG"));
+        let large = deck::deck(&names(deck::JACOBIAN_FREE_ABOVE_POINTS + 1));
+        for key in [
+            "Peridigm Preconditioner: \"AMG\"",
+            "Jacobian Operator: \"Matrix-Free\"",
+            "    NOXQuasiStatic:",
+        ] {
+            assert!(large.contains(key), "{key} missing in\n{large}");
+        }
+    }
 }
