@@ -301,13 +301,14 @@ impl Physics {
         points: &PointCloud,
         current: &[[f64; 3]],
         bond_damage: Option<&[f32]>,
+        history: &History,
         energy_density: &mut [f64],
     ) {
         let reference = ReferenceView::of(bonds, points);
         let view = CurrentView {
             position: current,
             bond_damage,
-            history: &NO_HISTORY,
+            history,
         };
         for block in &self.blocks {
             block.material.stored_energy_density(

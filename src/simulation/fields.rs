@@ -141,6 +141,7 @@ impl<'a> Fields<'a> {
             &self.model.points,
             &self.state.current_position,
             self.state.bond_damage(),
+            &self.state.history,
             &mut w,
         );
         w

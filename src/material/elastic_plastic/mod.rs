@@ -45,9 +45,8 @@
 //! plastic extension (only an `Elastic` neighbour evaluates such bonds, exactly while this side
 //! stays elastic).
 //!
-//! Not provided: `Thermal Expansion Coefficient`, `Stored_Elastic_Energy_Density` (zero, as for
-//! the correspondence models), runs on several MPI ranks (the ranks do not exchange material
-//! history yet).
+//! Not provided: `Thermal Expansion Coefficient`, runs on several MPI ranks (the ranks do not
+//! exchange material history yet).
 
 use rayon::prelude::*;
 
@@ -592,17 +591,38 @@ impl Material for ElasticPlastic {
         );
     }
 
+    /// W = kθ²/2 + (α/2) Σ_j (1−d) (e^d − e^{dp})² V_j: the LPS energy of the elastic part of
+    /// the deviatoric extension (Mitchell 2011, eq. for the elastic free energy), with the
+    /// plastic extension of the last force evaluation.
     fn stored_energy_density(
         &self,
-        _reference: &ReferenceView<'_>,
-        _current: &CurrentView<'_>,
-        _coefficients: &[PointCoefficients],
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &[PointCoefficients],
         energy_density: &mut [f64],
     ) {
-        // Not provided (module docs): the elastic energy needs the plastic extension, which the
-        // energy output does not receive.
-        for &p in &self.points {
-            energy_density[p as usize] = 0.0;
+        let bonds = reference.bonds;
+        let plastic = current
+            .history
+            .field(fields::DEVIATORIC_PLASTIC_EXTENSION)
+            .expect("the run allocates every field an Elastic Plastic block declares")
+            .trial();
+        let kernel = self.kernel(reference, current.bond_damage);
+        let y = current.position;
+        for &i in &self.points {
+            let i = i as usize;
+            let c = &coefficients[i];
+            let mut sum = 0.0;
+            for b in bonds.range(i) {
+                let j = bonds.neighbor[b] as usize;
+                let d = [0, 1, 2].map(|k| y[j][k] - y[i][k]);
+                let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let zeta = bonds.reference_length[b];
+                let elastic = length - zeta - c.dilatation * zeta / 3.0 - plastic[b];
+                sum += kernel.intact(b) * elastic * elastic * reference.volume[j];
+            }
+            energy_density[i] =
+                0.5 * self.bulk_modulus * c.dilatation * c.dilatation + 0.5 * c.deviatoric * sum;
         }
     }
 

@@ -436,18 +436,26 @@ fn without_plasticity_the_model_is_the_linear_peridynamic_solid() {
             history,
             &mut f,
         );
-        f
+        let mut energy = vec![0.0; y.len()];
+        physics.stored_energy_density(&body.bonds, &body.points, &y, None, history, &mut energy);
+        (f, energy)
     };
     let mut history = History::allocate(
         ElasticPlastic::DECLARATION.fields,
         body.points.len(),
         body.bonds.num_bonds(),
     );
-    let plastic = force_of(Box::new(disabled), &mut history);
-    let elastic = force_of(Box::new(lps), &mut History::empty());
+    let (plastic, plastic_energy) = force_of(Box::new(disabled), &mut history);
+    let (elastic, elastic_energy) = force_of(Box::new(lps), &mut History::empty());
     let scale = elastic.iter().map(|f| magnitude(*f)).fold(0.0, f64::max);
     for (a, b) in plastic.iter().zip(&elastic) {
         assert!(magnitude([a[0] - b[0], a[1] - b[1], a[2] - b[2]]) < 1e-12 * scale);
+    }
+    // No plastic extension: the stored energy is LPS's kθ²/2 + (α/2) Σ (e^d)² V_j.
+    let energy_scale = elastic_energy.iter().fold(0.0f64, |m, w| m.max(w.abs()));
+    assert!(energy_scale > 0.0);
+    for (a, b) in plastic_energy.iter().zip(&elastic_energy) {
+        assert!((a - b).abs() < 1e-12 * energy_scale, "{a} vs {b}");
     }
     assert!(history
         .field(fields::LAMBDA)
