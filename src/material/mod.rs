@@ -145,6 +145,19 @@ pub(crate) fn checked_tangent_method(method: TangentMethod) -> Result<TangentMet
     }
 }
 
+/// `method` for a material whose tangent is differentiated from its force code (automatic or
+/// finite differences): `Analytic` is refused naming `model`, the probe is checked as in
+/// [`checked_tangent_method`].
+pub(crate) fn checked_differentiated_tangent_method(
+    model: &'static str,
+    method: TangentMethod,
+) -> Result<TangentMethod, TangentError> {
+    if method == TangentMethod::Analytic {
+        return Err(TangentError::NoAnalytic { model });
+    }
+    checked_tangent_method(method)
+}
+
 /// Numbers a material publishes for each of its points before the force pass, so that the
 /// force pass of the point's neighbours (in any block, on any rank) can evaluate the bond force
 /// from this point's side.

@@ -56,8 +56,9 @@ use self::kinematics::{
 };
 use super::influence::InfluenceFunction;
 use super::{
-    assert_point_set, checked_tangent_method, kept_points, local_offsets, positive, CurrentView,
-    Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView, PERIDIGM_PI,
+    assert_point_set, checked_differentiated_tangent_method, kept_points, local_offsets, positive,
+    CurrentView, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
+    PERIDIGM_PI,
 };
 use crate::history::History;
 use crate::model::point_chunks::for_each_chunk;
@@ -727,12 +728,7 @@ impl<S: StressModel> Material for Correspondence<S> {
     }
 
     fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
-        if method == TangentMethod::Analytic {
-            return Err(TangentError::NoAnalytic {
-                model: self.model_name(),
-            });
-        }
-        self.tangent = checked_tangent_method(method)?;
+        self.tangent = checked_differentiated_tangent_method(self.model_name(), method)?;
         Ok(())
     }
 

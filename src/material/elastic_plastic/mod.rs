@@ -51,8 +51,8 @@
 use rayon::prelude::*;
 
 use super::{
-    assert_point_set, checked_tangent_method, kept_points, local_offsets, positive, CurrentView,
-    Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
+    assert_point_set, checked_differentiated_tangent_method, kept_points, local_offsets, positive,
+    CurrentView, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
 };
 use crate::history::History;
 use crate::model::point_chunks::for_each_chunk;
@@ -631,12 +631,7 @@ impl Material for ElasticPlastic {
     }
 
     fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
-        if method == TangentMethod::Analytic {
-            return Err(TangentError::NoAnalytic {
-                model: self.model_name(),
-            });
-        }
-        self.tangent = checked_tangent_method(method)?;
+        self.tangent = checked_differentiated_tangent_method(self.model_name(), method)?;
         Ok(())
     }
 
