@@ -79,6 +79,7 @@ impl ContactInteraction {
 
 pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Contact, DeckError> {
     let mut list = field.list(ctx)?;
+    list.expect(&["Search Radius", "Search Frequency"]);
     let search_radius = list.positive_req(ctx, "Search Radius")?;
     let search_frequency = list.int_req(ctx, "Search Frequency", 1)? as u64;
     let verbose = list.bool_or(ctx, "Verbose", false)?;

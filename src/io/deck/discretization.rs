@@ -435,6 +435,10 @@ fn read_quick_grid(ctx: &mut Ctx, list: &mut ListReader) -> Result<QuickGridGene
         }
         (Some(f), None) => {
             let mut g = f.list(ctx)?;
+            g.expect(&[
+                "X Origin", "Y Origin", "Z Origin", "X Length", "Y Length", "Z Length",
+                "Number Points X", "Number Points Y", "Number Points Z",
+            ]);
             let generator = QuickGridGenerator::TensorProduct3D {
                 origin: [g.f64_req(ctx, "X Origin")?, g.f64_req(ctx, "Y Origin")?, g.f64_req(ctx, "Z Origin")?],
                 length: [

@@ -208,6 +208,8 @@ pub fn load(path: &Path) -> Result<Deck, DeckError> {
 
 /// Parses and checks deck text; `origin` names the file in messages and anchors relative paths.
 pub fn parse_str(text: &str, format: DeckFormat, origin: &Path) -> Result<Deck, DeckError> {
+    // Editors on Windows may start a UTF-8 file with a byte-order mark; it is not content.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let (root, parse_warnings) = match format {
         DeckFormat::Yaml => yaml::parse(text, origin)?,
         DeckFormat::Xml => xml::parse(text, origin)?,

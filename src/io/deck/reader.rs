@@ -111,10 +111,19 @@ impl<'t> Field<'t> {
         }
     }
 
-    /// A double; integers are accepted (Peridigm rejects `Horizon: 2`, issue #9; we do not).
+    /// A finite double; integers are accepted (Peridigm rejects `Horizon: 2`, issue #9; we do
+    /// not). Infinity and NaN are refused (a literal beyond ±1.8e308 reads as infinity).
     pub fn f64(&self, ctx: &Ctx) -> Result<f64, DeckError> {
         let s = self.scalar(ctx, "a number")?;
         match s.kind {
+            ScalarKind::Double(v) if !v.is_finite() => Err(self.err(
+                ctx,
+                format!(
+                    "{} is not a finite double-precision number (largest: {:e}); give a finite value",
+                    s.text.trim(),
+                    f64::MAX
+                ),
+            )),
             ScalarKind::Double(v) => Ok(v),
             ScalarKind::Int(i) => Ok(i as f64),
             ScalarKind::String if super::tree::is_float_literal(s.text.trim()) => Err(self.err(
@@ -292,6 +301,17 @@ impl<'t> ListReader<'t> {
         })
     }
 
+    /// Declares keys valid in this list before they are read, so that a missing required key
+    /// is not blamed on a valid sibling that happens to look like it (`Search Frequency` is no
+    /// misspelt `Search Radius`).
+    pub fn expect(&mut self, keys: &[&'static str]) {
+        for key in keys {
+            if !self.known.contains(key) {
+                self.known.push(key);
+            }
+        }
+    }
+
     /// Looks at `key` without marking it known or used.
     pub fn peek(&self, key: &str) -> Option<Field<'t>> {
         let entry = self.entries.iter().find(|e| e.key == key)?;
@@ -302,10 +322,12 @@ impl<'t> ListReader<'t> {
     }
 
     /// The error for a missing required key. If an unused key of this list is a near miss of
-    /// `key` (a typo such as `Densty`), the typo is reported instead, at its own line.
+    /// `key` (a typo such as `Densty`) and not itself a key known here (read or
+    /// [`expect`](Self::expect)ed), the typo is reported instead, at its own line.
     pub fn missing(&self, ctx: &Ctx, key: &str, what: &str) -> DeckError {
         for (i, e) in self.entries.iter().enumerate() {
-            if !self.used[i] && suggest(&e.key, [key]).is_some() {
+            let valid_here = self.known.contains(&e.key.as_str());
+            if !self.used[i] && !valid_here && suggest(&e.key, [key]).is_some() {
                 return ctx.error(
                     Some(e.line),
                     &self.child_path(&e.key),

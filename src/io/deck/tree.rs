@@ -5,6 +5,19 @@
 
 use std::collections::HashMap;
 
+/// Deepest nesting of lists a deck may have. Peridigm's decks nest at most 6 deep (`Solver →
+/// NOXQuasiStatic → Direction → Newton → Linear Solver → Belos`); the bound keeps a malformed or
+/// hostile deck from exhausting the stack of everything that walks the tree.
+pub(crate) const MAX_NESTING: usize = 32;
+
+/// The message for a deck nested deeper than [`MAX_NESTING`].
+pub(crate) fn too_deep_message() -> String {
+    format!(
+        "lists nested more than {MAX_NESTING} deep; a Peridigm deck nests at most 6 deep, so a \
+         list is probably indented one level too far or never closed"
+    )
+}
+
 /// Type of a scalar, following Teuchos' rules: YAML infers it from the literal (quoted → string,
 /// digits only → int, decimal point or exponent → double, `true`/`false` → bool), XML states it
 /// in the `type` attribute.

@@ -11,7 +11,8 @@ use quick_xml::{Reader, XmlVersion};
 
 use super::error::{DeckError, KeyPath};
 use super::tree::{
-    is_float_literal, is_integer_literal, Entry, LineMap, Node, NodeKind, Scalar, ScalarKind,
+    is_float_literal, is_integer_literal, too_deep_message, Entry, LineMap, Node, NodeKind, Scalar,
+    ScalarKind, MAX_NESTING,
 };
 
 struct Open {
@@ -283,6 +284,9 @@ impl XmlReader<'_> {
                 let [name, _, _] = self.attributes(element, start, line)?;
                 if !self.stack.is_empty() && name.is_none() {
                     return Err(self.invalid(line, None, "nested <ParameterList> without a name= attribute".into()));
+                }
+                if self.stack.len() >= MAX_NESTING {
+                    return Err(self.invalid(line, name.as_deref(), too_deep_message()));
                 }
                 self.stack.push(Open { name, line, entries: Vec::new() });
                 Ok(())

@@ -11,7 +11,9 @@ use yaml_rust2::parser::{Event, MarkedEventReceiver, Parser};
 use yaml_rust2::scanner::{Marker, TScalarStyle};
 
 use super::error::{DeckError, KeyPath};
-use super::tree::{infer_plain_scalar, Entry, Node, NodeKind, Scalar, ScalarKind};
+use super::tree::{
+    infer_plain_scalar, too_deep_message, Entry, Node, NodeKind, Scalar, ScalarKind, MAX_NESTING,
+};
 
 /// Removes the backslash of `\{` and `\}` (an escaped backslash `\\` is left alone).
 pub(crate) fn strip_brace_escapes(text: &str) -> String {
@@ -155,6 +157,10 @@ impl MarkedEventReceiver for TreeBuilder<'_> {
                     self.fail(line, "a list cannot be used as a key".into());
                     return;
                 }
+                if self.stack.len() >= MAX_NESTING {
+                    self.fail(line, too_deep_message());
+                    return;
+                }
                 self.stack.push(Frame::List {
                     line,
                     entries: Vec::new(),
@@ -240,7 +246,25 @@ pub(crate) fn parse(text: &str, file: &Path) -> Result<(Node, Vec<String>), Deck
         warnings: Vec::new(),
     };
     let mut parser = Parser::new_from_str(&cleaned);
-    if let Err(e) = parser.load(&mut builder, true) {
+    // Events are pulled one by one rather than through `Parser::load`, which recurses once per
+    // nesting level and would overflow the stack on a deck nested thousands deep before the
+    // builder could refuse it. After the builder's first error the rest is still scanned, so
+    // that a syntax error anywhere is reported as such, as `load` did.
+    let pulled = loop {
+        match parser.next_token() {
+            Ok((event, mark)) => {
+                let end = event == Event::StreamEnd;
+                if builder.error.is_none() {
+                    builder.on_event(event, mark);
+                }
+                if end {
+                    break Ok(());
+                }
+            }
+            Err(e) => break Err(e),
+        }
+    };
+    if let Err(e) = pulled {
         return Err(DeckError::Syntax {
             file: file.to_path_buf(),
             format: "YAML",
