@@ -19,12 +19,17 @@ pub enum RunError {
     /// Writing results failed.
     #[error(transparent)]
     Output(#[from] OutputError),
-    /// A boundary-condition expression failed during the run.
+    /// A boundary-condition expression failed or gave a non-finite value during the run
+    /// (exit code 2: the deck's expression is at fault).
     #[error(transparent)]
     Boundary(#[from] BoundaryError),
     /// A solver needs something this build does not have.
     #[error("{0}")]
     Unsupported(String),
+    /// Input found invalid once the run knows the body, where `peridyn check` cannot look
+    /// (a distributed run's step count from the families of its ranks); exit code 2.
+    #[error("{0}")]
+    Input(String),
     /// A quasi-static solve failed (exit code 3).
     #[error(transparent)]
     QuasiStatic(#[from] QuasiStaticError),
@@ -38,11 +43,11 @@ pub enum RunError {
     /// The explicit run became unstable (exit code 3).
     #[error(
         "the run became unstable at step {} of solver \"{solver}\" (t = {:.4e} s): kinetic energy {:.4e} exceeds {}× the energy supplied to the body ({:.4e}). \
-         The time step was {time_step:.4e} s; Peridigm's stable estimate is {estimate}. \
-         Reduce \"Safety Factor\" (e.g. 0.5) or give a smaller \"Fixed dt\". \
+         The time step was {time_step:.4e} s; Peridigm's stable estimate is {estimate}. {advice} \
          Output written up to the last frame before the failure is valid.",
         instability.step, instability.time, instability.kinetic_energy, EnergyMonitor::GROWTH_LIMIT, instability.budget,
-        estimate = .estimate.map(|e| format!("{e:.4e} s")).unwrap_or_else(|| "not available".into())
+        estimate = .estimate.map(|e| format!("{e:.4e} s")).unwrap_or_else(|| "not available".into()),
+        advice = unstable_advice(*.time_step, *.estimate, *.measured)
     )]
     Unstable {
         /// Solver list name.
@@ -53,6 +58,29 @@ pub enum RunError {
         time_step: f64,
         /// The stable estimate.
         estimate: Option<f64>,
+        /// The largest stable step measured on the linearised body
+        /// ([`crate::solver::stability`]; one rank only).
+        measured: Option<f64>,
+    },
+    /// SIGINT or SIGTERM stopped the run after a completed step; every results file holds a
+    /// frame of that step ([`crate::interrupt`], exit code [`crate::interrupt::EXIT_CODE`]).
+    #[error(
+        "stopped by {} after step {step} of solver \"{solver}\" (t = {time:.6e} s); {}. \
+         peridyn cannot resume a run from its results yet: run the deck again to go further",
+        .signal.map_or_else(|| "a stop signal".to_string(), |s| s.to_string()),
+        files_message(.files)
+    )]
+    Interrupted {
+        /// The signal, when this rank received it (on N ranks it may have reached another).
+        signal: Option<crate::interrupt::Signal>,
+        /// Solver list name.
+        solver: String,
+        /// The last completed step (load step of an implicit list) of that list.
+        step: u64,
+        /// Time of that step, s.
+        time: f64,
+        /// The results files, each complete up to that step.
+        files: Vec<std::path::PathBuf>,
     },
     /// Another rank of a distributed run failed (or reports an error all ranks share); that
     /// rank prints the message, this one stops quietly with the same exit code.
@@ -66,16 +94,54 @@ pub enum RunError {
 }
 
 impl RunError {
-    /// Process exit code: 3 for solver failures and instabilities, 1 otherwise (for
-    /// [`RunError::OtherRank`], the code of the rank that failed).
+    /// Process exit code: 3 for solver failures and instabilities, 2 for invalid input, 4 for a
+    /// clean stop on a signal, 1 otherwise (for [`RunError::OtherRank`], the code of the rank
+    /// that failed).
     pub fn exit_code(&self) -> u8 {
         match self {
             RunError::Unstable { .. } | RunError::QuasiStatic(_) | RunError::Newmark(_) => 3,
             RunError::OtherRank { code, .. } => *code,
-            RunError::Setup(_) => 2,
+            RunError::Setup(_) | RunError::Input(_) | RunError::Boundary(_) => 2,
+            RunError::Interrupted { .. } => crate::interrupt::EXIT_CODE,
             _ => 1,
         }
     }
+}
+
+/// What to change after an instability, from the measured stability limit when there is one:
+/// Peridigm's estimate is not a bound for every model (ν near −0.5, points with few bonds), so
+/// a fixed "reduce the safety factor" can fail again.
+fn unstable_advice(time_step: f64, estimate: Option<f64>, measured: Option<f64>) -> String {
+    match (measured, estimate) {
+        (Some(limit), _) if time_step < limit => format!(
+            "Measured on the undeformed body, the largest stable step is {limit:.4e} s, above \
+             the one used: the blow-up comes from the loading, contact or damage rather than \
+             the time step alone; check the boundary conditions and material constants."
+        ),
+        (Some(limit), Some(estimate)) => format!(
+            "Measured on the undeformed body, the largest stable step is {limit:.4e} s \
+             ({:.2}× Peridigm's estimate, which is not a bound for this body): give \
+             \"Safety Factor\" {:.2} or less, or \"Fixed dt\" {:.3e}.",
+            limit / estimate,
+            0.8 * limit / estimate,
+            0.8 * limit
+        ),
+        (Some(limit), None) => format!(
+            "Measured on the undeformed body, the largest stable step is {limit:.4e} s: give \
+             \"Fixed dt\" {:.3e} or less.",
+            0.8 * limit
+        ),
+        (None, _) => "Reduce \"Safety Factor\" (e.g. 0.5) or give a smaller \"Fixed dt\".".into(),
+    }
+}
+
+/// Where an interrupted run's results are: the files, each with a frame of the last step.
+fn files_message(files: &[std::path::PathBuf]) -> String {
+    if files.is_empty() {
+        return "the deck writes no results files".to_string();
+    }
+    let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+    format!("its last state is the last frame of {}", names.join(", "))
 }
 
 /// What cannot run where (a build feature, a backend, a rank count) is a run error with exit

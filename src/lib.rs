@@ -94,6 +94,7 @@ pub mod discretization;
 pub mod error;
 pub mod expression;
 pub mod history;
+pub mod interrupt;
 pub mod io;
 pub mod material;
 pub mod model;

@@ -178,6 +178,15 @@ pub struct OutputPlan {
     pub variables: Vec<String>,
 }
 
+/// This machine's physical memory in bytes (`MemTotal` of `/proc/meminfo`); `None` where that
+/// file does not exist or cannot be read (not Linux).
+pub fn physical_memory_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kib.checked_mul(1024)
+}
+
 /// Human-readable byte count.
 pub fn format_bytes(bytes: u64) -> String {
     const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];

@@ -58,13 +58,29 @@ impl Condition {
     ) -> Result<(), BoundaryError> {
         let depends_on_position = ["x", "y", "z"].iter().any(|v| self.value.uses(v));
         let eval = |x: [f64; 3], t: f64| {
-            self.value
-                .eval(&[x[0], x[1], x[2], t])
-                .map_err(|source| BoundaryError::Evaluation {
+            let value = self.value.eval(&[x[0], x[1], x[2], t]).map_err(|source| {
+                BoundaryError::Evaluation {
                     condition: self.name.clone(),
                     time: t,
                     message: source.to_string(),
-                })
+                }
+            })?;
+            if value.is_finite() {
+                return Ok(value);
+            }
+            let place = if depends_on_position {
+                format!("at the point ({}, {}, {})", x[0], x[1], x[2])
+            } else {
+                "at every point of its node set".to_string()
+            };
+            Err(BoundaryError::Evaluation {
+                condition: self.name.clone(),
+                time: t,
+                message: format!(
+                    "its value \"{}\" is {value} {place}; a condition must give a finite number, so fix the expression",
+                    self.value.source()
+                ),
+            })
         };
         let at_times = |x: [f64; 3]| -> Result<[f64; N], BoundaryError> {
             let mut values = [0.0; N];

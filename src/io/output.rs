@@ -230,6 +230,15 @@ impl Schedule {
             && call - 1 <= self.final_step
             && (call - 1) % self.frequency == 0
     }
+
+    /// True when a run stopping after call `call` must add a frame so that its last state is in
+    /// the file: the call lies in the file's output window and did not write a frame.
+    pub fn needs_last_frame(&self, call: i64) -> bool {
+        self.frequency > 0
+            && call >= self.initial_step
+            && call - 1 <= self.final_step
+            && !self.writes(call)
+    }
 }
 
 /// The geometry every results file shares, in the user's original point order.
@@ -407,6 +416,17 @@ impl OutputFile {
     pub fn call(&mut self, time: f64, source: &dyn FieldSource) -> Result<bool, OutputError> {
         self.calls += 1;
         if !self.schedule.writes(self.calls) {
+            return Ok(false);
+        }
+        self.write_frame(time, source)?;
+        Ok(true)
+    }
+
+    /// Writes a frame of the state of the last call unless that call wrote one already (or the
+    /// file never writes frames): the last frame of a run stopped between two scheduled frames.
+    /// Returns whether a frame was written.
+    pub fn write_last(&mut self, time: f64, source: &dyn FieldSource) -> Result<bool, OutputError> {
+        if !self.schedule.needs_last_frame(self.calls) {
             return Ok(false);
         }
         self.write_frame(time, source)?;

@@ -8,9 +8,11 @@ mod families;
 mod node_sets;
 mod physics;
 pub mod report;
+mod validate;
 
 pub use physics::build_physics;
 pub use report::{plan, unsupported_features};
+pub use validate::{validate, validate_points};
 
 use crate::boundary::{BoundaryConditions, Condition, ConditionKind};
 use crate::discretization::{
@@ -60,6 +62,7 @@ pub fn discretize(deck: &Deck) -> Result<Discretization, SetupError> {
                     length,
                     number_of_points,
                 } => {
+                    refuse_grid_beyond_memory(deck, length, number_of_points)?;
                     let grid = TensorProductGrid {
                         origin: *origin,
                         length: *length,
@@ -123,6 +126,56 @@ pub fn discretize(deck: &Deck) -> Result<Discretization, SetupError> {
         }
     };
     Ok(discretization)
+}
+
+/// Bytes a point needs at least in a run (reference data, the kinematic fields and the force),
+/// and a directed bond (neighbour index and reference length): the floor of the run plan's
+/// estimate, used before anything is allocated.
+const LEAST_BYTES_PER_POINT: u128 = 120;
+/// See [`LEAST_BYTES_PER_POINT`].
+const LEAST_BYTES_PER_BOND: u128 = 12;
+
+/// Refuses a QuickGrid block whose points and bonds cannot fit in this machine's memory
+/// before generating it (a typo such as `Number Points X: 100000` would otherwise abort on a
+/// failed allocation). Bonds per point are counted as the lattice points within the largest
+/// constant horizon; with no readable memory size (not Linux) nothing is refused.
+fn refuse_grid_beyond_memory(
+    deck: &Deck,
+    length: &[f64; 3],
+    number_of_points: &[u64; 3],
+) -> Result<(), DeckError> {
+    let Some(memory) = crate::plan::physical_memory_bytes() else {
+        return Ok(());
+    };
+    let points: u128 = number_of_points.iter().map(|&n| u128::from(n)).product();
+    let spacing = (0..3)
+        .map(|k| length[k] / number_of_points[k] as f64)
+        .fold(f64::INFINITY, f64::min);
+    let horizon = deck
+        .blocks
+        .iter()
+        .filter_map(|b| match b.horizon {
+            Horizon::Constant(h) => Some(h),
+            Horizon::Expression(_) => None,
+        })
+        .fold(0.0, f64::max);
+    let ratio = (horizon / spacing).min(1e3);
+    let family = (4.0 / 3.0 * std::f64::consts::PI * ratio.powi(3)).ceil() as u128;
+    let bytes = points * (LEAST_BYTES_PER_POINT + family * LEAST_BYTES_PER_BOND);
+    if bytes <= u128::from(memory) {
+        return Ok(());
+    }
+    Err(deck.error_at(
+        &["Discretization", "TensorProduct3DMeshGenerator", "Number Points X"],
+        format!(
+            "{} × {} × {} = {points} points with about {family} bonds each need at least {} of memory, more than this machine's {}; use fewer points",
+            number_of_points[0],
+            number_of_points[1],
+            number_of_points[2],
+            crate::plan::format_bytes(u64::try_from(bytes).unwrap_or(u64::MAX)),
+            crate::plan::format_bytes(memory)
+        ),
+    ))
 }
 
 /// For each mesh block, the deck `Blocks` entry that covers it (by name, or `Default`).
@@ -283,12 +336,30 @@ fn boundary_conditions(deck: &Deck, node_sets: &NodeSets) -> Result<BoundaryCond
                 )
             })?
             .to_vec();
+        if points.is_empty() {
+            return Err(deck.error_at(
+                &["Boundary Conditions", &bc.name, "Node Set"],
+                format!(
+                    "node set \"{}\" has no points, so this condition would act on nothing; give the set its node ids or remove the condition",
+                    bc.node_set
+                ),
+            ));
+        }
         let value = compile(
             deck,
             &["Boundary Conditions", &bc.name, "Value"],
             &bc.value,
             SPACE_TIME,
         )?;
+        if let Some(constant) = value.constant_value().filter(|v| !v.is_finite()) {
+            return Err(deck.error_at(
+                &["Boundary Conditions", &bc.name, "Value"],
+                format!(
+                    "\"{}\" evaluates to {constant}; a condition must give a finite number",
+                    bc.value
+                ),
+            ));
+        }
         conditions.push(Condition {
             name: bc.name.clone(),
             kind,
@@ -298,6 +369,33 @@ fn boundary_conditions(deck: &Deck, node_sets: &NodeSets) -> Result<BoundaryCond
         });
     }
     Ok(BoundaryConditions { conditions })
+}
+
+/// Two points at the same place have a bond of length zero (an infinite micromodulus and a
+/// stable time step of zero): an error naming both, by their number in the input (1-based).
+/// Exact coincidence only; the search sorts the positions, O(N log N).
+fn refuse_coincident_points(deck: &Deck, points: &PointCloud) -> Result<(), DeckError> {
+    if matches!(deck.discretization.source, PointSource::PdQuickGrid { .. }) {
+        return Ok(());
+    }
+    // `+ 0.0` makes −0 and +0 one key.
+    let key = |p: usize| points.position[p].map(|c| (c + 0.0).to_bits());
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_unstable_by_key(|&p| (key(p), p));
+    for pair in order.windows(2) {
+        if key(pair[0]) == key(pair[1]) {
+            let [x, y, z] = points.position[pair[0]];
+            return Err(deck.error_at(
+                &["Discretization", "Input Mesh File"],
+                format!(
+                    "points {} and {} are both at ({x}, {y}, {z}); a bond of length zero has no stiffness or stable time step, so remove one of them",
+                    pair[0] + 1,
+                    pair[1] + 1
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Builds the model: discretize, assign blocks, horizons, node sets, conditions, reorder along
@@ -319,6 +417,7 @@ pub fn build_points(deck: &Deck) -> Result<(Model, FamilyRule), SetupError> {
         ),
         other => other,
     })?;
+    refuse_coincident_points(deck, &discretization.points)?;
     let block_entry = assign_blocks(deck, &discretization.blocks)?;
     let mut points = discretization.points.clone();
     let horizons = point_horizons(deck, &points, &block_entry)?;

@@ -362,6 +362,7 @@ fn parallel_plan(deck: &Deck, explicit: bool, implicit: bool) -> ParallelPlan {
 
 /// Builds the plan for a model set up from `deck`.
 pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
+    super::validate(deck, model)?;
     let used = used_declarations(deck, model);
     let physics = physics_plan(deck, model, &used);
     let fields = field_plans(model, &used, physics.contact);
@@ -593,6 +594,6 @@ fn time_step_plan(deck: &Deck, model: &Model) -> Option<TimeStepPlan> {
         safety_factor: verlet.safety_factor,
         fixed: verlet.fixed_dt,
         used,
-        steps: ((solver.final_time - solver.initial_time) / used).floor() as u64,
+        steps: crate::solver::step_count(solver.final_time - solver.initial_time, used)?,
     })
 }

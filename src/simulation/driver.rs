@@ -7,6 +7,7 @@ use super::outputs::RunOutputs;
 use super::progress::Progress;
 use super::{energy_floor_of, Fields, PreparedComputeClass, RunError, RunSummary};
 use crate::backend::SolveError;
+use crate::interrupt;
 use crate::io::deck::{Deck, Implicit, Integrator, Solver, Verlet};
 use crate::io::output::FieldSource;
 use crate::model::Model;
@@ -15,7 +16,9 @@ use crate::physics::Physics;
 use crate::solver::newmark::{self, NewmarkError, NewmarkSettings};
 use crate::solver::newton::ConvergenceMeasure;
 use crate::solver::quasistatic::{self, QuasiStaticError, QuasiStaticSettings};
-use crate::solver::{linear, EnergyMonitor, VelocityVerlet, VerletSettings};
+use crate::solver::{
+    linear, stability, step_count, EnergyMonitor, VelocityVerlet, VerletSettings, MAX_STEPS,
+};
 use crate::state::State;
 use std::time::Instant;
 
@@ -150,9 +153,8 @@ impl Run<'_> {
         let estimate = self.critical_time_step(physics);
         let time_step = verlet_time_step(solver, verlet, estimate)
             .map_err(|error| collective(self.ranks.communicator(), error))?;
-        let steps = ((solver.final_time - solver.initial_time) / time_step)
-            .floor()
-            .max(0.0) as u64;
+        let steps = run_steps(solver, time_step)
+            .map_err(|error| collective(self.ranks.communicator(), error))?;
         let root = self.root();
         if root {
             eprintln!(
@@ -192,13 +194,15 @@ impl Run<'_> {
         let mut progress = root.then(|| Progress::new(&solver.name, steps));
         for step in 1..=steps {
             let result = integrator.step_with(model, physics, state, step, self.ranks);
+            let stop = f64::from(u8::from(interrupt::requested().is_some()));
             let mut sums = match &result {
                 Ok(report) => [
                     report.free_kinetic_energy,
                     report.supplied_work,
                     f64::from(u8::from(pending.is_some())),
+                    stop,
                 ],
-                Err(_) => [0.0, 0.0, 1.0],
+                Err(_) => [0.0, 0.0, 1.0, stop],
             };
             self.ranks.sum(&mut sums);
             if sums[2] > 0.0 {
@@ -219,17 +223,43 @@ impl Run<'_> {
                 if let Some(progress) = progress.take() {
                     progress.finish();
                 }
+                // The diagnostic's force evaluations need no ghosts on one rank; on N ranks the
+                // advice stays generic.
+                let measured = (self.ranks.ranks() == 1).then(|| {
+                    stability::measured_critical_time_step(
+                        model,
+                        physics,
+                        &state.history,
+                        stability::MEASURE_ITERATIONS,
+                    )
+                });
                 let error = RunError::Unstable {
                     solver: solver.name.clone(),
                     instability,
                     time_step,
                     estimate,
+                    measured: measured.flatten(),
                 };
                 return Err(collective(self.ranks.communicator(), error));
             }
             pending = self.output_or_return(physics, state)?;
             if let Some(progress) = &mut progress {
                 progress.update(step);
+            }
+            if sums[3] > 0.0 {
+                if let Some(progress) = progress.take() {
+                    progress.finish();
+                }
+                agree(self.ranks.communicator(), pending.map_or(Ok(()), Err))?;
+                self.summary.steps += step;
+                let fields = Fields::new(model, physics, state, self.compute_classes);
+                return Err(stop_on_signal(
+                    &mut self.outputs,
+                    &mut *self.ranks,
+                    &fields,
+                    solver,
+                    step,
+                ));
             }
         }
         if let Some(progress) = progress {
@@ -389,7 +419,18 @@ impl Run<'_> {
                 let mut fields = Fields::new(model, physics, state, self.compute_classes);
                 fields.nonlinear_iterations = self.nonlinear_iterations;
                 let written = self.outputs.call(ranks, &fields);
-                agree(ranks.communicator(), recorded.and(written))
+                agree(ranks.communicator(), recorded.and(written))?;
+                if signalled(ranks) {
+                    let step = report.step as u64;
+                    return Err(stop_on_signal(
+                        &mut self.outputs,
+                        ranks,
+                        &fields,
+                        solver,
+                        step,
+                    ));
+                }
+                Ok(())
             },
         );
         let switch = settings
@@ -444,7 +485,8 @@ impl Run<'_> {
         physics: &mut Physics,
         state: &mut State,
     ) -> Result<(), RunError> {
-        let settings = newmark_settings(solver, implicit);
+        let settings = newmark_settings(solver, implicit)
+            .map_err(|error| collective(self.ranks.communicator(), error))?;
         let mut linear = linear::strategy(solver, self.model, physics)
             .map_err(|error| collective(self.ranks.communicator(), error.into()))?;
         if self.root() {
@@ -482,7 +524,17 @@ impl Run<'_> {
                 let mut fields = Fields::new(model, physics, state, self.compute_classes);
                 fields.nonlinear_iterations = self.nonlinear_iterations;
                 let written = self.outputs.call(ranks, &fields);
-                agree(ranks.communicator(), recorded.and(written))
+                agree(ranks.communicator(), recorded.and(written))?;
+                if signalled(ranks) {
+                    return Err(stop_on_signal(
+                        &mut self.outputs,
+                        ranks,
+                        &fields,
+                        solver,
+                        step,
+                    ));
+                }
+                Ok(())
             },
         );
         match result {
@@ -500,6 +552,37 @@ impl Run<'_> {
     }
 }
 
+/// True when SIGINT or SIGTERM reached any rank ([`crate::interrupt`]). Collective.
+fn signalled(ranks: &mut dyn Ranks) -> bool {
+    let mut stop = [f64::from(u8::from(interrupt::requested().is_some()))];
+    ranks.sum(&mut stop);
+    stop[0] > 0.0
+}
+
+/// After the step a signal made the last (`step` of `solver`, its output call made): adds
+/// its frame to every file whose schedule skipped it and returns the error that stops the
+/// run, reported by rank 0. Collective.
+fn stop_on_signal(
+    outputs: &mut RunOutputs,
+    ranks: &mut dyn Ranks,
+    fields: &Fields,
+    solver: &Solver,
+    step: u64,
+) -> RunError {
+    let written = outputs.last_frame(&*ranks, fields);
+    if let Err(error) = agree(ranks.communicator(), written) {
+        return error;
+    }
+    let error = RunError::Interrupted {
+        signal: interrupt::requested(),
+        solver: solver.name.clone(),
+        step,
+        time: fields.state.time,
+        files: outputs.paths(),
+    };
+    collective(ranks.communicator(), error)
+}
+
 /// Δt of a `Verlet` list: `Safety Factor × (Fixed dt or the stable estimate)`.
 fn verlet_time_step(
     solver: &Solver,
@@ -508,28 +591,38 @@ fn verlet_time_step(
 ) -> Result<f64, RunError> {
     match (verlet.fixed_dt, estimate) {
         (Some(dt), _) | (None, Some(dt)) => Ok(verlet.safety_factor * dt),
-        (None, None) => Err(RunError::Unsupported(format!(
+        (None, None) => Err(RunError::Input(format!(
             "solver \"{}\": no point has a neighbour, so there is no stable time step; give \"Fixed dt\"",
             solver.name
         ))),
     }
 }
 
+/// The step count of a list advancing by `time_step` ([`step_count`]), or the error naming
+/// the list when there is no sensible count.
+fn run_steps(solver: &Solver, time_step: f64) -> Result<u64, RunError> {
+    let span = solver.final_time - solver.initial_time;
+    step_count(span, time_step).ok_or_else(|| {
+        RunError::Input(format!(
+            "solver \"{}\": {span:e} s at a time step of {time_step:e} s is more than {MAX_STEPS:e} steps, or the time step is zero; check Final Time, Initial Time and the time step",
+            solver.name
+        ))
+    })
+}
+
 /// The Newmark-β settings of an `Implicit` list; the step count is
 /// `floor((t_final − t_initial)/Δt)`, as Peridigm counts it.
-fn newmark_settings(solver: &Solver, implicit: &Implicit) -> NewmarkSettings {
-    NewmarkSettings {
+fn newmark_settings(solver: &Solver, implicit: &Implicit) -> Result<NewmarkSettings, RunError> {
+    Ok(NewmarkSettings {
         time_step: implicit.fixed_dt,
-        steps: ((solver.final_time - solver.initial_time) / implicit.fixed_dt)
-            .floor()
-            .max(0.0) as u64,
+        steps: run_steps(solver, implicit.fixed_dt)?,
         initial_time: solver.initial_time,
         beta: implicit.beta,
         gamma: implicit.gamma,
         tolerance: implicit.absolute_tolerance,
         max_iterations: implicit.maximum_solver_iterations,
         verbose: solver.verbose,
-    }
+    })
 }
 
 /// The quasi-static settings of a `QuasiStatic` or `NOXQuasiStatic` list.

@@ -82,6 +82,33 @@ impl<'a> RunOutputs<'a> {
         }
     }
 
+    /// Adds a frame of `fields.state` to every file whose schedule skipped the last call: the
+    /// last state of a run stopped on a signal. Collective on N ranks, like
+    /// [`RunOutputs::call`].
+    pub(super) fn last_frame(
+        &mut self,
+        ranks: &dyn Ranks,
+        fields: &Fields<'_>,
+    ) -> Result<(), RunError> {
+        match self {
+            Self::OneRank { outputs, .. } => outputs.last_frame(fields),
+            Self::Ranks {
+                outputs,
+                partition,
+                owned,
+            } => outputs.last_frame(ranks.communicator(), partition, owned, fields),
+        }
+    }
+
+    /// The results files (none on ranks other than 0 of a distributed run).
+    pub(super) fn paths(&self) -> Vec<PathBuf> {
+        let files = match self {
+            Self::OneRank { outputs, .. } => &outputs.files,
+            Self::Ranks { outputs, .. } => &outputs.files,
+        };
+        files.iter().map(|f| f.path().to_path_buf()).collect()
+    }
+
     /// Wall-clock seconds spent writing.
     pub(super) fn seconds(&self) -> f64 {
         match self {
@@ -192,6 +219,16 @@ impl Outputs {
         let time = fields.state.time;
         for file in &mut self.files {
             file.call(time, fields)?;
+        }
+        self.seconds += start.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    fn last_frame(&mut self, fields: &Fields) -> Result<(), RunError> {
+        let start = Instant::now();
+        let time = fields.state.time;
+        for file in &mut self.files {
+            file.write_last(time, fields)?;
         }
         self.seconds += start.elapsed().as_secs_f64();
         Ok(())
@@ -440,6 +477,55 @@ impl<'a> DistributedOutputs<'a> {
         let time = local.state.time;
         self.calls += 1;
         let frame = self.schedules.iter().any(|s| s.writes(self.calls));
+        let gathered = self.gather(comm, partition, owned, local, frame);
+        let mut result = Ok(());
+        for file in &mut self.files {
+            if let Err(error) = file.call(time, &gathered) {
+                result = Err(error.into());
+                break;
+            }
+        }
+        self.seconds += start.elapsed().as_secs_f64();
+        result
+    }
+
+    /// Adds a frame of the last call's state to every file whose schedule skipped that call
+    /// ([`Schedule::needs_last_frame`]); gathers the point fields when any file needs it.
+    /// Collective.
+    fn last_frame(
+        &mut self,
+        comm: &dyn Communicator,
+        partition: &Partition,
+        owned: &[u32],
+        local: &Fields<'_>,
+    ) -> Result<(), RunError> {
+        let start = Instant::now();
+        let frame = self
+            .schedules
+            .iter()
+            .any(|s| s.needs_last_frame(self.calls));
+        let gathered = self.gather(comm, partition, owned, local, frame);
+        let mut result = Ok(());
+        for file in &mut self.files {
+            if let Err(error) = file.write_last(local.state.time, &gathered) {
+                result = Err(error.into());
+                break;
+            }
+        }
+        self.seconds += start.elapsed().as_secs_f64();
+        result
+    }
+
+    /// The point fields of a frame gathered on rank 0 when `frame` (collective then; every
+    /// rank decides `frame` alike), or only the globals' sources when not.
+    fn gather(
+        &self,
+        comm: &dyn Communicator,
+        partition: &Partition,
+        owned: &[u32],
+        local: &Fields<'_>,
+        frame: bool,
+    ) -> Gathered<'a> {
         let mut gathered = Gathered {
             nonlinear_iterations: local.nonlinear_iterations,
             vectors: BTreeMap::new(),
@@ -474,15 +560,7 @@ impl<'a> DistributedOutputs<'a> {
                 }
             }
         }
-        let mut result = Ok(());
-        for file in &mut self.files {
-            if let Err(error) = file.call(time, &gathered) {
-                result = Err(error.into());
-                break;
-            }
-        }
-        self.seconds += start.elapsed().as_secs_f64();
-        result
+        gathered
     }
 
     fn finish(self) -> Result<Vec<PathBuf>, RunError> {

@@ -1,0 +1,82 @@
+//! The checks of a deck against the model built from it that `peridyn check` and `peridyn
+//! run` both make before anything runs, so that what one accepts the other runs and what one
+//! refuses the other refuses alike (exit code 2, file, key path and line).
+
+use crate::io::deck::{Deck, DeckError, Integrator};
+use crate::model::Model;
+use crate::simulation::prepare_compute_classes;
+use crate::solver::{step_count, MAX_STEPS};
+
+use super::report::{critical_time_step, requested_variables};
+
+/// Every check, for a model whose families are built (one process).
+pub fn validate(deck: &Deck, model: &Model) -> Result<(), DeckError> {
+    validate_points(deck, model)?;
+    validate_time_steps(deck, model)
+}
+
+/// The checks that need points and node sets only (a distributed run's global model has no
+/// families; its driver makes the time-step checks on the families it finds).
+pub fn validate_points(deck: &Deck, model: &Model) -> Result<(), DeckError> {
+    for output in &deck.outputs {
+        requested_variables(deck, output)?;
+    }
+    if let Err(message) = prepare_compute_classes(&deck.compute_classes, model) {
+        let class = deck
+            .compute_classes
+            .iter()
+            .find(|c| message.contains(&format!("\"{}\"", c.name)));
+        return Err(match class {
+            Some(class) => deck.error_at(&["Compute Class Parameters", &class.name], message),
+            None => deck.error_at(&["Compute Class Parameters"], message),
+        });
+    }
+    Ok(())
+}
+
+/// Every `Verlet` and `Implicit` list must have a time step and a step count within
+/// [`MAX_STEPS`].
+fn validate_time_steps(deck: &Deck, model: &Model) -> Result<(), DeckError> {
+    // Computed once, and only if a Verlet list needs it (one pass over the bonds).
+    let mut estimate: Option<Option<f64>> = None;
+    for solver in &deck.solvers {
+        let span = solver.final_time - solver.initial_time;
+        let time_step = match &solver.integrator {
+            Integrator::Verlet(verlet) => {
+                let base = match verlet.fixed_dt {
+                    Some(dt) => dt,
+                    None => estimate
+                        .get_or_insert_with(|| critical_time_step(deck, model))
+                        .ok_or_else(|| no_neighbours(deck, model, &solver.name))?,
+                };
+                verlet.safety_factor * base
+            }
+            Integrator::Implicit(implicit) => implicit.fixed_dt,
+            _ => continue,
+        };
+        if step_count(span, time_step).is_none() {
+            return Err(deck.error_at(
+                &[&solver.name, "Final Time"],
+                format!(
+                    "solver \"{}\": {span:e} s at a time step of {time_step:e} s is not a step count peridyn can run (more than {MAX_STEPS:e} steps, or a zero time step); check Final Time, Initial Time and the time step",
+                    solver.name
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The error for a `Verlet` list without `Fixed dt` on a body where no point has a neighbour.
+fn no_neighbours(deck: &Deck, model: &Model, solver: &str) -> DeckError {
+    let Some(block) = model.blocks.first() else {
+        return deck.error_at(&["Blocks"], "no block has a point");
+    };
+    let name = &deck.blocks[block.deck_block].name;
+    deck.error_at(
+        &["Blocks", name, "Horizon"],
+        format!(
+            "no point has a neighbour within its horizon, so solver \"{solver}\" has no stable time step: the horizon is smaller than the point spacing; make it about 3 spacings (or give the Verlet list a \"Fixed dt\")"
+        ),
+    )
+}

@@ -1,0 +1,402 @@
+//! Input a fuzzing pass of mutated decks found mishandled (hangs, aborts, a wrong exit code or
+//! a message blaming the wrong key). Each is now an error with exit code 2 that names the file,
+//! the key and its line, the same in `check` and in `run`.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn peridyn(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_peridyn"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("peridyn runs")
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// A valid deck: a 3×3×3 text mesh (unit spacing, listed in `MESH`), LPS, an initial velocity
+/// on the x = 0 face, 12 Verlet steps.
+const DECK: &str = r#"Peridigm:
+  Discretization:
+    Type: "Text File"
+    Input Mesh File: "mesh.txt"
+  Materials:
+    Steel:
+      Material Model: "Elastic"
+      Density: 7800.0
+      Bulk Modulus: 130.0e9
+      Shear Modulus: 78.0e9
+  Blocks:
+    Everything:
+      Block Names: "block_1"
+      Material: "Steel"
+      Horizon: 1.75
+  Boundary Conditions:
+    Left Node Set: "left.txt"
+    Push:
+      Type: "Initial Velocity"
+      Node Set: "Left Node Set"
+      Coordinate: "x"
+      Value: "1.0"
+  Solver:
+    Initial Time: 0.0
+    Final Time: 1.0e-3
+    Verlet:
+      Safety Factor: 0.8
+  Output:
+    Output Filename: "out"
+    Output Frequency: 100
+    Output Variables:
+      Displacement: true
+"#;
+
+/// `x y z block volume` of a 3×3×3 unit lattice, x fastest.
+fn mesh() -> String {
+    let mut text = String::from("# x y z block volume\n");
+    for k in 0..3 {
+        for j in 0..3 {
+            for i in 0..3 {
+                text.push_str(&format!("{i}.0 {j}.0 {k}.0 1 1.0\n"));
+            }
+        }
+    }
+    text
+}
+
+/// The ids (1-based) of the x = 0 points of [`mesh`].
+fn left_ids() -> String {
+    (0..9).map(|n| format!("{}\n", 3 * n + 1)).collect()
+}
+
+/// A folder holding `deck.yaml` (DECK with `from` replaced by `to`), the mesh and the node set.
+fn folder_with(from: &str, to: &str) -> tempfile::TempDir {
+    assert!(DECK.contains(from), "test setup: {from:?} not in DECK");
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("deck.yaml"), DECK.replacen(from, to, 1)).unwrap();
+    std::fs::write(dir.path().join("mesh.txt"), mesh()).unwrap();
+    std::fs::write(dir.path().join("left.txt"), left_ids()).unwrap();
+    dir
+}
+
+fn line_of(text: &str, needle: &str) -> usize {
+    text.lines().position(|l| l.contains(needle)).unwrap() + 1
+}
+
+/// `check` and `run` of the folder's deck both exit with 2 and a message that starts with
+/// `deck.yaml:LINE:` and holds every piece of `expected`.
+fn assert_refused_alike(dir: &Path, line: usize, expected: &[&str]) {
+    for args in [
+        &["check", "deck.yaml"][..],
+        &["run", "deck.yaml", "--output-dir", "out"][..],
+    ] {
+        let output = peridyn(args, dir);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {message}");
+        assert!(
+            message.contains(&format!("deck.yaml:{line}:")),
+            "{args:?}: line {line} not named: {message}"
+        );
+        for part in expected {
+            assert!(
+                message.contains(part),
+                "{args:?}: {part:?} missing: {message}"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_valid_deck_runs() {
+    let dir = folder_with("Safety Factor: 0.8", "Safety Factor: 0.8");
+    let output = peridyn(&["run", "deck.yaml", "--output-dir", "out"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+}
+
+/// Finding 1: a repeated mesh line gave Δt = 0 and a run that wrote frames at t = 0 forever.
+#[test]
+fn coincident_points_are_named() {
+    let dir = folder_with("Safety Factor: 0.8", "Safety Factor: 0.8");
+    let mut text = mesh();
+    text.push_str("1.0 1.0 0.0 1 1.0\n");
+    std::fs::write(dir.path().join("mesh.txt"), text).unwrap();
+    // (1, 1, 0) is point 1 + 1 + 3·1 = 5 of the lattice; the repeated line is point 28.
+    assert_refused_alike(
+        dir.path(),
+        line_of(DECK, "Input Mesh File"),
+        &["points 5 and 28", "(1, 1, 0)"],
+    );
+}
+
+/// Finding 2: a step count beyond any run, and a Final Time that reads as infinity.
+#[test]
+fn absurd_or_infinite_final_times_are_refused() {
+    let line = line_of(DECK, "Final Time");
+    let dir = folder_with("Final Time: 1.0e-3", "Final Time: 1.0e308");
+    assert_refused_alike(dir.path(), line, &["Final Time", "1e12 steps"]);
+    let dir = folder_with("Final Time: 1.0e-3", "Final Time: 1e999");
+    assert_refused_alike(
+        dir.path(),
+        line,
+        &[
+            "Final Time",
+            "1e999 is not a finite double-precision number",
+        ],
+    );
+}
+
+/// Finding 3: 20,000 nested lists overflowed the stack (SIGABRT) in both formats.
+#[test]
+fn deep_nesting_is_bounded() {
+    let depth = 20_000;
+    let mut yaml = DECK.to_string();
+    yaml.push_str("  Deep:\n");
+    for level in 0..depth {
+        yaml.push_str(&format!("{}k:\n", " ".repeat(4 + level)));
+    }
+    let dir = folder_with("Safety Factor: 0.8", "Safety Factor: 0.8");
+    std::fs::write(dir.path().join("deck.yaml"), &yaml).unwrap();
+    // The 33rd list opens on the 33rd `k:` line (the deck's own lists count too: Deep is 1).
+    let output = peridyn(&["check", "deck.yaml"], dir.path());
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(2), "{message}");
+    assert!(message.contains("nested more than 32 deep"), "{message}");
+
+    let xml = format!(
+        "<ParameterList>\n{}{}</ParameterList>\n",
+        "<ParameterList name=\"k\">\n".repeat(depth),
+        "</ParameterList>\n".repeat(depth)
+    );
+    std::fs::write(dir.path().join("deck.xml"), xml).unwrap();
+    let output = peridyn(&["check", "deck.xml"], dir.path());
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(2), "{message}");
+    // The root list counts as the first of the 32: the 32nd named list, on line 33, is one too
+    // many.
+    assert!(message.starts_with("error: deck.xml:33:"), "{message}");
+    assert!(message.contains("nested more than 32 deep"), "{message}");
+}
+
+/// Finding 4: `Number Points X/Y/Z: 100000` aborted on an allocation even in `check`.
+#[test]
+fn a_grid_beyond_memory_is_refused_before_allocating() {
+    let deck = r#"Peridigm:
+  Discretization:
+    Type: "PdQuickGrid"
+    TensorProduct3DMeshGenerator:
+      X Origin: 0.0
+      Y Origin: 0.0
+      Z Origin: 0.0
+      X Length: 1.0
+      Y Length: 1.0
+      Z Length: 1.0
+      Number Points X: 100000
+      Number Points Y: 100000
+      Number Points Z: 100000
+  Materials:
+    Steel:
+      Material Model: "Elastic Bond Based"
+      Density: 7800.0
+      Bulk Modulus: 130.0e9
+  Blocks:
+    All:
+      Block Names: "block_1"
+      Material: "Steel"
+      Horizon: 3.0e-5
+  Solver:
+    Final Time: 1.0e-5
+    Verlet:
+      Fixed dt: 1.0e-7
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("deck.yaml"), deck).unwrap();
+    let output = peridyn(&["check", "deck.yaml"], dir.path());
+    let message = stderr(&output);
+    if std::fs::metadata("/proc/meminfo").is_err() {
+        // Where the memory size cannot be read, nothing is refused by this rule.
+        return;
+    }
+    assert_eq!(output.status.code(), Some(2), "{message}");
+    assert!(
+        message.contains("deck.yaml:11:") && message.contains("Number Points X"),
+        "{message}"
+    );
+    // 10¹⁵ points, and δ/Δx = 3 gives ⌈4/3·π·27⌉ = 114 bonds a point.
+    assert!(
+        message.contains("1000000000000000 points with about 114 bonds"),
+        "{message}"
+    );
+}
+
+/// Finding 5: an empty node-set file made a condition act on nothing, silently.
+#[test]
+fn an_empty_node_set_used_by_a_condition_is_an_error() {
+    let dir = folder_with("Safety Factor: 0.8", "Safety Factor: 0.8");
+    std::fs::write(dir.path().join("left.txt"), "").unwrap();
+    assert_refused_alike(
+        dir.path(),
+        line_of(DECK, "      Node Set: \"Left Node Set\""),
+        &["Boundary Conditions → Push → Node Set", "has no points"],
+    );
+}
+
+/// Finding 6: `check` passed a compute class naming an unknown node set, and `run` failed
+/// with exit code 1 and no file or line; a misspelt output variable failed `run` with 1.
+#[test]
+fn check_and_run_validate_alike() {
+    let with_class = DECK.replace(
+        "      Displacement: true\n",
+        "      Displacement: true\n      Left_Sum: true\n  Compute Class Parameters:\n    Left Sum:\n      Compute Class: \"Node_Set_Data\"\n      Calculation Type: \"Sum\"\n      Node Set: \"Nope Node Set\"\n      Variable: \"Displacement\"\n      Output Label: \"Left_Sum\"\n",
+    );
+    let dir = folder_with("Safety Factor: 0.8", "Safety Factor: 0.8");
+    std::fs::write(dir.path().join("deck.yaml"), &with_class).unwrap();
+    assert_refused_alike(
+        dir.path(),
+        line_of(&with_class, "    Left Sum:"),
+        &["no node set \"Nope Node Set\""],
+    );
+
+    let dir = folder_with(
+        "      Displacement: true\n",
+        "      Displacement: true\n      Displacment: true\n",
+    );
+    assert_refused_alike(
+        dir.path(),
+        line_of(DECK, "      Displacement: true") + 1,
+        &["did you mean \"Displacement\""],
+    );
+}
+
+/// Finding 7: NaN from a condition's expression was blamed on the time step.
+#[test]
+fn a_non_finite_condition_value_names_the_condition() {
+    let line = line_of(DECK, "Value: \"1.0\"");
+    let dir = folder_with("Value: \"1.0\"", "Value: \"sqrt(-1)\"");
+    assert_refused_alike(
+        dir.path(),
+        line,
+        &["Push → Value", "\"sqrt(-1)\" evaluates to NaN"],
+    );
+
+    // Depending on x, it can only be found when evaluated: at the first point, x = 0, where
+    // 1e308·10·0 = ∞·0 = NaN.
+    let dir = folder_with("Value: \"1.0\"", "Value: \"1e308*10*x\"");
+    let output = peridyn(&["run", "deck.yaml", "--output-dir", "out"], dir.path());
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(2), "{message}");
+    assert!(
+        message.contains("boundary condition \"Push\"")
+            && message.contains("\"1e308*10*x\" is NaN at the point (0, 0, 0)")
+            && !message.contains("Safety Factor"),
+        "{message}"
+    );
+}
+
+/// Finding 8: a horizon below the spacing passed `check`, then `run` failed with exit code 1.
+#[test]
+fn a_horizon_without_neighbours_is_refused_by_check() {
+    let line = line_of(DECK, "Horizon: 1.75");
+    let dir = folder_with("Horizon: 1.75", "Horizon: 0.5");
+    assert_refused_alike(
+        dir.path(),
+        line,
+        &["Blocks → Everything → Horizon", "no point has a neighbour"],
+    );
+}
+
+/// Finding 10: without `Search Radius`, the valid `Search Frequency` was called a typo of it.
+#[test]
+fn a_missing_search_radius_is_reported_as_missing() {
+    let dir = folder_with(
+        "      Safety Factor: 0.8\n",
+        "      Safety Factor: 0.8\n  Contact:\n    Search Frequency: 10\n",
+    );
+    let output = peridyn(&["check", "deck.yaml"], dir.path());
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(2), "{message}");
+    assert!(
+        message.contains("Contact → Search Radius: required key is missing"),
+        "{message}"
+    );
+}
+
+/// Finding 11: a byte-order mark, a repeated I/O cause, and `--threads` without a bound.
+#[test]
+fn byte_order_mark_io_causes_and_thread_count() {
+    let dir = folder_with("Safety Factor: 0.8", "Safety Factor: 0.8");
+    std::fs::write(dir.path().join("deck.yaml"), format!("\u{feff}{DECK}")).unwrap();
+    let output = peridyn(&["check", "deck.yaml"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+
+    // The results file cannot be created (a folder has its name): the cause, printed three
+    // times before, is printed once.
+    std::fs::create_dir_all(dir.path().join("taken/out.e")).unwrap();
+    let output = peridyn(&["run", "deck.yaml", "--output-dir", "taken"], dir.path());
+    let message = stderr(&output);
+    assert_ne!(output.status.code(), Some(0), "{message}");
+    assert_eq!(message.matches("os error").count(), 1, "{message}");
+
+    let output = peridyn(
+        &[
+            "run",
+            "deck.yaml",
+            "--output-dir",
+            "out",
+            "--threads",
+            "1000",
+        ],
+        dir.path(),
+    );
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(2), "{message}");
+    assert!(message.contains("--threads 1000: give 1 to"), "{message}");
+}
+
+/// Finding 9: for ν = −0.5 and for a two-point LPS body Peridigm's stable-step estimate is not
+/// a bound, and the advice "Safety Factor 0.5" failed too. The message now gives the limit
+/// measured on the body, and the Safety Factor it suggests runs.
+#[test]
+fn an_instability_suggests_a_safety_factor_that_runs() {
+    let auxetic = DECK
+        .replacen(
+            "Bulk Modulus: 130.0e9\n      Shear Modulus: 78.0e9",
+            "Young's Modulus: 200.0e9\n      Poisson's Ratio: -0.5",
+            1,
+        )
+        .replacen("Final Time: 1.0e-3", "Final Time: 1.0e-2", 1);
+    let two_points = DECK.replacen("Final Time: 1.0e-3", "Final Time: 1.0e-2", 1);
+    for (deck, mesh_text) in [
+        (auxetic, mesh()),
+        (
+            two_points,
+            "# x y z block volume\n0.0 0.0 0.0 1 1.0\n1.0 0.0 0.0 1 1.0\n".to_string(),
+        ),
+    ] {
+        let dir = folder_with("Safety Factor: 0.8", "Safety Factor: 0.8");
+        std::fs::write(dir.path().join("deck.yaml"), &deck).unwrap();
+        std::fs::write(dir.path().join("mesh.txt"), mesh_text).unwrap();
+        // Point 1 is on the x = 0 face of both bodies.
+        std::fs::write(dir.path().join("left.txt"), "1\n").unwrap();
+        let output = peridyn(&["run", "deck.yaml", "--output-dir", "out"], dir.path());
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(3), "{message}");
+        assert!(message.contains("not a bound for this body"), "{message}");
+        let suggested: f64 = message
+            .split("give \"Safety Factor\" ")
+            .nth(1)
+            .and_then(|rest| rest.split(' ').next())
+            .and_then(|number| number.parse().ok())
+            .unwrap_or_else(|| panic!("no suggested Safety Factor: {message}"));
+        assert!(suggested < 0.8, "{message}");
+        let retried = deck.replacen(
+            "Safety Factor: 0.8",
+            &format!("Safety Factor: {suggested}"),
+            1,
+        );
+        std::fs::write(dir.path().join("deck.yaml"), retried).unwrap();
+        let output = peridyn(&["run", "deck.yaml", "--output-dir", "out"], dir.path());
+        assert!(output.status.success(), "{}", stderr(&output));
+    }
+}
