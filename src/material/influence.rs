@@ -6,7 +6,9 @@
 //! [`InfluenceFunction::user`].
 //!
 //! ω is a property of the reference configuration, so materials evaluate it once per bond at
-//! setup ([`InfluenceFunction::per_bond`]) and never inside the time loop.
+//! setup ([`InfluenceFunction::per_bond`]) and never inside the time loop. The hypoelastic
+//! correspondence models are the exception: they weigh each bond by the built-in function of
+//! its current length, evaluated in every force evaluation.
 
 use std::fmt;
 use std::sync::Arc;

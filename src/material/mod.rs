@@ -36,12 +36,14 @@ mod registry;
 pub use bond_based::{BondBased, BondBasedParameters};
 pub use correspondence::{
     fields as correspondence_fields, Flaw, NeedlemanParameters, CORRESPONDENCE_FIELDS,
-    CORRESPONDENCE_OUTPUTS,
+    CORRESPONDENCE_OUTPUTS, HYPOELASTIC_DISPLACEMENT, HYPOELASTIC_FIELDS,
 };
 pub(crate) use correspondence::{
-    ElasticCorrespondence, ElasticPlasticCorrespondence, ElasticStress, HardeningPlasticStress,
-    IsotropicHardeningCorrespondence, NeedlemanStress, PerfectlyPlasticStress, StressModel,
-    ViscoplasticNeedlemanCorrespondence,
+    ElasticCorrespondence, ElasticHypoelasticCorrespondence, ElasticPlasticCorrespondence,
+    ElasticPlasticHypoelasticCorrespondence, ElasticStress, HardeningPlasticStress,
+    HypoelasticStress, IsotropicHardeningCorrespondence,
+    IsotropicHardeningHypoelasticCorrespondence, NeedlemanStress, PerfectlyPlasticStress,
+    StressModel, ViscoplasticNeedlemanCorrespondence,
 };
 pub use elastic_constants::{ElasticConstants, ElasticInput, PlanarAssumption};
 pub use elastic_plastic::{
@@ -50,8 +52,8 @@ pub use elastic_plastic::{
 pub use influence::{InfluenceFunction, UserInfluence};
 pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};
 pub use registry::{
-    material_entry, CorrespondenceInput, MaterialConstructor, MaterialEntry, MaterialInput,
-    MATERIALS,
+    material_entry, CorrespondenceInput, HypoelasticInput, MaterialConstructor, MaterialEntry,
+    MaterialInput, MATERIALS,
 };
 
 use rayon::prelude::*;
@@ -105,6 +107,39 @@ pub enum MaterialError {
          (ω = 1); remove `Influence Function` from the `Discretization` list"
     )]
     InfluenceNotSupported {
+        /// Peridigm's `Material Model` string.
+        model: &'static str,
+    },
+    /// `Actual Horizon` exceeds the block's `Horizon`, which builds the neighbour lists: the
+    /// bonds between the two would be missing.
+    #[error(
+        "material parameter `Actual Horizon` ({actual}) is larger than the block's `Horizon` \
+         ({block}); the neighbour lists are built with the block's Horizon, so give an Actual \
+         Horizon no larger than it (or enlarge the block's Horizon)"
+    )]
+    ActualHorizonBeyondHorizon {
+        /// `Actual Horizon`.
+        actual: f64,
+        /// The block's `Horizon`.
+        block: f64,
+    },
+    /// `Gradient Order Of Accuracy` asks for a gradient this build does not compute.
+    #[error(
+        "material parameter `Gradient Order Of Accuracy` is {order}, but only first-order \
+         gradients (1, Peridigm's default) are implemented; remove the key or set it to 1"
+    )]
+    GradientOrderNotSupported {
+        /// The order the deck asks for.
+        order: i64,
+    },
+    /// The model differentiates ω of the current bond length, which a user expression does
+    /// not allow.
+    #[error(
+        "material model \"{model}\" weighs bonds by their current length and differentiates \
+         the weight for its tangent, which a user `Influence Function` expression does not \
+         allow; use \"One\", \"Parabolic Decay\" or \"Gaussian\""
+    )]
+    UserInfluenceNotSupported {
         /// Peridigm's `Material Model` string.
         model: &'static str,
     },

@@ -6,10 +6,12 @@
 //! Adding a model is its file, one line in [`MATERIALS`] and its tests.
 
 use super::{
-    BondBased, ElasticCorrespondence, ElasticPlastic, ElasticPlasticCorrespondence, ElasticStress,
-    HardeningPlasticStress, InfluenceFunction, IsotropicHardeningCorrespondence,
-    LinearPeridynamicSolid, Material, MaterialError, NeedlemanStress, PerfectlyPlasticStress,
-    PlasticityInput, StressModel, ViscoplasticNeedlemanCorrespondence,
+    BondBased, ElasticCorrespondence, ElasticHypoelasticCorrespondence, ElasticPlastic,
+    ElasticPlasticCorrespondence, ElasticPlasticHypoelasticCorrespondence, ElasticStress,
+    HardeningPlasticStress, HypoelasticStress, InfluenceFunction, IsotropicHardeningCorrespondence,
+    IsotropicHardeningHypoelasticCorrespondence, LinearPeridynamicSolid, Material, MaterialError,
+    NeedlemanStress, PerfectlyPlasticStress, PlasticityInput, StressModel,
+    ViscoplasticNeedlemanCorrespondence,
 };
 use crate::model::ModelDeclaration;
 
@@ -52,6 +54,18 @@ pub struct CorrespondenceInput {
     pub flaw: Option<super::Flaw>,
     /// The flow-stress parameters of `Viscoplastic Needleman Correspondence`.
     pub viscoplastic: Option<super::NeedlemanParameters>,
+    /// The semi-Lagrangian parameters of the hypoelastic correspondence models.
+    pub hypoelastic: Option<HypoelasticInput>,
+}
+
+/// The deck parameters of the hypoelastic (semi-Lagrangian) correspondence models.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HypoelasticInput {
+    /// `Actual Horizon` δ_a (length): the horizon of the physics, measured on the current
+    /// configuration; at most the block's `Horizon`, which builds the neighbour lists.
+    pub actual_horizon: f64,
+    /// `Gradient Order Of Accuracy` (Peridigm's default 1, the only order implemented).
+    pub gradient_order_of_accuracy: i64,
 }
 
 impl MaterialInput {
@@ -115,6 +129,18 @@ pub static MATERIALS: &[MaterialEntry] = &[
         declaration: &<NeedlemanStress as StressModel>::DECLARATION,
         build: ViscoplasticNeedlemanCorrespondence::build,
     },
+    MaterialEntry {
+        declaration: &<ElasticStress as HypoelasticStress>::HYPOELASTIC_DECLARATION,
+        build: ElasticHypoelasticCorrespondence::build,
+    },
+    MaterialEntry {
+        declaration: &<PerfectlyPlasticStress as HypoelasticStress>::HYPOELASTIC_DECLARATION,
+        build: ElasticPlasticHypoelasticCorrespondence::build,
+    },
+    MaterialEntry {
+        declaration: &<HardeningPlasticStress as HypoelasticStress>::HYPOELASTIC_DECLARATION,
+        build: IsotropicHardeningHypoelasticCorrespondence::build,
+    },
 ];
 
 /// The entry of the model called `deck_name` in decks (`Material Model`), if this build runs it.
@@ -160,6 +186,10 @@ mod tests {
                         reference_strain_rate: 1.0,
                         reference_strain_0: 0.01,
                         reference_strain_1: 1.0,
+                    }),
+                    hypoelastic: Some(HypoelasticInput {
+                        actual_horizon: 1.0,
+                        gradient_order_of_accuracy: 1,
                     }),
                 }),
             };

@@ -200,6 +200,9 @@ pub enum MaterialModel {
         actual_horizon: f64,
         /// `Gradient Order Of Accuracy` — default 1.
         gradient_order_of_accuracy: i64,
+        /// `Hourglass Coefficient` (≥ 0) — default 0 (Peridigm's hypoelastic models read
+        /// none).
+        hourglass_coefficient: f64,
     },
     /// `"Elastic Bond Associated Correspondence"` and its plastic variants.
     BondAssociatedCorrespondence {
@@ -782,6 +785,9 @@ fn read_hypoelastic(
         gradient_order_of_accuracy: list
             .int_opt(ctx, "Gradient Order Of Accuracy", 1)?
             .unwrap_or(1),
+        hourglass_coefficient: list
+            .non_negative_opt(ctx, "Hourglass Coefficient")?
+            .unwrap_or(0.0),
     })
 }
 
@@ -888,8 +894,33 @@ impl MaterialModel {
             hardening_modulus: None,
             flaw: None,
             viscoplastic: None,
+            hypoelastic: None,
         };
         match self {
+            MaterialModel::HypoelasticCorrespondence {
+                plasticity,
+                actual_horizon,
+                gradient_order_of_accuracy,
+                ..
+            } => {
+                input.hypoelastic = Some(crate::material::HypoelasticInput {
+                    actual_horizon: *actual_horizon,
+                    gradient_order_of_accuracy: *gradient_order_of_accuracy,
+                });
+                match *plasticity {
+                    CorrespondencePlasticity::Elastic => {}
+                    CorrespondencePlasticity::PerfectlyPlastic { yield_stress } => {
+                        input.yield_stress = Some(yield_stress);
+                    }
+                    CorrespondencePlasticity::IsotropicHardening {
+                        yield_stress,
+                        hardening_modulus,
+                    } => {
+                        input.yield_stress = Some(yield_stress);
+                        input.hardening_modulus = Some(hardening_modulus);
+                    }
+                }
+            }
             MaterialModel::ElasticPlasticCorrespondence { yield_stress, .. } => {
                 input.yield_stress = Some(*yield_stress);
             }
@@ -964,6 +995,10 @@ impl MaterialModel {
                 ..
             }
             | MaterialModel::ViscoplasticNeedlemanCorrespondence {
+                hourglass_coefficient,
+                ..
+            }
+            | MaterialModel::HypoelasticCorrespondence {
                 hourglass_coefficient,
                 ..
             } => Some(*hourglass_coefficient),

@@ -117,7 +117,18 @@ pub(crate) struct Step<T: Scalar> {
 pub(crate) fn flanagan_taylor<T: Scalar>(f: &Tensor<T>, start: &StepStart) -> Option<Step<T>> {
     let f_start = lift::<T>(&start.deformation_gradient);
     let midpoint_inverse = inverse(&scaled(&(f + f_start), 0.5))?;
-    let velocity_gradient = (f - f_start) * midpoint_inverse;
+    rotate_and_stretch(&((f - f_start) * midpoint_inverse), start)
+}
+
+/// The Flanagan–Taylor step from `start` given the velocity gradient times the step,
+/// `L Δt` (dimensionless), however it was measured: [`flanagan_taylor`] from two deformation
+/// gradients, the hypoelastic models from the displacement increments of the current family.
+/// `None` when tr V·I − V or I − ½ΩΔt is singular.
+pub(crate) fn rotate_and_stretch<T: Scalar>(
+    velocity_gradient: &Tensor<T>,
+    start: &StepStart,
+) -> Option<Step<T>> {
+    let velocity_gradient = *velocity_gradient;
     let transposed = velocity_gradient.transpose();
     let rate = scaled(&(velocity_gradient + transposed), 0.5);
     let spin = scaled(&(velocity_gradient - transposed), 0.5);

@@ -31,18 +31,28 @@
 //! [`crate::history::History`]: each force evaluation advances them from the committed values of
 //! the step's start, and a step's acceptance commits them.
 //!
+//! The hypoelastic (semi-Lagrangian) models, which measure the deformation on the current
+//! configuration with `Actual Horizon`, share the stress models and history of this family:
+//! [`hypoelastic`].
+//!
 //! Not yet supported: `Thermal Expansion Coefficient`, and runs on several MPI ranks (the
 //! ranks do not exchange material history yet).
 
 pub(crate) mod kinematics;
 
 mod elastic;
+mod hypoelastic;
 mod plastic;
 #[cfg(test)]
 mod tests;
 mod viscoplastic;
 
 pub(crate) use elastic::ElasticStress;
+pub(crate) use hypoelastic::{
+    ElasticHypoelasticCorrespondence, ElasticPlasticHypoelasticCorrespondence, HypoelasticStress,
+    IsotropicHardeningHypoelasticCorrespondence,
+};
+pub use hypoelastic::{DISPLACEMENT as HYPOELASTIC_DISPLACEMENT, HYPOELASTIC_FIELDS};
 pub use plastic::Flaw;
 pub(crate) use plastic::{HardeningPlasticStress, PerfectlyPlasticStress};
 pub use viscoplastic::NeedlemanParameters;

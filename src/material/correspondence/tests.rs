@@ -39,6 +39,7 @@ fn material(hourglass: f64) -> Box<dyn Material> {
             hardening_modulus: None,
             flaw: None,
             viscoplastic: None,
+            hypoelastic: None,
         }),
     })
     .unwrap()
@@ -50,16 +51,22 @@ impl Body {
     }
 
     /// The lattice body of material `m`, steps of 1 s.
-    fn with(mut m: Box<dyn Material>) -> Self {
+    fn with(m: Box<dyn Material>) -> Self {
+        Self::with_bonds(m, HORIZON)
+    }
+
+    /// The lattice body of material `m` with its neighbour lists built with `horizon`.
+    fn with_bonds(mut m: Box<dyn Material>, horizon: f64) -> Self {
         let mut rng = Rng::new(11);
         let x = lattice(6);
         let mut points = PointCloud::default();
         for p in &x {
             points.push(*p, 0.8 + 0.4 * rng.uniform(), 0);
         }
-        let bonds = brute_force_bonds(&x, HORIZON);
+        let bonds = brute_force_bonds(&x, horizon);
         let reference = ReferenceView::of(&bonds, &points);
         m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
+        let fields = m.declaration().fields;
         let physics = Physics::new(
             vec![BlockPhysics {
                 material: m,
@@ -68,7 +75,7 @@ impl Body {
             &points,
             &bonds,
         );
-        let mut history = History::allocate(CORRESPONDENCE_FIELDS, x.len(), bonds.num_bonds());
+        let mut history = History::allocate(fields, x.len(), bonds.num_bonds());
         history.set_step_duration(1.0);
         Self {
             points,
@@ -134,7 +141,11 @@ fn max_difference(a: &Tensor<f64>, b: &Tensor<f64>) -> f64 {
 /// rule gives `L Δt = (F − I)((F + I)/2)⁻¹`; the expected stresses below are worked out by
 /// hand from it (module docs of `kinematics` and `elastic`).
 fn check_homogeneous(f: Tensor<f64>, expected: Tensor<f64>, hourglass: f64) {
-    let mut body = Body::new(hourglass);
+    check_homogeneous_of(Body::new(hourglass), f, expected);
+}
+
+/// [`check_homogeneous`] on `body`.
+fn check_homogeneous_of(mut body: Body, f: Tensor<f64>, expected: Tensor<f64>) {
     let y = body.affine(&f);
     let force = body.force(&y);
     let scale = expected.abs().max();
@@ -534,6 +545,7 @@ fn the_plastic_tangent_matches_finite_differences_while_yielding() {
             hardening_modulus: Some(0.3),
             flaw: None,
             viscoplastic: None,
+            hypoelastic: None,
         }),
     })
     .unwrap();
@@ -689,6 +701,7 @@ fn needleman_body() -> Body {
                     reference_strain_0: 0.01,
                     reference_strain_1: 1.0,
                 }),
+                hypoelastic: None,
             }),
         })
         .unwrap(),
@@ -766,33 +779,8 @@ fn needleman_conserves_momentum_and_a_rigid_rotation_gives_no_stress() {
 
 /// A one-block QuickGrid deck (4×4×4 points) with the material list `material`.
 fn deck_with(material: &str) -> crate::io::deck::Deck {
-    let text = format!(
-        r#"Peridigm:
-  Discretization:
-    Type: "PdQuickGrid"
-    NeighborhoodType: "Spherical"
-    TensorProduct3DMeshGenerator:
-      X Origin: 0.0
-      Y Origin: 0.0
-      Z Origin: 0.0
-      X Length: 1.0
-      Y Length: 1.0
-      Z Length: 1.0
-      Number Points X: 4
-      Number Points Y: 4
-      Number Points Z: 4
-  Materials:
-    M:
-{material}
-  Blocks:
-    B: {{Block Names: "block_1", Material: "M", Horizon: 0.6}}
-  Solver:
-    Final Time: 1.0
-    QuasiStatic: {{Number of Load Steps: 1}}
-"#
-    );
     crate::io::deck::parse_str(
-        &text,
+        &deck_text(material),
         crate::io::deck::DeckFormat::Yaml,
         std::path::Path::new("deck.yaml"),
     )
@@ -832,9 +820,369 @@ fn the_keys_of_peridigms_needleman_verification_decks_load_and_build() {
     );
 }
 
+// ---------------------------------------------------------------------------------------
+// The hypoelastic (semi-Lagrangian) models.
+
+/// `Actual Horizon` of the hypoelastic checks: between √2 and √3 lattice spacings, so that the
+/// block horizon 1.8 holds the √3 bonds and the physics does not.
+const ACTUAL_HORIZON: f64 = 1.6;
+
+/// The input of a hypoelastic model with the lattice body's moduli, the block horizon
+/// `horizon` and `Actual Horizon` `actual_horizon`.
+fn hypoelastic_input(hourglass: f64, horizon: f64, actual_horizon: f64) -> MaterialInput {
+    MaterialInput {
+        density: 2.0,
+        horizon,
+        bulk_modulus: BULK,
+        shear_modulus: Some(SHEAR),
+        planar_thickness: None,
+        plasticity: None,
+        influence: InfluenceFunction::ParabolicDecay,
+        correspondence: Some(crate::material::CorrespondenceInput {
+            hourglass_coefficient: hourglass,
+            yield_stress: None,
+            hardening_modulus: None,
+            flaw: None,
+            viscoplastic: None,
+            hypoelastic: Some(crate::material::HypoelasticInput {
+                actual_horizon,
+                gradient_order_of_accuracy: 1,
+            }),
+        }),
+    }
+}
+
+/// The lattice body of `Elastic Hypoelastic Correspondence` (block horizon 1.8, Actual
+/// Horizon 1.6).
+fn hypoelastic_body(hourglass: f64) -> Body {
+    Body::with(
+        ElasticHypoelasticCorrespondence::build(&hypoelastic_input(
+            hourglass,
+            HORIZON,
+            ACTUAL_HORIZON,
+        ))
+        .unwrap(),
+    )
+}
+
 #[test]
-fn the_hypoelastic_models_are_refused_by_name() {
-    for (model, extra) in [
+fn hypoelastic_homogeneous_deformations_give_hookes_stress() {
+    // The closed forms of the Lagrangian checks above: for a homogeneous step the
+    // semi-Lagrangian L Δt is (F − I)((F + I)/2)⁻¹ as well (module docs of `hypoelastic`).
+    let e = 1e-3;
+    let g = 2.0 * e / (2.0 + e);
+    let f = Tensor::from_diagonal(&nalgebra::Vector3::new(1.0 + e, 1.0, 1.0));
+    let lateral = (BULK - 2.0 * SHEAR / 3.0) * g;
+    let expected = Tensor::from_diagonal(&nalgebra::Vector3::new(
+        (BULK + 4.0 * SHEAR / 3.0) * g,
+        lateral,
+        lateral,
+    ));
+    check_homogeneous_of(hypoelastic_body(0.02), f, expected);
+
+    // Simple shear: σ_xy = σ_yx = μγ (see `simple_shear_gives_shear_stress_mu_gamma`).
+    let gamma = 2e-3;
+    let mut f = Tensor::identity();
+    f[(0, 1)] = gamma;
+    let mut expected = Tensor::zeros();
+    expected[(0, 1)] = SHEAR * gamma;
+    expected[(1, 0)] = SHEAR * gamma;
+    check_homogeneous_of(hypoelastic_body(0.02), f, expected);
+
+    // Isotropic compression: pressure 3Kg.
+    let e = -2e-3;
+    let g = 2.0 * e / (2.0 + e);
+    check_homogeneous_of(
+        hypoelastic_body(0.02),
+        Tensor::identity() * (1.0 + e),
+        Tensor::identity() * (3.0 * BULK * g),
+    );
+}
+
+#[test]
+fn hypoelastic_rigid_rotation_of_ninety_degrees_gives_no_stress_and_no_force() {
+    let q = rotation_about_z(std::f64::consts::FRAC_PI_2);
+    let mut body = hypoelastic_body(0.02);
+    let y = body.affine(&q);
+    let force = body.force(&y);
+    for (p, force) in force.iter().enumerate() {
+        let sigma = body.tensor_field(fields::CAUCHY_STRESS, p);
+        assert!(sigma.abs().max() < 1e-14, "σ at point {p}: {sigma}");
+        assert!(force.iter().all(|v| v.abs() < 1e-13), "force at point {p}");
+        let rotation = body.tensor_field(fields::ROTATION, p) + Tensor::identity();
+        assert!(max_difference(&rotation, &q) < 1e-14, "R at point {p}");
+    }
+}
+
+#[test]
+fn hypoelastic_stretch_then_ninety_degree_rotation_rotates_the_stress_exactly() {
+    // Uniaxial strain e, committed, then a rigid rotation Q of 90° in one step: σ̃ stays the
+    // uniaxial Hooke stress of g = 2e/(2 + e) and σ = Q σ̃ Qᵀ (as in the Lagrangian check).
+    let e = 1e-3;
+    let g = 2.0 * e / (2.0 + e);
+    let stretch = Tensor::from_diagonal(&nalgebra::Vector3::new(1.0 + e, 1.0, 1.0));
+    let mut body = hypoelastic_body(0.02);
+    body.force(&body.affine(&stretch));
+    body.commit();
+    let q = rotation_about_z(std::f64::consts::FRAC_PI_2);
+    let force = body.force(&body.affine(&(q * stretch)));
+    let lateral = (BULK - 2.0 * SHEAR / 3.0) * g;
+    let unrotated = Tensor::from_diagonal(&nalgebra::Vector3::new(
+        (BULK + 4.0 * SHEAR / 3.0) * g,
+        lateral,
+        lateral,
+    ));
+    let expected = q * unrotated * q.transpose();
+    for p in 0..body.points.len() {
+        let sigma = body.tensor_field(fields::CAUCHY_STRESS, p);
+        // Round-off of F times the modulus, as in `check_homogeneous`.
+        assert!(
+            max_difference(&sigma, &expected) < 1e-12 * BULK,
+            "σ at point {p}: {sigma} ≠ {expected}"
+        );
+        let kept = body.tensor_field(fields::UNROTATED_STRESS, p);
+        assert!(
+            max_difference(&kept, &unrotated) < 1e-12 * BULK,
+            "σ̃ at point {p}"
+        );
+        // F is integrated in rate form and is exact for homogeneous steps.
+        let gradient = body.tensor_field(fields::DEFORMATION_GRADIENT, p) + Tensor::identity();
+        assert!(
+            max_difference(&gradient, &(q * stretch)) < 1e-13,
+            "F at point {p}"
+        );
+    }
+    for i in body.deep_interior() {
+        let magnitude = force[i].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(magnitude < 1e-11 * BULK * g, "force at interior point {i}");
+    }
+}
+
+#[test]
+fn hypoelastic_translation_gives_no_force_and_the_forces_conserve_momentum() {
+    let mut body = hypoelastic_body(0.05);
+    let shifted: Vec<[f64; 3]> = body
+        .points
+        .position
+        .iter()
+        .map(|x| [x[0] + 0.3, x[1] - 1.1, x[2] + 2.0])
+        .collect();
+    let force = body.force(&shifted);
+    assert!(force.iter().flatten().all(|v| v.abs() < 1e-13));
+    let y = perturbed(&body, 5);
+    let force = body.force(&y);
+    let largest = force.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(largest > 1e-4, "the perturbed state must carry force");
+    for k in 0..3 {
+        let total: f64 = force
+            .iter()
+            .zip(&body.points.volume)
+            .map(|(f, v)| f[k] * v)
+            .sum();
+        assert!(
+            total.abs() < 1e-12 * largest * body.points.len() as f64,
+            "momentum {k}: {total}"
+        );
+    }
+}
+
+/// Random bond damage (20 % of the pairs broken, both directions).
+fn broken_pairs(bonds: &BondList, seed: u64) -> Vec<f32> {
+    let mut rng = Rng::new(seed);
+    let mut damage = vec![0.0f32; bonds.num_bonds()];
+    for i in 0..bonds.num_points() {
+        for b in bonds.range(i) {
+            let j = bonds.neighbor[b] as usize;
+            if j > i && rng.uniform() < 0.2 {
+                let back = bonds.offsets[j] + bonds.family(j).binary_search(&(i as u32)).unwrap();
+                damage[b] = 1.0;
+                damage[back] = 1.0;
+            }
+        }
+    }
+    damage
+}
+
+#[test]
+fn the_hypoelastic_tangent_matches_finite_differences_undamaged_and_damaged() {
+    // The perturbed states move bonds by at most ±0.04: the √2 bonds stay inside the Actual
+    // Horizon 1.6 and the √3 ones outside, so no bond crosses it within a probe.
+    let mut body = hypoelastic_body(0.05);
+    let start = perturbed(&body, 2);
+    body.force(&start);
+    body.commit();
+    let y = perturbed(&body, 9);
+    let error = tangent_error(&mut body, &y);
+    assert!(error < 1e-6, "relative error {error}");
+    body.damage = Some(broken_pairs(&body.bonds, 4));
+    let error = tangent_error(&mut body, &y);
+    assert!(error < 1e-6, "relative error with damage {error}");
+}
+
+#[test]
+fn the_hypoelastic_plastic_tangent_matches_finite_differences_while_yielding() {
+    let mut input = hypoelastic_input(0.05, HORIZON, ACTUAL_HORIZON);
+    let parameters = input.correspondence.as_mut().unwrap();
+    parameters.yield_stress = Some(2e-3);
+    parameters.hardening_modulus = Some(0.3);
+    let mut body = Body::with(IsotropicHardeningHypoelasticCorrespondence::build(&input).unwrap());
+    let start = perturbed(&body, 2);
+    body.force(&start);
+    body.commit();
+    let y = perturbed(&body, 9);
+    body.force(&y);
+    assert!(yielding_points(&body) > body.points.len() / 4);
+    let error = tangent_error(&mut body, &y);
+    assert!(error < 1e-6, "relative error {error}");
+    // Perfect plasticity through the same kinematics.
+    let mut body = Body::with(ElasticPlasticHypoelasticCorrespondence::build(&input).unwrap());
+    body.force(&start);
+    body.commit();
+    body.force(&y);
+    assert!(yielding_points(&body) > body.points.len() / 4);
+    let error = tangent_error(&mut body, &y);
+    assert!(error < 1e-6, "relative error (perfect plasticity) {error}");
+}
+
+#[test]
+fn hypoelastic_j2_hardening_under_uniaxial_strain_reaches_the_closed_form() {
+    // The constants of `j2` (E = 211 GPa, ν = 0, σ_y = 460 MPa, H = 5 GPa) and the closed
+    // form of `j2_hardening_under_uniaxial_strain_matches_the_closed_form`:
+    // σ_vm = Y + H(2μg − Y)/(3μ + H) = 781.0 MPa at an unrotated strain increment g = 10 %,
+    // reached in one step by F = diag(1 + e, 1, 1) with 2e/(2 + e) = g (midpoint rule).
+    let (mu, y, h, g): (f64, f64, f64, f64) = (211e9 / 2.0, 460e6, 5e9, 0.1);
+    let mut input = hypoelastic_input(0.0, HORIZON, ACTUAL_HORIZON);
+    input.bulk_modulus = 211e9 / 3.0;
+    input.shear_modulus = Some(mu);
+    let parameters = input.correspondence.as_mut().unwrap();
+    parameters.yield_stress = Some(y);
+    parameters.hardening_modulus = Some(h);
+    let mut body = Body::with(IsotropicHardeningHypoelasticCorrespondence::build(&input).unwrap());
+    let e = 2.0 * g / (2.0 - g);
+    let f = Tensor::from_diagonal(&nalgebra::Vector3::new(1.0 + e, 1.0, 1.0));
+    body.force(&body.affine(&f));
+    let expected = y + h * (2.0 * mu * g - y) / (3.0 * mu + h);
+    assert!((expected / 1e6 - 781.0).abs() < 0.05, "{expected}");
+    let plastic = (2.0 * mu * g - y) / (3.0 * mu + h);
+    let equivalent = body
+        .history
+        .field(fields::EQUIVALENT_PLASTIC_STRAIN)
+        .unwrap()
+        .trial()
+        .to_vec();
+    for (p, &equivalent) in equivalent.iter().enumerate() {
+        let sigma = body.tensor_field(fields::CAUCHY_STRESS, p);
+        assert!(
+            (von_mises(&sigma) - expected).abs() < 1e-9 * expected,
+            "σ_vm at point {p}: {}",
+            von_mises(&sigma)
+        );
+        assert!((equivalent - plastic).abs() < 1e-12, "ε̄_p at point {p}");
+    }
+}
+
+#[test]
+fn bonds_beyond_the_actual_horizon_carry_nothing() {
+    // Neighbour lists with δ = 1.8 and Actual Horizon 1.6 give the forces of lists built with
+    // δ = 1.6 (the √3 bonds, ≈ 1.73 ± 0.04 long here, drop out), and differ from Actual
+    // Horizon 1.8, where they count.
+    let build = |horizon: f64, actual: f64| {
+        ElasticHypoelasticCorrespondence::build(&hypoelastic_input(0.05, horizon, actual)).unwrap()
+    };
+    let mut wide = Body::with_bonds(build(HORIZON, ACTUAL_HORIZON), HORIZON);
+    let mut narrow = Body::with_bonds(build(ACTUAL_HORIZON, ACTUAL_HORIZON), ACTUAL_HORIZON);
+    let mut full = Body::with_bonds(build(HORIZON, HORIZON), HORIZON);
+    assert!(wide.bonds.num_bonds() > narrow.bonds.num_bonds());
+    let y = perturbed(&wide, 3);
+    let (a, b, c) = (wide.force(&y), narrow.force(&y), full.force(&y));
+    let largest = b.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    let difference = |u: &[[f64; 3]], v: &[[f64; 3]]| {
+        u.iter()
+            .flatten()
+            .zip(v.iter().flatten())
+            .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()))
+    };
+    // Round-off of sums over the same bonds.
+    assert!(
+        difference(&a, &b) < 1e-12 * largest,
+        "{}",
+        difference(&a, &b)
+    );
+    assert!(
+        difference(&c, &b) > 1e-2 * largest,
+        "{}",
+        difference(&c, &b)
+    );
+}
+
+#[test]
+fn the_actual_horizon_is_measured_on_the_current_configuration() {
+    // Point (2, 2, 2) and its neighbour at (3, 3, 3), √3 ≈ 1.73 apart: beyond the Actual
+    // Horizon 1.6 in the reference configuration, inside it once the body is compressed to
+    // 0.9 (1.56). Moving that neighbour changes the point's stress only in the second case.
+    let mut body = hypoelastic_body(0.05);
+    let index = |x: [f64; 3]| body.points.position.iter().position(|p| *p == x).unwrap();
+    let (i, j) = (index([2.0, 2.0, 2.0]), index([3.0, 3.0, 3.0]));
+    let nudge = [0.01, -0.02, 0.015];
+    let mut stress_change = |scale: f64| {
+        let stretch = Tensor::from_diagonal(&nalgebra::Vector3::new(scale * 1.001, scale, scale));
+        let y = body.affine(&stretch);
+        body.force(&y);
+        let before = body.tensor_field(fields::CAUCHY_STRESS, i);
+        let mut moved = y.clone();
+        for r in 0..3 {
+            moved[j][r] += nudge[r];
+        }
+        body.force(&moved);
+        let after = body.tensor_field(fields::CAUCHY_STRESS, i);
+        (max_difference(&after, &before), before.abs().max())
+    };
+    let (change, scale) = stress_change(1.0);
+    assert!(scale > 0.0);
+    assert_eq!(
+        change, 0.0,
+        "a bond beyond the Actual Horizon shaped the stress"
+    );
+    // Inside, the nudge moves a bond of weight ω(1.56/1.6) ≈ 0.1 by ~1 % of its length: a
+    // change far above the round-off (1e-15 of the stress) of an unchanged family.
+    let (change, scale) = stress_change(0.9);
+    assert!(change > 1e-6 * scale, "{change} vs {scale}");
+}
+
+/// The text of a one-block QuickGrid deck (4×4×4 points, Horizon 0.6) with the material
+/// list `material`.
+fn deck_text(material: &str) -> String {
+    format!(
+        r#"Peridigm:
+  Discretization:
+    Type: "PdQuickGrid"
+    NeighborhoodType: "Spherical"
+    TensorProduct3DMeshGenerator:
+      X Origin: 0.0
+      Y Origin: 0.0
+      Z Origin: 0.0
+      X Length: 1.0
+      Y Length: 1.0
+      Z Length: 1.0
+      Number Points X: 4
+      Number Points Y: 4
+      Number Points Z: 4
+  Materials:
+    M:
+{material}
+  Blocks:
+    B: {{Block Names: "block_1", Material: "M", Horizon: 0.6}}
+  Solver:
+    Final Time: 1.0
+    QuasiStatic: {{Number of Load Steps: 1}}
+"#
+    )
+}
+
+/// The three hypoelastic models with the keys of Peridigm's verification deck (reference
+/// §3.3: Actual Horizon below the block Horizon) and `extra` keys.
+fn hypoelastic_decks(extra: &str) -> Vec<(&'static str, String)> {
+    [
         ("Elastic Hypoelastic Correspondence", ""),
         (
             "Elastic Plastic Hypoelastic Correspondence",
@@ -844,22 +1192,195 @@ fn the_hypoelastic_models_are_refused_by_name() {
             "Isotropic Hardening Hypoelastic Correspondence",
             "\n      Yield Stress: 150.0e6\n      Hardening Modulus: 1.0e9",
         ),
-    ] {
-        let deck = deck_with(&format!(
-            "      Material Model: \"{model}\"\n      Density: 7800.0\n      Young's Modulus: 200.0e9\n      Poisson's Ratio: 0.3\n      Actual Horizon: 0.5{extra}"
-        ));
-        assert_eq!(
-            crate::setup::report::unsupported_features(&deck),
-            vec![format!("material model {model}")]
-        );
+    ]
+    .into_iter()
+    .map(|(model, plastic)| {
+        (
+            model,
+            format!(
+                "      Material Model: \"{model}\"\n      Density: 7800.0\n      Young's Modulus: 200.0e9\n      Poisson's Ratio: 0.3{plastic}{extra}"
+            ),
+        )
+    })
+    .collect()
+}
+
+/// The error of building the physics of `deck`, which must fail.
+fn physics_error(deck: &crate::io::deck::Deck) -> String {
+    let points = crate::setup::build(deck).unwrap();
+    crate::setup::build_physics(deck, &points)
+        .err()
+        .expect("the physics must be refused")
+        .to_string()
+}
+
+#[test]
+fn the_hypoelastic_models_load_their_keys_and_build() {
+    for (model, material) in hypoelastic_decks(
+        "\n      Actual Horizon: 0.5\n      Gradient Order Of Accuracy: 1\n      Hourglass Coefficient: 0.02",
+    ) {
+        let deck = deck_with(&material);
+        assert!(deck.warnings.is_empty(), "{:?}", deck.warnings);
+        assert!(crate::setup::report::unsupported_features(&deck).is_empty());
         let points = crate::setup::build(&deck).unwrap();
-        let error = crate::setup::build_physics(&deck, &points)
-            .err()
-            .unwrap()
-            .to_string();
+        let physics = crate::setup::build_physics(&deck, &points).unwrap();
+        assert_eq!(physics.blocks[0].material.model_name(), model);
+        assert_eq!(physics.blocks[0].material.horizon(), 0.6);
+    }
+    // Peridigm's decks give no Hourglass Coefficient: it defaults to 0.
+    for (model, material) in hypoelastic_decks("\n      Actual Horizon: 0.6") {
+        let points_deck = deck_with(&material);
+        let points = crate::setup::build(&points_deck).unwrap();
+        let physics = crate::setup::build_physics(&points_deck, &points).unwrap();
+        assert_eq!(physics.blocks[0].material.model_name(), model);
+    }
+}
+
+#[test]
+fn hypoelastic_deck_mistakes_are_named() {
+    for (_, material) in hypoelastic_decks("") {
+        let text = deck_text(&material);
+        let error = crate::io::deck::parse_str(
+            &text,
+            crate::io::deck::DeckFormat::Yaml,
+            std::path::Path::new("deck.yaml"),
+        )
+        .expect_err("Actual Horizon is required")
+        .to_string();
+        assert!(error.contains("Actual Horizon"), "{error}");
+    }
+    for (_, material) in hypoelastic_decks("\n      Actual Horizon: 0.7") {
+        let error = physics_error(&deck_with(&material));
         assert!(
-            error.contains(&format!("\"{model}\" is not available")),
+            error.contains("`Actual Horizon` (0.7) is larger than the block's `Horizon` (0.6)"),
             "{error}"
         );
     }
+    for (_, material) in
+        hypoelastic_decks("\n      Actual Horizon: 0.5\n      Gradient Order Of Accuracy: 2")
+    {
+        let error = physics_error(&deck_with(&material));
+        assert!(
+            error.contains("`Gradient Order Of Accuracy` is 2"),
+            "{error}"
+        );
+    }
+    let mut input = hypoelastic_input(0.0, HORIZON, ACTUAL_HORIZON);
+    input.influence = InfluenceFunction::user(|zeta, _| 1.0 / zeta);
+    assert_eq!(
+        ElasticHypoelasticCorrespondence::build(&input).err(),
+        Some(MaterialError::UserInfluenceNotSupported {
+            model: "Elastic Hypoelastic Correspondence"
+        })
+    );
+}
+
+#[test]
+fn a_hypoelastic_bar_under_small_quasi_static_strain_matches_elastic_correspondence() {
+    // A 12 × 3 × 3 bar (spacing 1, δ = 2.1) pulled to 0.1 % strain in two load steps, once
+    // with `Elastic Correspondence` and once with `Elastic Hypoelastic Correspondence` with
+    // Actual Horizon = Horizon. Both start from the same bonds and ω; they differ only by
+    // where the gradient is measured (reference vs current family, ω of the current length)
+    // and by the force's current-configuration form, all terms of relative order of the strain
+    // (1e-3): the displacements must agree to 1 % of the pull, ten times that order (they
+    // differ by 5e-4 of it).
+    let dir = std::env::temp_dir().join(format!("peridyn-hypoelastic-{}", std::process::id()));
+    let run = |model: &str, extra: &str| -> Vec<f64> {
+        let out = dir.join(model.replace(' ', "_"));
+        std::fs::create_dir_all(&out).unwrap();
+        let text = quasi_static_bar(model, extra);
+        let origin = out.join("deck.yaml");
+        let deck =
+            crate::io::deck::parse_str(&text, crate::io::deck::DeckFormat::Yaml, &origin).unwrap();
+        let model = crate::setup::build(&deck).unwrap();
+        crate::simulation::run(&deck, &model, &out).unwrap();
+        let file = crate::io::exodus::ExodusFile::open(&out.join("bar.e")).unwrap();
+        let last = file.times.len() - 1;
+        ["DisplacementX", "DisplacementY", "DisplacementZ"]
+            .iter()
+            .flat_map(|name| {
+                let index = file
+                    .nodal_variable_names
+                    .iter()
+                    .position(|n| n == name)
+                    .unwrap();
+                file.nodal_values(last, index).unwrap()
+            })
+            .collect()
+    };
+    let lagrangian = run("Elastic Correspondence", "");
+    let hypoelastic = run(
+        "Elastic Hypoelastic Correspondence",
+        "\n      Actual Horizon: 2.1",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+    let pull = 0.011;
+    let largest = lagrangian.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!((largest - pull).abs() < 1e-12, "{largest}");
+    let difference = lagrangian
+        .iter()
+        .zip(&hypoelastic)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(difference < 1e-2 * pull, "{difference}");
+}
+
+/// The bar of the end-to-end check with material `model` and its `extra` keys.
+fn quasi_static_bar(model: &str, extra: &str) -> String {
+    let face = |x: usize| -> String {
+        (0..9)
+            .map(|k| (1 + x + 12 * k).to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    format!(
+        r#"Peridigm:
+  Discretization:
+    Type: "PdQuickGrid"
+    NeighborhoodType: "Spherical"
+    TensorProduct3DMeshGenerator:
+      X Origin: 0.0
+      Y Origin: 0.0
+      Z Origin: 0.0
+      X Length: 12.0
+      Y Length: 3.0
+      Z Length: 3.0
+      Number Points X: 12
+      Number Points Y: 3
+      Number Points Z: 3
+  Materials:
+    Steel:
+      Material Model: "{model}"
+      Density: 7800.0
+      Young's Modulus: 200.0e9
+      Poisson's Ratio: 0.0
+      Hourglass Coefficient: 0.02{extra}
+  Blocks:
+    Bar:
+      Block Names: "block_1"
+      Material: "Steel"
+      Horizon: 2.1
+  Boundary Conditions:
+    Left Node Set: "{left}"
+    Right Node Set: "{right}"
+    Hold X: {{Type: "Prescribed Displacement", Node Set: "Left Node Set", Coordinate: "x", Value: "0.0"}}
+    Hold Y: {{Type: "Prescribed Displacement", Node Set: "Left Node Set", Coordinate: "y", Value: "0.0"}}
+    Hold Z: {{Type: "Prescribed Displacement", Node Set: "Left Node Set", Coordinate: "z", Value: "0.0"}}
+    Pull X: {{Type: "Prescribed Displacement", Node Set: "Right Node Set", Coordinate: "x", Value: "0.011*t"}}
+    Pull Y: {{Type: "Prescribed Displacement", Node Set: "Right Node Set", Coordinate: "y", Value: "0.0"}}
+    Pull Z: {{Type: "Prescribed Displacement", Node Set: "Right Node Set", Coordinate: "z", Value: "0.0"}}
+  Solver:
+    Final Time: 1.0
+    QuasiStatic:
+      Number of Load Steps: 2
+      Absolute Tolerance: 1.0e-2
+      Maximum Solver Iterations: 20
+  Output:
+    Output Filename: "bar"
+    Output Frequency: 1
+    Output Variables:
+      Displacement: true
+"#,
+        left = face(0),
+        right = face(11),
+    )
 }
