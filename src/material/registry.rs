@@ -8,8 +8,8 @@
 use super::{
     BondBased, ElasticCorrespondence, ElasticPlastic, ElasticPlasticCorrespondence, ElasticStress,
     HardeningPlasticStress, InfluenceFunction, IsotropicHardeningCorrespondence,
-    LinearPeridynamicSolid, Material, MaterialError, NeedlemanStress, PerfectlyPlasticStress,
-    PlasticityInput, StressModel, ViscoplasticNeedlemanCorrespondence,
+    LinearPeridynamicSolid, Material, MaterialError, NeedlemanStress, Pals, PalsInfluence,
+    PerfectlyPlasticStress, PlasticityInput, StressModel, ViscoplasticNeedlemanCorrespondence,
 };
 use crate::model::ModelDeclaration;
 
@@ -37,6 +37,9 @@ pub struct MaterialInput {
     pub influence: InfluenceFunction,
     /// The parameters of a correspondence model (`None` for other models).
     pub correspondence: Option<CorrespondenceInput>,
+    /// The two base influence functions of `Pals` (`None` for other models, and for `Pals`
+    /// Peridigm's default `One` for both).
+    pub pals: Option<PalsInfluence>,
 }
 
 /// The deck parameters of a correspondence model besides its elastic constants.
@@ -98,6 +101,10 @@ pub static MATERIALS: &[MaterialEntry] = &[
     MaterialEntry {
         declaration: &ElasticPlastic::DECLARATION,
         build: ElasticPlastic::build,
+    },
+    MaterialEntry {
+        declaration: &Pals::DECLARATION,
+        build: Pals::build,
     },
     MaterialEntry {
         declaration: &<ElasticStress as StressModel>::DECLARATION,
@@ -162,6 +169,7 @@ mod tests {
                         reference_strain_1: 1.0,
                     }),
                 }),
+                pals: None,
             };
             let material = (entry.build)(&input).unwrap();
             assert_eq!(material.model_name(), name);
@@ -182,6 +190,7 @@ mod tests {
             plasticity: None,
             influence: InfluenceFunction::One,
             correspondence: None,
+            pals: None,
         };
         let error = (material_entry("Elastic").unwrap().build)(&input).err();
         assert_eq!(

@@ -40,6 +40,7 @@ fn material(hourglass: f64) -> Box<dyn Material> {
             flaw: None,
             viscoplastic: None,
         }),
+        pals: None,
     })
     .unwrap()
 }
@@ -535,6 +536,7 @@ fn the_plastic_tangent_matches_finite_differences_while_yielding() {
             flaw: None,
             viscoplastic: None,
         }),
+        pals: None,
     })
     .unwrap();
     m.setup(
@@ -690,6 +692,7 @@ fn needleman_body() -> Body {
                     reference_strain_1: 1.0,
                 }),
             }),
+            pals: None,
         })
         .unwrap(),
     )
