@@ -1,6 +1,6 @@
 //! The position-aware linear solid, Peridigm's `Pals` material (J. A. Mitchell, S. A. Silling,
 //! D. J. Littlewood, "A position-aware linear solid constitutive model for peridynamics",
-//! J. Mech. Mater. Struct. 10(5) 539–557, 2015; reference §1.3).
+//! J. Mech. Mater. Struct. 10(5) 539–557, 2015).
 //!
 //! The LPS with two influence functions per point instead of one: ω for the dilatation and σ
 //! for the deviatoric part, each the deck's base function (`Dilatation Influence Function` ω₀,
