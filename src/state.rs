@@ -47,6 +47,10 @@ pub struct State {
     /// Contact's last search and force ([`crate::contact::Contact::initial_state`]), when the
     /// run has contact. Explicit steps only, which commit every step: not staged.
     pub contact: Option<ContactState>,
+    /// u_n, the displacement at the start of the quasi-static load step being solved (`None`
+    /// outside one). While set, [`State::update_current_position`] forms Y as Peridigm's
+    /// quasi-static solver does, from the step's start and its increment.
+    pub step_start: Option<Vec<[f64; 3]>>,
 }
 
 impl State {
@@ -64,6 +68,7 @@ impl State {
             bond_damage: None,
             history: History::default(),
             contact: None,
+            step_start: None,
         }
     }
 
@@ -80,15 +85,34 @@ impl State {
         self
     }
 
-    /// Y = X + u.
+    /// Y = X + u; inside a quasi-static load step ([`State::step_start`] set) rounded as
+    /// Peridigm's solver rounds it, `Y = (X + u_n) + (u − u_n)`. The two differ in the last bit
+    /// only, but quantities that cancel to second order in the motion (the dilatation of a
+    /// simple shear, and the forces of interior points that follow from it) amplify that bit
+    /// to their own size, and Peridigm's gold files compare them relatively.
     pub fn update_current_position(&mut self, reference: &[[f64; 3]]) {
-        for ((y, x), u) in self
-            .current_position
-            .iter_mut()
-            .zip(reference)
-            .zip(&self.displacement)
-        {
-            *y = [x[0] + u[0], x[1] + u[1], x[2] + u[2]];
+        match &self.step_start {
+            None => {
+                for ((y, x), u) in self
+                    .current_position
+                    .iter_mut()
+                    .zip(reference)
+                    .zip(&self.displacement)
+                {
+                    *y = [x[0] + u[0], x[1] + u[1], x[2] + u[2]];
+                }
+            }
+            Some(start) => {
+                for (((y, x), u), s) in self
+                    .current_position
+                    .iter_mut()
+                    .zip(reference)
+                    .zip(&self.displacement)
+                    .zip(start)
+                {
+                    *y = [0, 1, 2].map(|k| (x[k] + s[k]) + (u[k] - s[k]));
+                }
+            }
         }
     }
 
@@ -228,5 +252,20 @@ mod tests {
         );
         assert_eq!(state.history.field("Lambda").unwrap().trial().len(), 2);
         assert!(state.history.field("Back_Extension").is_none());
+    }
+
+    #[test]
+    fn inside_a_load_step_the_position_is_rounded_from_the_step_start() {
+        // Numbers for which (X + u_n) + (u − u_n) and X + u differ in the last bit:
+        // 0.028348745054178132 against 0.028348745054178136 (Python floats, IEEE doubles).
+        let x = 0.02834747652200631;
+        let (start, end) = (8.357651039198697e-07, 1.268532171824923e-06);
+        let mut state = State::at_rest(&[[x, 0.0, 0.0]], 0.0, false);
+        state.displacement[0][0] = end;
+        state.update_current_position(&[[x, 0.0, 0.0]]);
+        assert_eq!(state.current_position[0][0], 0.028348745054178136);
+        state.step_start = Some(vec![[start, 0.0, 0.0]]);
+        state.update_current_position(&[[x, 0.0, 0.0]]);
+        assert_eq!(state.current_position[0][0], 0.028348745054178132);
     }
 }

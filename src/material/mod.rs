@@ -31,6 +31,7 @@ mod elastic_plastic;
 pub(crate) mod generic_force;
 mod influence;
 mod linear_peridynamic_solid;
+mod pals;
 mod registry;
 
 pub use bond_based::{BondBased, BondBasedParameters};
@@ -51,6 +52,7 @@ pub use elastic_plastic::{
 };
 pub use influence::{InfluenceFunction, UserInfluence};
 pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};
+pub use pals::{Multipliers, Pals, PalsInfluence, MULTIPLIERS};
 pub use registry::{
     material_entry, CorrespondenceInput, HypoelasticInput, MaterialConstructor, MaterialEntry,
     MaterialInput, MATERIALS,
@@ -143,6 +145,34 @@ pub enum MaterialError {
         /// Peridigm's `Material Model` string.
         model: &'static str,
     },
+    /// A model that evaluates both ends of every bond of its block itself (`Pals`) found a bond
+    /// between its block and another block.
+    #[error(
+        "point {point} is bonded across the boundary of a \"{model}\" block, which needs every \
+         bond of its points to stay inside the block; give the bonded points one block or \
+         separate the blocks by more than the horizon"
+    )]
+    BondLeavesBlock {
+        /// Peridigm's `Material Model` string.
+        model: &'static str,
+        /// The point (run index; the set-up renames it by its input number).
+        point: usize,
+    },
+    /// A point's bonds do not determine the influence-function corrections of the model
+    /// (`Pals`: a singular 6×6 Lagrange-multiplier system).
+    #[error(
+        "point {point} has {bonds} bond(s), too few or too regular to fit the \"{model}\" \
+         influence functions (the Lagrange-multiplier system is singular); enlarge the horizon \
+         or refine the discretization there"
+    )]
+    SingularInfluenceSystem {
+        /// Peridigm's `Material Model` string.
+        model: &'static str,
+        /// The point (run index; the set-up renames it by its input number).
+        point: usize,
+        /// Its number of bonds.
+        bonds: usize,
+    },
     /// The influence function gave a negative or non-finite weight.
     #[error(
         "the `Influence Function` gives ω = {value} for bond length ζ = {zeta} with horizon \
@@ -201,7 +231,10 @@ pub(crate) fn checked_differentiated_tangent_method(
 /// * state-based (LPS): `t_ij = (1−d)·ω·[isotropic_i·ζ + (1−d)·deviatoric_i·e]` with
 ///   `isotropic = (3K − 5μ)θ/m`, `deviatoric = 15μ/m`;
 /// * bond-based (PMB): `t_ij = isotropic_i·(1−d)·e/ζ` with `isotropic = c/2`
-///   (half the micromodulus, because each pair is visited from both ends).
+///   (half the micromodulus, because each pair is visited from both ends);
+/// * `Pals`: `t_ij = (1−d)·[isotropic_i·ω_ij·ζ + deviatoric_i·σ_ij·(e − θ_i ζ/3)]` with
+///   `isotropic = p` (its pressure) and `deviatoric = 2μ`, ω and σ the point's own per-bond
+///   influence functions.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct PointCoefficients {
     /// Dilatation θ (dimensionless); 0 for bond-based materials.
@@ -254,6 +287,14 @@ pub trait Material: Send + Sync {
         reference: &ReferenceView<'_>,
         points: Vec<u32>,
     ) -> Result<(), MaterialError>;
+
+    /// The points' 0-based numbers in the input (indexed by run order), given before
+    /// [`Material::setup`]. A model whose reference-configuration sums must round as
+    /// Peridigm's, which adds a family in input order, keeps them (`Pals`); the default ignores
+    /// them.
+    fn input_numbering(&mut self, original_id: &[u32]) {
+        let _ = original_id;
+    }
 
     /// The block's points given to [`Material::setup`].
     fn points(&self) -> &[u32];
@@ -345,6 +386,15 @@ pub trait Material: Send + Sync {
         coefficients: &[PointCoefficients],
         energy_density: &mut [f64],
     );
+
+    /// The values of the point output `name` (a name of the declaration's `outputs` that the
+    /// model keeps itself, e.g. `Pals`' `Lagrange_Multiplier_Dilatation_1`) for each block
+    /// point in the order of [`Material::points`]; `None` (the default) for names the model
+    /// does not provide this way.
+    fn point_output(&self, name: &str) -> Option<Vec<f64>> {
+        let _ = name;
+        None
+    }
 
     /// Weighted volume m of each block point in the order of [`Material::points`]
     /// (Peridigm's `Weighted_Volume`), for state-based models; `None` otherwise.

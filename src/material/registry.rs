@@ -10,7 +10,7 @@ use super::{
     ElasticPlasticCorrespondence, ElasticPlasticHypoelasticCorrespondence, ElasticStress,
     HardeningPlasticStress, HypoelasticStress, InfluenceFunction, IsotropicHardeningCorrespondence,
     IsotropicHardeningHypoelasticCorrespondence, LinearPeridynamicSolid, Material, MaterialError,
-    NeedlemanStress, PerfectlyPlasticStress, PlasticityInput, StressModel,
+    NeedlemanStress, Pals, PalsInfluence, PerfectlyPlasticStress, PlasticityInput, StressModel,
     ViscoplasticNeedlemanCorrespondence,
 };
 use crate::model::ModelDeclaration;
@@ -39,6 +39,9 @@ pub struct MaterialInput {
     pub influence: InfluenceFunction,
     /// The parameters of a correspondence model (`None` for other models).
     pub correspondence: Option<CorrespondenceInput>,
+    /// The two base influence functions of `Pals` (`None` for other models, and for `Pals`
+    /// Peridigm's default `One` for both).
+    pub pals: Option<PalsInfluence>,
 }
 
 /// The deck parameters of a correspondence model besides its elastic constants.
@@ -112,6 +115,10 @@ pub static MATERIALS: &[MaterialEntry] = &[
     MaterialEntry {
         declaration: &ElasticPlastic::DECLARATION,
         build: ElasticPlastic::build,
+    },
+    MaterialEntry {
+        declaration: &Pals::DECLARATION,
+        build: Pals::build,
     },
     MaterialEntry {
         declaration: &<ElasticStress as StressModel>::DECLARATION,
@@ -192,6 +199,7 @@ mod tests {
                         gradient_order_of_accuracy: 1,
                     }),
                 }),
+                pals: None,
             };
             let material = (entry.build)(&input).unwrap();
             assert_eq!(material.model_name(), name);
@@ -212,6 +220,7 @@ mod tests {
             plasticity: None,
             influence: InfluenceFunction::One,
             correspondence: None,
+            pals: None,
         };
         let error = (material_entry("Elastic").unwrap().build)(&input).err();
         assert_eq!(

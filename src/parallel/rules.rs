@@ -8,8 +8,9 @@ use crate::io::deck::{Deck, Integrator, PointSource, QuickGridGenerator};
 /// solvers on the native backend (the distributed linear and nonlinear solves are
 /// Trilinos'), and contact in a deck with an implicit
 /// solver (contact acts only in `Verlet` steps, where [`crate::contact::Contact::on_ranks`]
-/// gives every rank the one-rank candidates and forces), and materials with history (its
-/// staged fields are not exchanged between ranks).
+/// gives every rank the one-rank candidates and forces), materials with history (its
+/// staged fields are not exchanged between ranks), and `Pals` (its per-point influence
+/// functions need whole families).
 pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), Unsupported> {
     for solver in &deck.solvers {
         crate::backend::factory::check_ranks(solver, ranks)?;
@@ -21,6 +22,12 @@ pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), Unsupported>
             return Err(Unsupported(format!(
                 "material \"{}\" ({}) on {ranks} ranks is not available: its history fields are not exchanged between ranks yet; run on one rank (threads: `--threads`)",
                 material.name, declaration.deck_name
+            )));
+        }
+        if declared == Some(&crate::material::Pals::DECLARATION) {
+            return Err(Unsupported(format!(
+                "material \"{}\" (Pals) on {ranks} ranks is not available: its influence functions are fitted to whole families, which a rank's ghost points do not have; run on one rank (threads: `--threads`)",
+                material.name
             )));
         }
     }

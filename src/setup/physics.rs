@@ -45,7 +45,7 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
     for block in &model.blocks {
         let entry = &deck.blocks[block.deck_block];
         let horizon = block_horizon(deck, entry)?;
-        let material = build_material(deck, entry, horizon, &influence, &reference, block)
+        let material = build_material(deck, entry, horizon, &influence, &reference, model, block)
             .map_err(|e| name_the_point(e, &model.points.original_id))?;
         let mut damage = match &entry.damage_model {
             None => None,
@@ -107,7 +107,34 @@ fn point_critical_stretch(deck: &Deck, model: &Model) -> Option<Arc<[f64]>> {
 
 /// `error` with a point named by its run index renamed by its number in the input (1-based).
 fn name_the_point(error: SetupError, original_id: &[u32]) -> SetupError {
+    let input_number = |point: usize| original_id.get(point).map_or(point, |&id| id as usize + 1);
     match error {
+        SetupError::SingularPoint {
+            block,
+            error: MaterialError::BondLeavesBlock { model, point },
+        } => SetupError::SingularPoint {
+            block,
+            error: MaterialError::BondLeavesBlock {
+                model,
+                point: input_number(point),
+            },
+        },
+        SetupError::SingularPoint {
+            block,
+            error:
+                MaterialError::SingularInfluenceSystem {
+                    model,
+                    point,
+                    bonds,
+                },
+        } => SetupError::SingularPoint {
+            block,
+            error: MaterialError::SingularInfluenceSystem {
+                model,
+                point: input_number(point),
+                bonds,
+            },
+        },
         SetupError::SingularPoint {
             block,
             error:
@@ -133,6 +160,7 @@ fn build_material(
     horizon: f64,
     influence: &InfluenceFunction,
     reference: &ReferenceView<'_>,
+    model: &Model,
     block: &super::ModelBlock,
 ) -> Result<Box<dyn Material>, SetupError> {
     let key_material = ["Materials", entry.material.as_str()];
@@ -167,13 +195,17 @@ fn build_material(
         plasticity: material.model.plasticity_input(),
         influence: influence.clone(),
         correspondence: material.model.correspondence_input(),
+        pals: material.model.pals_input(),
     };
     let mut built =
         (registered.build)(&input).map_err(|e| deck.error_at(&key_material, e.to_string()))?;
+    built.input_numbering(&model.points.original_id);
     built
         .setup(reference, block.points.clone())
         .map_err(|e| match e {
-            MaterialError::SingularShapeTensor { .. } => SetupError::SingularPoint {
+            MaterialError::SingularShapeTensor { .. }
+            | MaterialError::BondLeavesBlock { .. }
+            | MaterialError::SingularInfluenceSystem { .. } => SetupError::SingularPoint {
                 block: entry.name.clone(),
                 error: e,
             },

@@ -331,7 +331,27 @@ impl FieldSource for Fields<'_> {
                 .zip(&points.volume)
                 .map(|(w, v)| w * v)
                 .collect(),
-            _ => return None,
+            // A field a material keeps itself (e.g. `Pals`' Lagrange multipliers); zero on the
+            // points of other blocks, and everywhere when no block's model keeps it.
+            _ => {
+                let declared = crate::material::MATERIALS
+                    .iter()
+                    .any(|entry| entry.declaration.outputs.contains(&name));
+                let mut values = vec![0.0; n];
+                let mut found = false;
+                for block in &self.physics.blocks {
+                    if let Some(block_values) = block.material.point_output(name) {
+                        found = true;
+                        for (&p, value) in block.material.points().iter().zip(block_values) {
+                            values[p as usize] = value;
+                        }
+                    }
+                }
+                if !(found || declared) {
+                    return None;
+                }
+                values
+            }
         }))
     }
 

@@ -19,6 +19,9 @@
 //!    returns [`QuasiStaticError::NotConverged`] (the run stops with exit code 3, or continues
 //!    explicitly with `Switch to Verlet`);
 //! 6. on acceptance: `v = (u − u_n)/Δt`, damage committed, output.
+//!
+//! During a step the current positions are `(X + u_n) + (u − u_n)`, rounded as Peridigm
+//! rounds them ([`State::step_start`]).
 
 use crate::backend::SolveError;
 use crate::boundary::BoundaryError;
@@ -167,6 +170,7 @@ pub fn run<E: From<QuasiStaticError>>(
             start_displacement: state.displacement.clone(),
             start_velocity: state.velocity.clone(),
         };
+        state.step_start = Some(step.start_displacement.clone());
         state.history.set_step_duration(to - from);
         let mut system = ImplicitSystem::new(
             DofMap::new(model.points.len(), &stepping.constrained, &[]),
@@ -388,6 +392,7 @@ impl LoadStep {
     /// Puts the state back to the start of the step (it is redone, or the run stops).
     fn restore(&self, state: &mut State) {
         state.restore();
+        state.step_start = None;
         state.displacement.copy_from_slice(&self.start_displacement);
         state.velocity.copy_from_slice(&self.start_velocity);
     }
@@ -404,6 +409,7 @@ impl LoadStep {
         }
         state.time = self.to;
         state.commit();
+        state.step_start = None;
     }
 }
 

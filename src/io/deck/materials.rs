@@ -959,6 +959,26 @@ impl MaterialModel {
         Some(input)
     }
 
+    /// The two base influence functions of `Pals`; `None` for other models.
+    pub fn pals_input(&self) -> Option<crate::material::PalsInfluence> {
+        use crate::material::InfluenceFunction;
+        let function = |choice: PalsInfluence| match choice {
+            PalsInfluence::One => InfluenceFunction::One,
+            PalsInfluence::ParabolicDecay => InfluenceFunction::ParabolicDecay,
+            PalsInfluence::Gaussian => InfluenceFunction::Gaussian,
+        };
+        match *self {
+            MaterialModel::Pals {
+                dilatation_influence,
+                deviatoric_influence,
+            } => Some(crate::material::PalsInfluence {
+                dilatation: function(dilatation_influence),
+                deviatoric: function(deviatoric_influence),
+            }),
+            _ => None,
+        }
+    }
+
     /// `Yield Stress` and `Disable Plasticity` of the state-based plastic models; `None` for
     /// other models.
     pub fn plasticity_input(&self) -> Option<crate::material::PlasticityInput> {

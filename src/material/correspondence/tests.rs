@@ -41,6 +41,7 @@ fn material(hourglass: f64) -> Box<dyn Material> {
             viscoplastic: None,
             hypoelastic: None,
         }),
+        pals: None,
     })
     .unwrap()
 }
@@ -547,6 +548,7 @@ fn the_plastic_tangent_matches_finite_differences_while_yielding() {
             viscoplastic: None,
             hypoelastic: None,
         }),
+        pals: None,
     })
     .unwrap();
     m.setup(
@@ -703,6 +705,7 @@ fn needleman_body() -> Body {
                 }),
                 hypoelastic: None,
             }),
+            pals: None,
         })
         .unwrap(),
     )
@@ -849,6 +852,7 @@ fn hypoelastic_input(hourglass: f64, horizon: f64, actual_horizon: f64) -> Mater
                 gradient_order_of_accuracy: 1,
             }),
         }),
+        pals: None,
     }
 }
 
