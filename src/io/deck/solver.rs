@@ -704,9 +704,11 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, 
         _ => None,
     };
     let mut linear_solve = read_linear_solve(ctx, &mut list, belos)?;
-    // A Peridigm deck that names NOX gets NOX when this build has it.
+    // A Peridigm deck that names NOX gets NOX when this build has it; `Peridigm Preconditioner:
+    // "AMG"` is peridyn's own multigrid (no Peridigm deck has it), so such a list stays native.
     if matches!(integrator, Integrator::NoxQuasiStatic(_))
         && !linear_solve.backend_given
+        && peridigm_preconditioner != PeridigmPreconditioner::Amg
         && cfg!(feature = "trilinos")
     {
         linear_solve.backend = LinearBackend::TRILINOS_DEFAULT;
@@ -1045,7 +1047,16 @@ mod linear_solve_tests {
 
     /// [`deck`] whose `QuasiStatic` list also gets `quasi_static_keys`.
     fn deck_with(keys: &str, quasi_static_keys: &str) -> Result<crate::io::deck::Deck, DeckError> {
-        let text = format!(
+        parse_str(
+            &deck_text(keys, quasi_static_keys),
+            DeckFormat::Yaml,
+            Path::new("linear.yaml"),
+        )
+    }
+
+    /// The text of [`deck_with`].
+    fn deck_text(keys: &str, quasi_static_keys: &str) -> String {
+        format!(
             r#"Peridigm:
   Discretization:
     Type: "PdQuickGrid"
@@ -1082,8 +1093,7 @@ mod linear_solve_tests {
     Output Variables:
       Displacement: true
 "#
-        );
-        parse_str(&text, DeckFormat::Yaml, Path::new("linear.yaml"))
+        )
     }
 
     /// The warnings of the deck of [`linear_solve`] with `keys`.
@@ -1227,6 +1237,36 @@ mod linear_solve_tests {
             error.contains("\"AMG\" is a native preconditioner") && error.contains("\"ML\""),
             "{error}"
         );
+    }
+
+    /// The backend a `NOXQuasiStatic` list gets without a `Backend` key, with `Peridigm
+    /// Preconditioner` `preconditioner`.
+    fn nox_default_backend(preconditioner: &str) -> LinearBackend {
+        let text = deck_text("", "").replace(
+            "    QuasiStatic:\n      Number of Load Steps: 2\n",
+            &format!(
+                "    Peridigm Preconditioner: \"{preconditioner}\"\n    NOXQuasiStatic:\n      Number of Load Steps: 2\n      Direction: {{Method: \"Newton\", Newton: {{Linear Solver: {{Jacobian Operator: \"Matrix-Free\"}}}}}}\n"
+            ),
+        );
+        let deck = parse_str(&text, DeckFormat::Yaml, Path::new("nox.yaml")).unwrap();
+        assert!(matches!(
+            deck.solvers[0].integrator,
+            Integrator::NoxQuasiStatic(_)
+        ));
+        deck.solvers[0].linear_solve.backend
+    }
+
+    /// A deck that asks for peridyn's AMG stays on the native backend in a Trilinos build
+    /// (NOX would refuse it); Peridigm's own preconditioner values get NOX.
+    #[test]
+    fn nox_lists_asking_for_amg_stay_native() {
+        assert_eq!(nox_default_backend("AMG"), LinearBackend::Native);
+        let peridigm = nox_default_backend("Block 3x3");
+        if cfg!(feature = "trilinos") {
+            assert_eq!(peridigm, LinearBackend::TRILINOS_DEFAULT);
+        } else {
+            assert_eq!(peridigm, LinearBackend::Native);
+        }
     }
 
     #[cfg(feature = "trilinos")]
