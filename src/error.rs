@@ -99,6 +99,10 @@ impl RunError {
     /// that failed).
     pub fn exit_code(&self) -> u8 {
         match self {
+            // A condition that fails inside an implicit step is the deck's expression at fault,
+            // as in an explicit run.
+            RunError::QuasiStatic(QuasiStaticError::Boundary(_))
+            | RunError::Newmark(NewmarkError::Boundary(_)) => 2,
             RunError::Unstable { .. } | RunError::QuasiStatic(_) | RunError::Newmark(_) => 3,
             RunError::OtherRank { code, .. } => *code,
             RunError::Setup(_) | RunError::Input(_) | RunError::Boundary(_) => 2,

@@ -159,10 +159,11 @@ fn newmark_with_belos_gives_the_one_rank_answer_on_two_and_three_ranks() {
 }
 
 #[test]
-fn a_nan_residual_on_several_ranks_stops_every_rank_with_exit_code_3() {
+fn a_nan_condition_on_one_rank_stops_every_rank_with_its_exit_code() {
     let dir = tempfile::tempdir().unwrap();
     // √(0.75 − t) is NaN at t = 1: the second load step's prescribed shear, on the right end,
-    // which one rank owns; the others must stop too, at the same NOX call.
+    // which one rank owns; the others must stop too, at the same step, with that rank's exit
+    // code 2 (invalid input: the condition).
     let text = deck(
         "    Peridigm Preconditioner: \"Block 3x3\"",
         "            Jacobian Operator: \"Matrix-Free\"\n            Preconditioner: \"User Defined\"",
@@ -172,8 +173,11 @@ fn a_nan_residual_on_several_ranks_stops_every_rank_with_exit_code_3() {
     std::fs::write(dir.path().join("nan.yaml"), text).unwrap();
     let output = mpirun(dir.path(), 2, &["run", "nan.yaml", "--output-dir", "out"]);
     let log = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(3), "{log}");
-    assert!(log.contains("non-finite value in the residual"), "{log}");
+    assert_eq!(output.status.code(), Some(2), "{log}");
+    assert!(
+        log.contains("boundary condition \"Pull Y\" at t = 1"),
+        "{log}"
+    );
 }
 
 #[test]

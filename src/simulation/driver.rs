@@ -439,14 +439,23 @@ impl Run<'_> {
             .and_then(|a| a.switch_to_verlet.clone());
         match (result, switch) {
             (Ok(_), _) => Ok(()),
-            // Every rank stops at the same call; the rank whose evaluation failed reports why.
+            // Every rank stops at the same call; the rank whose evaluation (or condition)
+            // failed reports why, and every rank exits with its code.
             (
                 Err(RunError::QuasiStatic(QuasiStaticError::Solve {
                     source: SolveError::OtherRank,
                     ..
                 })),
                 _,
-            ) => Err(RunError::OtherRank { rank: 0, code: 3 }),
+            ) => Err(agree_on_failure(self.ranks.communicator(), None)),
+            (
+                Err(
+                    error @ RunError::QuasiStatic(
+                        QuasiStaticError::Solve { .. } | QuasiStaticError::Boundary(_),
+                    ),
+                ),
+                _,
+            ) => Err(agree_on_failure(self.ranks.communicator(), Some(error))),
             (
                 Err(RunError::QuasiStatic(error @ QuasiStaticError::NotConverged { .. })),
                 Some(verlet),
@@ -539,11 +548,15 @@ impl Run<'_> {
         );
         match result {
             Ok(()) => Ok(()),
-            // Every rank stops at the same call; the rank whose evaluation failed reports why.
+            // Every rank stops at the same call; the rank whose evaluation (or condition)
+            // failed reports why, and every rank exits with its code.
             Err(RunError::Newmark(NewmarkError::Solve {
                 source: SolveError::OtherRank,
                 ..
-            })) => Err(RunError::OtherRank { rank: 0, code: 3 }),
+            })) => Err(agree_on_failure(self.ranks.communicator(), None)),
+            Err(
+                error @ RunError::Newmark(NewmarkError::Solve { .. } | NewmarkError::Boundary(_)),
+            ) => Err(agree_on_failure(self.ranks.communicator(), Some(error))),
             Err(error @ RunError::Newmark(NewmarkError::NotConverged { .. })) => {
                 Err(collective(self.ranks.communicator(), error))
             }
