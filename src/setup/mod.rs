@@ -11,7 +11,7 @@ pub mod report;
 mod validate;
 
 pub use physics::build_physics;
-pub use report::{plan, unsupported_features};
+pub use report::unsupported_features;
 pub use validate::{validate, validate_points};
 
 use crate::boundary::{BoundaryConditions, Condition, ConditionKind};
@@ -396,6 +396,13 @@ fn refuse_coincident_points(deck: &Deck, points: &PointCloud) -> Result<(), Deck
         }
     }
     Ok(())
+}
+
+/// The run plan `peridyn check` prints for a model set up from `deck`, after the checks
+/// `peridyn run` makes too ([`validate`]), so that both accept and refuse the same decks.
+pub fn plan(deck: &Deck, model: &Model) -> Result<crate::plan::RunPlan, DeckError> {
+    validate(deck, model)?;
+    report::plan(deck, model)
 }
 
 /// Builds the model: discretize, assign blocks, horizons, node sets, conditions, reorder along

@@ -360,9 +360,8 @@ fn parallel_plan(deck: &Deck, explicit: bool, implicit: bool) -> ParallelPlan {
     }
 }
 
-/// Builds the plan for a model set up from `deck`.
-pub fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
-    super::validate(deck, model)?;
+/// Builds the plan for a model set up from `deck` (validated by [`super::plan`]).
+pub(super) fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
     let used = used_declarations(deck, model);
     let physics = physics_plan(deck, model, &used);
     let fields = field_plans(model, &used, physics.contact);

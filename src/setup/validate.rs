@@ -2,9 +2,9 @@
 //! run` both make before anything runs, so that what one accepts the other runs and what one
 //! refuses the other refuses alike (exit code 2, file, key path and line).
 
+use crate::compute::prepare_compute_classes;
 use crate::io::deck::{Deck, DeckError, Integrator};
 use crate::model::Model;
-use crate::simulation::prepare_compute_classes;
 use crate::solver::{step_count, MAX_STEPS};
 
 use super::report::{critical_time_step, requested_variables};
