@@ -65,6 +65,7 @@ pub fn measured_critical_time_step(
     normalise(&mut vector, &mass);
     let mut probe = vec![[0.0; 3]; n];
     let mut force = vec![[0.0; 3]; n];
+    let mut next = vec![[0.0; 3]; n];
     let mut previous = 0.0;
     let mut largest = 0.0_f64;
     for _ in 0..iterations {
@@ -76,7 +77,6 @@ pub fn measured_critical_time_step(
         }
         evaluate(physics, &probe, &mut force);
         // (ρ⁻¹K v)_i = −(f(X + s v) − f(X))_i / (s ρ_i).
-        let mut next = vec![[0.0; 3]; n];
         for i in 0..n {
             for k in 0..3 {
                 next[i][k] = -(force[i][k] - base[i][k]) / (scale * density[i]);
@@ -89,7 +89,7 @@ pub fn measured_critical_time_step(
         if !normalise(&mut next, &mass) {
             break;
         }
-        vector = next;
+        std::mem::swap(&mut vector, &mut next);
         if (rayleigh - previous).abs() <= CONVERGED * rayleigh.abs() {
             break;
         }
