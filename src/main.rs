@@ -140,6 +140,14 @@ fn load_with_backend(path: &Path, backend: Option<BackendChoice>) -> Result<deck
     Ok(deck)
 }
 
+/// The deck's warnings (keys accepted without effect, repeated keys, …), as `check` prints
+/// them, on standard error before a run starts.
+fn print_warnings(deck: &deck::Deck) {
+    for warning in &deck.warnings {
+        eprintln!("warning: {warning}");
+    }
+}
+
 fn build(deck: &deck::Deck) -> Result<peridyn::model::Model> {
     setup::build(deck).map_err(|e: SetupError| invalid(e))
 }
@@ -180,6 +188,7 @@ fn run(
         }
     }
     let deck = load_with_backend(path, backend)?;
+    print_warnings(&deck);
     let model = build(&deck)?;
     setup::validate(&deck, &model).map_err(invalid)?;
     let unsupported = setup::unsupported_features(&deck);
@@ -284,6 +293,9 @@ fn run_on_ranks_collectively(
         }
     };
     let deck = load_with_backend(path, backend).map_err(shared)?;
+    if rank == 0 {
+        print_warnings(&deck);
+    }
     let (model, families) = simulation::global_model(&deck).map_err(|e| shared(invalid(e)))?;
     setup::validate_points(&deck, &model).map_err(|e| shared(invalid(e)))?;
     let unsupported = setup::unsupported_features(&deck);

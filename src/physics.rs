@@ -107,6 +107,35 @@ impl Physics {
         Ok(())
     }
 
+    /// Sets the damage the bonds start the run with (`bond_damage` intact on entry): each
+    /// block's damage model initialises its rows ([`DamageModel::initialize`], e.g. the
+    /// pre-crack of `Initial Damage`), then the two directions of every bond between blocks
+    /// take the larger value, as after every update.
+    pub fn initialize_bond_damage(
+        &self,
+        bonds: &BondList,
+        points: &PointCloud,
+        bond_damage: &mut [f32],
+    ) {
+        let reference = ReferenceView::of(bonds, points);
+        for block in &self.blocks {
+            if let Some(damage) = &block.damage {
+                damage.initialize(&reference, block.material.points(), bond_damage);
+            }
+        }
+        self.make_interface_bonds_agree(bond_damage);
+    }
+
+    /// Gives both directions of every bond between two blocks the larger of their damages.
+    fn make_interface_bonds_agree(&self, bond_damage: &mut [f32]) {
+        for &(forward, backward) in &self.interface_bonds {
+            let (f, b) = (forward as usize, backward as usize);
+            let larger = bond_damage[f].max(bond_damage[b]);
+            bond_damage[f] = larger;
+            bond_damage[b] = larger;
+        }
+    }
+
     /// True when some block has a damage model, so the state carries bond damage.
     pub fn has_bond_damage(&self) -> bool {
         self.blocks.iter().any(|b| b.damage.is_some())
@@ -164,12 +193,7 @@ impl Physics {
                 broken += damage.update(&reference, current, block.material.points(), bond_damage);
             }
         }
-        for &(forward, backward) in &self.interface_bonds {
-            let (f, b) = (forward as usize, backward as usize);
-            let larger = bond_damage[f].max(bond_damage[b]);
-            bond_damage[f] = larger;
-            bond_damage[b] = larger;
-        }
+        self.make_interface_bonds_agree(bond_damage);
         self.update_history(&reference, current, Some(&bond_damage[..]), history);
         let history = &*history;
         // Fused blocks have no bond to another block, so nothing above reads or writes their

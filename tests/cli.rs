@@ -395,3 +395,75 @@ fn critical_stretch_needs_exactly_one_limit() {
         &["Damage Models → Brittle", "exactly one"],
     );
 }
+
+#[test]
+fn keys_peridigm_accepts_without_effect_warn_in_check_and_run_and_misspellings_stay_errors() {
+    let deck = BASE
+        .replacen(
+            "  Discretization:\n    Type: \"PdQuickGrid\"\n",
+            "  Optimization Based Coupling: true\n  Discretization:\n    Type: \"PdQuickGrid\"\n    Verbose: true\n    Store Exodus Mesh: true\n",
+            1,
+        )
+        .replacen(
+            "      Shear Modulus: 78.0e9\n",
+            "      Shear Modulus: 78.0e9\n      Compute Partial Stress: true\n      Verbose: true\n",
+            1,
+        )
+        .replacen(
+            "    Verlet:\n",
+            "    Jacobian Diagnostics: true\n    Verlet:\n",
+            1,
+        )
+        .replacen(
+            "    Output Frequency: 5\n",
+            "    Output Frequency: 5\n    Bond Family: true\n",
+            1,
+        );
+    let expected = [
+        (
+            "Optimization Based Coupling:",
+            "Optimization Based Coupling",
+        ),
+        ("    Verbose: true", "Discretization → Verbose"),
+        ("Store Exodus Mesh:", "Discretization → Store Exodus Mesh"),
+        (
+            "Compute Partial Stress:",
+            "Materials → Steel → Compute Partial Stress",
+        ),
+        ("      Verbose: true", "Materials → Steel → Verbose"),
+        ("Jacobian Diagnostics:", "Solver → Jacobian Diagnostics"),
+        ("Bond Family:", "Output → Bond Family"),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    write_deck(dir.path(), &deck);
+    let check = peridyn(&["check", "deck.yaml"], dir.path());
+    assert!(check.status.success(), "{}", stderr(&check));
+    let plan = String::from_utf8_lossy(&check.stdout).into_owned();
+    let run = peridyn(&["run", "deck.yaml"], dir.path());
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(dir.path().join("bar.e").exists(), "the run went on");
+    let log = stderr(&run);
+    for (needle, key) in expected {
+        // Lines are counted on the deck as written (the first match of the needle).
+        let line = line_of(&deck, needle);
+        let warning = format!("warning: deck.yaml:{line}: {key}: accepted but has no effect");
+        assert!(
+            plan.contains(&warning),
+            "{warning:?} missing from check:\n{plan}"
+        );
+        assert!(
+            log.contains(&warning),
+            "{warning:?} missing from run:\n{log}"
+        );
+    }
+    // A misspelt key is still an error with a hint, not a warning.
+    let misspelt = deck.replacen("Bond Family:", "Bond Famly:", 1);
+    write_deck(dir.path(), &misspelt);
+    let output = peridyn(&["check", "deck.yaml"], dir.path());
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("did you mean \"Bond Family\""),
+        "{}",
+        stderr(&output)
+    );
+}

@@ -461,3 +461,84 @@ fn search_radius_includes_the_skin_and_the_deck_value_when_larger() {
         assert_eq!(c.search_frequency(), 5);
     }
 }
+
+/// The contact list of one `Time Dependent Short Range Force` model "M" (r_c = 0.4, k = 3)
+/// whose `Friction Coefficient` is `friction` (an expression in t), between all blocks.
+fn time_dependent_contact(friction: &str) -> String {
+    format!(
+        "  Contact:\n    Search Radius: 1.0\n    Search Frequency: 1\n    Models:\n      M:\n        Contact Model: \"Time Dependent Short Range Force\"\n        Contact Radius: 0.4\n        Spring Constant: 3.0\n        Friction Coefficient: \"{friction}\"\n    Interactions:\n{}",
+        general("M")
+    )
+}
+
+/// Force densities of two sliding points 0.3 apart (inside r_c = 0.4) in the deck whose
+/// contact list is `contact`, with the contact's time set to `time` first when given.
+fn sliding_pair_force(contact: &str, time: Option<f64>) -> Vec<[f64; 3]> {
+    let s = Setup::new(
+        &deck_text(2, 0.5, true, contact),
+        &[(0.0, 0.0, 0.0, 1, 1.0), (0.3, 0.0, 0.0, 2, 2.0)],
+    );
+    let mut contact = s.contact();
+    if let Some(t) = time {
+        contact.set_time(t).unwrap_or_else(|e| panic!("{e}"));
+    }
+    let mut state = contact.initial_state();
+    let y = s.model.points.position.clone();
+    let mut v = vec![[0.0; 3]; 2];
+    v[s.run(0)] = [1.0, 2.0, 0.5];
+    v[s.run(1)] = [0.0, -1.0, 0.0];
+    contact.compute_force(&mut state, &s.model, &y, &v).to_vec()
+}
+
+#[test]
+fn time_dependent_friction_equals_the_constant_coefficient_at_each_time() {
+    // μ(t) = t/2 takes the values 0.125, 0.25 and 0.75 exactly at t = 0.25, 0.5 and 1.5 (binary
+    // fractions), so at each of those times the force must be, bit for bit, that of `Short
+    // Range Force` with that constant coefficient (the same pair law is evaluated).
+    let in_time = time_dependent_contact("value = t / 2.0");
+    for (t, mu) in [(0.25, 0.125), (0.5, 0.25), (1.5, 0.75)] {
+        let constant = contact_list(1.0, 1, &[("M", 0.4, 3.0, mu)], &general("M"));
+        let expected = sliding_pair_force(&constant, None);
+        assert_eq!(sliding_pair_force(&in_time, Some(t)), expected, "t = {t}");
+        // Friction really acts: the force has a tangential part μ|F_n|.
+        assert!(expected.iter().any(|f| f[1] != 0.0), "t = {t}");
+    }
+    // Before any step the coefficient is the value at the first solver's initial time (0):
+    // no friction, the force of μ = 0.
+    let frictionless = contact_list(1.0, 1, &[("M", 0.4, 3.0, 0.0)], &general("M"));
+    assert_eq!(
+        sliding_pair_force(&in_time, None),
+        sliding_pair_force(&frictionless, None)
+    );
+}
+
+#[test]
+fn a_negative_or_failing_friction_coefficient_names_the_key_and_the_time() {
+    let contact = time_dependent_contact("value = 1.0 - t");
+    let s = Setup::new(
+        &deck_text(2, 0.5, true, &contact),
+        &[(0.0, 0.0, 0.0, 1, 1.0), (3.0, 0.0, 0.0, 2, 1.0)],
+    );
+    let mut c = s.contact();
+    c.set_time(0.5).unwrap();
+    let message = c.set_time(2.0).unwrap_err().to_string();
+    assert!(
+        message.contains("Contact → Models → M → Friction Coefficient")
+            && message.contains("t = 2")
+            && message.contains("-1"),
+        "{message}"
+    );
+    // Negative from the start: refused at setup, naming the key.
+    let contact = time_dependent_contact("value = t - 1.0");
+    let s = Setup::new(
+        &deck_text(2, 0.5, true, &contact),
+        &[(0.0, 0.0, 0.0, 1, 1.0), (3.0, 0.0, 0.0, 2, 1.0)],
+    );
+    let message = Contact::from_deck(&s.deck, &s.model)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("Friction Coefficient") && message.contains("-1"),
+        "{message}"
+    );
+}

@@ -27,7 +27,9 @@
 //!
 //! [`ShortRangeForce`]: for pairs closer than the contact radius r_c in the current
 //! configuration, a repulsive force along the line of centres, proportional to the gap
-//! r_c − r, with Peridigm's constants, plus Peridigm's friction.
+//! r_c − r, with Peridigm's constants, plus Peridigm's friction. `Time Dependent Short Range
+//! Force` is the same law with the friction coefficient μ_f(t) of an expression in `t`,
+//! evaluated once per step ([`Contact::set_time`]).
 //! Contact forces enter the Verlet acceleration `a = (f_int + f_contact + b)/ρ` after damage
 //! and the internal force, as in Peridigm.
 //!
@@ -67,6 +69,7 @@ pub use search::{
 };
 pub use short_range_force::{PairPoint, ShortRangeForce};
 
+use crate::expression::{Expression, TIME};
 use crate::io::deck::{ContactInteraction, Deck, DeckError, Friction};
 use crate::model::Model;
 use crate::neighbors::SearchBackend;
@@ -116,8 +119,12 @@ pub struct Contact {
     search_radius: f64,
     /// Largest contact radius of the models in use (length).
     max_contact_radius: f64,
-    /// Models referenced by interactions.
+    /// Models referenced by interactions, with the friction coefficient in force now.
     models: Vec<ShortRangeForce>,
+    /// Per model: its time-dependent `Friction Coefficient` μ_f(t) (`Time Dependent Short
+    /// Range Force`), which [`Contact::set_time`] evaluates into the model; `None` for a
+    /// constant coefficient.
+    friction_in_time: Vec<Option<FrictionInTime>>,
     /// `pair_model[a·blocks + b]`: the model of blocks a and b (symmetric), if they interact.
     pair_model: Vec<Option<u16>>,
     blocks: usize,
@@ -131,6 +138,50 @@ pub struct Contact {
     force_points: usize,
     /// One rank's share of a distributed run (`None` in serial runs).
     ranks: Option<Box<ranks::OnRanks>>,
+}
+
+/// The `Friction Coefficient` of a `Time Dependent Short Range Force` model: an expression in
+/// `t`, evaluated once per step at the time the step ends (Peridigm evaluates it with the
+/// step's end time before the contact force of the step).
+#[derive(Debug, Clone)]
+struct FrictionInTime {
+    /// The model's name (its list under `Contact → Models`), for messages.
+    model: String,
+    expression: Expression,
+}
+
+impl FrictionInTime {
+    /// μ_f(t): a finite number ≥ 0, or a message saying what the expression gave.
+    fn at(&self, time: f64) -> Result<f64, FrictionError> {
+        let fail = |message: String| FrictionError {
+            model: self.model.clone(),
+            time,
+            message,
+        };
+        let mu = self
+            .expression
+            .eval(&[time])
+            .map_err(|e| fail(e.to_string()))?;
+        if mu.is_finite() && mu >= 0.0 {
+            Ok(mu)
+        } else {
+            Err(fail(format!(
+                "the friction coefficient evaluates to {mu}; it must be a finite number ≥ 0"
+            )))
+        }
+    }
+}
+
+/// A time-dependent friction coefficient that could not be evaluated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("Contact → Models → {model} → Friction Coefficient at t = {time}: {message}")]
+pub struct FrictionError {
+    /// The contact model (its list under `Contact → Models`).
+    pub model: String,
+    /// The time of the evaluation.
+    pub time: f64,
+    /// What went wrong.
+    pub message: String,
 }
 
 /// What contact changes during a run: the last search (positions and candidate rows), the
@@ -252,8 +303,12 @@ struct ModelsInUse<'d> {
     deck: &'d Deck,
     contact: &'d crate::io::deck::Contact,
     models: Vec<ShortRangeForce>,
+    friction_in_time: Vec<Option<FrictionInTime>>,
     /// The deck names of `models`.
     used: Vec<&'d str>,
+    /// The time of the first force evaluation, where a time-dependent friction coefficient
+    /// starts.
+    initial_time: f64,
 }
 
 impl ModelsInUse<'_> {
@@ -274,13 +329,19 @@ impl ModelsInUse<'_> {
                     format!("no contact model named \"{name}\""),
                 )
             })?;
-        let friction_coefficient = match &definition.friction {
-            Friction::Constant(mu) => *mu,
-            Friction::TimeDependent(_) => {
-                return Err(deck.error_at(
-                    &["Contact", "Models", name, "Contact Model"],
-                    "\"Time Dependent Short Range Force\" is not available in this build; use \"Short Range Force\" with a constant Friction Coefficient",
-                ))
+        let key = ["Contact", "Models", name, "Friction Coefficient"];
+        let (friction_coefficient, in_time) = match &definition.friction {
+            Friction::Constant(mu) => (*mu, None),
+            Friction::TimeDependent(text) => {
+                let friction = FrictionInTime {
+                    model: definition.name.clone(),
+                    expression: Expression::parse(text, TIME)
+                        .map_err(|e| deck.error_at(&key, e.to_string()))?,
+                };
+                let mu = friction
+                    .at(self.initial_time)
+                    .map_err(|e| deck.error_at(&key, e.to_string()))?;
+                (mu, Some(friction))
             }
         };
         self.models.push(ShortRangeForce {
@@ -288,6 +349,7 @@ impl ModelsInUse<'_> {
             spring_constant: definition.spring_constant,
             friction_coefficient,
         });
+        self.friction_in_time.push(in_time);
         self.used.push(&definition.name);
         Ok((self.models.len() - 1) as u16)
     }
@@ -375,7 +437,8 @@ fn pair_models(in_use: &mut ModelsInUse, model: &Model) -> Result<Vec<Option<u16
 impl Contact {
     /// The contact of `deck` for `model`, or `None` without a `Contact` section. Errors name
     /// the deck key: an interaction naming a block the mesh lacks, or a time-dependent friction
-    /// model (not available in this build).
+    /// coefficient that does not compile or is not a number ≥ 0 at the first solver's initial
+    /// time.
     pub fn from_deck(deck: &Deck, model: &Model) -> Result<Option<Self>, DeckError> {
         let Some(contact) = &deck.contact else {
             return Ok(None);
@@ -385,10 +448,12 @@ impl Contact {
             deck,
             contact,
             models: Vec::new(),
+            friction_in_time: Vec::new(),
             used: Vec::new(),
+            initial_time: deck.solvers.first().map_or(0.0, |s| s.initial_time),
         };
         let pair_model = pair_models(&mut in_use, model)?;
-        let models = in_use.models;
+        let (models, friction_in_time) = (in_use.models, in_use.friction_in_time);
         let in_contact: Vec<bool> = (0..blocks)
             .map(|a| (0..blocks).any(|b| pair_model[a * blocks + b].is_some()))
             .collect();
@@ -404,6 +469,7 @@ impl Contact {
             search_radius,
             max_contact_radius,
             models,
+            friction_in_time,
             pair_model,
             blocks,
             points,
@@ -424,6 +490,17 @@ impl Contact {
                 .map(|ranks| Box::new(ranks.initial_state())),
             ..ContactState::default()
         }
+    }
+
+    /// Sets the time of the next force evaluation: every `Time Dependent Short Range Force`
+    /// model takes its friction coefficient μ_f(t); the other models do not change.
+    pub fn set_time(&mut self, time: f64) -> Result<(), FrictionError> {
+        for (law, friction) in self.models.iter_mut().zip(&self.friction_in_time) {
+            if let Some(friction) = friction {
+                law.friction_coefficient = friction.at(time)?;
+            }
+        }
+        Ok(())
     }
 
     /// Search radius R actually used (length): max(`Search Radius`, r_c,max(1 + skin fraction)).

@@ -11,12 +11,14 @@
 //! array at the start of the step and restore it; the models themselves only ever increase d.
 
 mod critical_stretch;
+mod initial_damage;
 mod interface_aware;
 mod registry;
 mod stretch_kernel;
 mod time_dependent_critical_stretch;
 
 pub use critical_stretch::{critical_stretch_from_energy_release_rate, CriticalStretch};
+pub use initial_damage::InitialDamage;
 pub use interface_aware::{rank_deficient_points, InterfaceAware};
 pub use registry::{
     damage_entry, DamageConstructor, DamageEntry, DamageInput, BOND_DAMAGE, DAMAGE_MODELS,
@@ -90,6 +92,18 @@ pub trait DamageModel: Send + Sync {
     /// pass over the bonds. `None` (the default) keeps the separate pass.
     fn fusable_critical_stretch(&self) -> Option<f64> {
         None
+    }
+
+    /// Sets the damage the rows of `points` (strictly increasing) start the run with, in
+    /// `bond_damage` (the whole array, intact on entry; only those rows are written). Called
+    /// once, before the first force evaluation; `Initial Damage` breaks its pre-crack here.
+    /// The default leaves every bond intact.
+    fn initialize(
+        &self,
+        _reference: &ReferenceView<'_>,
+        _points: &[u32],
+        _bond_damage: &mut [f32],
+    ) {
     }
 
     /// Updates the damage of the bonds in the rows of `points` (strictly increasing global

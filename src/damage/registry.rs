@@ -4,10 +4,12 @@
 use std::sync::Arc;
 
 use super::{
-    CriticalStretch, DamageError, DamageModel, InterfaceAware, TimeDependentCriticalStretch,
+    CriticalStretch, DamageError, DamageModel, InitialDamage, InterfaceAware,
+    TimeDependentCriticalStretch,
 };
 use crate::expression::Expression;
 use crate::model::{FieldCarrier, FieldDeclaration, ModelDeclaration};
+use crate::neighbors::BondFilter;
 
 /// Bond damage d ∈ [0, 1] per directed bond, staged: the implicit solvers restore it when a
 /// load step is rejected. Every damage model keeps it.
@@ -40,6 +42,8 @@ pub struct DamageInput {
     pub initial_time: f64,
     /// The [`POINT_CRITICAL_STRETCH`] field, when the model declares it.
     pub point_critical_stretch: Option<Arc<[f64]>>,
+    /// The `Bond Filters` of `Initial Damage`, as geometry (shell meshes already read).
+    pub bond_filters: Vec<BondFilter>,
 }
 
 impl DamageInput {
@@ -84,6 +88,15 @@ fn interface_aware(input: &DamageInput) -> Result<Box<dyn DamageModel>, DamageEr
     Ok(Box::new(InterfaceAware::new(s_c, field)?))
 }
 
+fn initial_damage(input: &DamageInput) -> Result<Box<dyn DamageModel>, DamageError> {
+    if input.bond_filters.is_empty() {
+        return Err(DamageError::Missing {
+            key: "Bond Filters",
+        });
+    }
+    Ok(Box::new(InitialDamage::new(input.bond_filters.clone())))
+}
+
 /// Every damage model this build runs, one entry each.
 pub static DAMAGE_MODELS: &[DamageEntry] = &[
     DamageEntry {
@@ -97,6 +110,10 @@ pub static DAMAGE_MODELS: &[DamageEntry] = &[
     DamageEntry {
         declaration: &InterfaceAware::DECLARATION,
         build: interface_aware,
+    },
+    DamageEntry {
+        declaration: &InitialDamage::DECLARATION,
+        build: initial_damage,
     },
 ];
 
@@ -150,6 +167,12 @@ mod tests {
                  damage model"
                     .to_string()
             )
+        );
+        // Initial Damage needs its bond filters.
+        let error = (damage_entry("Initial Damage").unwrap().build)(&input).err();
+        assert_eq!(
+            error.map(|e| e.to_string()),
+            Some("damage model parameter `Bond Filters` is required by this damage model".into())
         );
     }
 }

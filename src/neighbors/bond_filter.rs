@@ -1,8 +1,9 @@
 //! Bond filters: geometric obstacles (pre-cracks) through which no bond is created.
 //!
-//! Peridigm's `Discretization → Bond Filters → <name>` with `Type: Rectangular_Plane` or
-//! `Type: Disk`. A bond i→j is never created when the straight segment X_i→X_j crosses the
-//! object. The geometry follows Peridigm's `PdBondFilter` (checked against its source and the
+//! Peridigm's `Discretization → Bond Filters → <name>` with `Type: Rectangular_Plane`,
+//! `Type: Disk` or `Type: Exodus Mesh` (a surface of triangles, [`TriangleMesh`]). A bond i→j
+//! is never created when the straight segment X_i→X_j crosses the object. The `Initial
+//! Damage` damage model uses the same geometry to mark bonds broken instead. The geometry follows Peridigm's `PdBondFilter` (checked against its source and the
 //! `PrecrackedPlate`, `PrecrackedPlateTwoCracks` and `DiskFilter` regression decks):
 //!
 //! * the segment meets the object's plane at parameter t ∈ [0, 1] — **endpoints included**, so a
@@ -10,7 +11,9 @@
 //! * a segment parallel to the plane (including one lying in it) is never cut;
 //! * rectangle: the hit point must lie in the closed rectangle, widened by Peridigm's 1e-15
 //!   edge tolerance ([`EDGE_TOLERANCE`]); disk: strictly inside the circle
-//!   (Peridigm's `distance² < radius²`).
+//!   (Peridigm's `distance² < radius²`); triangle: the hit point must lie in the closed
+//!   triangle, widened by [`TRIANGLE_TOLERANCE`] in barycentric coordinates (see
+//!   [`Triangle::cuts`]).
 //!
 //! The test is evaluated with the two endpoints put in a canonical (lexicographic) order, so
 //! `cuts(a, b) == cuts(b, a)` holds bit for bit and filtered families stay symmetric.
@@ -56,6 +59,9 @@ pub enum BondFilterError {
         /// Length of its component perpendicular to the normal.
         in_plane_length: f64,
     },
+    /// A shell mesh has no face with a non-zero area.
+    #[error("Exodus Mesh bond filter: the mesh has no triangle or quadrilateral face with a non-zero area")]
+    NoFaces,
     /// A length or radius is zero or negative.
     #[error("bond filter: {what} must be positive, got {value}")]
     NonPositive {
@@ -218,6 +224,245 @@ impl Disk {
     }
 }
 
+/// Widening of a [`Triangle`] in barycentric coordinates (dimensionless): the hit point counts
+/// as inside when each barycentric coordinate is ≥ −1e-12 (Peridigm's `TriangleFilter` widens
+/// by its own tolerance in the same way). Two faces that share an edge compute the same edge
+/// point from different corners; their rounding differs by a few units in the 16th digit for
+/// faces of reasonable shape, so with this margin a segment through a shared edge or vertex is
+/// cut by at least one of the faces and never slips between them.
+pub const TRIANGLE_TOLERANCE: f64 = 1e-12;
+
+/// One triangular face of a shell mesh (a face of an `Exodus Mesh` bond filter).
+///
+/// A segment a→b is cut when it meets the face's plane at a parameter t ∈ [0, 1] (endpoints
+/// included, segments parallel to the plane never cut — the rule of the other filters, with
+/// the same canonical ordering of the endpoints) and the hit point lies in the closed triangle
+/// widened by [`TRIANGLE_TOLERANCE`] in barycentric coordinates.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Triangle {
+    /// Corners v0, v1, v2 (length units).
+    pub vertices: [[f64; 3]; 3],
+    /// Unit normal (v1 − v0) × (v2 − v0), normalised.
+    pub normal: [f64; 3],
+    /// Gram matrix of the edges e1 = v1 − v0, e2 = v2 − v0: (e1·e1, e1·e2, e2·e2), and its
+    /// determinant, for the barycentric coordinates of a hit point.
+    gram: [f64; 3],
+    determinant: f64,
+}
+
+impl Triangle {
+    /// The face with corners `vertices`, or `None` when it has no area (collinear corners, as
+    /// in the second half of a quadrilateral with a repeated node) or a corner is not finite:
+    /// such a face has no interior for a bond to cross.
+    pub fn new(vertices: [[f64; 3]; 3]) -> Option<Self> {
+        if vertices.iter().flatten().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let e1 = sub(vertices[1], vertices[0]);
+        let e2 = sub(vertices[2], vertices[0]);
+        let n = cross(e1, e2);
+        let area2 = norm(n);
+        // Collinear corners up to rounding: |e1 × e2| at the level of rounding of |e1||e2|.
+        if area2 <= 1e-12 * norm(e1) * norm(e2) || area2 == 0.0 {
+            return None;
+        }
+        let gram = [dot(e1, e1), dot(e1, e2), dot(e2, e2)];
+        Some(Self {
+            vertices,
+            normal: scale(n, 1.0 / area2),
+            gram,
+            determinant: gram[0] * gram[2] - gram[1] * gram[1],
+        })
+    }
+
+    /// True when the closed segment a→b meets the widened closed triangle (see the type doc).
+    /// Symmetric: `cuts(a, b) == cuts(b, a)`.
+    pub fn cuts(&self, a: [f64; 3], b: [f64; 3]) -> bool {
+        let Some(hit) = segment_meets_plane(a, b, self.vertices[0], self.normal) else {
+            return false;
+        };
+        let [v0, v1, v2] = self.vertices;
+        let c = sub(hit, v0);
+        let (c1, c2) = (dot(c, sub(v1, v0)), dot(c, sub(v2, v0)));
+        let [g11, g12, g22] = self.gram;
+        // Weights of v1 and v2 in hit = v0 + s·e1 + r·e2 (least squares on the plane).
+        let s = (g22 * c1 - g12 * c2) / self.determinant;
+        let r = (g11 * c2 - g12 * c1) / self.determinant;
+        s >= -TRIANGLE_TOLERANCE && r >= -TRIANGLE_TOLERANCE && s + r <= 1.0 + TRIANGLE_TOLERANCE
+    }
+
+    /// Axis-aligned bounding box (min, max corners).
+    pub fn bounding_box(&self) -> ([f64; 3], [f64; 3]) {
+        let mut lo = self.vertices[0];
+        let mut hi = self.vertices[0];
+        for v in &self.vertices[1..] {
+            for k in 0..3 {
+                lo[k] = lo[k].min(v[k]);
+                hi[k] = hi[k].max(v[k]);
+            }
+        }
+        (lo, hi)
+    }
+}
+
+/// A surface of triangles that bonds may not cross (Peridigm `Type: Exodus Mesh`: the faces
+/// of a shell mesh, quadrilaterals split into two triangles). A segment is cut when it cuts
+/// any face ([`Triangle::cuts`]).
+///
+/// The faces are bucketed in a uniform grid of cells about the size of a face, so a bond
+/// (shorter than a horizon) is tested against the few faces near it, not all of them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TriangleMesh {
+    triangles: Vec<Triangle>,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    grid: FaceGrid,
+}
+
+/// Faces bucketed by the grid cells their (padded) bounding boxes overlap.
+#[derive(Debug, Clone, PartialEq)]
+struct FaceGrid {
+    origin: [f64; 3],
+    cell: f64,
+    dims: [usize; 3],
+    /// `start[c]..start[c + 1]` index `faces` for cell c (x fastest).
+    start: Vec<u32>,
+    faces: Vec<u32>,
+    /// Padded bounding box of every face.
+    boxes: Vec<([f64; 3], [f64; 3])>,
+}
+
+impl FaceGrid {
+    fn new(triangles: &[Triangle], lo: [f64; 3], hi: [f64; 3]) -> Self {
+        let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        let scale_of = |a: [f64; 3], b: [f64; 3]| {
+            (0..3)
+                .map(|k| a[k].abs().max(b[k].abs()))
+                .fold(0.0, f64::max)
+        };
+        // Rounding margin: far above the error of a hit point, far below any face size.
+        let pad = 1e-9 * (extent + scale_of(lo, hi));
+        let boxes: Vec<([f64; 3], [f64; 3])> = triangles
+            .iter()
+            .map(|t| {
+                let (l, h) = t.bounding_box();
+                (l.map(|v| v - pad), h.map(|v| v + pad))
+            })
+            .collect();
+        let mut sizes: Vec<f64> = boxes
+            .iter()
+            .map(|(l, h)| (0..3).map(|k| h[k] - l[k]).fold(0.0, f64::max))
+            .collect();
+        sizes.sort_by(f64::total_cmp);
+        let median = sizes[sizes.len() / 2].max(pad);
+        // Cells of about one face, but never more than a few per face in all.
+        let budget = 8 * triangles.len() + 64;
+        let mut cell = median;
+        let dims_for = |cell: f64| -> [usize; 3] {
+            std::array::from_fn(|k| (((hi[k] - lo[k] + 2.0 * pad) / cell).ceil() as usize).max(1))
+        };
+        let mut dims = dims_for(cell);
+        while dims.iter().product::<usize>() > budget {
+            cell *= 2.0;
+            dims = dims_for(cell);
+        }
+        let origin = lo.map(|v| v - pad);
+        let mut grid = FaceGrid {
+            origin,
+            cell,
+            dims,
+            start: Vec::new(),
+            faces: Vec::new(),
+            boxes,
+        };
+        let cells = dims.iter().product::<usize>();
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); cells];
+        for (f, (l, h)) in grid.boxes.iter().enumerate() {
+            grid.for_each_cell(*l, *h, |c| lists[c].push(f as u32));
+        }
+        grid.start.push(0);
+        for list in lists {
+            grid.faces.extend(list);
+            grid.start.push(grid.faces.len() as u32);
+        }
+        grid
+    }
+
+    /// Calls `visit` with every cell the box lo..hi overlaps (clamped to the grid).
+    fn for_each_cell(&self, lo: [f64; 3], hi: [f64; 3], mut visit: impl FnMut(usize)) {
+        let index = |v: f64, k: usize| -> usize {
+            let i = ((v - self.origin[k]) / self.cell).floor();
+            if i <= 0.0 {
+                0
+            } else {
+                (i as usize).min(self.dims[k] - 1)
+            }
+        };
+        let first: [usize; 3] = std::array::from_fn(|k| index(lo[k], k));
+        let last: [usize; 3] = std::array::from_fn(|k| index(hi[k], k));
+        for z in first[2]..=last[2] {
+            for y in first[1]..=last[1] {
+                for x in first[0]..=last[0] {
+                    visit(x + self.dims[0] * (y + self.dims[1] * z));
+                }
+            }
+        }
+    }
+}
+
+impl TriangleMesh {
+    /// The surface of `faces` (triangles, or quadrilaterals given as their two triangles).
+    /// Faces without area are dropped; a surface with none left is an error.
+    pub fn new(faces: &[[[f64; 3]; 3]]) -> Result<Self, BondFilterError> {
+        let triangles: Vec<Triangle> = faces.iter().filter_map(|f| Triangle::new(*f)).collect();
+        let Some(first) = triangles.first() else {
+            return Err(BondFilterError::NoFaces);
+        };
+        let (mut lo, mut hi) = first.bounding_box();
+        for t in &triangles[1..] {
+            let (l, h) = t.bounding_box();
+            for k in 0..3 {
+                lo[k] = lo[k].min(l[k]);
+                hi[k] = hi[k].max(h[k]);
+            }
+        }
+        let grid = FaceGrid::new(&triangles, lo, hi);
+        Ok(Self {
+            triangles,
+            lo,
+            hi,
+            grid,
+        })
+    }
+
+    /// The faces (triangles) of the surface.
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.triangles
+    }
+
+    /// True when the segment a→b cuts some face. Symmetric: `cuts(a, b) == cuts(b, a)`.
+    pub fn cuts(&self, a: [f64; 3], b: [f64; 3]) -> bool {
+        let lo: [f64; 3] = std::array::from_fn(|k| a[k].min(b[k]));
+        let hi: [f64; 3] = std::array::from_fn(|k| a[k].max(b[k]));
+        let grid = &self.grid;
+        let mut cut = false;
+        grid.for_each_cell(lo, hi, |c| {
+            if cut {
+                return;
+            }
+            for &f in &grid.faces[grid.start[c] as usize..grid.start[c + 1] as usize] {
+                let (l, h) = grid.boxes[f as usize];
+                let overlaps = (0..3).all(|k| lo[k] <= h[k] && hi[k] >= l[k]);
+                if overlaps && self.triangles[f as usize].cuts(a, b) {
+                    cut = true;
+                    return;
+                }
+            }
+        });
+        cut
+    }
+}
+
 /// One bond filter of the discretization (Peridigm `Bond Filters` entry).
 #[derive(Debug, Clone, PartialEq)]
 pub enum BondFilter {
@@ -225,6 +470,8 @@ pub enum BondFilter {
     RectangularPlane(RectangularPlane),
     /// `Type: Disk`.
     Disk(Disk),
+    /// `Type: Exodus Mesh`: the faces of a shell mesh.
+    TriangleMesh(TriangleMesh),
 }
 
 impl BondFilter {
@@ -234,6 +481,7 @@ impl BondFilter {
         match self {
             BondFilter::RectangularPlane(plane) => plane.cuts(a, b),
             BondFilter::Disk(disk) => disk.cuts(a, b),
+            BondFilter::TriangleMesh(mesh) => mesh.cuts(a, b),
         }
     }
 
@@ -271,7 +519,14 @@ impl BondFilter {
                 }
                 (lo, hi)
             }
+            BondFilter::TriangleMesh(mesh) => (mesh.lo, mesh.hi),
         }
+    }
+}
+
+impl From<TriangleMesh> for BondFilter {
+    fn from(mesh: TriangleMesh) -> Self {
+        BondFilter::TriangleMesh(mesh)
     }
 }
 
@@ -489,6 +744,113 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(msg.contains("Bottom_Unit_Vector"), "{msg}");
+    }
+
+    /// The unit square in the plane y = 0 (x, z ∈ [0, 1]) as two triangles along its
+    /// diagonal (0,0,0)–(1,0,1), as a quadrilateral shell face is split.
+    fn unit_square_mesh() -> TriangleMesh {
+        let (a, b, c, d) = (
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 0.0, 1.0],
+            [0.0, 0.0, 1.0],
+        );
+        TriangleMesh::new(&[[a, b, c], [a, c, d]]).unwrap()
+    }
+
+    #[test]
+    fn triangle_cuts_follow_the_rule_of_the_other_filters() {
+        let t = Triangle::new([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]).unwrap();
+        assert_eq!(t.normal, [0.0, -1.0, 0.0]);
+        // Through the interior, both directions.
+        assert!(t.cuts([0.2, -1.0, 0.2], [0.2, 1.0, 0.2]));
+        assert!(t.cuts([0.2, 1.0, 0.2], [0.2, -1.0, 0.2]));
+        // Beyond the hypotenuse x + z = 1.
+        assert!(!t.cuts([0.6, -1.0, 0.6], [0.6, 1.0, 0.6]));
+        // On an edge, on the hypotenuse and at a corner: closed.
+        assert!(t.cuts([0.5, -1.0, 0.0], [0.5, 1.0, 0.0]));
+        assert!(t.cuts([0.5, -1.0, 0.5], [0.5, 1.0, 0.5]));
+        assert!(t.cuts([1.0, -1.0, 0.0], [1.0, 1.0, 0.0]));
+        // An end point on the face counts; a segment short of it does not.
+        assert!(t.cuts([0.2, 0.0, 0.2], [0.2, 1.0, 0.2]));
+        assert!(!t.cuts([0.2, 0.1, 0.2], [0.2, 1.0, 0.2]));
+        // Parallel to the face, even inside its plane: never cut.
+        assert!(!t.cuts([0.1, 0.0, 0.1], [0.3, 0.0, 0.2]));
+        // No area: no face.
+        assert!(Triangle::new([[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]).is_none());
+        assert!(Triangle::new([[0.0; 3], [f64::NAN, 0.0, 0.0], [0.0, 0.0, 1.0]]).is_none());
+    }
+
+    #[test]
+    fn a_segment_through_a_shared_edge_or_the_diagonal_never_slips_through() {
+        // Crossings at many points of the diagonal x = z and of the outer edges, including
+        // values that are not binary fractions: each must be cut by at least one triangle.
+        let mesh = unit_square_mesh();
+        let mut rng = crate::model::test_support::Rng::new(11);
+        for _ in 0..2000 {
+            let s = rng.uniform();
+            let tilt = [0.3 * (rng.uniform() - 0.5), 0.3 * (rng.uniform() - 0.5)];
+            for hit in [[s, 0.0, s], [s, 0.0, 0.0], [1.0, 0.0, s], [0.0, 0.0, s]] {
+                // A tilted segment from a through the hit point, as far beyond the plane.
+                let a = [hit[0] - tilt[0], -0.7, hit[2] - tilt[1]];
+                let b = [2.0 * hit[0] - a[0], 0.7, 2.0 * hit[2] - a[2]];
+                assert!(mesh.cuts(a, b), "hit {hit:?}");
+                assert!(mesh.cuts(b, a), "hit {hit:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_planar_mesh_cuts_what_the_equivalent_rectangle_cuts() {
+        // The rectangle of the unit square: normal (0,1,0), corner at the origin, bottom
+        // (1,0,0) and side bottom × normal = (0,0,1).
+        let plane =
+            RectangularPlane::new([0.0, 1.0, 0.0], [0.0; 3], [1.0, 0.0, 0.0], 1.0, 1.0).unwrap();
+        let mesh = unit_square_mesh();
+        let mut rng = crate::model::test_support::Rng::new(5);
+        let mut cut = 0;
+        for _ in 0..20000 {
+            let a = [
+                3.0 * rng.uniform() - 1.0,
+                rng.uniform() - 0.5,
+                3.0 * rng.uniform() - 1.0,
+            ];
+            let b = [
+                3.0 * rng.uniform() - 1.0,
+                rng.uniform() - 0.5,
+                3.0 * rng.uniform() - 1.0,
+            ];
+            assert_eq!(mesh.cuts(a, b), plane.cuts(a, b), "{a:?} → {b:?}");
+            cut += usize::from(plane.cuts(a, b));
+        }
+        assert!(cut > 1000, "the sample exercises the filter: {cut}");
+    }
+
+    #[test]
+    fn the_face_grid_finds_faces_far_apart() {
+        // 400 small triangles on a 20 × 20 grid in the plane y = 0 (x, z ∈ [0, 20]), each the
+        // lower-left half of a unit cell: a segment through a cell's lower-left half is cut, one
+        // through its upper-right half is not, wherever the cell is.
+        let mut faces = Vec::new();
+        for i in 0..20 {
+            for k in 0..20 {
+                let (x, z) = (i as f64, k as f64);
+                faces.push([[x, 0.0, z], [x + 1.0, 0.0, z], [x, 0.0, z + 1.0]]);
+            }
+        }
+        let mesh = TriangleMesh::new(&faces).unwrap();
+        assert_eq!(mesh.triangles().len(), 400);
+        for i in 0..20 {
+            for k in 0..20 {
+                let (x, z) = (i as f64, k as f64);
+                assert!(mesh.cuts([x + 0.2, -0.5, z + 0.2], [x + 0.2, 0.5, z + 0.2]));
+                assert!(!mesh.cuts([x + 0.8, -0.5, z + 0.8], [x + 0.8, 0.5, z + 0.8]));
+            }
+        }
+        assert_eq!(
+            TriangleMesh::new(&[[[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]]),
+            Err(BondFilterError::NoFaces)
+        );
     }
 
     #[test]

@@ -11,7 +11,9 @@ mod bond_filter;
 mod search;
 mod space_filling_curve;
 
-pub use bond_filter::{BondFilter, BondFilterError, Disk, RectangularPlane};
+pub use bond_filter::{
+    BondFilter, BondFilterError, Disk, RectangularPlane, Triangle, TriangleMesh, TRIANGLE_TOLERANCE,
+};
 pub use search::{
     find_families, find_families_with, try_find_families, try_find_families_of, FamilySearch,
     NeighborSearchError, NeighborhoodRule, SearchBackend, MAX_CELLS_PER_POINT,

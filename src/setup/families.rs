@@ -1,45 +1,61 @@
 //! Building the bond list for each kind of discretization.
 
 use super::SetupError;
-use crate::discretization::FamilyRule;
+use crate::discretization::{read_shell_faces, FamilyRule};
 use crate::io::deck::{BondFilterShape, Deck, OmitBonds};
 use crate::model::{BondList, PointCloud};
 use crate::neighbors::{
     try_find_families, try_find_families_of, BondFilter, Disk, FamilySearch, NeighborhoodRule,
-    RectangularPlane,
+    RectangularPlane, TriangleMesh,
 };
 
-/// The deck's bond filters as geometry; `Exodus Mesh` filters are skipped here (the plan
-/// reports them as unsupported).
+/// The deck's `Discretization → Bond Filters` as geometry.
 fn bond_filters(deck: &Deck) -> Result<Vec<BondFilter>, SetupError> {
-    let mut filters = Vec::new();
-    for filter in &deck.discretization.bond_filters {
-        let key = ["Discretization", "Bond Filters", filter.name.as_str()];
-        let built = match &filter.shape {
-            BondFilterShape::RectangularPlane {
-                normal,
-                lower_left_corner,
-                bottom_unit_vector,
-                bottom_length,
-                side_length,
-            } => RectangularPlane::new(
-                *normal,
-                *lower_left_corner,
-                *bottom_unit_vector,
-                *bottom_length,
-                *side_length,
-            )
-            .map(BondFilter::RectangularPlane),
-            BondFilterShape::Disk {
-                center,
-                normal,
-                radius,
-            } => Disk::new(*center, *normal, *radius).map(BondFilter::Disk),
-            BondFilterShape::ExodusMesh { .. } => continue,
-        };
-        filters.push(built.map_err(|e| deck.error_at(&key, e.to_string()))?);
-    }
-    Ok(filters)
+    deck.discretization
+        .bond_filters
+        .iter()
+        .map(|filter| {
+            let key = ["Discretization", "Bond Filters", filter.name.as_str()];
+            build_bond_filter(deck, &key, filter)
+        })
+        .collect()
+}
+
+/// One bond filter of the deck as geometry; `key` is the path of its list, for messages. An
+/// `Exodus Mesh` filter reads its shell mesh here (quadrilaterals become two triangles).
+pub(super) fn build_bond_filter(
+    deck: &Deck,
+    key: &[&str],
+    filter: &crate::io::deck::BondFilter,
+) -> Result<BondFilter, SetupError> {
+    let built = match &filter.shape {
+        BondFilterShape::RectangularPlane {
+            normal,
+            lower_left_corner,
+            bottom_unit_vector,
+            bottom_length,
+            side_length,
+        } => RectangularPlane::new(
+            *normal,
+            *lower_left_corner,
+            *bottom_unit_vector,
+            *bottom_length,
+            *side_length,
+        )
+        .map(BondFilter::RectangularPlane),
+        BondFilterShape::Disk {
+            center,
+            normal,
+            radius,
+        } => Disk::new(*center, *normal, *radius).map(BondFilter::Disk),
+        BondFilterShape::ExodusMesh { file_name } => {
+            let file_key: Vec<&str> = key.iter().copied().chain(["File Name"]).collect();
+            let faces =
+                read_shell_faces(file_name).map_err(|e| deck.error_at(&file_key, e.to_string()))?;
+            TriangleMesh::new(&faces).map(BondFilter::TriangleMesh)
+        }
+    };
+    Ok(built.map_err(|e| deck.error_at(key, e.to_string()))?)
 }
 
 /// Families in run order. `order[new] = old` and `run_index[old] = new` relate run order to the

@@ -232,7 +232,7 @@ pub(crate) fn compile(
 }
 
 /// Checks every expression in the deck that this build evaluates later (influence function,
-/// time-dependent critical stretch), so a typo fails before any work is done.
+/// time-dependent critical stretch, time-dependent friction), so a typo fails before any work is done.
 fn check_expressions(deck: &Deck) -> Result<(), DeckError> {
     if let InfluenceFunction::Expression(text) = &deck.discretization.influence_function {
         compile(
@@ -257,6 +257,12 @@ fn check_expressions(deck: &Deck) -> Result<(), DeckError> {
                 critical_stretch,
                 TIME,
             )?;
+        }
+    }
+    for model in deck.contact.iter().flat_map(|c| &c.models) {
+        if let crate::io::deck::Friction::TimeDependent(text) = &model.friction {
+            let key = ["Contact", "Models", &model.name, "Friction Coefficient"];
+            compile(deck, &key, text, TIME)?;
         }
     }
     Ok(())

@@ -9,7 +9,9 @@ use crate::damage::{
     InterfaceAware, POINT_CRITICAL_STRETCH,
 };
 use crate::expression::{INFLUENCE, TIME};
-use crate::io::deck::{Block, Deck, Horizon, InfluenceFunction as DeckInfluence, StretchLimit};
+use crate::io::deck::{
+    Block, DamageKind, Deck, Horizon, InfluenceFunction as DeckInfluence, StretchLimit,
+};
 use crate::material::{
     material_entry, InfluenceFunction, Material, MaterialError, MaterialInput, ReferenceView,
 };
@@ -229,6 +231,24 @@ struct BlockConstants {
     horizon: f64,
 }
 
+/// The `Bond Filters` of an `Initial Damage` model as geometry (empty for other models).
+fn initial_damage_filters(
+    deck: &Deck,
+    name: &str,
+    kind: &DamageKind,
+) -> Result<Vec<crate::neighbors::BondFilter>, SetupError> {
+    let DamageKind::InitialDamage { bond_filters } = kind else {
+        return Ok(Vec::new());
+    };
+    bond_filters
+        .iter()
+        .map(|filter| {
+            let key = ["Damage Models", name, "Bond Filters", filter.name.as_str()];
+            super::families::build_bond_filter(deck, &key, filter)
+        })
+        .collect()
+}
+
 /// The block's damage model `name`, built by its registry entry.
 fn build_damage(
     deck: &Deck,
@@ -270,6 +290,7 @@ fn build_damage(
         critical_stretch_in_time,
         initial_time: deck.solvers.first().map_or(0.0, |s| s.initial_time),
         point_critical_stretch: point_critical_stretch.clone(),
+        bond_filters: initial_damage_filters(deck, name, &model.kind)?,
     };
     let key_error = if input.critical_stretch_in_time.is_some() {
         &key_expression[..]

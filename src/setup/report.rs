@@ -2,8 +2,7 @@
 //! build cannot run yet.
 
 use crate::io::deck::{
-    BondFilterShape, BoundaryConditionKind, ComputeClassKind, Deck, DeckError, Horizon, Integrator,
-    PointSource,
+    BoundaryConditionKind, ComputeClassKind, Deck, DeckError, Horizon, Integrator, PointSource,
 };
 use crate::io::output::{closest_name, kind_of, OutputFile, RequestedVariable, VariableKind};
 use crate::model::Model;
@@ -206,15 +205,6 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
             note("Horizon varying in space (expression) for the force kernels".into());
         }
     }
-    if let Some(contact) = &deck.contact {
-        if contact
-            .models
-            .iter()
-            .any(|m| matches!(m.friction, crate::io::deck::Friction::TimeDependent(_)))
-        {
-            note("contact model Time Dependent Short Range Force".into());
-        }
-    }
     for bc in &deck.boundary_conditions.conditions {
         if !matches!(
             bc.kind,
@@ -226,17 +216,19 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
             note(format!("boundary condition type {}", bc.kind.deck_name()));
         }
     }
-    for filter in &deck.discretization.bond_filters {
-        if matches!(filter.shape, BondFilterShape::ExodusMesh { .. }) {
-            note("bond filter Exodus Mesh".into());
-        }
-    }
     if let PointSource::Exodus {
         construct_interfaces: true,
         ..
     } = deck.discretization.source
     {
         note("Construct Interfaces".into());
+    }
+    if let PointSource::Exodus {
+        element_horizon_intersections: Some(_),
+        ..
+    } = deck.discretization.source
+    {
+        note("Compute Element-Horizon Intersections (partial volumes)".into());
     }
     if deck.multiphysics {
         note("Multiphysics".into());

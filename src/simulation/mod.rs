@@ -82,14 +82,17 @@ fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, RunError> {
     setup::build_physics(deck, model).map_err(|e| RunError::Unsupported(e.to_string()))
 }
 
-/// The state at the first solver's initial time: at rest, with intact bond damage when a block
-/// has a damage model, no contact search yet and the material history its materials declare,
+/// The state at the first solver's initial time: at rest, with the initial bond damage of the
+/// damage models when a block has one (intact bonds, or a pre-crack of `Initial Damage`), no contact search yet and the material history its materials declare,
 /// then the deck's initial conditions.
 fn initial_state(deck: &Deck, model: &Model, physics: &Physics) -> Result<State, RunError> {
     let t0 = deck.solvers.first().map_or(0.0, |s| s.initial_time);
     let mut state = State::at_rest(&model.points.position, t0, model.boundary.has_body_force())
         .with_bond_damage(physics.has_bond_damage().then(|| model.bonds.num_bonds()))
         .with_contact(physics.contact.as_ref().map(|c| c.initial_state()));
+    if let Some(bond_damage) = &mut state.bond_damage {
+        physics.initialize_bond_damage(&model.bonds, &model.points, bond_damage.trial_mut());
+    }
     state.history = History::allocate(
         physics
             .blocks

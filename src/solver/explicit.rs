@@ -373,8 +373,8 @@ fn internal_and_contact_force(
     broken
 }
 
-/// Passes the time to time-dependent damage models; a failing expression is reported like a
-/// failing boundary-condition expression.
+/// Passes the time to time-dependent damage models and contact friction coefficients; a
+/// failing expression is reported like a failing boundary-condition expression.
 fn set_damage_time(physics: &mut Physics, time: f64) -> Result<(), BoundaryError> {
     physics
         .set_time(time)
@@ -382,7 +382,17 @@ fn set_damage_time(physics: &mut Physics, time: f64) -> Result<(), BoundaryError
             condition: "Damage Models".into(),
             time,
             message: e.to_string(),
-        })
+        })?;
+    if let Some(contact) = &mut physics.contact {
+        contact
+            .set_time(time)
+            .map_err(|e| BoundaryError::Evaluation {
+                condition: format!("Contact → Models → {}", e.model),
+                time,
+                message: e.message,
+            })?;
+    }
+    Ok(())
 }
 
 /// Internal force at the current positions `state.current_position`, then the contact force

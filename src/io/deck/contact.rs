@@ -82,7 +82,13 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Contact, DeckError> {
     list.expect(&["Search Radius", "Search Frequency"]);
     let search_radius = list.positive_req(ctx, "Search Radius")?;
     let search_frequency = list.int_req(ctx, "Search Frequency", 1)? as u64;
-    let verbose = list.bool_or(ctx, "Verbose", false)?;
+    let verbose = list.flag_without_effect(
+        ctx,
+        "Verbose",
+        false,
+        true,
+        "peridyn prints no extra contact output (the run log reports the searches)",
+    )?;
     let mut models = Vec::new();
     if let Some(mut m) = list.list_opt(ctx, "Models")? {
         for f in m.all() {
@@ -112,7 +118,13 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Contact, DeckError> {
                         .name(ctx)?,
                 )
             };
-            model.finish(ctx, &[])?;
+            model.finish(
+                ctx,
+                &[(
+                    "Horizon",
+                    "the contact force uses the horizon of each point's block",
+                )],
+            )?;
             models.push(ContactModel {
                 name: f.key().to_string(),
                 contact_radius,

@@ -89,6 +89,23 @@ const MODELS: &[&str] = &[
     "Von Mises Stress",
 ];
 
+/// The parameters of all damage models (a model reads its own; the others are ignored with a
+/// warning).
+const DAMAGE_KEYS: &[&str] = &[
+    "Critical Stretch",
+    "Critical Energy Release Rate",
+    "Time Dependent Critical Stretch",
+    "Thermal Expansion Coefficient",
+    "Bond Filters",
+    "Damage Parameter 1",
+    "Damage Parameter 2",
+    "Damage Parameter 3",
+    "Critical Damage",
+    "Threshold Damage",
+    "Critical Damage To Neglect Material Point",
+    "Critical Von Mises Stress",
+];
+
 pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<DamageModel, DeckError> {
     let mut list = field.list(ctx)?;
     let model = list
@@ -115,7 +132,13 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<DamageModel, DeckErro
         "Von Mises Stress" => read_von_mises_stress(ctx, &mut list)?,
         _ => unreachable!("choice() returns one of MODELS"),
     };
-    list.finish(ctx, &[])?;
+    // Peridigm does not validate damage-model lists, so a deck may carry the parameters of
+    // another model (left over after switching models): a warning, not an error.
+    let ignored: Vec<(&str, &str)> = DAMAGE_KEYS
+        .iter()
+        .map(|key| (*key, "a parameter of other damage models, not of this one"))
+        .collect();
+    list.finish(ctx, &ignored)?;
     Ok(DamageModel {
         name: field.key().to_string(),
         kind,

@@ -307,8 +307,22 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Discretization, DeckE
         },
     };
     let bond_filters = read_bond_filters(ctx, &mut list, kind)?;
-    let verbose = list.bool_or(ctx, "Verbose", false)?;
-    list.finish(ctx, &[])?;
+    let verbose = list.flag_without_effect(
+        ctx,
+        "Verbose",
+        false,
+        true,
+        "peridyn prints no extra discretization output (`peridyn check` lists the points, bonds and families)",
+    )?;
+    // Peridigm's other discretizations never read the Exodus options.
+    let exodus_only = "only the Exodus discretization reads it";
+    list.finish(
+        ctx,
+        &[
+            ("Store Exodus Mesh", exodus_only),
+            ("Construct Neighborhood Lists", exodus_only),
+        ],
+    )?;
     Ok(Discretization {
         source,
         influence_function,
@@ -328,9 +342,21 @@ fn read_exodus_source(ctx: &mut Ctx, list: &mut ListReader) -> Result<PointSourc
     };
     Ok(PointSource::Exodus {
         input_mesh_file: ctx.resolve(&mesh),
-        store_exodus_mesh: list.bool_or(ctx, "Store Exodus Mesh", false)?,
+        store_exodus_mesh: list.flag_without_effect(
+            ctx,
+            "Store Exodus Mesh",
+            false,
+            true,
+            "peridyn does not keep the element connectivity (Peridigm's Exodus_Node_* fields)",
+        )?,
         construct_interfaces: list.bool_or(ctx, "Construct Interfaces", false)?,
-        construct_neighborhood_lists: list.bool_or(ctx, "Construct Neighborhood Lists", true)?,
+        construct_neighborhood_lists: list.flag_without_effect(
+            ctx,
+            "Construct Neighborhood Lists",
+            true,
+            false,
+            "peridyn always builds the neighbour lists",
+        )?,
         element_horizon_intersections: intersections,
     })
 }

@@ -400,6 +400,7 @@ const MODEL_KEYS: &[&str] = &[
     "Thermal Expansion Coefficient",
     "Compute Partial Stress",
     "Apply Automatic Differentiation Jacobian",
+    "Verbose",
 ];
 
 fn read_elastic(ctx: &Ctx, list: &mut ListReader) -> Result<ElasticConstants, DeckError> {
@@ -566,7 +567,13 @@ fn read_model(
                     "Apply Automatic Differentiation Jacobian",
                     true,
                 )?,
-                compute_partial_stress: list.bool_or(ctx, "Compute Partial Stress", false)?,
+                compute_partial_stress: list.flag_without_effect(
+                    ctx,
+                    "Compute Partial Stress",
+                    false,
+                    true,
+                    "peridyn computes Partial_Stress whenever an output lists it",
+                )?,
             }
         }
         "Elastic Plastic" => read_elastic_plastic(ctx, list, ignored)?,

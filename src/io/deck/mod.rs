@@ -342,6 +342,12 @@ fn read_top_entry(ctx: &mut Ctx, deck: &mut Deck, f: &Field) -> Result<(), DeckE
                 "accepted but has no effect: no material model reads this top-level key",
             );
         }
+        // Read by Peridigm only when it is coupled to Albany (it then allocates a tangent).
+        "Optimization Based Coupling" => ctx.warn(
+            f.line(),
+            &[key.to_string()],
+            "accepted but has no effect: it only matters when Peridigm is coupled to Albany",
+        ),
         _ if key.contains("Solver") && key.contains("Output") => {
             return Err(f.err(ctx, "the name contains both \"Solver\" and \"Output\", so Peridigm would read it as both; rename it"));
         }

@@ -86,7 +86,13 @@ pub(crate) fn read_output(ctx: &mut Ctx, field: &Field) -> Result<Output, DeckEr
         ));
     }
     let parallel_write = list.bool_or(ctx, "Parallel Write", true)?;
-    let bond_family = list.bool_or(ctx, "Bond Family", false)?;
+    let bond_family = list.flag_without_effect(
+        ctx,
+        "Bond Family",
+        false,
+        true,
+        "peridyn does not write bond families",
+    )?;
     let mut variables = Vec::new();
     if let Some(mut vars) = list.list_opt(ctx, "Output Variables")? {
         for v in vars.all() {

@@ -409,6 +409,32 @@ impl<'t> ListReader<'t> {
             .unwrap_or(default))
     }
 
+    /// Reads the flag `key` (default `default`) of a Peridigm feature that has no effect in
+    /// peridyn. When the deck sets it to `asks` (the value that would ask Peridigm for the
+    /// feature), a warning names the key, its file and line and says why it has no effect
+    /// (`why`); the other value is what peridyn does anyway and passes silently.
+    pub fn flag_without_effect(
+        &mut self,
+        ctx: &mut Ctx,
+        key: &'static str,
+        default: bool,
+        asks: bool,
+        why: &str,
+    ) -> Result<bool, DeckError> {
+        let Some(field) = self.get(key) else {
+            return Ok(default);
+        };
+        let value = field.bool(ctx)?;
+        if value == asks {
+            ctx.warn(
+                field.line(),
+                &field.path,
+                format!("accepted but has no effect: {why}"),
+            );
+        }
+        Ok(value)
+    }
+
     pub fn name_req(&mut self, ctx: &Ctx, key: &'static str) -> Result<String, DeckError> {
         self.require(ctx, key, "a string")?.name(ctx)
     }

@@ -27,7 +27,7 @@ use thiserror::Error;
 
 pub use compare::{compare, ComparisonReport, ComparisonSpec};
 pub use reader::{ElementBlock, ExodusFile, NodeSetData};
-pub use writer::ExodusWriter;
+pub use writer::{write_shell_mesh, ExodusWriter};
 
 /// Errors while reading, writing or comparing Exodus files. Every variant names the file.
 #[derive(Debug, Error)]

@@ -407,6 +407,101 @@ fn write_mesh(
     Ok(())
 }
 
+/// Writes a shell mesh: one element block (id 1) of faces of type `element_type` (`TRI3`,
+/// `QUAD4`, `SHELL4`, …) with `nodes_per_face` nodes each, `connectivity` holding 0-based node
+/// indices face by face. This is the file an `Exodus Mesh` bond filter reads (a crack surface,
+/// e.g. made by a script rather than a mesher).
+pub fn write_shell_mesh(
+    path: &Path,
+    coordinates: &[[f64; 3]],
+    element_type: &str,
+    nodes_per_face: usize,
+    connectivity: &[u32],
+) -> Result<(), ExodusError> {
+    let bad = |problem: String| ExodusError::BadInput {
+        path: path.to_path_buf(),
+        problem,
+    };
+    if coordinates.is_empty() || nodes_per_face == 0 || connectivity.is_empty() {
+        return Err(bad("a shell mesh needs nodes and at least one face".into()));
+    }
+    if connectivity.len() % nodes_per_face != 0 {
+        return Err(bad(format!(
+            "{} connectivity entries are not a whole number of {nodes_per_face}-node faces",
+            connectivity.len()
+        )));
+    }
+    if let Some(&node) = connectivity
+        .iter()
+        .find(|&&n| n as usize >= coordinates.len())
+    {
+        return Err(bad(format!(
+            "face node {node} does not exist ({} nodes)",
+            coordinates.len()
+        )));
+    }
+    let faces = (connectivity.len() / nodes_per_face) as u64;
+    let mut b = HeaderBuilder {
+        header: Header {
+            format: NcFormat::Offset64,
+            numrecs: 0,
+            dims: Vec::new(),
+            attrs: vec![
+                attr("api_version", AttrValue::Floats(vec![EXODUS_VERSION])),
+                attr("version", AttrValue::Floats(vec![EXODUS_VERSION])),
+                attr("floating_point_word_size", AttrValue::Ints(vec![8])),
+                attr("file_size", AttrValue::Ints(vec![1])),
+                attr("title", AttrValue::Text(b"shell mesh".to_vec())),
+            ],
+            vars: Vec::new(),
+        },
+    };
+    b.dim("len_string", LEN_STRING);
+    b.dim("len_line", LEN_LINE);
+    b.dim("four", 4);
+    let time = b.dim("time_step", 0);
+    b.dim("len_name", DEFAULT_NAME_LEN as u64 + 1);
+    b.dim("num_dim", 3);
+    let nodes = b.dim("num_nodes", coordinates.len() as u64);
+    b.dim("num_elem", faces);
+    let blocks = b.dim("num_el_blk", 1);
+    let in_block = b.dim("num_el_in_blk1", faces);
+    let per = b.dim("num_nod_per_el1", nodes_per_face as u64);
+    b.var("time_whole".into(), vec![time], NcType::Double, vec![]);
+    b.var("eb_status".into(), vec![blocks], NcType::Int, vec![]);
+    let id = vec![attr("name", AttrValue::Text(b"ID".to_vec()))];
+    b.var("eb_prop1".into(), vec![blocks], NcType::Int, id);
+    for axis in ["coordx", "coordy", "coordz"] {
+        b.var(axis.into(), vec![nodes], NcType::Double, vec![]);
+    }
+    let kind = vec![attr(
+        "elem_type",
+        AttrValue::Text(element_type.as_bytes().to_vec()),
+    )];
+    b.var("connect1".into(), vec![in_block, per], NcType::Int, kind);
+    let nc_err = |source: NcError| ExodusError::NetCdf {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = File::create(path).map_err(|source| ExodusError::Io {
+        path: path.to_path_buf(),
+        action: "create",
+        source,
+    })?;
+    let mut nc = NcWriter::create(file, b.header).map_err(nc_err)?;
+    let mut put = |name: &str, data: Vec<u8>| nc.put_fixed(name, &data).map_err(nc_err);
+    put("eb_status", encode::ints([1]))?;
+    put("eb_prop1", encode::ints([1]))?;
+    for (axis, name) in ["coordx", "coordy", "coordz"].iter().enumerate() {
+        put(name, encode::doubles(coordinates.iter().map(|c| c[axis])))?;
+    }
+    put(
+        "connect1",
+        encode::ints(connectivity.iter().map(|&n| n as i32 + 1)),
+    )?;
+    nc.finish().map_err(nc_err)
+}
+
 impl ExodusWriter {
     /// Creates (truncating) `path` and writes everything that does not change over time.
     ///

@@ -1,0 +1,143 @@
+//! Peridigm's `Initial Damage` damage model: a pre-crack made of broken bonds.
+//!
+//! At the start of the run every bond of the block whose reference segment X_i→X_j crosses one
+//! of the model's `Bond Filters` (`Rectangular_Plane` or `Exodus Mesh`, the geometry of
+//! [`crate::neighbors::BondFilter`]) gets bond damage d = 1. Unlike a filter of the
+//! `Discretization`, which never creates such bonds, the bonds stay in the families: point
+//! `Damage` counts them (a point next to the crack shows the fraction of its bonds that cross
+//! it), and they still exclude their two points from contact as bonded pairs.
+//!
+//! Nothing else ever breaks a bond of the block: as in Peridigm, a block has one damage model,
+//! and this one only sets the initial state (the crack does not grow). A bond to another block
+//! breaks from both ends (see [`crate::physics::Physics`]).
+
+use super::registry::BOND_DAMAGE;
+use super::DamageModel;
+use crate::model::point_chunks::for_each_chunk;
+use crate::model::ReferenceView;
+use crate::model::{ModelDeclaration, Reach};
+use crate::neighbors::BondFilter;
+
+/// The `Initial Damage` model of one block.
+#[derive(Debug, Clone)]
+pub struct InitialDamage {
+    filters: Vec<BondFilter>,
+}
+
+impl InitialDamage {
+    /// `Initial Damage`: a bond's damage depends on its own segment alone: one hop.
+    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+        deck_name: "Initial Damage",
+        deck_keys: &["Bond Filters"],
+        reach: Reach::OneHop,
+        fields: &[BOND_DAMAGE],
+        outputs: &["Damage"],
+    };
+
+    /// The model breaking the bonds that cross any of `filters` (in the reference
+    /// configuration).
+    pub fn new(filters: Vec<BondFilter>) -> Self {
+        Self { filters }
+    }
+}
+
+impl DamageModel for InitialDamage {
+    fn declaration(&self) -> &'static ModelDeclaration {
+        &Self::DECLARATION
+    }
+
+    fn initialize(&self, reference: &ReferenceView<'_>, points: &[u32], bond_damage: &mut [f32]) {
+        let bonds = reference.bonds;
+        let position = reference.position;
+        let filters = &self.filters;
+        for_each_chunk(
+            points,
+            bond_damage,
+            &|i| bonds.offsets[i as usize],
+            &|chunk: &[u32], base: usize, out: &mut [f32]| {
+                for &i in chunk {
+                    let i = i as usize;
+                    let a = position[i];
+                    for b in bonds.range(i) {
+                        let z = position[bonds.neighbor[b] as usize];
+                        if filters.iter().any(|f| f.cuts(a, z)) {
+                            out[b - base] = 1.0;
+                        }
+                    }
+                }
+            },
+        );
+    }
+
+    fn update(
+        &self,
+        _reference: &ReferenceView<'_>,
+        _current_position: &[[f64; 3]],
+        _points: &[u32],
+        _bond_damage: &mut [f32],
+    ) -> usize {
+        0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::damage::point_damage;
+    use crate::model::test_support::brute_force_bonds;
+    use crate::neighbors::RectangularPlane;
+
+    #[test]
+    fn bonds_across_the_plane_start_broken_and_stay_in_the_families() {
+        // Four points on the x axis at 0, 1, 2, 3; horizon 1.5 gives the bonds 0–1, 1–2, 2–3.
+        // A square in the plane x = 1.5 (normal x, bottom y, side = bottom × normal = −z, so
+        // y ∈ [−1, 1], z ∈ [−1, 1] from the corner (1.5, −1, 1)) cuts only 1–2.
+        let x: Vec<[f64; 3]> = (0..4).map(|k| [k as f64, 0.0, 0.0]).collect();
+        let bonds = brute_force_bonds(&x, 1.5);
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &[1.0; 4],
+        };
+        let plane =
+            RectangularPlane::new([1.0, 0.0, 0.0], [1.5, -1.0, 1.0], [0.0, 1.0, 0.0], 2.0, 2.0)
+                .unwrap();
+        let model = InitialDamage::new(vec![plane.into()]);
+        let mut d = vec![0.0f32; bonds.num_bonds()];
+        model.initialize(&reference, &[0, 1, 2, 3], &mut d);
+        assert_eq!(bonds.num_bonds(), 6, "the families keep every bond");
+        let broken: Vec<(usize, u32)> = (0..4)
+            .flat_map(|i| bonds.range(i).map(move |b| (i, b)))
+            .filter(|&(_, b)| d[b] == 1.0)
+            .map(|(i, b)| (i, bonds.neighbor[b]))
+            .collect();
+        assert_eq!(broken, vec![(1, 2), (2, 1)]);
+        // Point Damage: points 1 and 2 have two bonds, one across the plane: ½; the ends none.
+        let mut damage = vec![0.0; 4];
+        point_damage(&bonds, &d, &[0, 1, 2, 3], &mut damage);
+        assert_eq!(damage, vec![0.0, 0.5, 0.5, 0.0]);
+        // No later update breaks anything, however far the points move.
+        let far: Vec<[f64; 3]> = x.iter().map(|p| [10.0 * p[0], 0.0, 0.0]).collect();
+        assert_eq!(model.update(&reference, &far, &[0, 1, 2, 3], &mut d), 0);
+        assert_eq!(d.iter().filter(|&&v| v == 1.0).count(), 2);
+    }
+
+    #[test]
+    fn only_the_rows_of_the_given_points_are_written() {
+        let x: Vec<[f64; 3]> = (0..4).map(|k| [k as f64, 0.0, 0.0]).collect();
+        let bonds = brute_force_bonds(&x, 1.5);
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &[1.0; 4],
+        };
+        let plane =
+            RectangularPlane::new([1.0, 0.0, 0.0], [1.5, -1.0, 1.0], [0.0, 1.0, 0.0], 2.0, 2.0)
+                .unwrap();
+        let model = InitialDamage::new(vec![plane.into()]);
+        let mut d = vec![0.0f32; bonds.num_bonds()];
+        // Only point 1's row: its bond to 2 breaks, 2's bond to 1 is another block's business.
+        model.initialize(&reference, &[1], &mut d);
+        assert_eq!(d.iter().filter(|&&v| v == 1.0).count(), 1);
+    }
+}
