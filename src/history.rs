@@ -130,6 +130,46 @@ pub struct History {
     fields: Vec<(FieldDeclaration, Staged<f64>)>,
     /// Δt of the step the trial values advance over (s); see [`History::step_duration`].
     step_duration: f64,
+    /// The point temperatures, when the deck has thermal conditions (see [`Thermal`]).
+    thermal: Option<Thermal>,
+}
+
+/// The temperature of every point, allocated only when a deck has a `Prescribed Temperature`
+/// or `Initial Temperature` condition. The conditions set it at the start of every step (a
+/// function of time, so it is not staged: a rejected step sets it again); the materials and
+/// damage models read it through [`History::thermal`].
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Thermal {
+    /// Temperature T (Peridigm's `Temperature`; degrees).
+    pub temperature: Vec<f64>,
+    /// ΔT, the change of T since t = 0 (Peridigm's `Temperature_Change`): what drives the
+    /// thermal strain.
+    pub change: Vec<f64>,
+    /// α_i ΔT_i, the free thermal strain of each point, α the `Thermal Expansion Coefficient`
+    /// of the point's material (0 for materials without one); the physics fills it before
+    /// every force evaluation.
+    pub strain: Vec<f64>,
+    /// ΔT as the materials' history saw it, staged with that history: the trial value is ΔT
+    /// of the last force evaluation, the committed one ΔT of the last accepted evaluation (the
+    /// start of the step). Models that integrate the thermal strain in increments read the
+    /// increment `change − committed` (`Elastic Correspondence`).
+    pub evaluated: Staged<f64>,
+}
+
+impl Thermal {
+    /// T = ΔT = 0 at `points` points.
+    pub fn at_rest(points: usize) -> Self {
+        Self {
+            temperature: vec![0.0; points],
+            change: vec![0.0; points],
+            strain: vec![0.0; points],
+            evaluated: {
+                let mut evaluated = Staged::filled(points, 0.0);
+                evaluated.keep_committed();
+                evaluated
+            },
+        }
+    }
 }
 
 impl History {
@@ -158,6 +198,7 @@ impl History {
         Self {
             fields,
             step_duration: 0.0,
+            thermal: None,
         }
     }
 
@@ -192,6 +233,24 @@ impl History {
         self.step_duration = duration;
     }
 
+    /// The point temperatures, when the deck has thermal conditions.
+    pub fn thermal(&self) -> Option<&Thermal> {
+        self.thermal.as_ref()
+    }
+
+    /// The point temperatures, for the conditions that set them and the physics that derives
+    /// the thermal strain.
+    pub fn thermal_mut(&mut self) -> Option<&mut Thermal> {
+        self.thermal.as_mut()
+    }
+
+    /// Allocates the point temperatures (T = ΔT = 0) for `points` points (a deck with thermal
+    /// conditions).
+    pub fn with_thermal(mut self, points: usize) -> Self {
+        self.thermal = Some(Thermal::at_rest(points));
+        self
+    }
+
     /// The declared fields, in declaration order.
     pub fn declared(&self) -> impl Iterator<Item = &FieldDeclaration> {
         self.fields.iter().map(|(f, _)| f)
@@ -202,6 +261,7 @@ impl History {
         Self {
             fields: Vec::new(),
             step_duration: 0.0,
+            thermal: None,
         }
     }
 
@@ -213,11 +273,15 @@ impl History {
             .for_each(|(_, values)| action(values));
     }
 
-    /// Applies `action` to every field (the state's commit, restore and copies).
+    /// Applies `action` to every field and to the temperature change the history saw
+    /// ([`Thermal::evaluated`]) (the state's commit, restore and copies).
     pub(crate) fn each(&mut self, action: fn(&mut Staged<f64>)) {
         self.fields
             .iter_mut()
             .for_each(|(_, values)| action(values));
+        if let Some(thermal) = &mut self.thermal {
+            action(&mut thermal.evaluated);
+        }
     }
 }
 

@@ -167,6 +167,7 @@ impl Physics {
     ) -> usize {
         let reference = ReferenceView::of(bonds, points);
         let mut broken = 0;
+        self.publish_thermal_strain(history);
         let Some(bond_damage) = bond_damage else {
             self.internal_force_with_damage_fixed(
                 bonds,
@@ -190,7 +191,17 @@ impl Physics {
             .collect();
         for (block, fused) in self.blocks.iter().zip(&fused) {
             if let (Some(damage), None) = (&block.damage, fused) {
-                broken += damage.update(&reference, current, block.material.points(), bond_damage);
+                let points = block.material.points();
+                broken += match history.thermal() {
+                    None => damage.update(&reference, current, points, bond_damage),
+                    Some(thermal) => damage.update_at_temperature(
+                        &reference,
+                        current,
+                        &thermal.change,
+                        points,
+                        bond_damage,
+                    ),
+                };
             }
         }
         self.make_interface_bonds_agree(bond_damage);
@@ -275,6 +286,7 @@ impl Physics {
         force_density: &mut [[f64; 3]],
     ) {
         let reference = ReferenceView::of(bonds, points);
+        self.publish_thermal_strain(history);
         self.update_history(&reference, current, bond_damage, history);
         let view = CurrentView {
             position: current,
@@ -296,6 +308,27 @@ impl Physics {
                 .material
                 .add_force_density(&reference, &view, &self.coefficients, force_density);
         }
+    }
+
+    /// The free thermal strain α ΔT of every point, α the `Thermal Expansion Coefficient` of
+    /// the point's material (0 without one), from the temperature change the conditions set
+    /// ([`crate::history::Thermal::strain`]), and ΔT as this evaluation sees it
+    /// ([`crate::history::Thermal::evaluated`]); nothing in a run without point temperatures.
+    fn publish_thermal_strain(&self, history: &mut History) {
+        let Some(thermal) = history.thermal_mut() else {
+            return;
+        };
+        for block in &self.blocks {
+            let alpha = block.material.thermal_expansion().unwrap_or(0.0);
+            for &p in block.material.points() {
+                let p = p as usize;
+                thermal.strain[p] = alpha * thermal.change[p];
+            }
+        }
+        thermal
+            .evaluated
+            .trial_mut()
+            .copy_from_slice(&thermal.change);
     }
 
     /// Advances every block's history fields to `current` (committed values read, trial values
@@ -344,21 +377,23 @@ impl Physics {
         }
     }
 
-    /// Peridigm's `Partial_Stress` of every point at `current` with `bond_damage`
-    /// ([`crate::material::Material::partial_stress`]; zero where the model has none).
+    /// Peridigm's `Partial_Stress` of every point at `current` with `bond_damage` and the
+    /// point temperatures of `history` ([`crate::material::Material::partial_stress`]; zero
+    /// where the model has none).
     pub fn partial_stress(
         &self,
         bonds: &BondList,
         points: &PointCloud,
         current: &[[f64; 3]],
         bond_damage: Option<&[f32]>,
+        history: &History,
         out: &mut [[f64; 9]],
     ) {
         let reference = ReferenceView::of(bonds, points);
         let view = CurrentView {
             position: current,
             bond_damage,
-            history: &NO_HISTORY,
+            history,
         };
         out.fill([0.0; 9]);
         for block in &self.blocks {

@@ -1,4 +1,5 @@
-//! Node-set conditions: prescribed displacement, initial displacement and velocity, body force.
+//! Node-set conditions: prescribed displacement, initial displacement and velocity, body force,
+//! prescribed and initial temperature.
 //!
 //! Values are expressions in `x y z t` (reference coordinates of the point and time), compiled
 //! once. Expressions that do not use `x`, `y` or `z` are evaluated once per application instead
@@ -17,6 +18,11 @@ pub enum ConditionKind {
     InitialVelocity,
     /// `Body Force`: external force density b = g(x, y, z, t) (force per volume), every step.
     BodyForce,
+    /// `Prescribed Temperature`: T = g(x, y, z, t) and ΔT = g(x, y, z, t) − g(x, y, z, 0), every
+    /// step (Peridigm's rule: the change is measured from the value at t = 0).
+    PrescribedTemperature,
+    /// `Initial Temperature`: T = g(x, y, z, t₀) once at the start (ΔT stays 0 there).
+    InitialTemperature,
 }
 
 /// One condition on one component of one node set.
@@ -138,6 +144,66 @@ impl BoundaryConditions {
         self.of_kind(ConditionKind::BodyForce).next().is_some()
     }
 
+    /// True when a temperature condition is present (the point temperatures are only
+    /// allocated then).
+    pub fn has_temperature(&self) -> bool {
+        self.conditions.iter().any(|c| {
+            matches!(
+                c.kind,
+                ConditionKind::PrescribedTemperature | ConditionKind::InitialTemperature
+            )
+        })
+    }
+
+    /// Applies `Initial Temperature` at time `t0` to `temperature`, then `Prescribed
+    /// Temperature` at `t0` ([`BoundaryConditions::temperature`]).
+    pub fn initial_temperature(
+        &self,
+        positions: &[[f64; 3]],
+        t0: f64,
+        temperature: &mut [f64],
+        change: &mut [f64],
+    ) -> Result<(), BoundaryError> {
+        for c in self.of_kind(ConditionKind::InitialTemperature) {
+            c.for_each_value(positions, t0, |p, v| temperature[p] = v)?;
+        }
+        self.temperature(positions, t0, temperature, change)
+    }
+
+    /// `Prescribed Temperature` at time `t`: T = g(t) and ΔT = g(t) − g(0) at every point of
+    /// each condition's node set (a later condition overrides an earlier one on shared points).
+    pub fn temperature(
+        &self,
+        positions: &[[f64; 3]],
+        t: f64,
+        temperature: &mut [f64],
+        change: &mut [f64],
+    ) -> Result<(), BoundaryError> {
+        for c in self.of_kind(ConditionKind::PrescribedTemperature) {
+            c.for_each_value_at(positions, [0.0, t], |p, [start, now]| {
+                temperature[p] = now;
+                change[p] = now - start;
+            })?;
+        }
+        Ok(())
+    }
+
+    /// `Prescribed Temperature` at time `t` into the history's point temperatures
+    /// ([`BoundaryConditions::temperature`]); nothing when the run has none.
+    pub fn apply_temperature(
+        &self,
+        positions: &[[f64; 3]],
+        t: f64,
+        history: &mut crate::history::History,
+    ) -> Result<(), BoundaryError> {
+        match history.thermal_mut() {
+            Some(thermal) => {
+                self.temperature(positions, t, &mut thermal.temperature, &mut thermal.change)
+            }
+            None => Ok(()),
+        }
+    }
+
     /// Applies initial displacement and velocity at time `t0`.
     pub fn apply_initial(
         &self,
@@ -247,6 +313,50 @@ mod tests {
         assert_eq!(seen[1].0, 1);
         assert!((seen[1].2 - 0.4).abs() < 1e-15);
         assert_eq!(bcs.constrained_dofs(), vec![0, 4]);
+    }
+
+    #[test]
+    fn prescribed_temperature_is_measured_from_t_zero_and_uses_x_y_z_t() {
+        let positions = [[2.0, 0.0, 0.0], [3.0, 1.0, 0.0], [4.0, 0.0, 0.5]];
+        let bcs = BoundaryConditions {
+            conditions: vec![
+                condition(
+                    ConditionKind::InitialTemperature,
+                    vec![0, 1, 2],
+                    0,
+                    "300 + x",
+                ),
+                condition(
+                    ConditionKind::PrescribedTemperature,
+                    vec![1, 2],
+                    0,
+                    "if(t < 1) { value = 20 + y + 10*t; } else { value = 30 + y + z^2; }",
+                ),
+            ],
+        };
+        assert!(bcs.has_temperature());
+        let mut temperature = [0.0; 3];
+        let mut change = [0.0; 3];
+        bcs.initial_temperature(&positions, 0.0, &mut temperature, &mut change)
+            .unwrap();
+        // Point 0: T = 300 + 2 (initial only). Points 1, 2: the prescribed g(x, y, z, 0) =
+        // 20 + y overrides the initial value; ΔT = g(0) − g(0) = 0.
+        assert_eq!(temperature, [302.0, 21.0, 20.0]);
+        assert_eq!(change, [0.0; 3]);
+        bcs.temperature(&positions, 0.5, &mut temperature, &mut change)
+            .unwrap();
+        // g(0.5) = 20 + y + 5: ΔT = 5 on both; point 0 keeps its values.
+        assert_eq!(temperature, [302.0, 26.0, 25.0]);
+        assert_eq!(change, [0.0, 5.0, 5.0]);
+        bcs.temperature(&positions, 2.0, &mut temperature, &mut change)
+            .unwrap();
+        // g(2) = 30 + y + z² (the `^` power of Peridigm's parser): 31, 30.25; minus g(0).
+        assert_eq!(temperature, [302.0, 31.0, 30.25]);
+        assert_eq!(change, [0.0, 10.0, 10.25]);
+        let mechanical = BoundaryConditions {
+            conditions: vec![condition(ConditionKind::BodyForce, vec![0], 0, "1")],
+        };
+        assert!(!mechanical.has_temperature());
     }
 
     #[test]

@@ -15,12 +15,17 @@
 //! Updating each pair once (the pair-once loop of [`DamageModel::prepare`]) therefore takes
 //! the same decisions as updating each direction.
 //!
-//! Not yet supported: `Thermal Expansion Coefficient` (s ← s − αΔT_i).
+//! # Thermal strain
+//! With a `Thermal Expansion Coefficient` α, in a run with point temperatures, the bond i→j is
+//! tested with `s − α ΔT_i` (ΔT of point i only, Peridigm's rule) by the directed loop; the
+//! pair-once loop and the materials' fused passes are not used then.
 
 use std::sync::Arc;
 
 use super::registry::BOND_DAMAGE;
-use super::stretch_kernel::{update_stretch_damage, PairPlan, StretchLimit};
+use super::stretch_kernel::{
+    update_stretch_damage, update_thermal_stretch_damage, PairPlan, StretchLimit,
+};
 use super::{DamageError, DamageModel};
 use crate::model::ReferenceView;
 use crate::model::{ModelDeclaration, Reach};
@@ -45,13 +50,19 @@ pub struct CriticalStretch {
     critical_stretch: f64,
     /// The pair-once loop, once [`DamageModel::prepare`] has made one.
     plan: Option<Arc<PairPlan>>,
+    /// `Thermal Expansion Coefficient` α (per degree), when the deck gives one.
+    thermal_expansion: Option<f64>,
 }
 
 impl CriticalStretch {
     /// `Critical Stretch`: a bond breaks on its own stretch alone, so the rule reaches one hop.
     pub const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Critical Stretch",
-        deck_keys: &["Critical Stretch", "Critical Energy Release Rate"],
+        deck_keys: &[
+            "Critical Stretch",
+            "Critical Energy Release Rate",
+            "Thermal Expansion Coefficient",
+        ],
         reach: Reach::OneHop,
         fields: &[BOND_DAMAGE],
         outputs: &["Damage"],
@@ -63,6 +74,7 @@ impl CriticalStretch {
             Ok(Self {
                 critical_stretch,
                 plan: None,
+                thermal_expansion: None,
             })
         } else {
             Err(DamageError::NotPositive {
@@ -97,8 +109,38 @@ impl DamageModel for CriticalStretch {
         self.plan = PairPlan::new(reference, points).map(Arc::new);
     }
 
+    /// Only without thermal expansion: the fused passes test the stretch without ΔT.
     fn fusable_critical_stretch(&self) -> Option<f64> {
-        Some(self.critical_stretch)
+        self.thermal_expansion
+            .is_none()
+            .then_some(self.critical_stretch)
+    }
+
+    fn set_thermal_expansion(&mut self, coefficient: f64) -> Result<(), DamageError> {
+        self.thermal_expansion = Some(super::finite("Thermal Expansion Coefficient", coefficient)?);
+        Ok(())
+    }
+
+    fn update_at_temperature(
+        &self,
+        reference: &ReferenceView<'_>,
+        current_position: &[[f64; 3]],
+        temperature_change: &[f64],
+        points: &[u32],
+        bond_damage: &mut [f32],
+    ) -> usize {
+        match self.thermal_expansion {
+            None => self.update(reference, current_position, points, bond_damage),
+            Some(alpha) => update_thermal_stretch_damage(
+                reference,
+                current_position,
+                points,
+                bond_damage,
+                &StretchLimit::new(self.critical_stretch),
+                alpha,
+                temperature_change,
+            ),
+        }
     }
 
     fn update(
@@ -161,6 +203,53 @@ mod tests {
         let mut damage = vec![0.0; 2];
         point_damage(&bonds, &d, &[0, 1], &mut damage);
         assert_eq!(damage, vec![1.0, 1.0]);
+    }
+
+    #[test]
+    fn with_thermal_expansion_a_bond_breaks_when_s_minus_alpha_delta_t_exceeds_s_c() {
+        // ζ = 1, s = 0.03, s_c = 0.02, α = 1e-4. The bond i→j is tested with s − αΔT_i:
+        // ΔT = 150 gives 0.015 (intact), ΔT = 50 gives 0.025 (breaks), ΔT = 0 gives 0.03
+        // (breaks, as without thermal strain). Margins of 5e-3 dwarf any rounding.
+        let (x, v, bonds) = two_points();
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+        };
+        let mut model = CriticalStretch::new(0.02).unwrap();
+        model.set_thermal_expansion(1e-4).unwrap();
+        // The fused passes of the materials do not know ΔT: the model declines them.
+        assert_eq!(model.fusable_critical_stretch(), None);
+        let y = vec![[0.0, 0.0, 0.0], [1.03, 0.0, 0.0]];
+        let mut d = vec![0.0f32; 2];
+        let hot = [150.0, 150.0];
+        assert_eq!(
+            model.update_at_temperature(&reference, &y, &hot, &[0, 1], &mut d),
+            0
+        );
+        assert_eq!(d, vec![0.0, 0.0]);
+        // ΔT of point i alone decides bond i→j (Peridigm): the cooler end's bond breaks first.
+        let mixed = [150.0, 50.0];
+        assert_eq!(
+            model.update_at_temperature(&reference, &y, &mixed, &[0, 1], &mut d),
+            1
+        );
+        assert_eq!(d, vec![0.0, 1.0]);
+        let warm = [50.0, 50.0];
+        assert_eq!(
+            model.update_at_temperature(&reference, &y, &warm, &[0, 1], &mut d),
+            1
+        );
+        assert_eq!(d, vec![1.0, 1.0]);
+        // Without point temperatures the thermal term is absent: s = 0.03 > s_c.
+        let mut plain = vec![0.0f32; 2];
+        assert_eq!(model.update(&reference, &y, &[0, 1], &mut plain), 2);
+        // A cooled bond at rest breaks on thermal strain alone: s − αΔT = 0 + 0.025 > s_c.
+        let mut cold = vec![0.0f32; 2];
+        let at_rest =
+            model.update_at_temperature(&reference, &x, &[-250.0, -250.0], &[0, 1], &mut cold);
+        assert_eq!(at_rest, 2);
+        assert!(model.set_thermal_expansion(f64::INFINITY).is_err());
     }
 
     #[test]

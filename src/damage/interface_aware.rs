@@ -18,12 +18,16 @@
 //! tangent stays non-singular) and breaks all their bonds. That belongs to an implicit solver:
 //! [`rank_deficient_points`] lists such points; it changes nothing.
 //!
-//! Not yet supported: `Thermal Expansion Coefficient` (s ← s − αΔT_i; needs a temperature).
+//! # Thermal strain
+//! With a `Thermal Expansion Coefficient` α, in a run with point temperatures, the bond i→j is
+//! tested with `s − α ΔT_i` against the same limit (ΔT of point i only, Peridigm's rule).
 
 use std::sync::Arc;
 
 use super::registry::{BOND_DAMAGE, POINT_CRITICAL_STRETCH};
-use super::stretch_kernel::{update_stretch_damage, BondLimit, PairPlan, StretchLimit};
+use super::stretch_kernel::{
+    update_stretch_damage, update_thermal_stretch_damage, BondLimit, PairPlan, StretchLimit,
+};
 use super::{DamageError, DamageModel};
 use crate::model::BondList;
 use crate::model::ReferenceView;
@@ -37,13 +41,15 @@ pub struct InterfaceAware {
     point_critical_stretch: Arc<[f64]>,
     /// The pair-once loop, once [`DamageModel::prepare`] has made one.
     plan: Option<Arc<PairPlan>>,
+    /// `Thermal Expansion Coefficient` α (per degree), when the deck gives one.
+    thermal_expansion: Option<f64>,
 }
 
 impl InterfaceAware {
     /// `Interface Aware`: a bond's limit reads the critical stretch of both ends, and the rank-deficient rule breaks all bonds of a point from its family's damage: two hops.
     pub const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Interface Aware",
-        deck_keys: &["Critical Stretch"],
+        deck_keys: &["Critical Stretch", "Thermal Expansion Coefficient"],
         reach: Reach::TwoHop,
         fields: &[BOND_DAMAGE, POINT_CRITICAL_STRETCH],
         outputs: &["Damage"],
@@ -77,6 +83,7 @@ impl InterfaceAware {
             critical_stretch,
             point_critical_stretch,
             plan: None,
+            thermal_expansion: None,
         })
     }
 
@@ -132,6 +139,36 @@ impl DamageModel for InterfaceAware {
 
     fn prepare(&mut self, reference: &ReferenceView<'_>, points: &[u32]) {
         self.plan = PairPlan::new(reference, points).map(Arc::new);
+    }
+
+    fn set_thermal_expansion(&mut self, coefficient: f64) -> Result<(), DamageError> {
+        self.thermal_expansion = Some(super::finite("Thermal Expansion Coefficient", coefficient)?);
+        Ok(())
+    }
+
+    fn update_at_temperature(
+        &self,
+        reference: &ReferenceView<'_>,
+        current_position: &[[f64; 3]],
+        temperature_change: &[f64],
+        points: &[u32],
+        bond_damage: &mut [f32],
+    ) -> usize {
+        let Some(alpha) = self.thermal_expansion else {
+            return self.update(reference, current_position, points, bond_damage);
+        };
+        let limit = PerPointLimit {
+            field: &self.point_critical_stretch,
+        };
+        update_thermal_stretch_damage(
+            reference,
+            current_position,
+            points,
+            bond_damage,
+            &limit,
+            alpha,
+            temperature_change,
+        )
     }
 
     fn update(

@@ -28,6 +28,15 @@ pub use time_dependent_critical_stretch::TimeDependentCriticalStretch;
 
 pub(crate) use stretch_kernel::StretchLimit;
 
+/// `value` if it is a finite number, else the error naming `key`.
+fn finite(key: &'static str, value: f64) -> Result<f64, DamageError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(DamageError::NotFinite { key, value })
+    }
+}
+
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::ReferenceView;
 use crate::model::{BondList, ModelDeclaration};
@@ -51,6 +60,23 @@ pub enum DamageError {
         time: f64,
         /// What went wrong.
         message: String,
+    },
+    /// The deck gives a `Thermal Expansion Coefficient` to a model without thermal strain.
+    #[error(
+        "damage model parameter `Thermal Expansion Coefficient` is not supported by the \
+         \"{model}\" damage model; remove the key"
+    )]
+    ThermalExpansionNotSupported {
+        /// The `Damage Model` string.
+        model: &'static str,
+    },
+    /// A parameter that must be a finite number is not.
+    #[error("damage model parameter `{key}` must be a finite number, got {value}")]
+    NotFinite {
+        /// Deck key, e.g. `Thermal Expansion Coefficient`.
+        key: &'static str,
+        /// The offending value.
+        value: f64,
     },
     /// A parameter the model needs was not given.
     #[error("damage model parameter `{key}` is required by this damage model")]
@@ -104,6 +130,31 @@ pub trait DamageModel: Send + Sync {
         _points: &[u32],
         _bond_damage: &mut [f32],
     ) {
+    }
+
+    /// Sets the model's `Thermal Expansion Coefficient` α: the stretch a bond of point i is
+    /// tested with becomes `s − α ΔT_i` ([`DamageModel::update_at_temperature`]). The default
+    /// refuses it, naming the model.
+    fn set_thermal_expansion(&mut self, coefficient: f64) -> Result<(), DamageError> {
+        let _ = coefficient;
+        Err(DamageError::ThermalExpansionNotSupported {
+            model: self.model_name(),
+        })
+    }
+
+    /// [`DamageModel::update`] in a run with point temperatures: `temperature_change` is ΔT
+    /// of every point. A model with a `Thermal Expansion Coefficient` tests `s − α ΔT_i`; the
+    /// default (a model without one) ignores the temperature.
+    fn update_at_temperature(
+        &self,
+        reference: &ReferenceView<'_>,
+        current_position: &[[f64; 3]],
+        temperature_change: &[f64],
+        points: &[u32],
+        bond_damage: &mut [f32],
+    ) -> usize {
+        let _ = temperature_change;
+        self.update(reference, current_position, points, bond_damage)
     }
 
     /// Updates the damage of the bonds in the rows of `points` (strictly increasing global

@@ -173,6 +173,57 @@ fn directed<L: BondLimit>(
     broken.into_inner()
 }
 
+/// The directed loop with thermal strain (Peridigm's rule, reference §1.4): the bond i→j
+/// breaks once `(|Y_j − Y_i| − ζ − α ΔT_i ζ)/ζ` exceeds its limit, ΔT_i the temperature change
+/// of point i alone (`temperature_change`, all points), α the damage model's `Thermal
+/// Expansion Coefficient`. Each direction decides from its own end's ΔT, so a pair whose ends
+/// differ in temperature may break in one direction first, as in Peridigm. Returns the
+/// directed bonds broken.
+pub(super) fn update_thermal_stretch_damage<L: BondLimit>(
+    reference: &ReferenceView<'_>,
+    current_position: &[[f64; 3]],
+    points: &[u32],
+    bond_damage: &mut [f32],
+    limits: &L,
+    thermal_expansion: f64,
+    temperature_change: &[f64],
+) -> usize {
+    let bonds = reference.bonds;
+    let y = current_position;
+    let broken = AtomicUsize::new(0);
+    for_each_chunk(
+        points,
+        bond_damage,
+        &|i| bonds.offsets[i as usize],
+        &|chunk: &[u32], base: usize, rows: &mut [f32]| {
+            let mut newly = 0;
+            for &i in chunk {
+                let i = i as usize;
+                let range = bonds.range(i);
+                let free = thermal_expansion * temperature_change[i];
+                let row = &mut rows[range.start - base..range.end - base];
+                let zetas = &bonds.reference_length[range.clone()];
+                for ((d, &j), &zeta) in row.iter_mut().zip(&bonds.neighbor[range]).zip(zetas) {
+                    if *d >= 1.0 {
+                        continue;
+                    }
+                    let j = j as usize;
+                    let Some(limit) = limits.limit(i, j) else {
+                        continue;
+                    };
+                    let length = squared_distance(y[i], y[j]).sqrt();
+                    if (length - zeta - free * zeta) / zeta > limit.stretch {
+                        *d = 1.0;
+                        newly += 1;
+                    }
+                }
+            }
+            broken.fetch_add(newly, Ordering::Relaxed);
+        },
+    );
+    broken.into_inner()
+}
+
 /// Block points per task of the pair-once loop (load balance: rows near surfaces and late in
 /// the order have fewer upper pairs). The result does not depend on it.
 const PAIR_CHUNK: usize = 256;

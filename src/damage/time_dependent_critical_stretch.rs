@@ -20,7 +20,10 @@ impl TimeDependentCriticalStretch {
     /// `Time Dependent Critical Stretch`: as `Critical Stretch`, one bond at a time: one hop.
     pub const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Time Dependent Critical Stretch",
-        deck_keys: &["Time Dependent Critical Stretch"],
+        deck_keys: &[
+            "Time Dependent Critical Stretch",
+            "Thermal Expansion Coefficient",
+        ],
         reach: Reach::OneHop,
         fields: &[BOND_DAMAGE],
         outputs: &["Damage"],
@@ -69,6 +72,27 @@ impl DamageModel for TimeDependentCriticalStretch {
 
     fn prepare(&mut self, reference: &ReferenceView<'_>, points: &[u32]) {
         self.current.prepare(reference, points);
+    }
+
+    fn set_thermal_expansion(&mut self, coefficient: f64) -> Result<(), DamageError> {
+        self.current.set_thermal_expansion(coefficient)
+    }
+
+    fn update_at_temperature(
+        &self,
+        reference: &ReferenceView<'_>,
+        current_position: &[[f64; 3]],
+        temperature_change: &[f64],
+        points: &[u32],
+        bond_damage: &mut [f32],
+    ) -> usize {
+        self.current.update_at_temperature(
+            reference,
+            current_position,
+            temperature_change,
+            points,
+            bond_damage,
+        )
     }
 
     fn update(

@@ -21,7 +21,13 @@
 //!   only with `Compute Partial Stress: true`; here it is computed whenever an output asks
 //!   for it (the key is accepted and changes nothing else).
 //!
-//! Not yet supported: `Thermal Expansion Coefficient` (e ← e − αΔTζ).
+//! * thermal strain (`Thermal Expansion Coefficient` α, Peridigm's rule): with the point
+//!   temperature change ΔT_i, every extension of point i's side is measured from the freely
+//!   expanded bond, `e ← e − αΔT_i ζ`, in θ_i, in t_ij and in the stored energy (t_ji uses
+//!   ΔT_j and j's material's α, the free strain published per point,
+//!   [`crate::history::Thermal::strain`]). A block with α takes these simple bond loops in every
+//!   evaluation while the run has point temperatures; blocks without α, and every run without
+//!   temperature conditions, keep the fast loops below unchanged.
 
 use super::influence::InfluenceFunction;
 use super::{
@@ -73,6 +79,8 @@ pub struct LinearPeridynamicSolid {
     /// The points whose force is computed, when fewer than `points`
     /// ([`Material::restrict_forces`]).
     force_points: Option<Vec<u32>>,
+    /// `Thermal Expansion Coefficient` α (per degree), when the deck gives one.
+    thermal_expansion: Option<f64>,
 }
 
 impl LinearPeridynamicSolid {
@@ -91,6 +99,7 @@ impl LinearPeridynamicSolid {
             "Apply Automatic Differentiation Jacobian",
             "Finite Difference Probe Length",
             "Compute Partial Stress",
+            "Thermal Expansion Coefficient",
         ],
         reach: Reach::TwoHop,
         fields: &[
@@ -136,7 +145,15 @@ impl LinearPeridynamicSolid {
             tangent: TangentMethod::Analytic,
             closed: false,
             force_points: None,
+            thermal_expansion: None,
         })
+    }
+
+    /// The free thermal strain α ΔT of every point, when this block has α and the run has
+    /// point temperatures (the thermal bond loops then run).
+    fn thermal_strain<'a>(&self, current: &CurrentView<'a>) -> Option<&'a [f64]> {
+        self.thermal_expansion?;
+        current.history.thermal().map(|t| &t.strain[..])
     }
 
     /// Weighted volume m of each block point (Peridigm's `Weighted_Volume`), in the order of
@@ -504,9 +521,12 @@ impl Rows<'_> {
         self.add_force(coefficients, chunk, base, out, weights, damage);
     }
 
-    /// `W_i = K θ²/2 + (α/2) Σ_j (1−d) ω (e − θζ/3)² V_j`, α = 15μ/m.
+    /// `W_i = K θ²/2 + (α/2) Σ_j (1−d) ω (e − ε_i ζ − θζ/3)² V_j`, α = 15μ/m, ε the free
+    /// thermal strain (0 without `strain`).
+    #[allow(clippy::too_many_arguments)]
     fn energy<W: BondWeights, D: Integrity>(
         &self,
+        strain: Option<&[f64]>,
         coefficients: &[PointCoefficients],
         chunk: &[u32],
         base: usize,
@@ -523,13 +543,18 @@ impl Rows<'_> {
             let theta = coefficients[i].dilatation;
             let alpha = coefficients[i].deviatoric;
             let local = self.local_offsets[k];
+            let free = strain.map_or(0.0, |s| s[i]);
             let mut sum = 0.0;
             for (n, b) in bonds.range(i).enumerate() {
                 let j = bonds.neighbor[b] as usize;
                 let yj = y[j];
                 let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
                 let zeta = bonds.reference_length[b];
-                let deviatoric = (dx * dx + dy * dy + dz * dz).sqrt() - zeta - theta * zeta / 3.0;
+                let length = (dx * dx + dy * dy + dz * dz).sqrt();
+                let deviatoric = match strain {
+                    None => length - zeta - theta * zeta / 3.0,
+                    Some(_) => length - zeta - free * zeta - theta * zeta / 3.0,
+                };
                 sum += damage.intact(b)
                     * weights.weight(local + n)
                     * deviatoric
@@ -539,6 +564,105 @@ impl Rows<'_> {
             out[i - base] = 0.5 * self.bulk * theta * theta + 0.5 * alpha * sum;
         }
     }
+}
+
+/// The bond loops with thermal strain (module docs): plain loops, used only by blocks with a
+/// `Thermal Expansion Coefficient` in runs with point temperatures.
+impl Rows<'_> {
+    /// θ_i = (3/m) Σ_j ω (1−d) ζ (e − ε_i ζ) V_j and the published coefficients, ε = α ΔT.
+    fn thermal_dilatation<W: BondWeights, D: Integrity>(
+        &self,
+        strain: &[f64],
+        chunk: &[u32],
+        base: usize,
+        out: &mut [PointCoefficients],
+        weights: W,
+        damage: D,
+    ) {
+        let bonds = self.reference.bonds;
+        let y = self.current.position;
+        let k0 = self.first_local(chunk);
+        for (k, &i) in (k0..).zip(chunk) {
+            let i = i as usize;
+            let local = self.local_offsets[k];
+            let mut sum = 0.0;
+            for (n, b) in bonds.range(i).enumerate() {
+                let j = bonds.neighbor[b] as usize;
+                let zeta = bonds.reference_length[b];
+                let extension = distance(y[i], y[j]) - zeta - strain[i] * zeta;
+                sum += weights.weight(local + n)
+                    * damage.intact(b)
+                    * zeta
+                    * extension
+                    * self.reference.volume[j];
+            }
+            let m = self.weighted_volume[k];
+            out[i - base] = if m > 0.0 {
+                let theta = 3.0 * sum / m;
+                PointCoefficients {
+                    dilatation: theta,
+                    isotropic: (3.0 * self.bulk - 5.0 * self.shear) * theta / m,
+                    deviatoric: 15.0 * self.shear / m,
+                }
+            } else {
+                PointCoefficients::default()
+            };
+        }
+    }
+
+    /// `F_i += Σ_j (1−d) ω [(A_i + A_j) ζ + (1−d)(B_i (e − ε_i ζ) + B_j (e − ε_j ζ))] V_j M_ij`.
+    #[allow(clippy::too_many_arguments)]
+    fn thermal_force<W: BondWeights, D: Integrity>(
+        &self,
+        strain: &[f64],
+        coefficients: &[PointCoefficients],
+        chunk: &[u32],
+        base: usize,
+        out: &mut [[f64; 3]],
+        weights: W,
+        damage: D,
+    ) {
+        let bonds = self.reference.bonds;
+        let y = self.current.position;
+        for &i in chunk {
+            let k = self.points.partition_point(|&p| p < i);
+            let i = i as usize;
+            let own = coefficients[i];
+            let local = self.local_offsets[k];
+            let mut total = [0.0; 3];
+            for (n, b) in bonds.range(i).enumerate() {
+                let j = bonds.neighbor[b] as usize;
+                let length = distance(y[i], y[j]);
+                if length == 0.0 {
+                    continue;
+                }
+                let zeta = bonds.reference_length[b];
+                let other = coefficients[j];
+                let extension = length - zeta;
+                let intact = damage.intact(b);
+                let t = intact
+                    * weights.weight(local + n)
+                    * ((own.isotropic + other.isotropic) * zeta
+                        + intact
+                            * (own.deviatoric * (extension - strain[i] * zeta)
+                                + other.deviatoric * (extension - strain[j] * zeta)));
+                let scale = t * self.reference.volume[j] / length;
+                for c in 0..3 {
+                    total[c] += scale * (y[j][c] - y[i][c]);
+                }
+            }
+            for c in 0..3 {
+                out[i - base][c] += total[c];
+            }
+        }
+    }
+}
+
+/// |b − a|.
+#[inline(always)]
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let (dx, dy, dz) = (b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+    (dx * dx + dy * dy + dz * dz).sqrt()
 }
 
 /// Bonds of a row evaluated together in the LPS loops (the width of an AVX2 vector of f64; the
@@ -635,9 +759,21 @@ struct LpsForceState<'a, W, D> {
     damage: D,
     bulk: f64,
     shear: f64,
+    /// The free thermal strain α ΔT of every point (module docs), when the block has α and
+    /// the run has point temperatures.
+    thermal_strain: Option<&'a [f64]>,
 }
 
 impl<W: BondWeights, D: Integrity> LpsForceState<'_, W, D> {
+    /// e = |Y| − ζ, less the free thermal strain ε_i ζ when there is one.
+    #[inline(always)]
+    fn extension<T: Scalar>(&self, point: PointIndex, length: T, zeta: f64) -> T {
+        match self.thermal_strain {
+            None => length - zeta,
+            Some(strain) => length - zeta - strain[point.global] * zeta,
+        }
+    }
+
     /// m, (3K − 5μ)/m and 15μ/m of the point; `None` when m = 0 (no force).
     fn moduli(&self, point: PointIndex) -> Option<(f64, f64, f64)> {
         let m = self.weighted_volume[point.local];
@@ -681,7 +817,7 @@ impl<W: BondWeights, D: Integrity> ForceState for LpsForceState<'_, W, D> {
             } else {
                 zero
             };
-            let extension = length - zeta;
+            let extension = self.extension(point, length, zeta);
             let j = self.bonds.neighbor[b] as usize;
             sum += extension
                 * (self.weights.weight(local + n) * self.damage.intact(b) * zeta * self.volume[j]);
@@ -719,7 +855,7 @@ impl<W: BondWeights, D: Integrity> ForceState for LpsForceState<'_, W, D> {
             let zeta = self.bonds.reference_length[b];
             let d = [0, 1, 2].map(|k| y[n + 1][k] - y[0][k]);
             let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let extension = length - zeta;
+            let extension = self.extension(point, length, zeta);
             let j = self.bonds.neighbor[b] as usize;
             let factor =
                 self.weights.weight(local + n) * self.damage.intact(b) * zeta * self.volume[j];
@@ -860,6 +996,19 @@ impl Material for LinearPeridynamicSolid {
         coefficients: &mut [PointCoefficients],
     ) {
         let rows = self.rows(reference, current);
+        if let Some(strain) = self.thermal_strain(current) {
+            with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
+                for_each_chunk(
+                    &self.points,
+                    coefficients,
+                    &|i| i as usize,
+                    &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
+                        rows.thermal_dilatation(strain, chunk, base, out, w, d)
+                    },
+                )
+            });
+            return;
+        }
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             for_each_chunk(
                 &self.points,
@@ -873,10 +1022,20 @@ impl Material for LinearPeridynamicSolid {
         })
     }
 
-    /// The dilatation pass breaks the bonds of each row (only for a closed block).
+    /// The dilatation pass breaks the bonds of each row (only for a closed block without
+    /// thermal expansion: the fused pass measures e without the thermal strain).
     fn critical_stretch_fast_path(&self) -> Option<CriticalStretchFastPath<'_>> {
-        self.closed
+        (self.closed && self.thermal_expansion.is_none())
             .then_some(CriticalStretchFastPath::PointCoefficients(self))
+    }
+
+    fn thermal_expansion(&self) -> Option<f64> {
+        self.thermal_expansion
+    }
+
+    fn set_thermal_expansion(&mut self, coefficient: f64) -> Result<(), MaterialError> {
+        self.thermal_expansion = Some(super::finite("Thermal Expansion Coefficient", coefficient)?);
+        Ok(())
     }
 
     fn add_force_density(
@@ -888,6 +1047,19 @@ impl Material for LinearPeridynamicSolid {
     ) {
         let rows = self.rows(reference, current);
         let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        if let Some(strain) = self.thermal_strain(current) {
+            with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
+                for_each_chunk(
+                    force_points,
+                    force_density,
+                    &|i| i as usize,
+                    &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
+                        rows.thermal_force(strain, coefficients, chunk, base, out, w, d)
+                    },
+                )
+            });
+            return;
+        }
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             for_each_chunk(
                 force_points,
@@ -927,6 +1099,7 @@ impl Material for LinearPeridynamicSolid {
                 damage: d,
                 bulk: self.parameters.bulk_modulus,
                 shear: self.parameters.shear_modulus,
+                thermal_strain: self.thermal_strain(current),
             };
             assemble(
                 &kernel,
@@ -958,6 +1131,7 @@ impl Material for LinearPeridynamicSolid {
                 damage: d,
                 bulk: self.parameters.bulk_modulus,
                 shear: self.parameters.shear_modulus,
+                thermal_strain: self.thermal_strain(current),
             };
             let stresses: Vec<[f64; 9]> = self
                 .points
@@ -1007,13 +1181,14 @@ impl Material for LinearPeridynamicSolid {
         energy_density: &mut [f64],
     ) {
         let rows = self.rows(reference, current);
+        let strain = self.thermal_strain(current);
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             for_each_chunk(
                 &self.points,
                 energy_density,
                 &|i| i as usize,
                 &|chunk: &[u32], base: usize, out: &mut [f64]| {
-                    rows.energy(coefficients, chunk, base, out, w, d)
+                    rows.energy(strain, coefficients, chunk, base, out, w, d)
                 },
             )
         })
@@ -1123,6 +1298,7 @@ mod tests {
                         damage: d,
                         bulk: 3.0,
                         shear: 1.3,
+                        thermal_strain: None,
                     };
                     crate::material::generic_force::add_force_density_from_states(
                         &kernel, &all, &reference, &current, out,

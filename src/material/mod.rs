@@ -31,6 +31,7 @@ mod elastic_plastic;
 pub(crate) mod generic_force;
 mod influence;
 mod linear_peridynamic_solid;
+mod microplastic;
 mod pals;
 mod registry;
 
@@ -52,6 +53,7 @@ pub use elastic_plastic::{
 };
 pub use influence::{InfluenceFunction, UserInfluence};
 pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};
+pub use microplastic::{fields as microplastic_fields, permanent_stretch, MicroplasticBondBased};
 pub use pals::{Multipliers, Pals, PalsInfluence, MULTIPLIERS};
 pub use registry::{
     material_entry, CorrespondenceInput, HypoelasticInput, MaterialConstructor, MaterialEntry,
@@ -72,6 +74,14 @@ pub enum MaterialError {
     #[error("material parameter `{key}` must be a positive finite number, got {value}")]
     NotPositive {
         /// Deck key, e.g. `Density`.
+        key: &'static str,
+        /// The offending value.
+        value: f64,
+    },
+    /// A parameter that must be a finite number is not.
+    #[error("material parameter `{key}` must be a finite number, got {value}")]
+    NotFinite {
+        /// Deck key, e.g. `Thermal Expansion Coefficient`.
         key: &'static str,
         /// The offending value.
         value: f64,
@@ -173,6 +183,16 @@ pub enum MaterialError {
         /// Its number of bonds.
         bonds: usize,
     },
+    /// The deck gives a `Thermal Expansion Coefficient` to a model without thermal strain.
+    #[error(
+        "material parameter `Thermal Expansion Coefficient` is not supported by the \"{model}\" \
+         material model (Peridigm applies thermal strain only to \"Elastic\" and \"Elastic \
+         Correspondence\"); remove the key or choose one of those models"
+    )]
+    ThermalExpansionNotSupported {
+        /// The `Material Model` string.
+        model: &'static str,
+    },
     /// The influence function gave a negative or non-finite weight.
     #[error(
         "the `Influence Function` gives ω = {value} for bond length ζ = {zeta} with horizon \
@@ -194,6 +214,15 @@ pub(crate) fn positive(key: &'static str, value: f64) -> Result<f64, MaterialErr
         Ok(value)
     } else {
         Err(MaterialError::NotPositive { key, value })
+    }
+}
+
+/// Checks that a deck parameter is a finite number.
+pub(crate) fn finite(key: &'static str, value: f64) -> Result<f64, MaterialError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(MaterialError::NotFinite { key, value })
     }
 }
 
@@ -321,6 +350,23 @@ pub trait Material: Send + Sync {
         history: &mut crate::history::History,
     ) {
         let _ = (reference, current, history);
+    }
+
+    /// The block's `Thermal Expansion Coefficient` α (per degree), when the deck gives one
+    /// (set by [`Material::set_thermal_expansion`]). The physics publishes the free thermal
+    /// strain α ΔT_i of every point from it ([`crate::history::Thermal::strain`]); `None` (the
+    /// default) publishes 0.
+    fn thermal_expansion(&self) -> Option<f64> {
+        None
+    }
+
+    /// Sets the `Thermal Expansion Coefficient` α of the block. The default refuses it (the
+    /// models Peridigm gives no thermal strain), naming the model.
+    fn set_thermal_expansion(&mut self, coefficient: f64) -> Result<(), MaterialError> {
+        let _ = coefficient;
+        Err(MaterialError::ThermalExpansionNotSupported {
+            model: self.model_name(),
+        })
     }
 
     /// Adds the hourglass-control part of the force density of the block's points
@@ -681,3 +727,5 @@ pub(crate) fn assert_point_set(points: &[u32], num_points: usize) {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod thermal_tests;

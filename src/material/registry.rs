@@ -10,8 +10,8 @@ use super::{
     ElasticPlasticCorrespondence, ElasticPlasticHypoelasticCorrespondence, ElasticStress,
     HardeningPlasticStress, HypoelasticStress, InfluenceFunction, IsotropicHardeningCorrespondence,
     IsotropicHardeningHypoelasticCorrespondence, LinearPeridynamicSolid, Material, MaterialError,
-    NeedlemanStress, Pals, PalsInfluence, PerfectlyPlasticStress, PlasticityInput, StressModel,
-    ViscoplasticNeedlemanCorrespondence,
+    MicroplasticBondBased, NeedlemanStress, Pals, PalsInfluence, PerfectlyPlasticStress,
+    PlasticityInput, StressModel, ViscoplasticNeedlemanCorrespondence,
 };
 use crate::model::ModelDeclaration;
 
@@ -42,6 +42,8 @@ pub struct MaterialInput {
     /// The two base influence functions of `Pals` (`None` for other models, and for `Pals`
     /// Peridigm's default `One` for both).
     pub pals: Option<PalsInfluence>,
+    /// `Yield Stretch` s_Y of `Microplastic Bond Based` (`None` for other models).
+    pub yield_stretch: Option<f64>,
 }
 
 /// The deck parameters of a correspondence model besides its elastic constants.
@@ -115,6 +117,10 @@ pub static MATERIALS: &[MaterialEntry] = &[
     MaterialEntry {
         declaration: &ElasticPlastic::DECLARATION,
         build: ElasticPlastic::build,
+    },
+    MaterialEntry {
+        declaration: &MicroplasticBondBased::DECLARATION,
+        build: MicroplasticBondBased::build,
     },
     MaterialEntry {
         declaration: &Pals::DECLARATION,
@@ -200,6 +206,7 @@ mod tests {
                     }),
                 }),
                 pals: None,
+                yield_stretch: Some(0.01),
             };
             let material = (entry.build)(&input).unwrap();
             assert_eq!(material.model_name(), name);
@@ -221,6 +228,7 @@ mod tests {
             influence: InfluenceFunction::One,
             correspondence: None,
             pals: None,
+            yield_stretch: None,
         };
         let error = (material_entry("Elastic").unwrap().build)(&input).err();
         assert_eq!(

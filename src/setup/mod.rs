@@ -313,7 +313,7 @@ fn point_horizons(
     Ok(horizons)
 }
 
-/// Compiles the mechanical boundary conditions against the node sets (input order).
+/// Compiles the mechanical and temperature boundary conditions against the node sets (input order).
 fn boundary_conditions(deck: &Deck, node_sets: &NodeSets) -> Result<BoundaryConditions, DeckError> {
     let mut conditions = Vec::new();
     for bc in &deck.boundary_conditions.conditions {
@@ -322,7 +322,9 @@ fn boundary_conditions(deck: &Deck, node_sets: &NodeSets) -> Result<BoundaryCond
             BoundaryConditionKind::InitialDisplacement => ConditionKind::InitialDisplacement,
             BoundaryConditionKind::InitialVelocity => ConditionKind::InitialVelocity,
             BoundaryConditionKind::BodyForce => ConditionKind::BodyForce,
-            // Thermal and fluid conditions: reported as unsupported by the plan.
+            BoundaryConditionKind::PrescribedTemperature => ConditionKind::PrescribedTemperature,
+            BoundaryConditionKind::InitialTemperature => ConditionKind::InitialTemperature,
+            // Thermal flux and fluid conditions: reported as unsupported by the plan.
             _ => continue,
         };
         let points = node_sets

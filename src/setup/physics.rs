@@ -198,6 +198,7 @@ fn build_material(
         influence: influence.clone(),
         correspondence: material.model.correspondence_input(),
         pals: material.model.pals_input(),
+        yield_stretch: material.model.yield_stretch(),
     };
     let mut built =
         (registered.build)(&input).map_err(|e| deck.error_at(&key_material, e.to_string()))?;
@@ -213,6 +214,14 @@ fn build_material(
             },
             _ => deck.error_at(&key_material, e.to_string()).into(),
         })?;
+    if let Some(coefficient) = material.thermal_expansion_coefficient {
+        built.set_thermal_expansion(coefficient).map_err(|e| {
+            deck.error_at(
+                &[&key_material[..], &["Thermal Expansion Coefficient"]].concat(),
+                e.to_string(),
+            )
+        })?;
+    }
     // `Tangent` / `Apply Automatic Differentiation Jacobian`; otherwise the model's default.
     if let Some(method) = material.tangent {
         built
@@ -264,17 +273,15 @@ fn build_damage(
             "no such damage model",
         )
     })?;
-    let registered = damage_entry(model.kind.deck_name())
-        .filter(|_| model.kind.thermal_expansion_coefficient().is_none())
-        .ok_or_else(|| {
-            deck.error_at(
-                &key,
-                format!(
-                    "damage model \"{}\" (with these options) is not available in this build",
-                    model.kind.deck_name()
-                ),
-            )
-        })?;
+    let registered = damage_entry(model.kind.deck_name()).ok_or_else(|| {
+        deck.error_at(
+            &key,
+            format!(
+                "damage model \"{}\" (with these options) is not available in this build",
+                model.kind.deck_name()
+            ),
+        )
+    })?;
     let key_expression = [key[0], key[1], "Time Dependent Critical Stretch"];
     let critical_stretch_in_time = match model.kind.critical_stretch_expression() {
         Some(text) => Some(compile(deck, &key_expression, text, TIME)?),
@@ -297,5 +304,15 @@ fn build_damage(
     } else {
         &key[..]
     };
-    (registered.build)(&input).map_err(|e| deck.error_at(key_error, e.to_string()).into())
+    let mut built =
+        (registered.build)(&input).map_err(|e| deck.error_at(key_error, e.to_string()))?;
+    if let Some(coefficient) = model.kind.thermal_expansion_coefficient() {
+        built.set_thermal_expansion(coefficient).map_err(|e| {
+            deck.error_at(
+                &[key[0], key[1], "Thermal Expansion Coefficient"],
+                e.to_string(),
+            )
+        })?;
+    }
+    Ok(built)
 }

@@ -47,6 +47,8 @@ const SUPPORTED_OUTPUTS: &[&str] = &[
     "Deformation_Gradient",
     "Shape_Tensor_Inverse",
     "Nonlinear_Solver_Iterations",
+    "Temperature",
+    "Temperature_Change",
 ];
 
 /// The requested variables of one output list, checked against Peridigm's catalogue and the
@@ -196,9 +198,6 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
         if crate::damage::damage_entry(name).is_none() {
             note(format!("damage model {name}"));
         }
-        if damage.kind.thermal_expansion_coefficient().is_some() {
-            note("Thermal Expansion Coefficient in damage models".into());
-        }
     }
     for block in &deck.blocks {
         if let Horizon::Expression(_) = block.horizon {
@@ -212,6 +211,8 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
                 | BoundaryConditionKind::InitialDisplacement
                 | BoundaryConditionKind::InitialVelocity
                 | BoundaryConditionKind::BodyForce
+                | BoundaryConditionKind::PrescribedTemperature
+                | BoundaryConditionKind::InitialTemperature
         ) {
             note(format!("boundary condition type {}", bc.kind.deck_name()));
         }
@@ -498,6 +499,13 @@ fn field_plans(model: &Model, used: &UsedModels, contact: bool) -> Vec<FieldPlan
     field("Force_Density", "point", vector);
     if model.boundary.has_body_force() {
         field("External_Force_Density", "point", vector);
+    }
+    if model.boundary.has_temperature() {
+        field(
+            "Temperature, Temperature_Change, thermal strain",
+            "point",
+            24 * n,
+        );
     }
     let declared = used.fields();
     let declared_on = |carrier: FieldCarrier| {

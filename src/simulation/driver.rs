@@ -389,7 +389,8 @@ impl Run<'_> {
         }
         state.time = solver.initial_time;
         self.nonlinear_iterations = None;
-        // The initial frame shows the body force at the initial time, as Peridigm writes it.
+        // The initial frame shows the body force (and the temperature) at the initial time,
+        // as Peridigm writes it.
         let initial = match &mut state.external_force_density {
             Some(b) => self
                 .model
@@ -398,6 +399,12 @@ impl Run<'_> {
                 .map_err(RunError::from),
             None => Ok(()),
         };
+        let initial = initial.and_then(|()| {
+            self.model
+                .boundary
+                .apply_temperature(&self.model.points.position, state.time, &mut state.history)
+                .map_err(RunError::from)
+        });
         let written = initial.and_then(|()| self.output(physics, state));
         agree(self.ranks.communicator(), written)?;
         let (model, ranks) = (self.model, &mut *self.ranks);

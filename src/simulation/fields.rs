@@ -184,6 +184,15 @@ impl FieldSource for Fields<'_> {
                     None => vec![0.0; n],
                 }
             }
+            // Zero without temperature conditions (no point temperature is kept then).
+            "Temperature" => match self.state.history.thermal() {
+                Some(thermal) => return Some(Cow::Borrowed(&thermal.temperature)),
+                None => vec![0.0; n],
+            },
+            "Temperature_Change" => match self.state.history.thermal() {
+                Some(thermal) => return Some(Cow::Borrowed(&thermal.change)),
+                None => vec![0.0; n],
+            },
             "Lambda" => match self
                 .state
                 .history
@@ -276,6 +285,7 @@ impl FieldSource for Fields<'_> {
                     &self.model.points,
                     &self.state.current_position,
                     self.state.bond_damage(),
+                    &self.state.history,
                     &mut stress,
                 );
                 Some(Cow::Owned(stress))

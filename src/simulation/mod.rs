@@ -101,6 +101,18 @@ fn initial_state(deck: &Deck, model: &Model, physics: &Physics) -> Result<State,
         model.points.len(),
         model.bonds.num_bonds(),
     );
+    if model.boundary.has_temperature() {
+        let mut history = std::mem::take(&mut state.history).with_thermal(model.points.len());
+        if let Some(thermal) = history.thermal_mut() {
+            model.boundary.initial_temperature(
+                &model.points.position,
+                t0,
+                &mut thermal.temperature,
+                &mut thermal.change,
+            )?;
+        }
+        state.history = history;
+    }
     model.boundary.apply_initial(
         &model.points.position,
         t0,

@@ -137,6 +137,12 @@ impl VelocityVerlet {
         if let Some(b) = &mut state.external_force_density {
             failure = model.boundary.body_force(positions, t0, b).err();
         }
+        if let Err(error) = model
+            .boundary
+            .apply_temperature(positions, t0, &mut state.history)
+        {
+            failure.get_or_insert(error);
+        }
         state.update_current_position(positions);
         ranks.refresh(&mut state.current_position);
         if let Err(error) = set_damage_time(physics, t0) {
@@ -186,6 +192,13 @@ impl VelocityVerlet {
             if let Err(error) = model.boundary.body_force(&model.points.position, t_to, b) {
                 failure.get_or_insert(error);
             }
+        }
+        if let Err(error) =
+            model
+                .boundary
+                .apply_temperature(&model.points.position, t_to, &mut state.history)
+        {
+            failure.get_or_insert(error);
         }
         if let Err(error) = set_damage_time(physics, t_to) {
             failure.get_or_insert(error);

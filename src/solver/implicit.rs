@@ -288,8 +288,8 @@ fn configuration(state: &State) -> Configuration<'_> {
     }
 }
 
-/// Sets the time-dependent loads of an implicit step ending at `time`: the body force and the
-/// parameters of time-dependent damage models. A failing expression is reported like a failing
+/// Sets the time-dependent loads of an implicit step ending at `time`: the body force, the
+/// prescribed temperature and the parameters of time-dependent damage models. A failing expression is reported like a failing
 /// boundary-condition expression.
 pub fn apply_loads_at(
     model: &Model,
@@ -300,6 +300,9 @@ pub fn apply_loads_at(
     if let Some(b) = &mut state.external_force_density {
         model.boundary.body_force(&model.points.position, time, b)?;
     }
+    model
+        .boundary
+        .apply_temperature(&model.points.position, time, &mut state.history)?;
     physics
         .set_time(time)
         .map_err(|e| BoundaryError::Evaluation {

@@ -18,7 +18,8 @@ pub struct Material {
     /// required by every mechanical model except `Elastic Bond Based` (which has its own).
     pub elastic: Option<ElasticConstants>,
     /// `Thermal Expansion Coefficient` α (per degree); thermal strain `α ΔT` when present.
-    /// Only for models that support it (Elastic, Elastic Correspondence, Multiphysics Elastic).
+    /// Only for the models that take it (Elastic, Elastic Correspondence, Multiphysics
+    /// Elastic); any other model with the key is an error naming it.
     pub thermal_expansion_coefficient: Option<f64>,
     /// `Finite Difference Probe Length` ε for finite-difference tangents (> 0); default
     /// `1e-6 × min element radius`, computed at setup.
@@ -131,6 +132,17 @@ pub enum MaterialModel {
         modulus: BondBasedModulus,
         /// `Plane Strain: true` / `Plane Stress: true` with `Height` h (> 0); default 3D.
         planar: Option<(PlanarKind, f64)>,
+    },
+    /// `"Microplastic Bond Based"` — peridyn's proportional microplastic bond-based model
+    /// (Macek & Silling 2007): the PMB constants of `Elastic Bond Based` and a bond yield
+    /// stretch.
+    MicroplasticBondBased {
+        /// Exactly one of `Bulk Modulus` / `Young's Modulus`, as for `Elastic Bond Based`.
+        modulus: BondBasedModulus,
+        /// `Plane Strain: true` / `Plane Stress: true` with `Height` h (> 0); default 3D.
+        planar: Option<(PlanarKind, f64)>,
+        /// `Yield Stretch` s_Y (required, > 0).
+        yield_stretch: f64,
     },
     /// `"Pals"` — position-aware linear solid.
     Pals {
@@ -337,6 +349,7 @@ const MODELS: &[&str] = &[
     "Elastic Plastic Hardening",
     "Viscoelastic",
     "Elastic Bond Based",
+    "Microplastic Bond Based",
     "Pals",
     "Linear LPS Partial Volume",
     "Elastic Correspondence",
@@ -395,6 +408,7 @@ const MODEL_KEYS: &[&str] = &[
     "Plane Stress",
     "Height",
     "Hourglass Coefficient",
+    "Yield Stretch",
     "Actual Horizon",
     "Gradient Order Of Accuracy",
     "Thermal Expansion Coefficient",
@@ -494,20 +508,27 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Material, DeckError> 
     } else {
         None
     };
-    let elastic = if mechanical && model_name != "Elastic Bond Based" {
+    let bond_based = matches!(model_name, "Elastic Bond Based" | "Microplastic Bond Based");
+    let elastic = if mechanical && !bond_based {
         Some(read_elastic(ctx, &mut list)?)
     } else {
         None
     };
-    let supports_thermal = matches!(
-        model_name,
-        "Elastic" | "Elastic Correspondence" | "Multiphysics Elastic"
-    );
-    let thermal_expansion_coefficient = if supports_thermal {
-        list.f64_opt(ctx, "Thermal Expansion Coefficient")?
-    } else {
-        None
-    };
+    // Peridigm applies thermal strain in these models only (and refuses the key in `Elastic
+    // Plastic` and `Viscoelastic`); elsewhere the key is an error rather than a load silently
+    // dropped.
+    let thermal_models = ["Elastic", "Elastic Correspondence", "Multiphysics Elastic"];
+    if let Some(f) = list.get("Thermal Expansion Coefficient") {
+        if !thermal_models.contains(&model_name) {
+            return Err(f.err(
+                ctx,
+                format!(
+                    "the \"{model_name}\" material model has no thermal strain; \"Thermal Expansion Coefficient\" is taken only by \"Elastic\" and \"Elastic Correspondence\" (remove the key or choose one of them)"
+                ),
+            ));
+        }
+    }
+    let thermal_expansion_coefficient = list.f64_opt(ctx, "Thermal Expansion Coefficient")?;
     let finite_difference_probe_length =
         list.positive_opt(ctx, "Finite Difference Probe Length")?;
     let tangent = read_tangent(ctx, &mut list, finite_difference_probe_length)?;
@@ -599,7 +620,18 @@ fn read_model(
                 tau_b: list.positive_req(ctx, "tau b")?,
             }
         }
-        "Elastic Bond Based" => read_bond_based(ctx, list)?,
+        "Elastic Bond Based" => {
+            let (modulus, planar) = read_bond_based(ctx, list, model_name)?;
+            MaterialModel::ElasticBondBased { modulus, planar }
+        }
+        "Microplastic Bond Based" => {
+            let (modulus, planar) = read_bond_based(ctx, list, model_name)?;
+            MaterialModel::MicroplasticBondBased {
+                modulus,
+                planar,
+                yield_stretch: list.positive_req(ctx, "Yield Stretch")?,
+            }
+        }
         "Pals" => read_pals(ctx, list)?,
         "Linear LPS Partial Volume" => {
             let analytic = list.bool_or(ctx, "Use Analytic Weighted Volume", false)?;
@@ -737,21 +769,26 @@ fn read_pals(ctx: &Ctx, list: &mut ListReader) -> Result<MaterialModel, DeckErro
     })
 }
 
-/// `Elastic Bond Based`: exactly one modulus, optionally planar with a `Height`.
-fn read_bond_based(ctx: &Ctx, list: &mut ListReader) -> Result<MaterialModel, DeckError> {
+/// The PMB constants of `Elastic Bond Based` and `Microplastic Bond Based` (`model`): exactly
+/// one modulus, optionally planar with a `Height`.
+fn read_bond_based(
+    ctx: &Ctx,
+    list: &mut ListReader,
+    model: &str,
+) -> Result<(BondBasedModulus, Option<(PlanarKind, f64)>), DeckError> {
     let k = list.get("Bulk Modulus");
     let e = list.get("Young's Modulus");
     let modulus = match (k, e) {
         (Some(k), None) => BondBasedModulus::Bulk(k.positive(ctx)?),
         (None, Some(e)) => BondBasedModulus::Young(e.positive(ctx)?),
         (Some(_), Some(e)) => {
-            return Err(e.err(ctx, "Elastic Bond Based takes exactly one of \"Bulk Modulus\" and \"Young's Modulus\" (Poisson's ratio is fixed by the model); remove one"))
+            return Err(e.err(ctx, format!("{model} takes exactly one of \"Bulk Modulus\" and \"Young's Modulus\" (Poisson's ratio is fixed by the model); remove one")))
         }
         (None, None) => return Err(list.missing(ctx, "Bulk Modulus", "or \"Young's Modulus\"; exactly one of them")),
     };
     for key in ["Shear Modulus", "Poisson's Ratio"] {
         if let Some(f) = list.get(key) {
-            return Err(f.err(ctx, format!("\"{key}\" cannot be set for Elastic Bond Based: Poisson's ratio is fixed (1/4 in 3D and plane strain, 1/3 in plane stress); give only \"Bulk Modulus\" or \"Young's Modulus\"")));
+            return Err(f.err(ctx, format!("\"{key}\" cannot be set for {model}: Poisson's ratio is fixed (1/4 in 3D and plane strain, 1/3 in plane stress); give only \"Bulk Modulus\" or \"Young's Modulus\"")));
         }
     }
     let strain = list.bool_or(ctx, "Plane Strain", false)?;
@@ -765,7 +802,7 @@ fn read_bond_based(ctx: &Ctx, list: &mut ListReader) -> Result<MaterialModel, De
         (false, true) => Some((PlanarKind::PlaneStress, list.positive_req(ctx, "Height")?)),
         (false, false) => None,
     };
-    Ok(MaterialModel::ElasticBondBased { modulus, planar })
+    Ok((modulus, planar))
 }
 
 /// The three hypoelastic correspondence models (`model_name` says which).
@@ -1007,6 +1044,14 @@ impl MaterialModel {
         }
     }
 
+    /// `Yield Stretch` s_Y of `Microplastic Bond Based`; `None` for other models.
+    pub fn yield_stretch(&self) -> Option<f64> {
+        match *self {
+            MaterialModel::MicroplasticBondBased { yield_stretch, .. } => Some(yield_stretch),
+            _ => None,
+        }
+    }
+
     /// `Hourglass Coefficient` of a correspondence model; `None` for other models.
     pub fn hourglass_coefficient(&self) -> Option<f64> {
         match self {
@@ -1041,6 +1086,7 @@ impl MaterialModel {
             MaterialModel::ElasticPlasticHardening { .. } => "Elastic Plastic Hardening",
             MaterialModel::Viscoelastic { .. } => "Viscoelastic",
             MaterialModel::ElasticBondBased { .. } => "Elastic Bond Based",
+            MaterialModel::MicroplasticBondBased { .. } => "Microplastic Bond Based",
             MaterialModel::Pals { .. } => "Pals",
             MaterialModel::LinearLpsPartialVolume { .. } => "Linear LPS Partial Volume",
             MaterialModel::ElasticCorrespondence { .. } => "Elastic Correspondence",
@@ -1082,6 +1128,7 @@ impl MaterialModel {
         !matches!(
             self,
             MaterialModel::ElasticBondBased { .. }
+                | MaterialModel::MicroplasticBondBased { .. }
                 | MaterialModel::VectorPoisson
                 | MaterialModel::Diffusion { .. }
         )
@@ -1094,9 +1141,10 @@ impl Material {
     /// `Diffusion` and `Vector Poisson`.
     pub fn bulk_modulus(&self) -> Option<f64> {
         match &self.model {
-            MaterialModel::ElasticBondBased { modulus, planar } => {
-                Some(modulus.bulk_modulus(planar.map(|(kind, _)| kind)))
-            }
+            MaterialModel::ElasticBondBased { modulus, planar }
+            | MaterialModel::MicroplasticBondBased {
+                modulus, planar, ..
+            } => Some(modulus.bulk_modulus(planar.map(|(kind, _)| kind))),
             _ => self.elastic.as_ref().map(ElasticConstants::bulk_modulus),
         }
     }
@@ -1111,7 +1159,10 @@ impl Material {
     /// h of an `Elastic Plastic` `Planar Problem`; `None` in 3D.
     pub fn planar_thickness(&self) -> Option<f64> {
         match &self.model {
-            MaterialModel::ElasticBondBased { planar, .. } => planar.map(|(_, height)| height),
+            MaterialModel::ElasticBondBased { planar, .. }
+            | MaterialModel::MicroplasticBondBased { planar, .. } => {
+                planar.map(|(_, height)| height)
+            }
             MaterialModel::ElasticPlastic {
                 planar_thickness, ..
             } => *planar_thickness,

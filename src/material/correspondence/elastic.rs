@@ -32,6 +32,7 @@ impl StressModel for ElasticStress {
             "Young's Modulus",
             "Poisson's Ratio",
             "Hourglass Coefficient",
+            "Thermal Expansion Coefficient",
             "Tangent",
             "Finite Difference Probe Length",
         ],
@@ -39,6 +40,8 @@ impl StressModel for ElasticStress {
         fields: super::CORRESPONDENCE_FIELDS,
         outputs: super::CORRESPONDENCE_OUTPUTS,
     };
+
+    const THERMAL_EXPANSION: bool = true;
 
     fn from_input(input: &MaterialInput) -> Result<Self, MaterialError> {
         Ok(Self {

@@ -186,6 +186,9 @@ pub(crate) struct StepStart {
     pub stress: super::StressState<f64>,
     /// Δt of the step (s).
     pub duration: f64,
+    /// The change of the point's temperature over the step, ΔT_{n+1} − ΔT_n (0 in a run
+    /// without point temperatures).
+    pub temperature_increment: f64,
 }
 
 /// A row-major 3×3 array as a tensor.

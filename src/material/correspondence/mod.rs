@@ -35,8 +35,16 @@
 //! configuration with `Actual Horizon`, share the stress models and history of this family:
 //! [`hypoelastic`].
 //!
-//! Not yet supported: `Thermal Expansion Coefficient`, and runs on several MPI ranks (the
-//! ranks do not exchange material history yet).
+//! **Thermal strain** (`Elastic Correspondence` with `Thermal Expansion Coefficient` α, as
+//! Peridigm's `updateElasticCauchyStress`): the stress model advances with the unrotated strain
+//! increment less the free thermal strain of the step, `d Δt − α (ΔT_{n+1} − ΔT_n) I`, ΔT the
+//! temperature change of the point; ΔT_n is the value of the step's start, staged with the
+//! history ([`crate::history::Thermal::evaluated`]). The increments sum to a logarithmic
+//! strain, so a free body heated uniformly settles at the stretch e^{αΔT} (held at 1 + αΔT it
+//! keeps a stress of order K (αΔT)²).
+//!
+//! Not yet supported: runs on several MPI ranks (the ranks do not exchange material history
+//! yet).
 
 pub(crate) mod kinematics;
 
@@ -101,6 +109,10 @@ pub(crate) struct StressState<T: Scalar> {
 pub(crate) trait StressModel: std::fmt::Debug + Clone + Send + Sync + 'static {
     /// What the model declares (deck name and keys, fields, outputs).
     const DECLARATION: ModelDeclaration;
+
+    /// True when the model takes a `Thermal Expansion Coefficient` (Peridigm: only the elastic
+    /// model).
+    const THERMAL_EXPANSION: bool = false;
 
     /// The model's constants from the deck (K and μ come from `input`).
     fn from_input(input: &MaterialInput) -> Result<Self, MaterialError>;
@@ -194,6 +206,8 @@ pub(crate) struct Correspondence<S: StressModel> {
     weights: Vec<f64>,
     tangent: TangentMethod,
     force_points: Option<Vec<u32>>,
+    /// `Thermal Expansion Coefficient` α (per degree), when the deck gives one.
+    thermal_expansion: Option<f64>,
 }
 
 /// What one point's update produces (generic over the scalar for the tangent).
@@ -233,6 +247,7 @@ impl<S: StressModel> Correspondence<S> {
             weights: Vec::new(),
             tangent: TangentMethod::AutomaticDifferentiation,
             force_points: None,
+            thermal_expansion: None,
         }))
     }
 
@@ -283,9 +298,16 @@ impl<S: StressModel> Correspondence<S> {
         let deformation_gradient = first_term * lift::<T>(shape_inverse);
         let f_inverse = inverse(&deformation_gradient)?;
         let step = flanagan_taylor(&deformation_gradient, start)?;
+        let mut increment = step.unrotated_strain_increment;
+        if let Some(alpha) = self.thermal_expansion {
+            let free = alpha * start.temperature_increment;
+            for k in 0..3 {
+                increment[(k, k)] -= free;
+            }
+        }
         let advanced = self.stress.advance(
             &start.stress,
-            &step.unrotated_strain_increment,
+            &increment,
             &PointStep {
                 position: family.position[point.global],
                 duration: start.duration,
@@ -468,6 +490,8 @@ struct CommittedHistory<'a> {
     equivalent_plastic_strain: &'a [f64],
     /// Δt of the step.
     duration: f64,
+    /// ΔT now and at the step's start, in a run with point temperatures.
+    temperature: Option<(&'a [f64], &'a [f64])>,
 }
 
 impl<'a> CommittedHistory<'a> {
@@ -485,6 +509,9 @@ impl<'a> CommittedHistory<'a> {
             unrotated_stress: committed(fields::UNROTATED_STRESS),
             equivalent_plastic_strain: committed(fields::EQUIVALENT_PLASTIC_STRAIN),
             duration: history.step_duration(),
+            temperature: history
+                .thermal()
+                .map(|t| (&t.change[..], t.evaluated.committed())),
         }
     }
 
@@ -500,6 +527,9 @@ impl<'a> CommittedHistory<'a> {
                 equivalent_plastic_strain: self.equivalent_plastic_strain[p],
             },
             duration: self.duration,
+            temperature_increment: self
+                .temperature
+                .map_or(0.0, |(now, start)| now[p] - start[p]),
         }
     }
 }
@@ -619,6 +649,20 @@ impl<S: StressModel> Material for Correspondence<S> {
 
     fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
         self.force_points = kept_points(&self.points, keep);
+    }
+
+    fn thermal_expansion(&self) -> Option<f64> {
+        self.thermal_expansion
+    }
+
+    fn set_thermal_expansion(&mut self, coefficient: f64) -> Result<(), MaterialError> {
+        if !S::THERMAL_EXPANSION {
+            return Err(MaterialError::ThermalExpansionNotSupported {
+                model: self.model_name(),
+            });
+        }
+        self.thermal_expansion = Some(super::finite("Thermal Expansion Coefficient", coefficient)?);
+        Ok(())
     }
 
     fn update_history(

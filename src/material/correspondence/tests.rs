@@ -42,6 +42,7 @@ fn material(hourglass: f64) -> Box<dyn Material> {
             hypoelastic: None,
         }),
         pals: None,
+        yield_stretch: None,
     })
     .unwrap()
 }
@@ -549,6 +550,7 @@ fn the_plastic_tangent_matches_finite_differences_while_yielding() {
             hypoelastic: None,
         }),
         pals: None,
+        yield_stretch: None,
     })
     .unwrap();
     m.setup(
@@ -706,6 +708,7 @@ fn needleman_body() -> Body {
                 hypoelastic: None,
             }),
             pals: None,
+            yield_stretch: None,
         })
         .unwrap(),
     )
@@ -853,6 +856,7 @@ fn hypoelastic_input(hourglass: f64, horizon: f64, actual_horizon: f64) -> Mater
             }),
         }),
         pals: None,
+        yield_stretch: None,
     }
 }
 

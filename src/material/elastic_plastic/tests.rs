@@ -31,6 +31,7 @@ fn input(horizon: f64, yield_stress: f64, disabled: bool) -> MaterialInput {
         influence: InfluenceFunction::One,
         correspondence: None,
         pals: None,
+        yield_stretch: None,
     }
 }
 

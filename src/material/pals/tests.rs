@@ -26,6 +26,7 @@ fn input(horizon: f64, influence: Option<PalsInfluence>) -> MaterialInput {
         influence: InfluenceFunction::One,
         correspondence: None,
         pals: influence,
+        yield_stretch: None,
     }
 }
 
