@@ -21,6 +21,12 @@
 //!   only with `Compute Partial Stress: true`; here it is computed whenever an output asks
 //!   for it (the key is accepted and changes nothing else).
 //!
+//! * shear correction (`Apply Shear Correction Factor: true`, off by default; Peridigm's
+//!   `Elastic` reads the key and ignores it): μ is replaced pointwise by s_i μ, s_i the
+//!   shear-correction factor of the point's neighbourhood (`super::shear_correction`), so
+//!   `α_i = 15 s_i μ/m_i` and the isotropic coefficient is `(3K − 5 s_i μ)θ/m`; the bulk
+//!   response is unchanged and the stiffest probed pure shear of every point has modulus μ.
+//!
 //! Not yet supported: `Thermal Expansion Coefficient` (e ← e − αΔTζ).
 
 use super::influence::InfluenceFunction;
@@ -73,6 +79,11 @@ pub struct LinearPeridynamicSolid {
     /// The points whose force is computed, when fewer than `points`
     /// ([`Material::restrict_forces`]).
     force_points: Option<Vec<u32>>,
+    /// Whether [`Material::setup`] probes the shear-correction factor of every point.
+    shear_correction: bool,
+    /// The shear-correction factor s per block point (same order as `points`); empty when
+    /// the deck does not ask for it.
+    correction: Vec<f64>,
 }
 
 impl LinearPeridynamicSolid {
@@ -112,13 +123,22 @@ impl LinearPeridynamicSolid {
 
     /// The registry's constructor: ρ, K, μ, δ and ω from `input`.
     pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        Ok(Box::new(Self::new(LinearPeridynamicSolidParameters {
-            density: input.density,
-            bulk_modulus: input.bulk_modulus,
-            shear_modulus: input.required_shear_modulus()?,
-            horizon: input.horizon,
-            influence: input.influence.clone(),
-        })?))
+        Ok(Box::new(
+            Self::new(LinearPeridynamicSolidParameters {
+                density: input.density,
+                bulk_modulus: input.bulk_modulus,
+                shear_modulus: input.required_shear_modulus()?,
+                horizon: input.horizon,
+                influence: input.influence.clone(),
+            })?
+            .with_shear_correction(input.shear_correction),
+        ))
+    }
+
+    /// The same material, applying the shear-correction factor (module docs) when `on`.
+    pub fn with_shear_correction(mut self, on: bool) -> Self {
+        self.shear_correction = on;
+        self
     }
 
     /// Validates the parameters (ρ, K, μ, δ positive and finite).
@@ -136,6 +156,8 @@ impl LinearPeridynamicSolid {
             tangent: TangentMethod::Analytic,
             closed: false,
             force_points: None,
+            shear_correction: false,
+            correction: Vec::new(),
         })
     }
 
@@ -180,6 +202,8 @@ struct Rows<'a> {
     weighted_volume: &'a [f64],
     bulk: f64,
     shear: f64,
+    /// s per block point, or empty (s = 1).
+    correction: &'a [f64],
     /// The force pass runs over a subset of `points` ([`Material::restrict_forces`]), whose
     /// chunks are not contiguous runs of `points`.
     force_subset: bool,
@@ -286,10 +310,11 @@ impl Rows<'_> {
             let m = self.weighted_volume[k];
             out[i - base] = if m > 0.0 {
                 let theta = 3.0 * sum / m;
+                let shear = corrected_shear(self.shear, self.correction, k);
                 PointCoefficients {
                     dilatation: theta,
-                    isotropic: (3.0 * self.bulk - 5.0 * self.shear) * theta / m,
-                    deviatoric: 15.0 * self.shear / m,
+                    isotropic: (3.0 * self.bulk - 5.0 * shear) * theta / m,
+                    deviatoric: 15.0 * shear / m,
                 }
             } else {
                 PointCoefficients::default()
@@ -635,19 +660,26 @@ struct LpsForceState<'a, W, D> {
     damage: D,
     bulk: f64,
     shear: f64,
+    /// s per block point, or empty (s = 1).
+    correction: &'a [f64],
 }
 
 impl<W: BondWeights, D: Integrity> LpsForceState<'_, W, D> {
-    /// m, (3K − 5μ)/m and 15μ/m of the point; `None` when m = 0 (no force).
+    /// m, (3K − 5μ)/m and 15μ/m of the point (μ times its shear-correction factor, if any);
+    /// `None` when m = 0 (no force).
     fn moduli(&self, point: PointIndex) -> Option<(f64, f64, f64)> {
         let m = self.weighted_volume[point.local];
-        (m > 0.0).then(|| {
-            (
-                m,
-                (3.0 * self.bulk - 5.0 * self.shear) / m,
-                15.0 * self.shear / m,
-            )
-        })
+        let shear = corrected_shear(self.shear, self.correction, point.local);
+        (m > 0.0).then(|| (m, (3.0 * self.bulk - 5.0 * shear) / m, 15.0 * shear / m))
+    }
+}
+
+/// μ of block point `local`: times its shear-correction factor when `correction` has one.
+#[inline(always)]
+fn corrected_shear(shear: f64, correction: &[f64], local: usize) -> f64 {
+    match correction.get(local) {
+        Some(s) => s * shear,
+        None => shear,
     }
 }
 
@@ -770,6 +802,7 @@ impl LinearPeridynamicSolid {
             weighted_volume: &self.weighted_volume,
             bulk: self.parameters.bulk_modulus,
             shear: self.parameters.shear_modulus,
+            correction: &self.correction,
             force_subset: self.force_points.is_some(),
             wide: wide_vectors_available(),
         }
@@ -815,7 +848,7 @@ impl Material for LinearPeridynamicSolid {
             )
         };
         let local_offsets = local_offsets(bonds, &points);
-        let weighted_volume = points
+        let weighted_volume: Vec<f64> = points
             .iter()
             .zip(&local_offsets)
             .map(|(&i, &local)| {
@@ -837,6 +870,16 @@ impl Material for LinearPeridynamicSolid {
         self.closed = points
             .iter()
             .all(|&i| bonds.family(i as usize).iter().all(|&j| member[j as usize]));
+        self.correction = if self.shear_correction {
+            super::shear_correction::factors(
+                reference,
+                &points,
+                &weighted_volume,
+                weights.as_deref().map(|w| (w, local_offsets.as_slice())),
+            )
+        } else {
+            Vec::new()
+        };
         self.points = points;
         self.force_points = None;
         self.weights = weights;
@@ -927,6 +970,7 @@ impl Material for LinearPeridynamicSolid {
                 damage: d,
                 bulk: self.parameters.bulk_modulus,
                 shear: self.parameters.shear_modulus,
+                correction: &self.correction,
             };
             assemble(
                 &kernel,
@@ -958,6 +1002,7 @@ impl Material for LinearPeridynamicSolid {
                 damage: d,
                 bulk: self.parameters.bulk_modulus,
                 shear: self.parameters.shear_modulus,
+                correction: &self.correction,
             };
             let stresses: Vec<[f64; 9]> = self
                 .points
@@ -1097,7 +1142,13 @@ mod tests {
             history: &crate::history::NO_HISTORY,
         };
         let all: Vec<u32> = (0..x.len() as u32).collect();
-        for influence in [InfluenceFunction::One, InfluenceFunction::ParabolicDecay] {
+        // The shear correction changes μ per point in both the coefficients and the force
+        // states, so the two must still agree with it on.
+        for (influence, corrected) in [
+            (InfluenceFunction::One, false),
+            (InfluenceFunction::ParabolicDecay, false),
+            (InfluenceFunction::ParabolicDecay, true),
+        ] {
             let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
                 density: 1.0,
                 bulk_modulus: 3.0,
@@ -1105,8 +1156,10 @@ mod tests {
                 horizon: 1.7,
                 influence,
             })
-            .unwrap();
+            .unwrap()
+            .with_shear_correction(corrected);
             m.setup(&reference, all.clone()).unwrap();
+            assert_eq!(m.correction.is_empty(), !corrected);
             let mut coefficients = vec![PointCoefficients::default(); x.len()];
             m.compute_point_coefficients(&reference, &current, &mut coefficients);
             let mut fast = vec![[0.0; 3]; x.len()];
@@ -1123,6 +1176,7 @@ mod tests {
                         damage: d,
                         bulk: 3.0,
                         shear: 1.3,
+                        correction: &m.correction,
                     };
                     crate::material::generic_force::add_force_density_from_states(
                         &kernel, &all, &reference, &current, out,
@@ -1158,7 +1212,13 @@ mod tests {
             volume: &v,
         };
         let all: Vec<u32> = (0..x.len() as u32).collect();
-        for influence in [InfluenceFunction::One, InfluenceFunction::ParabolicDecay] {
+        // The shear correction changes μ per point in both the coefficients and the force
+        // states, so the two must still agree with it on.
+        for (influence, corrected) in [
+            (InfluenceFunction::One, false),
+            (InfluenceFunction::ParabolicDecay, false),
+            (InfluenceFunction::ParabolicDecay, true),
+        ] {
             let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
                 density: 1.0,
                 bulk_modulus: 3.0,
@@ -1166,8 +1226,10 @@ mod tests {
                 horizon: 1.7,
                 influence,
             })
-            .unwrap();
+            .unwrap()
+            .with_shear_correction(corrected);
             m.setup(&reference, all.clone()).unwrap();
+            assert_eq!(m.correction.is_empty(), !corrected);
             assert!(m.critical_stretch_fast_path().is_some());
             let model = CriticalStretch::new(0.02).unwrap();
             let mut separate = vec![0.0f32; bonds.num_bonds()];
