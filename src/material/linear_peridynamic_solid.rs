@@ -1393,6 +1393,78 @@ mod tests {
     }
 
     #[test]
+    fn the_shear_correction_gives_the_shear_modulus_and_keeps_the_bulk_response() {
+        // 7³ lattice, δ = 2.2, parabolic ω: the centre's family is the lattice cut by the
+        // sphere, whose weighted sums differ from the integrals behind α = 15μ/m. Pure shear
+        // ε_xy = γ about the centre has θ = 0 (n_x n_y is odd) and the energy (α/2)‖e^d‖²,
+        // which is the continuum's μ ε:ε = 2μγ² only with the correction (module docs of
+        // `shear_correction`). An isotropic expansion has e^d = 0, so its energy Kθ²/2 does
+        // not depend on the correction.
+        let n = 7;
+        let x = crate::model::test_support::lattice(n);
+        let mut points = crate::model::PointCloud::default();
+        for p in &x {
+            points.push(*p, 1.0, 0);
+        }
+        let bonds = brute_force_bonds(&x, 2.2);
+        let reference = ReferenceView::of(&bonds, &points);
+        let center = (n * n + n + 1) * (n / 2);
+        let energy = |corrected: bool, y: &[[f64; 3]]| {
+            let mut material = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
+                density: 1.0,
+                bulk_modulus: 3.0,
+                shear_modulus: 1.3,
+                horizon: 2.2,
+                influence: InfluenceFunction::ParabolicDecay,
+            })
+            .unwrap()
+            .with_shear_correction(corrected);
+            material
+                .setup(&reference, (0..x.len() as u32).collect())
+                .unwrap();
+            let current = CurrentView {
+                position: y,
+                bond_damage: None,
+                history: &crate::history::NO_HISTORY,
+            };
+            let mut coefficients = vec![PointCoefficients::default(); x.len()];
+            material.compute_point_coefficients(&reference, &current, &mut coefficients);
+            let mut w = vec![0.0; x.len()];
+            material.stored_energy_density(&reference, &current, &coefficients, &mut w);
+            w[center]
+        };
+        let gamma = 1e-7;
+        let c = x[center];
+        let shear: Vec<[f64; 3]> = x
+            .iter()
+            .map(|p| {
+                [
+                    p[0] + gamma * (p[1] - c[1]),
+                    p[1] + gamma * (p[0] - c[0]),
+                    p[2],
+                ]
+            })
+            .collect();
+        let continuum = 2.0 * 1.3 * gamma * gamma;
+        let without = energy(false, &shear) / continuum;
+        assert!(
+            (without - 1.0).abs() > 1e-3,
+            "nothing to correct: {without}"
+        );
+        let with = energy(true, &shear) / continuum;
+        assert!(
+            (with - 1.0).abs() < 1e-5,
+            "corrected {with}, uncorrected {without}"
+        );
+        let expansion: Vec<[f64; 3]> = x.iter().map(|p| p.map(|v| v * 1.001)).collect();
+        let (plain, corrected) = (energy(false, &expansion), energy(true, &expansion));
+        assert!(
+            (corrected / plain - 1.0).abs() < 1e-12,
+            "{corrected} vs {plain}"
+        );
+    }
+
+    #[test]
     fn partial_stress_of_an_isotropic_expansion_is_three_k_epsilon_in_the_bulk() {
         // Y = (1 + ε) X: every bond keeps its direction and e = εζ exactly, so θ = 3ε,
         // e^d = 0 and t = (9Kε/m) ω ζ (module docs). Then Σ_j t M ⊗ ξ V_j =

@@ -79,12 +79,12 @@ impl ElasticPlasticHardening {
     /// The registry's constructor: ρ, K, μ, δ, σ_y, H (`Disable Plasticity`) and the shear
     /// correction from `input`; ω must be `One`, H ≥ 0.
     pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        Ok(Box::new(Self::new(input)?))
+        Ok(Box::new(Self::material(input)?))
     }
 
     /// The model as an [`ElasticPlastic`] (validated as [`ElasticPlastic::new`], and H finite
     /// and ≥ 0).
-    pub fn new(input: &MaterialInput) -> Result<ElasticPlastic, MaterialError> {
+    pub fn material(input: &MaterialInput) -> Result<ElasticPlastic, MaterialError> {
         ElasticPlastic::of_model(&Self::DECLARATION, input)
     }
 }

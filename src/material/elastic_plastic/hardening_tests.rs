@@ -24,7 +24,7 @@ fn hardening_input(horizon: f64, h: f64, on: bool) -> MaterialInput {
 }
 
 fn hardening(horizon: f64, h: f64, on: bool) -> ElasticPlastic {
-    ElasticPlasticHardening::new(&hardening_input(horizon, h, on)).unwrap()
+    ElasticPlasticHardening::material(&hardening_input(horizon, h, on)).unwrap()
 }
 
 /// The consistency condition of a plastic step, `(P + HΔλ)(1 + αΔλ)² − T`, relative to T.
