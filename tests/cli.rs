@@ -467,3 +467,85 @@ fn keys_peridigm_accepts_without_effect_warn_in_check_and_run_and_misspellings_s
         stderr(&output)
     );
 }
+
+/// The base deck with its material replaced by `material` (the lines after `Material Model`).
+fn with_material(material: &str) -> String {
+    let elastic = "      Material Model: \"Elastic\"\n      Density: 7800.0\n      Bulk Modulus: 130.0e9\n      Shear Modulus: 78.0e9\n";
+    assert!(BASE.contains(elastic));
+    BASE.replacen(elastic, material, 1)
+}
+
+const HARDENING: &str = "      Material Model: \"Elastic Plastic Hardening\"\n      Density: 7800.0\n      Bulk Modulus: 130.0e9\n      Shear Modulus: 78.0e9\n      Yield Stress: 2.0e8\n      Hardening Modulus: 1.0e9\n";
+const VISCOELASTIC: &str = "      Material Model: \"Viscoelastic\"\n      Density: 7800.0\n      Bulk Modulus: 130.0e9\n      Shear Modulus: 78.0e9\n      lambda_i: 0.5\n      tau b: 1.0e-6\n";
+
+#[test]
+fn hardening_and_viscoelastic_materials_check_and_run() {
+    for (material, name) in [
+        (HARDENING, "Elastic Plastic Hardening"),
+        (VISCOELASTIC, "Viscoelastic"),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        write_deck(dir.path(), &with_material(material));
+        let output = peridyn(&["check", "deck.yaml", "--json"], dir.path());
+        assert!(output.status.success(), "{name}: {}", stderr(&output));
+        let plan: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+        assert_eq!(plan["blocks"][0]["material_model"], name);
+        assert_eq!(plan["unsupported"], serde_json::json!([]), "{name}");
+        let output = peridyn(&["run", "deck.yaml"], dir.path());
+        assert!(output.status.success(), "{name}: {}", stderr(&output));
+        assert!(dir.path().join("bar.e").exists(), "{name}");
+    }
+}
+
+#[test]
+fn hardening_and_viscoelastic_keys_are_checked() {
+    let cases: [(&str, &str, &str, &[&str]); 6] = [
+        (
+            HARDENING,
+            "      Hardening Modulus: 1.0e9\n",
+            "",
+            &["Hardening Modulus"],
+        ),
+        (
+            HARDENING,
+            "      Hardening Modulus: 1.0e9\n",
+            "      Hardening Modulus: -1.0\n",
+            &["Hardening Modulus", "zero or a positive number"],
+        ),
+        (
+            HARDENING,
+            "      Hardening Modulus: 1.0e9\n",
+            "      Hardening Modulus: 1.0e9\n      Thermal Expansion Coefficient: 1.0e-5\n",
+            &["Thermal Expansion Coefficient", "does not support"],
+        ),
+        (VISCOELASTIC, "      tau b: 1.0e-6\n", "", &["tau b"]),
+        (
+            VISCOELASTIC,
+            "      lambda_i: 0.5\n",
+            "      lambda_i: 2.0\n",
+            &["lambda_i", "[0, 1]"],
+        ),
+        (
+            VISCOELASTIC,
+            "      tau b: 1.0e-6\n",
+            "      tau b: 1.0e-6\n      Apply Automatic Differentiation Jacobian: true\n",
+            &[
+                "Apply Automatic Differentiation Jacobian",
+                "does not support",
+            ],
+        ),
+    ];
+    for (material, from, to, expected) in cases {
+        let text = with_material(&material.replacen(from, to, 1));
+        let dir = tempfile::tempdir().unwrap();
+        write_deck(dir.path(), &text);
+        let output = peridyn(&["check", "deck.yaml"], dir.path());
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{to:?}: {message}");
+        assert!(!message.contains("panicked"), "{message}");
+        assert!(message.contains("deck.yaml"), "file not named: {message}");
+        for part in expected {
+            assert!(message.contains(part), "{part:?} missing from: {message}");
+        }
+    }
+}

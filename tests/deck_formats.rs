@@ -71,7 +71,8 @@ fn twin_content_is_typed_as_written() {
         steel.model,
         MaterialModel::Elastic {
             automatic_differentiation: true,
-            compute_partial_stress: false
+            compute_partial_stress: false,
+            shear_correction: false
         }
     );
     match deck.material("Soft").unwrap().model {
@@ -265,10 +266,30 @@ fn peridigm_root_key_is_optional() {
 fn ignored_keys_are_accepted_with_a_warning() {
     let text = base_with(
         "Density: 7800.0",
+        "Density: 7800.0\n      Hourglass Coefficient: 0.02",
+    );
+    let deck = yaml(&text).expect("Peridigm's decks carry this key on Elastic; it must load");
+    let line = line_containing(&text, "Hourglass Coefficient");
+    assert_eq!(deck.warnings.len(), 1, "{:?}", deck.warnings);
+    let w = &deck.warnings[0];
+    assert!(
+        w.starts_with(&format!(
+            "wave.yaml:{line}: Materials → Steel → Hourglass Coefficient:"
+        )),
+        "{w}"
+    );
+    assert!(w.contains("no effect"), "{w}");
+}
+
+#[test]
+fn the_shear_correction_on_elastic_is_applied_with_a_warning_and_off_by_default() {
+    let text = base_with(
+        "Density: 7800.0",
         "Density: 7800.0\n      Apply Shear Correction Factor: true",
     );
     let deck = yaml(&text).expect("Peridigm's decks use this key on Elastic; it must load");
     let line = line_containing(&text, "Apply Shear Correction Factor");
+    assert!(deck.material("Steel").unwrap().model.shear_correction());
     assert_eq!(deck.warnings.len(), 1, "{:?}", deck.warnings);
     let w = &deck.warnings[0];
     assert!(
@@ -277,7 +298,23 @@ fn ignored_keys_are_accepted_with_a_warning() {
         )),
         "{w}"
     );
-    assert!(w.contains("no effect"), "{w}");
+    assert!(
+        w.contains("Peridigm's Elastic reads the key and ignores it"),
+        "{w}"
+    );
+    let off = base_with(
+        "Density: 7800.0",
+        "Density: 7800.0\n      Apply Shear Correction Factor: false",
+    );
+    let deck = yaml(&off).unwrap();
+    assert!(!deck.material("Steel").unwrap().model.shear_correction());
+    assert!(deck.warnings.is_empty(), "{:?}", deck.warnings);
+    assert!(!yaml(BASE_YAML)
+        .unwrap()
+        .material("Steel")
+        .unwrap()
+        .model
+        .shear_correction());
 }
 
 #[test]

@@ -28,6 +28,11 @@
 //!   [`crate::history::Thermal::strain`]). A block with α takes these simple bond loops in every
 //!   evaluation while the run has point temperatures; blocks without α, and every run without
 //!   temperature conditions, keep the fast loops below unchanged.
+//! * shear correction (`Apply Shear Correction Factor: true`, off by default; Peridigm's
+//!   `Elastic` reads the key and ignores it): μ is replaced pointwise by s_i μ, s_i the
+//!   shear-correction factor of the point's neighbourhood (`super::shear_correction`), so
+//!   `α_i = 15 s_i μ/m_i` and the isotropic coefficient is `(3K − 5 s_i μ)θ/m`; the bulk
+//!   response is unchanged and the stiffest probed pure shear of every point has modulus μ.
 
 use super::influence::InfluenceFunction;
 use super::{
@@ -81,6 +86,11 @@ pub struct LinearPeridynamicSolid {
     force_points: Option<Vec<u32>>,
     /// `Thermal Expansion Coefficient` α (per degree), when the deck gives one.
     thermal_expansion: Option<f64>,
+    /// Whether [`Material::setup`] probes the shear-correction factor of every point.
+    shear_correction: bool,
+    /// The shear-correction factor s per block point (same order as `points`); empty when
+    /// the deck does not ask for it.
+    correction: Vec<f64>,
 }
 
 impl LinearPeridynamicSolid {
@@ -121,13 +131,22 @@ impl LinearPeridynamicSolid {
 
     /// The registry's constructor: ρ, K, μ, δ and ω from `input`.
     pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        Ok(Box::new(Self::new(LinearPeridynamicSolidParameters {
-            density: input.density,
-            bulk_modulus: input.bulk_modulus,
-            shear_modulus: input.required_shear_modulus()?,
-            horizon: input.horizon,
-            influence: input.influence.clone(),
-        })?))
+        Ok(Box::new(
+            Self::new(LinearPeridynamicSolidParameters {
+                density: input.density,
+                bulk_modulus: input.bulk_modulus,
+                shear_modulus: input.required_shear_modulus()?,
+                horizon: input.horizon,
+                influence: input.influence.clone(),
+            })?
+            .with_shear_correction(input.shear_correction),
+        ))
+    }
+
+    /// The same material, applying the shear-correction factor (module docs) when `on`.
+    pub fn with_shear_correction(mut self, on: bool) -> Self {
+        self.shear_correction = on;
+        self
     }
 
     /// Validates the parameters (ρ, K, μ, δ positive and finite).
@@ -146,6 +165,8 @@ impl LinearPeridynamicSolid {
             closed: false,
             force_points: None,
             thermal_expansion: None,
+            shear_correction: false,
+            correction: Vec::new(),
         })
     }
 
@@ -197,6 +218,8 @@ struct Rows<'a> {
     weighted_volume: &'a [f64],
     bulk: f64,
     shear: f64,
+    /// s per block point, or empty (s = 1).
+    correction: &'a [f64],
     /// The force pass runs over a subset of `points` ([`Material::restrict_forces`]), whose
     /// chunks are not contiguous runs of `points`.
     force_subset: bool,
@@ -303,10 +326,11 @@ impl Rows<'_> {
             let m = self.weighted_volume[k];
             out[i - base] = if m > 0.0 {
                 let theta = 3.0 * sum / m;
+                let shear = corrected_shear(self.shear, self.correction, k);
                 PointCoefficients {
                     dilatation: theta,
-                    isotropic: (3.0 * self.bulk - 5.0 * self.shear) * theta / m,
-                    deviatoric: 15.0 * self.shear / m,
+                    isotropic: (3.0 * self.bulk - 5.0 * shear) * theta / m,
+                    deviatoric: 15.0 * shear / m,
                 }
             } else {
                 PointCoefficients::default()
@@ -762,6 +786,8 @@ struct LpsForceState<'a, W, D> {
     /// The free thermal strain α ΔT of every point (module docs), when the block has α and
     /// the run has point temperatures.
     thermal_strain: Option<&'a [f64]>,
+    /// s per block point, or empty (s = 1).
+    correction: &'a [f64],
 }
 
 impl<W: BondWeights, D: Integrity> LpsForceState<'_, W, D> {
@@ -774,16 +800,21 @@ impl<W: BondWeights, D: Integrity> LpsForceState<'_, W, D> {
         }
     }
 
-    /// m, (3K − 5μ)/m and 15μ/m of the point; `None` when m = 0 (no force).
+    /// m, (3K − 5μ)/m and 15μ/m of the point (μ times its shear-correction factor, if any);
+    /// `None` when m = 0 (no force).
     fn moduli(&self, point: PointIndex) -> Option<(f64, f64, f64)> {
         let m = self.weighted_volume[point.local];
-        (m > 0.0).then(|| {
-            (
-                m,
-                (3.0 * self.bulk - 5.0 * self.shear) / m,
-                15.0 * self.shear / m,
-            )
-        })
+        let shear = corrected_shear(self.shear, self.correction, point.local);
+        (m > 0.0).then(|| (m, (3.0 * self.bulk - 5.0 * shear) / m, 15.0 * shear / m))
+    }
+}
+
+/// μ of block point `local`: times its shear-correction factor when `correction` has one.
+#[inline(always)]
+fn corrected_shear(shear: f64, correction: &[f64], local: usize) -> f64 {
+    match correction.get(local) {
+        Some(s) => s * shear,
+        None => shear,
     }
 }
 
@@ -906,6 +937,7 @@ impl LinearPeridynamicSolid {
             weighted_volume: &self.weighted_volume,
             bulk: self.parameters.bulk_modulus,
             shear: self.parameters.shear_modulus,
+            correction: &self.correction,
             force_subset: self.force_points.is_some(),
             wide: wide_vectors_available(),
         }
@@ -951,7 +983,7 @@ impl Material for LinearPeridynamicSolid {
             )
         };
         let local_offsets = local_offsets(bonds, &points);
-        let weighted_volume = points
+        let weighted_volume: Vec<f64> = points
             .iter()
             .zip(&local_offsets)
             .map(|(&i, &local)| {
@@ -973,6 +1005,16 @@ impl Material for LinearPeridynamicSolid {
         self.closed = points
             .iter()
             .all(|&i| bonds.family(i as usize).iter().all(|&j| member[j as usize]));
+        self.correction = if self.shear_correction {
+            super::shear_correction::factors(
+                reference,
+                &points,
+                &weighted_volume,
+                weights.as_deref().map(|w| (w, local_offsets.as_slice())),
+            )
+        } else {
+            Vec::new()
+        };
         self.points = points;
         self.force_points = None;
         self.weights = weights;
@@ -1100,6 +1142,7 @@ impl Material for LinearPeridynamicSolid {
                 bulk: self.parameters.bulk_modulus,
                 shear: self.parameters.shear_modulus,
                 thermal_strain: self.thermal_strain(current),
+                correction: &self.correction,
             };
             assemble(
                 &kernel,
@@ -1132,6 +1175,7 @@ impl Material for LinearPeridynamicSolid {
                 bulk: self.parameters.bulk_modulus,
                 shear: self.parameters.shear_modulus,
                 thermal_strain: self.thermal_strain(current),
+                correction: &self.correction,
             };
             let stresses: Vec<[f64; 9]> = self
                 .points
@@ -1272,7 +1316,13 @@ mod tests {
             history: &crate::history::NO_HISTORY,
         };
         let all: Vec<u32> = (0..x.len() as u32).collect();
-        for influence in [InfluenceFunction::One, InfluenceFunction::ParabolicDecay] {
+        // The shear correction changes μ per point in both the coefficients and the force
+        // states, so the two must still agree with it on.
+        for (influence, corrected) in [
+            (InfluenceFunction::One, false),
+            (InfluenceFunction::ParabolicDecay, false),
+            (InfluenceFunction::ParabolicDecay, true),
+        ] {
             let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
                 density: 1.0,
                 bulk_modulus: 3.0,
@@ -1280,8 +1330,10 @@ mod tests {
                 horizon: 1.7,
                 influence,
             })
-            .unwrap();
+            .unwrap()
+            .with_shear_correction(corrected);
             m.setup(&reference, all.clone()).unwrap();
+            assert_eq!(m.correction.is_empty(), !corrected);
             let mut coefficients = vec![PointCoefficients::default(); x.len()];
             m.compute_point_coefficients(&reference, &current, &mut coefficients);
             let mut fast = vec![[0.0; 3]; x.len()];
@@ -1299,6 +1351,7 @@ mod tests {
                         bulk: 3.0,
                         shear: 1.3,
                         thermal_strain: None,
+                        correction: &m.correction,
                     };
                     crate::material::generic_force::add_force_density_from_states(
                         &kernel, &all, &reference, &current, out,
@@ -1334,7 +1387,13 @@ mod tests {
             volume: &v,
         };
         let all: Vec<u32> = (0..x.len() as u32).collect();
-        for influence in [InfluenceFunction::One, InfluenceFunction::ParabolicDecay] {
+        // The shear correction changes μ per point in both the coefficients and the force
+        // states, so the two must still agree with it on.
+        for (influence, corrected) in [
+            (InfluenceFunction::One, false),
+            (InfluenceFunction::ParabolicDecay, false),
+            (InfluenceFunction::ParabolicDecay, true),
+        ] {
             let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
                 density: 1.0,
                 bulk_modulus: 3.0,
@@ -1342,8 +1401,10 @@ mod tests {
                 horizon: 1.7,
                 influence,
             })
-            .unwrap();
+            .unwrap()
+            .with_shear_correction(corrected);
             m.setup(&reference, all.clone()).unwrap();
+            assert_eq!(m.correction.is_empty(), !corrected);
             assert!(m.critical_stretch_fast_path().is_some());
             let model = CriticalStretch::new(0.02).unwrap();
             let mut separate = vec![0.0f32; bonds.num_bonds()];
@@ -1504,6 +1565,78 @@ mod tests {
             }
             assert_eq!(f[i], expected, "force of point {i}");
         }
+    }
+
+    #[test]
+    fn the_shear_correction_gives_the_shear_modulus_and_keeps_the_bulk_response() {
+        // 7³ lattice, δ = 2.2, parabolic ω: the centre's family is the lattice cut by the
+        // sphere, whose weighted sums differ from the integrals behind α = 15μ/m. Pure shear
+        // ε_xy = γ about the centre has θ = 0 (n_x n_y is odd) and the energy (α/2)‖e^d‖²,
+        // which is the continuum's μ ε:ε = 2μγ² only with the correction (module docs of
+        // `shear_correction`). An isotropic expansion has e^d = 0, so its energy Kθ²/2 does
+        // not depend on the correction.
+        let n = 7;
+        let x = crate::model::test_support::lattice(n);
+        let mut points = crate::model::PointCloud::default();
+        for p in &x {
+            points.push(*p, 1.0, 0);
+        }
+        let bonds = brute_force_bonds(&x, 2.2);
+        let reference = ReferenceView::of(&bonds, &points);
+        let center = (n * n + n + 1) * (n / 2);
+        let energy = |corrected: bool, y: &[[f64; 3]]| {
+            let mut material = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
+                density: 1.0,
+                bulk_modulus: 3.0,
+                shear_modulus: 1.3,
+                horizon: 2.2,
+                influence: InfluenceFunction::ParabolicDecay,
+            })
+            .unwrap()
+            .with_shear_correction(corrected);
+            material
+                .setup(&reference, (0..x.len() as u32).collect())
+                .unwrap();
+            let current = CurrentView {
+                position: y,
+                bond_damage: None,
+                history: &crate::history::NO_HISTORY,
+            };
+            let mut coefficients = vec![PointCoefficients::default(); x.len()];
+            material.compute_point_coefficients(&reference, &current, &mut coefficients);
+            let mut w = vec![0.0; x.len()];
+            material.stored_energy_density(&reference, &current, &coefficients, &mut w);
+            w[center]
+        };
+        let gamma = 1e-7;
+        let c = x[center];
+        let shear: Vec<[f64; 3]> = x
+            .iter()
+            .map(|p| {
+                [
+                    p[0] + gamma * (p[1] - c[1]),
+                    p[1] + gamma * (p[0] - c[0]),
+                    p[2],
+                ]
+            })
+            .collect();
+        let continuum = 2.0 * 1.3 * gamma * gamma;
+        let without = energy(false, &shear) / continuum;
+        assert!(
+            (without - 1.0).abs() > 1e-3,
+            "nothing to correct: {without}"
+        );
+        let with = energy(true, &shear) / continuum;
+        assert!(
+            (with - 1.0).abs() < 1e-5,
+            "corrected {with}, uncorrected {without}"
+        );
+        let expansion: Vec<[f64; 3]> = x.iter().map(|p| p.map(|v| v * 1.001)).collect();
+        let (plain, corrected) = (energy(false, &expansion), energy(true, &expansion));
+        assert!(
+            (corrected / plain - 1.0).abs() < 1e-12,
+            "{corrected} vs {plain}"
+        );
     }
 
     #[test]

@@ -34,6 +34,8 @@ mod linear_peridynamic_solid;
 mod microplastic;
 mod pals;
 mod registry;
+mod shear_correction;
+mod viscoelastic;
 
 pub use bond_based::{BondBased, BondBasedParameters};
 pub use correspondence::{
@@ -49,7 +51,8 @@ pub(crate) use correspondence::{
 };
 pub use elastic_constants::{ElasticConstants, ElasticInput, PlanarAssumption};
 pub use elastic_plastic::{
-    fields as elastic_plastic_fields, yield_value, ElasticPlastic, PlasticityInput,
+    fields as elastic_plastic_fields, yield_value, ElasticPlastic, ElasticPlasticHardening,
+    PlasticityInput,
 };
 pub use influence::{InfluenceFunction, UserInfluence};
 pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};
@@ -59,6 +62,8 @@ pub use registry::{
     material_entry, CorrespondenceInput, HypoelasticInput, MaterialConstructor, MaterialEntry,
     MaterialInput, MATERIALS,
 };
+pub use shear_correction::PROBE_SHEAR;
+pub use viscoelastic::{fields as viscoelastic_fields, Viscoelastic, ViscoelasticInput};
 
 use rayon::prelude::*;
 
@@ -106,6 +111,14 @@ pub enum MaterialError {
         point: usize,
         /// Its bonds with ω > 0 and no damage.
         intact_bonds: usize,
+    },
+    /// A parameter that must lie in [0, 1] does not.
+    #[error("material parameter `{key}` must be a number in [0, 1], got {value}")]
+    NotInUnitInterval {
+        /// Deck key, e.g. `lambda_i`.
+        key: &'static str,
+        /// The offending value.
+        value: f64,
     },
     /// A parameter the model needs was not given.
     #[error("material parameter `{key}` is required by this material model")]

@@ -7,11 +7,12 @@
 
 use super::{
     BondBased, ElasticCorrespondence, ElasticHypoelasticCorrespondence, ElasticPlastic,
-    ElasticPlasticCorrespondence, ElasticPlasticHypoelasticCorrespondence, ElasticStress,
-    HardeningPlasticStress, HypoelasticStress, InfluenceFunction, IsotropicHardeningCorrespondence,
-    IsotropicHardeningHypoelasticCorrespondence, LinearPeridynamicSolid, Material, MaterialError,
-    MicroplasticBondBased, NeedlemanStress, Pals, PalsInfluence, PerfectlyPlasticStress,
-    PlasticityInput, StressModel, ViscoplasticNeedlemanCorrespondence,
+    ElasticPlasticCorrespondence, ElasticPlasticHardening, ElasticPlasticHypoelasticCorrespondence,
+    ElasticStress, HardeningPlasticStress, HypoelasticStress, InfluenceFunction,
+    IsotropicHardeningCorrespondence, IsotropicHardeningHypoelasticCorrespondence,
+    LinearPeridynamicSolid, Material, MaterialError, MicroplasticBondBased, NeedlemanStress, Pals,
+    PalsInfluence, PerfectlyPlasticStress, PlasticityInput, StressModel, Viscoelastic,
+    ViscoelasticInput, ViscoplasticNeedlemanCorrespondence,
 };
 use crate::model::ModelDeclaration;
 
@@ -32,9 +33,15 @@ pub struct MaterialInput {
     /// `Height` h of a `Plane Strain`/`Plane Stress` bond-based model, or `Thickness` h of a
     /// `Planar Problem`; `None` in 3D.
     pub planar_thickness: Option<f64>,
-    /// `Yield Stress` and `Disable Plasticity` of the state-based plastic models (`None` for
-    /// other models).
+    /// `Yield Stress`, `Disable Plasticity` and `Hardening Modulus` of the state-based plastic
+    /// models (`None` for other models).
     pub plasticity: Option<PlasticityInput>,
+    /// `Apply Shear Correction Factor`, with the model's default resolved (true for `Elastic
+    /// Plastic Hardening`, false elsewhere): the ordinary state-based models that support it
+    /// scale α by the pointwise shear-correction factor.
+    pub shear_correction: bool,
+    /// `lambda_i` and `tau b` of `Viscoelastic` (`None` for other models).
+    pub viscoelastic: Option<ViscoelasticInput>,
     /// `Discretization → Influence Function` ω(ζ, δ).
     pub influence: InfluenceFunction,
     /// The parameters of a correspondence model (`None` for other models).
@@ -123,6 +130,14 @@ pub static MATERIALS: &[MaterialEntry] = &[
         build: MicroplasticBondBased::build,
     },
     MaterialEntry {
+        declaration: &ElasticPlasticHardening::DECLARATION,
+        build: ElasticPlasticHardening::build,
+    },
+    MaterialEntry {
+        declaration: &Viscoelastic::DECLARATION,
+        build: Viscoelastic::build,
+    },
+    MaterialEntry {
         declaration: &Pals::DECLARATION,
         build: Pals::build,
     },
@@ -186,6 +201,12 @@ mod tests {
                 plasticity: Some(PlasticityInput {
                     yield_stress: 1.0,
                     disabled: false,
+                    hardening_modulus: 0.0,
+                }),
+                shear_correction: false,
+                viscoelastic: Some(ViscoelasticInput {
+                    lambda_i: 0.5,
+                    tau_b: 1.0,
                 }),
                 influence: InfluenceFunction::One,
                 correspondence: Some(CorrespondenceInput {
@@ -213,7 +234,7 @@ mod tests {
             assert_eq!(material.declaration(), entry.declaration);
             assert!(std::ptr::eq(material_entry(name).unwrap(), entry));
         }
-        assert!(material_entry("Elastic Plastic Hardening").is_none());
+        assert!(material_entry("Linear LPS Partial Volume").is_none());
     }
 
     #[test]
@@ -225,6 +246,8 @@ mod tests {
             shear_modulus: None,
             planar_thickness: None,
             plasticity: None,
+            shear_correction: false,
+            viscoelastic: None,
             influence: InfluenceFunction::One,
             correspondence: None,
             pals: None,

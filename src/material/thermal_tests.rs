@@ -40,6 +40,8 @@ fn correspondence(alpha: Option<f64>) -> Box<dyn Material> {
         shear_modulus: Some(SHEAR),
         planar_thickness: None,
         plasticity: None,
+        shear_correction: false,
+        viscoelastic: None,
         influence: InfluenceFunction::One,
         correspondence: Some(CorrespondenceInput {
             hourglass_coefficient: 0.1,
@@ -346,7 +348,10 @@ fn models_without_thermal_strain_refuse_the_coefficient() {
         plasticity: Some(PlasticityInput {
             yield_stress: 1.0,
             disabled: false,
+            hardening_modulus: 0.0,
         }),
+        shear_correction: false,
+        viscoelastic: None,
         influence: InfluenceFunction::One,
         correspondence: None,
         pals: None,

@@ -195,6 +195,8 @@ fn build_material(
         shear_modulus: material.shear_modulus(),
         planar_thickness: material.planar_thickness(),
         plasticity: material.model.plasticity_input(),
+        shear_correction: material.model.shear_correction(),
+        viscoelastic: material.model.viscoelastic_input(),
         influence: influence.clone(),
         correspondence: material.model.correspondence_input(),
         pals: material.model.pals_input(),

@@ -24,12 +24,19 @@ enum Kind {
     Pmb,
     LpsOne,
     LpsParabolic,
+    /// LPS (parabolic ω) with `Apply Shear Correction Factor`: μ differs from point to point.
+    LpsCorrected,
 }
 
-const KINDS: [Kind; 3] = [Kind::Pmb, Kind::LpsOne, Kind::LpsParabolic];
+const KINDS: [Kind; 4] = [
+    Kind::Pmb,
+    Kind::LpsOne,
+    Kind::LpsParabolic,
+    Kind::LpsCorrected,
+];
 
 fn material(kind: Kind, bulk: f64, shear: f64) -> Box<dyn Material> {
-    let lps = |influence| {
+    let lps = |influence, corrected| {
         Box::new(
             LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
                 density: 2.0,
@@ -38,7 +45,8 @@ fn material(kind: Kind, bulk: f64, shear: f64) -> Box<dyn Material> {
                 horizon: HORIZON,
                 influence,
             })
-            .unwrap(),
+            .unwrap()
+            .with_shear_correction(corrected),
         ) as Box<dyn Material>
     };
     match kind {
@@ -51,8 +59,9 @@ fn material(kind: Kind, bulk: f64, shear: f64) -> Box<dyn Material> {
             })
             .unwrap(),
         ),
-        Kind::LpsOne => lps(InfluenceFunction::One),
-        Kind::LpsParabolic => lps(InfluenceFunction::ParabolicDecay),
+        Kind::LpsOne => lps(InfluenceFunction::One, false),
+        Kind::LpsParabolic => lps(InfluenceFunction::ParabolicDecay, false),
+        Kind::LpsCorrected => lps(InfluenceFunction::ParabolicDecay, true),
     }
 }
 

@@ -93,6 +93,9 @@ pub enum MaterialModel {
         automatic_differentiation: bool,
         /// `Compute Partial Stress` — also compute `Partial_Stress`; default false.
         compute_partial_stress: bool,
+        /// `Apply Shear Correction Factor` — scale α by the pointwise shear-correction factor;
+        /// default false (Peridigm's `Elastic` reads the key but never applies it).
+        shear_correction: bool,
     },
     /// `"Elastic Plastic"` — Mitchell's ordinary state-based plasticity (ω ≡ 1).
     ElasticPlastic {
@@ -575,10 +578,6 @@ fn read_model(
     Ok(match model_name {
         "Elastic" => {
             ignored.push((
-                "Apply Shear Correction Factor",
-                "the Elastic model never applies a shear correction",
-            ));
-            ignored.push((
                 "Hourglass Coefficient",
                 "only correspondence models have hourglass control",
             ));
@@ -595,11 +594,27 @@ fn read_model(
                     true,
                     "peridyn computes Partial_Stress whenever an output lists it",
                 )?,
+                shear_correction: {
+                    let on = list.bool_or(ctx, "Apply Shear Correction Factor", false)?;
+                    if let Some(f) = list.peek("Apply Shear Correction Factor").filter(|_| on) {
+                        ctx.warn(
+                            f.line(),
+                            &f.path,
+                            "peridyn applies the shear-correction factor to this Elastic \
+                             material (Peridigm's Elastic reads the key and ignores it, so \
+                             results differ from Peridigm's near surfaces)",
+                        );
+                    }
+                    on
+                },
             }
         }
         "Elastic Plastic" => read_elastic_plastic(ctx, list, ignored)?,
         "Elastic Plastic Hardening" => MaterialModel::ElasticPlasticHardening {
-            yield_stress: list.positive_req(ctx, "Yield Stress")?,
+            yield_stress: {
+                refuse(ctx, list, model_name, "Thermal Expansion Coefficient")?;
+                list.positive_req(ctx, "Yield Stress")?
+            },
             hardening_modulus: non_negative_req(ctx, list, "Hardening Modulus")?,
             disable_plasticity: list.bool_or(ctx, "Disable Plasticity", false)?,
             automatic_differentiation: list.bool_or(
@@ -610,6 +625,13 @@ fn read_model(
             shear_correction: list.bool_or(ctx, "Apply Shear Correction Factor", true)?,
         },
         "Viscoelastic" => {
+            for key in [
+                "Apply Automatic Differentiation Jacobian",
+                "Apply Shear Correction Factor",
+                "Thermal Expansion Coefficient",
+            ] {
+                refuse(ctx, list, model_name, key)?;
+            }
             let f = list.require(ctx, "lambda_i", "a number in [0, 1]")?;
             let lambda_i = f.f64(ctx)?;
             if !(0.0..=1.0).contains(&lambda_i) {
@@ -689,6 +711,26 @@ fn read_model(
         },
         _ => unreachable!("choice() returns one of MODELS"),
     })
+}
+
+/// An error at `key` when the deck gives it: `model_name` does not support it (Peridigm stops
+/// with an error there too).
+fn refuse(
+    ctx: &Ctx,
+    list: &mut ListReader,
+    model_name: &str,
+    key: &'static str,
+) -> Result<(), DeckError> {
+    match list.peek(key) {
+        Some(f) => Err(f.err(
+            ctx,
+            format!(
+                "the \"{model_name}\" material model does not support `{key}` (Peridigm refuses \
+                 it too); remove the key"
+            ),
+        )),
+        None => Ok(()),
+    }
 }
 
 /// `Multiphysics Elastic`: the fluid parameters (the switch itself is top-level).
@@ -1023,22 +1065,28 @@ impl MaterialModel {
         }
     }
 
-    /// `Yield Stress` and `Disable Plasticity` of the state-based plastic models; `None` for
-    /// other models.
+    /// `Yield Stress`, `Disable Plasticity` and `Hardening Modulus` (0 for `Elastic Plastic`)
+    /// of the state-based plastic models; `None` for other models.
     pub fn plasticity_input(&self) -> Option<crate::material::PlasticityInput> {
         match *self {
             MaterialModel::ElasticPlastic {
                 yield_stress,
                 disable_plasticity,
                 ..
-            }
-            | MaterialModel::ElasticPlasticHardening {
+            } => Some(crate::material::PlasticityInput {
+                yield_stress,
+                disabled: disable_plasticity,
+                hardening_modulus: 0.0,
+            }),
+            MaterialModel::ElasticPlasticHardening {
                 yield_stress,
                 disable_plasticity,
+                hardening_modulus,
                 ..
             } => Some(crate::material::PlasticityInput {
                 yield_stress,
                 disabled: disable_plasticity,
+                hardening_modulus,
             }),
             _ => None,
         }
@@ -1048,6 +1096,30 @@ impl MaterialModel {
     pub fn yield_stretch(&self) -> Option<f64> {
         match *self {
             MaterialModel::MicroplasticBondBased { yield_stretch, .. } => Some(yield_stretch),
+            _ => None,
+        }
+    }
+
+    /// `Apply Shear Correction Factor` with the model's default (true for `Elastic Plastic
+    /// Hardening`, false for `Elastic`); false for models without the option.
+    pub fn shear_correction(&self) -> bool {
+        match *self {
+            MaterialModel::Elastic {
+                shear_correction, ..
+            }
+            | MaterialModel::ElasticPlasticHardening {
+                shear_correction, ..
+            } => shear_correction,
+            _ => false,
+        }
+    }
+
+    /// `lambda_i` and `tau b` of `Viscoelastic`; `None` for other models.
+    pub fn viscoelastic_input(&self) -> Option<crate::material::ViscoelasticInput> {
+        match *self {
+            MaterialModel::Viscoelastic { lambda_i, tau_b } => {
+                Some(crate::material::ViscoelasticInput { lambda_i, tau_b })
+            }
             _ => None,
         }
     }

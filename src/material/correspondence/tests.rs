@@ -32,6 +32,8 @@ fn material(hourglass: f64) -> Box<dyn Material> {
         shear_modulus: Some(SHEAR),
         planar_thickness: None,
         plasticity: None,
+        shear_correction: false,
+        viscoelastic: None,
         influence: InfluenceFunction::ParabolicDecay,
         correspondence: Some(crate::material::CorrespondenceInput {
             hourglass_coefficient: hourglass,
@@ -540,6 +542,8 @@ fn the_plastic_tangent_matches_finite_differences_while_yielding() {
         shear_modulus: Some(SHEAR),
         planar_thickness: None,
         plasticity: None,
+        shear_correction: false,
+        viscoelastic: None,
         influence: InfluenceFunction::ParabolicDecay,
         correspondence: Some(crate::material::CorrespondenceInput {
             hourglass_coefficient: 0.05,
@@ -693,6 +697,8 @@ fn needleman_body() -> Body {
             planar_thickness: None,
             influence: InfluenceFunction::ParabolicDecay,
             plasticity: None,
+            shear_correction: false,
+            viscoelastic: None,
             correspondence: Some(crate::material::CorrespondenceInput {
                 hourglass_coefficient: 0.05,
                 yield_stress: Some(2e-3),
@@ -843,6 +849,8 @@ fn hypoelastic_input(hourglass: f64, horizon: f64, actual_horizon: f64) -> Mater
         shear_modulus: Some(SHEAR),
         planar_thickness: None,
         plasticity: None,
+        shear_correction: false,
+        viscoelastic: None,
         influence: InfluenceFunction::ParabolicDecay,
         correspondence: Some(crate::material::CorrespondenceInput {
             hourglass_coefficient: hourglass,

@@ -62,8 +62,11 @@ use crate::tangent::{
     TangentMethod,
 };
 
+pub(super) mod hardening;
 #[cfg(test)]
-mod tests;
+pub(super) mod tests;
+
+pub use hardening::ElasticPlasticHardening;
 
 /// The staged fields of the model.
 pub mod fields {
@@ -75,17 +78,28 @@ pub mod fields {
 }
 
 /// A bond without a reverse bond (one-way bonds of variable horizons).
-const NO_REVERSE: usize = usize::MAX;
+pub(super) const NO_REVERSE: usize = usize::MAX;
 
-/// `Elastic Plastic` for one block (see the module docs for the formulas).
+/// `Elastic Plastic` for one block (see the module docs for the formulas); with a hardening
+/// modulus and a shear-correction factor it is `Elastic Plastic Hardening`
+/// ([`ElasticPlasticHardening`]).
 #[derive(Debug, Clone)]
 pub struct ElasticPlastic {
+    /// The model's declaration: `Elastic Plastic` or `Elastic Plastic Hardening`.
+    declaration: &'static ModelDeclaration,
     density: f64,
     bulk_modulus: f64,
     shear_modulus: f64,
     horizon: f64,
     /// ψ₀ (force²/length⁹); `None` with `Disable Plasticity`.
     yield_value: Option<f64>,
+    /// H of the yield surface ψ₀ + Hλ (0: perfect plasticity, `Elastic Plastic`).
+    hardening_modulus: f64,
+    /// Whether [`Material::setup`] probes the shear-correction factor of every point.
+    shear_correction: bool,
+    /// The shear-correction factor s per block point (same order as `points`), scaling α and
+    /// ψ₀ ([`super::shear_correction`]); empty when the model applies none.
+    correction: Vec<f64>,
     points: Vec<u32>,
     /// m per block point (same order as `points`).
     weighted_volume: Vec<f64>,
@@ -107,6 +121,9 @@ pub struct PlasticityInput {
     pub yield_stress: f64,
     /// `Disable Plasticity`: the yield stress is infinite.
     pub disabled: bool,
+    /// `Hardening Modulus` H of `Elastic Plastic Hardening` (units of ψ per unit of λ,
+    /// force³/length¹⁶, as Peridigm reads it); 0 for `Elastic Plastic`.
+    pub hardening_modulus: f64,
 }
 
 /// ψ₀ = 25σ_y²/(8πδ⁵) in 3-D, 75σ_y²/(8πhδ⁴) in a plane of thickness h (module docs).
@@ -118,6 +135,35 @@ pub fn yield_value(yield_stress: f64, horizon: f64, thickness: Option<f64>) -> f
         Some(h) => 75.0 * squared / (8.0 * PI * h * horizon.powi(4)),
     }
 }
+
+/// The fields of both plastic state-based models: m and θ per point (not staged), the staged
+/// plastic extension per bond and λ per point.
+const FIELDS: &[FieldDeclaration] = &[
+    FieldDeclaration {
+        name: "Weighted_Volume",
+        carrier: FieldCarrier::Point,
+        bytes_per_value: 8,
+        staged: false,
+    },
+    FieldDeclaration {
+        name: "Dilatation",
+        carrier: FieldCarrier::Point,
+        bytes_per_value: 8,
+        staged: false,
+    },
+    FieldDeclaration {
+        name: fields::DEVIATORIC_PLASTIC_EXTENSION,
+        carrier: FieldCarrier::Bond,
+        bytes_per_value: 8,
+        staged: true,
+    },
+    FieldDeclaration {
+        name: fields::LAMBDA,
+        carrier: FieldCarrier::Point,
+        bytes_per_value: 8,
+        staged: true,
+    },
+];
 
 impl ElasticPlastic {
     /// `Elastic Plastic`: state-based (two hops), keeps m and θ per point (not staged) and the
@@ -139,32 +185,7 @@ impl ElasticPlastic {
             "Finite Difference Probe Length",
         ],
         reach: Reach::TwoHop,
-        fields: &[
-            FieldDeclaration {
-                name: "Weighted_Volume",
-                carrier: FieldCarrier::Point,
-                bytes_per_value: 8,
-                staged: false,
-            },
-            FieldDeclaration {
-                name: "Dilatation",
-                carrier: FieldCarrier::Point,
-                bytes_per_value: 8,
-                staged: false,
-            },
-            FieldDeclaration {
-                name: fields::DEVIATORIC_PLASTIC_EXTENSION,
-                carrier: FieldCarrier::Bond,
-                bytes_per_value: 8,
-                staged: true,
-            },
-            FieldDeclaration {
-                name: fields::LAMBDA,
-                carrier: FieldCarrier::Point,
-                bytes_per_value: 8,
-                staged: true,
-            },
-        ],
+        fields: FIELDS,
         outputs: &["Weighted_Volume", "Dilatation", "Lambda"],
     };
 
@@ -177,9 +198,19 @@ impl ElasticPlastic {
     /// Validates the parameters (ρ, K, μ, δ, σ_y and the thickness positive and finite, ω
     /// `One`).
     pub fn new(input: &MaterialInput) -> Result<Self, MaterialError> {
+        Self::of_model(&Self::DECLARATION, input)
+    }
+
+    /// The model `declaration` names (`Elastic Plastic`, or `Elastic Plastic Hardening` with
+    /// its hardening modulus and shear correction from `input`), validated as [`Self::new`]
+    /// says.
+    pub(super) fn of_model(
+        declaration: &'static ModelDeclaration,
+        input: &MaterialInput,
+    ) -> Result<Self, MaterialError> {
         if !input.influence.is_one() {
             return Err(MaterialError::InfluenceNotSupported {
-                model: Self::DECLARATION.deck_name,
+                model: declaration.deck_name,
             });
         }
         let plasticity = input.plasticity.ok_or(MaterialError::Missing {
@@ -191,13 +222,24 @@ impl ElasticPlastic {
             .planar_thickness
             .map(|h| positive("Thickness", h))
             .transpose()?;
+        let hardening_modulus = plasticity.hardening_modulus;
+        if !(hardening_modulus.is_finite() && hardening_modulus >= 0.0) {
+            return Err(MaterialError::NotNonNegative {
+                key: "Hardening Modulus",
+                value: hardening_modulus,
+            });
+        }
         Ok(Self {
+            declaration,
             density: positive("Density", input.density)?,
             bulk_modulus: positive("Bulk Modulus", input.bulk_modulus)?,
             shear_modulus: positive("Shear Modulus", input.required_shear_modulus()?)?,
             horizon,
             yield_value: (!plasticity.disabled)
                 .then(|| yield_value(yield_stress, horizon, thickness)),
+            hardening_modulus,
+            shear_correction: input.shear_correction,
+            correction: Vec::new(),
             points: Vec::new(),
             weighted_volume: Vec::new(),
             local_offsets: vec![0],
@@ -211,6 +253,7 @@ impl ElasticPlastic {
         &'a self,
         reference: &ReferenceView<'a>,
         damage: Option<&'a [f32]>,
+        lambda: &'a [f64],
     ) -> Kernel<'a> {
         Kernel {
             bonds: reference.bonds,
@@ -220,6 +263,9 @@ impl ElasticPlastic {
             bulk_modulus: self.bulk_modulus,
             shear_modulus: self.shear_modulus,
             yield_value: self.yield_value,
+            hardening_modulus: self.hardening_modulus,
+            correction: &self.correction,
+            lambda,
         }
     }
 
@@ -242,6 +288,12 @@ struct Kernel<'a> {
     bulk_modulus: f64,
     shear_modulus: f64,
     yield_value: Option<f64>,
+    /// H (0: perfect plasticity).
+    hardening_modulus: f64,
+    /// s per block point, or empty (s = 1).
+    correction: &'a [f64],
+    /// λ_n, the committed plastic multiplier of every point (read only when H > 0).
+    lambda: &'a [f64],
 }
 
 /// A bond seen from its point: deformed length |Y| (0 for coincident points, which carry no
@@ -257,7 +309,8 @@ struct Stretch<T> {
 struct PointResponse<T> {
     /// θ.
     dilatation: T,
-    /// 1 in an elastic step, √(2ψ₀)/‖t^d_tr‖ in a plastic one (t^d = scale · t^d_tr).
+    /// 1 in an elastic step, 1/(1 + αΔλ) in a plastic one (t^d = scale · t^d_tr;
+    /// √(2ψ₀)/‖t^d_tr‖ without hardening).
     scale: T,
     /// Δλ (0 in an elastic step).
     delta_lambda: T,
@@ -284,10 +337,32 @@ impl Kernel<'_> {
         }
     }
 
-    /// α = 15μ/m of `point`; `None` when m = 0 (no bonds: no force).
+    /// α = s·15μ/m of `point` (s = 1 without shear correction); `None` when m = 0 (no bonds:
+    /// no force).
     fn alpha(&self, point: PointIndex) -> Option<f64> {
         let m = self.weighted_volume[point.local];
-        (m > 0.0).then(|| 15.0 * self.shear_modulus / m)
+        (m > 0.0).then(|| {
+            let alpha = 15.0 * self.shear_modulus / m;
+            match self.correction.get(point.local) {
+                Some(s) => s * alpha,
+                None => alpha,
+            }
+        })
+    }
+
+    /// The yield value of `point` at the start of the step, s·ψ₀ + Hλ_n; `None` without
+    /// plasticity.
+    fn yield_surface(&self, point: PointIndex) -> Option<f64> {
+        let psi = self.yield_value?;
+        let psi = match self.correction.get(point.local) {
+            Some(s) => s * psi,
+            None => psi,
+        };
+        Some(if self.hardening_modulus > 0.0 {
+            psi + self.hardening_modulus * self.lambda[point.global]
+        } else {
+            psi
+        })
     }
 
     /// θ = (3/m) Σ (1−d) ζ e V_j (m > 0).
@@ -327,7 +402,7 @@ impl Kernel<'_> {
             scale: T::from(1.0),
             delta_lambda: T::from(0.0),
         };
-        let Some(psi) = self.yield_value else {
+        let Some(psi) = self.yield_surface(point) else {
             return elastic;
         };
         let mut squared = T::from(0.0);
@@ -342,6 +417,14 @@ impl Kernel<'_> {
         if squared.re() * 0.5 <= psi {
             return elastic;
         }
+        if self.hardening_modulus > 0.0 {
+            let scale = hardening::return_scale(squared * 0.5, psi, self.hardening_modulus / alpha);
+            return PointResponse {
+                dilatation: theta,
+                scale,
+                delta_lambda: (scale.recip() - 1.0) * (1.0 / alpha),
+            };
+        }
         let norm = squared.sqrt();
         let surface = (2.0 * psi).sqrt();
         PointResponse {
@@ -354,7 +437,7 @@ impl Kernel<'_> {
 
 impl Material for ElasticPlastic {
     fn declaration(&self) -> &'static ModelDeclaration {
-        &Self::DECLARATION
+        self.declaration
     }
 
     fn density(&self) -> f64 {
@@ -393,18 +476,12 @@ impl Material for ElasticPlastic {
             })
             .collect();
         self.local_offsets = local_offsets(bonds, &points);
-        // Rows are sorted, so the reverse bond is found by binary search.
-        self.reverse = points
-            .iter()
-            .flat_map(|&i| {
-                bonds.family(i as usize).iter().map(move |&j| {
-                    bonds
-                        .family(j as usize)
-                        .binary_search(&i)
-                        .map_or(NO_REVERSE, |k| bonds.offsets[j as usize] + k)
-                })
-            })
-            .collect();
+        self.reverse = reverse_bonds(bonds, &points);
+        self.correction = if self.shear_correction {
+            super::shear_correction::factors(reference, &points, &self.weighted_volume, None)
+        } else {
+            Vec::new()
+        };
         self.points = points;
         self.force_points = None;
         Ok(())
@@ -424,7 +501,13 @@ impl Material for ElasticPlastic {
         current: &CurrentView<'_>,
         history: &mut History,
     ) {
-        let kernel = self.kernel(reference, current.bond_damage);
+        // λ_n is read while the plastic extension is written: a copy, needed only to harden.
+        let lambda = if self.hardening_modulus > 0.0 {
+            Self::staged(history, fields::LAMBDA).0.to_vec()
+        } else {
+            Vec::new()
+        };
+        let kernel = self.kernel(reference, current.bond_damage, &lambda);
         let bonds = reference.bonds;
         let (committed, trial) = Self::staged(history, fields::DEVIATORIC_PLASTIC_EXTENSION);
         let responses: Vec<Option<PointResponse<f64>>> = self
@@ -493,7 +576,7 @@ impl Material for ElasticPlastic {
         current: &CurrentView<'_>,
         coefficients: &mut [PointCoefficients],
     ) {
-        let kernel = self.kernel(reference, current.bond_damage);
+        let kernel = self.kernel(reference, current.bond_damage, &[]);
         let bonds = reference.bonds;
         for_each_chunk(
             &self.points,
@@ -511,11 +594,24 @@ impl Material for ElasticPlastic {
                     out[point.global - base] = if m > 0.0 {
                         family_positions(bonds, current.position, point.global, &mut y);
                         let theta = kernel.dilatation(point, &y);
-                        PointCoefficients {
-                            dilatation: theta,
-                            isotropic: (3.0 * self.bulk_modulus - 5.0 * self.shear_modulus) * theta
-                                / m,
-                            deviatoric: 15.0 * self.shear_modulus / m,
+                        match self.correction.get(local) {
+                            None => PointCoefficients {
+                                dilatation: theta,
+                                isotropic: (3.0 * self.bulk_modulus - 5.0 * self.shear_modulus)
+                                    * theta
+                                    / m,
+                                deviatoric: 15.0 * self.shear_modulus / m,
+                            },
+                            // A + Bθ/3 = 3Kθ/m with B = α = s·15μ/m.
+                            Some(&s) => {
+                                let alpha = s * (15.0 * self.shear_modulus / m);
+                                PointCoefficients {
+                                    dilatation: theta,
+                                    isotropic: 3.0 * self.bulk_modulus * theta / m
+                                        - alpha * theta / 3.0,
+                                    deviatoric: alpha,
+                                }
+                            }
                         }
                     } else {
                         PointCoefficients::default()
@@ -541,7 +637,7 @@ impl Material for ElasticPlastic {
             .field(fields::DEVIATORIC_PLASTIC_EXTENSION)
             .expect("the run allocates every field an Elastic Plastic block declares")
             .trial();
-        let kernel = self.kernel(reference, current.bond_damage);
+        let kernel = self.kernel(reference, current.bond_damage, &[]);
         let y = current.position;
         let force_points = self.force_points.as_deref().unwrap_or(&self.points);
         let scalar =
@@ -607,7 +703,7 @@ impl Material for ElasticPlastic {
             .field(fields::DEVIATORIC_PLASTIC_EXTENSION)
             .expect("the run allocates every field an Elastic Plastic block declares")
             .trial();
-        let kernel = self.kernel(reference, current.bond_damage);
+        let kernel = self.kernel(reference, current.bond_damage, &[]);
         let y = current.position;
         for &i in &self.points {
             let i = i as usize;
@@ -642,8 +738,13 @@ impl Material for ElasticPlastic {
         method: TangentMethod,
         tangent: &mut BlockTangent,
     ) -> Result<(), TangentError> {
+        let lambda = current
+            .history
+            .field(fields::LAMBDA)
+            .expect("the run allocates every field an Elastic Plastic block declares")
+            .committed();
         let kernel = ElasticPlasticForceState {
-            kernel: self.kernel(reference, current.bond_damage),
+            kernel: self.kernel(reference, current.bond_damage, lambda),
             committed: current
                 .history
                 .field(fields::DEVIATORIC_PLASTIC_EXTENSION)
@@ -662,8 +763,30 @@ impl Material for ElasticPlastic {
     }
 }
 
+/// For each bond i→j of the rows of `points` (block-local order), the global index of j→i
+/// ([`NO_REVERSE`] when j has no bond to i).
+pub(super) fn reverse_bonds(bonds: &BondList, points: &[u32]) -> Vec<usize> {
+    // Rows are sorted, so the reverse bond is found by binary search.
+    points
+        .iter()
+        .flat_map(|&i| {
+            bonds.family(i as usize).iter().map(move |&j| {
+                bonds
+                    .family(j as usize)
+                    .binary_search(&i)
+                    .map_or(NO_REVERSE, |k| bonds.offsets[j as usize] + k)
+            })
+        })
+        .collect()
+}
+
 /// The positions of point `p`'s family into `y` (`y[0]` the point).
-fn family_positions(bonds: &BondList, position: &[[f64; 3]], p: usize, y: &mut Vec<[f64; 3]>) {
+pub(super) fn family_positions(
+    bonds: &BondList,
+    position: &[[f64; 3]],
+    p: usize,
+    y: &mut Vec<[f64; 3]>,
+) {
     y.clear();
     y.push(position[p]);
     y.extend(bonds.family(p).iter().map(|&j| position[j as usize]));

@@ -17,7 +17,7 @@ use crate::tangent::BlockPattern;
 const BULK: f64 = 3.0;
 const SHEAR: f64 = 1.0;
 
-fn input(horizon: f64, yield_stress: f64, disabled: bool) -> MaterialInput {
+pub(super) fn input(horizon: f64, yield_stress: f64, disabled: bool) -> MaterialInput {
     MaterialInput {
         density: 2.0,
         horizon,
@@ -27,7 +27,10 @@ fn input(horizon: f64, yield_stress: f64, disabled: bool) -> MaterialInput {
         plasticity: Some(PlasticityInput {
             yield_stress,
             disabled,
+            hardening_modulus: 0.0,
         }),
+        shear_correction: false,
+        viscoelastic: None,
         influence: InfluenceFunction::One,
         correspondence: None,
         pals: None,
@@ -36,18 +39,29 @@ fn input(horizon: f64, yield_stress: f64, disabled: bool) -> MaterialInput {
 }
 
 /// An n³ lattice (spacing 1) of one `Elastic Plastic` block, with its staged history.
-struct Body {
-    points: PointCloud,
-    bonds: BondList,
-    material: ElasticPlastic,
-    physics: Physics,
-    history: History,
-    damage: Option<Vec<f32>>,
+pub(super) struct Body {
+    pub(super) points: PointCloud,
+    pub(super) bonds: BondList,
+    pub(super) material: ElasticPlastic,
+    pub(super) physics: Physics,
+    pub(super) history: History,
+    pub(super) damage: Option<Vec<f32>>,
 }
 
 impl Body {
     /// Unit volumes when `seed` is `None`, else volumes in 0.8–1.2.
     fn new(n: usize, horizon: f64, yield_stress: f64, seed: Option<u64>) -> Self {
+        let material = ElasticPlastic::new(&input(horizon, yield_stress, false)).unwrap();
+        Self::of(n, horizon, seed, material)
+    }
+
+    /// The body of [`Body::new`] made of `material` (not set up yet).
+    pub(super) fn of(
+        n: usize,
+        horizon: f64,
+        seed: Option<u64>,
+        mut material: ElasticPlastic,
+    ) -> Self {
         let x = lattice(n);
         let mut rng = seed.map(Rng::new);
         let mut points = PointCloud::default();
@@ -56,7 +70,6 @@ impl Body {
             points.push(*p, volume, 0);
         }
         let bonds = brute_force_bonds(&x, horizon);
-        let mut material = ElasticPlastic::new(&input(horizon, yield_stress, false)).unwrap();
         material
             .setup(
                 &ReferenceView::of(&bonds, &points),
@@ -87,7 +100,7 @@ impl Body {
     }
 
     /// Force density at `y`, advancing the trial history from the committed one.
-    fn force(&mut self, y: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    pub(super) fn force(&mut self, y: &[[f64; 3]]) -> Vec<[f64; 3]> {
         let mut f = vec![[0.0; 3]; y.len()];
         self.physics.internal_force_with_damage_fixed(
             &self.bonds,
@@ -100,20 +113,24 @@ impl Body {
         f
     }
 
-    fn commit(&mut self) {
+    pub(super) fn commit(&mut self) {
         self.history.each_for_tests(|f| f.commit());
     }
 
-    fn field(&self, name: &str) -> &Staged<f64> {
+    pub(super) fn field(&self, name: &str) -> &Staged<f64> {
         self.history.field(name).unwrap()
     }
 
     /// The vector force states T⟨ξ⟩ of point `p`'s bonds at `y`, from the committed history
     /// (the code the tangent differentiates).
-    fn force_states(&self, p: usize, y: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    pub(super) fn force_states(&self, p: usize, y: &[[f64; 3]]) -> Vec<[f64; 3]> {
         let reference = ReferenceView::of(&self.bonds, &self.points);
         let kernel = ElasticPlasticForceState {
-            kernel: self.material.kernel(&reference, self.damage.as_deref()),
+            kernel: self.material.kernel(
+                &reference,
+                self.damage.as_deref(),
+                self.field(fields::LAMBDA).committed(),
+            ),
             committed: self.field(fields::DEVIATORIC_PLASTIC_EXTENSION).committed(),
         };
         let mut family = Vec::new();
@@ -132,9 +149,13 @@ impl Body {
     }
 
     /// The return map of point `p` at `y` from the committed history.
-    fn response(&self, p: usize, y: &[[f64; 3]]) -> PointResponse<f64> {
+    pub(super) fn response(&self, p: usize, y: &[[f64; 3]]) -> PointResponse<f64> {
         let reference = ReferenceView::of(&self.bonds, &self.points);
-        let kernel = self.material.kernel(&reference, self.damage.as_deref());
+        let kernel = self.material.kernel(
+            &reference,
+            self.damage.as_deref(),
+            self.field(fields::LAMBDA).committed(),
+        );
         let point = PointIndex {
             global: p,
             local: p,
@@ -151,7 +172,7 @@ impl Body {
     }
 
     /// Pure shear ε_xy = γ/2 about point `center`: u = (γ/2)(y − y_c, x − x_c, 0).
-    fn pure_shear(&self, center: usize, gamma: f64) -> Vec<[f64; 3]> {
+    pub(super) fn pure_shear(&self, center: usize, gamma: f64) -> Vec<[f64; 3]> {
         let c = self.points.position[center];
         self.points
             .position
@@ -170,25 +191,25 @@ impl Body {
 use crate::history::Staged;
 
 /// The centre of a 13³ lattice with δ = 6: its whole family (about 900 bonds) is a full sphere.
-const N: usize = 13;
-const CENTER: usize = (N * N + N + 1) * (N / 2);
-const HORIZON: f64 = 6.0;
-const YIELD_STRESS: f64 = 1e-3;
+pub(super) const N: usize = 13;
+pub(super) const CENTER: usize = (N * N + N + 1) * (N / 2);
+pub(super) const HORIZON: f64 = 6.0;
+pub(super) const YIELD_STRESS: f64 = 1e-3;
 
 /// J2 (von Mises) yield in pure shear: σ_vm = √3 τ = √3 μ γ (Hooke τ = μγ), so the continuum
 /// yields at γ_Y = σ_y/(√3 μ); ψ₀ = 25σ_y²/(8πδ⁵) is built to reproduce it (module docs,
 /// Mitchell 2011 §4).
-fn continuum_yield_shear() -> f64 {
+pub(super) fn continuum_yield_shear() -> f64 {
     YIELD_STRESS / (3.0f64.sqrt() * SHEAR)
 }
 
-fn magnitude(v: [f64; 3]) -> f64 {
+pub(super) fn magnitude(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 /// The bond of point `p` to the neighbour at offset (2, 2, 0): along the stretched diagonal of
 /// the shear.
-fn diagonal_bond(body: &Body, p: usize) -> usize {
+pub(super) fn diagonal_bond(body: &Body, p: usize) -> usize {
     let target = p + 2 + 2 * N;
     body.bonds
         .family(p)
@@ -364,7 +385,7 @@ fn rigid_motion_gives_no_force() {
     assert!(body.field(fields::LAMBDA).trial().iter().all(|&l| l == 0.0));
 }
 
-fn perturbed(body: &Body, seed: u64, amplitude: f64) -> Vec<[f64; 3]> {
+pub(super) fn perturbed(body: &Body, seed: u64, amplitude: f64) -> Vec<[f64; 3]> {
     let mut rng = Rng::new(seed);
     body.points
         .position
@@ -469,7 +490,7 @@ fn without_plasticity_the_model_is_the_linear_peridynamic_solid() {
 
 /// max |J_AD − J_FD| / max |J_FD| over a few columns, the FD tangent from central differences
 /// of the force itself (each probe advancing the trial history from the same committed one).
-fn tangent_error(body: &mut Body, y: &[[f64; 3]]) -> f64 {
+pub(super) fn tangent_error(body: &mut Body, y: &[[f64; 3]]) -> f64 {
     let pattern = Arc::new(BlockPattern::two_hop(&body.bonds));
     let mut tangent = BlockTangent::zeros(pattern);
     body.physics
@@ -511,7 +532,13 @@ fn tangent_error(body: &mut Body, y: &[[f64; 3]]) -> f64 {
 
 /// A body with a committed plastic step and a trial state that yields at most points.
 fn yielding_body(damaged: bool) -> (Body, Vec<[f64; 3]>) {
-    let mut body = Body::new(6, 1.8, 1e-3, Some(11));
+    let material = ElasticPlastic::new(&input(1.8, 1e-3, false)).unwrap();
+    yielding_body_of(damaged, material)
+}
+
+/// [`yielding_body`] made of `material` (6³ lattice, δ = 1.8, σ_y = 1e-3, not set up yet).
+pub(super) fn yielding_body_of(damaged: bool, material: ElasticPlastic) -> (Body, Vec<[f64; 3]>) {
+    let mut body = Body::of(6, 1.8, Some(11), material);
     if damaged {
         let mut rng = Rng::new(4);
         let bonds = &body.bonds;

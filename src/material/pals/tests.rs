@@ -23,6 +23,8 @@ fn input(horizon: f64, influence: Option<PalsInfluence>) -> MaterialInput {
         shear_modulus: Some(SHEAR),
         planar_thickness: None,
         plasticity: None,
+        shear_correction: false,
+        viscoelastic: None,
         influence: InfluenceFunction::One,
         correspondence: None,
         pals: influence,
