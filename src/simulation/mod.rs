@@ -83,8 +83,9 @@ fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, RunError> {
 }
 
 /// The state at the first solver's initial time: at rest, with the initial bond damage of the
-/// damage models when a block has one (intact bonds, or a pre-crack of `Initial Damage`), no contact search yet and the material history its materials declare,
-/// then the deck's initial conditions.
+/// damage models when a block has one (intact bonds, or a pre-crack of `Initial Damage`), no
+/// contact search yet and the material history its materials declare, then the deck's initial
+/// conditions.
 fn initial_state(deck: &Deck, model: &Model, physics: &Physics) -> Result<State, RunError> {
     let t0 = deck.solvers.first().map_or(0.0, |s| s.initial_time);
     let mut state = State::at_rest(&model.points.position, t0, model.boundary.has_body_force())
