@@ -608,3 +608,48 @@ fn duplicate_key_with_different_values() {
         &["written twice", "first on line"],
     );
 }
+
+#[test]
+fn microplastic_needs_a_positive_yield_stretch_and_refuses_thermal_expansion() {
+    let microplastic = "Material Model: \"Microplastic Bond Based\"\n      Density: 7800.0\n      Bulk Modulus: 130.0e9\n";
+    let text = base_with(
+        "Material Model: \"Elastic\"\n      Density: 7800.0\n      Bulk Modulus: 130.0e9\n      Shear Modulus: 78.0e9\n",
+        &format!("{microplastic}      Yield Stretch: 0.002\n"),
+    );
+    yaml(&text).expect("a microplastic material with its yield stretch loads");
+
+    let text = base_with(
+        "Material Model: \"Elastic\"\n      Density: 7800.0\n      Bulk Modulus: 130.0e9\n      Shear Modulus: 78.0e9\n",
+        microplastic,
+    );
+    let message = error_message(yaml(&text));
+    assert!(message.contains("Yield Stretch"), "{message}");
+
+    let text = base_with(
+        "Material Model: \"Elastic\"\n      Density: 7800.0\n      Bulk Modulus: 130.0e9\n      Shear Modulus: 78.0e9\n",
+        &format!("{microplastic}      Yield Stretch: -0.002\n"),
+    );
+    let line = line_containing(&text, "Yield Stretch");
+    let message = error_message(yaml(&text));
+    assert_error(
+        &message,
+        YAML_NAME,
+        line,
+        "Materials → Steel → Yield Stretch",
+        &["-0.002"],
+    );
+
+    let text = base_with(
+        "Material Model: \"Elastic\"\n      Density: 7800.0\n      Bulk Modulus: 130.0e9\n      Shear Modulus: 78.0e9\n",
+        &format!("{microplastic}      Yield Stretch: 0.002\n      Thermal Expansion Coefficient: 1.0e-5\n"),
+    );
+    let line = line_containing(&text, "Thermal Expansion Coefficient");
+    let message = error_message(yaml(&text));
+    assert_error(
+        &message,
+        YAML_NAME,
+        line,
+        "Materials → Steel → Thermal Expansion Coefficient",
+        &["Microplastic Bond Based", "no thermal strain"],
+    );
+}

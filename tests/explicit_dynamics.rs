@@ -107,6 +107,19 @@ fn two_point_pmb_oscillator_follows_discrete_verlet() {
 }
 
 #[test]
+fn two_point_microplastic_oscillator_below_yield_is_the_pmb_oscillator() {
+    // `Microplastic Bond Based` with the PMB constants above and s_Y = 0.02: the 1 % stretch
+    // never reaches yield, s̄ stays 0 through the explicit commits, and the run is the PMB
+    // oscillator.
+    let c = 18.0 / (std::f64::consts::PI * 1.5f64.powi(4));
+    check_oscillator(
+        "Material Model: \"Microplastic Bond Based\"\n      Bulk Modulus: 1.0\n      Yield Stretch: 0.02",
+        2.0 * c,
+        0.05,
+    );
+}
+
+#[test]
 fn two_point_lps_oscillator_follows_discrete_verlet() {
     // LPS with one bond: m = ζ²V, θ = 3e/ζ, t = (3K − 5μ)θζ/m + 15μe/m = 9Ke/(ζ²V) from each
     // end, so each point feels 2·9Ke/ζ² and ë = −ω²e with ω² = 36K/(ζ²ρ) = 36.
