@@ -90,12 +90,17 @@ impl PetscSettings {
     }
 
     /// Sets the KSP's types, tolerances and options (deck options last); returns the
-    /// resolved `KSP type + PC type`. `unknowns` sets the default iteration limit.
+    /// resolved `KSP type + PC type`. `unknowns` sets the default iteration limit;
+    /// `nonzero_guess` starts Krylov methods from the vector's contents (never `preonly`,
+    /// which PETSc refuses with a guess). CG stops on the true residual ‖b − Ax‖/‖b‖, as the
+    /// native and Trilinos backends do (PETSc's default is the preconditioned one), unless the
+    /// deck sets `-ksp_norm_type`.
     pub(super) fn configure(
         &self,
         turn: &Turn,
         ksp: sys::KSP,
         unknowns: usize,
+        nonzero_guess: bool,
     ) -> Result<String, PetscError> {
         let (ksp_type, pc_type) = self.type_names();
         let krylov = &self.krylov;
@@ -126,6 +131,24 @@ impl PetscSettings {
                 ))?;
             }
             check(sys::KSPSetFromOptions(ksp))?;
+            let mut resolved: sys::KSPType = std::ptr::null();
+            check(sys::KSPGetType(ksp, &mut resolved))?;
+            let resolved = owned_string(resolved);
+            let guess = nonzero_guess && resolved != "preonly";
+            check(sys::KSPSetInitialGuessNonzero(
+                ksp,
+                if guess {
+                    sys::PetscBool_PETSC_TRUE
+                } else {
+                    sys::PetscBool_PETSC_FALSE
+                },
+            ))?;
+            if resolved == "cg" && !self.options.gives("ksp_norm_type") {
+                check(sys::KSPSetNormType(
+                    ksp,
+                    sys::KSPNormType_KSP_NORM_UNPRECONDITIONED,
+                ))?;
+            }
         }
         resolved_types(ksp)
     }
@@ -256,10 +279,6 @@ impl PetscLinearSolver {
                     system.matrix,
                     system.matrix,
                 ))?;
-                check(sys::KSPSetInitialGuessNonzero(
-                    system.ksp,
-                    sys::PetscBool_PETSC_TRUE,
-                ))?;
                 Ok(())
             })()
         };
@@ -334,7 +353,7 @@ impl PetscLinearSolver {
         let mut ksp: sys::KSP = std::ptr::null_mut();
         // SAFETY: a KSP created and destroyed here, on MPI_COMM_SELF.
         unsafe { check(sys::KSPCreate(turn.comm_self(), &mut ksp))? };
-        let result = self.settings.configure(&turn, ksp, 1);
+        let result = self.settings.configure(&turn, ksp, 1, true);
         // SAFETY: `ksp` was created above.
         unsafe { sys::KSPDestroy(&mut ksp) };
         self.settings
@@ -571,7 +590,7 @@ impl LinearSolver for PetscLinearSolver {
             self.system = Some(system);
             let resolved = self
                 .settings
-                .configure(&turn, ksp, n)
+                .configure(&turn, ksp, n, true)
                 .map_err(|e| petsc_failure("setting up the KSP", e))?;
             self.resolved = Some(resolved);
         }
@@ -601,6 +620,11 @@ impl LinearSolver for PetscLinearSolver {
             let ksp = self.system.as_ref().expect("built above").ksp;
             // SAFETY: a live KSP; the type change keeps operators and PC.
             check(unsafe { sys::KSPSetType(ksp, c"gmres".as_ptr()) })
+                // GMRES with a left preconditioner measures the preconditioned residual.
+                .and_then(|()| {
+                    // SAFETY: as above.
+                    check(unsafe { sys::KSPSetNormType(ksp, sys::KSPNormType_KSP_NORM_DEFAULT) })
+                })
                 .and_then(|()| resolved_types(ksp))
                 .map(|r| self.resolved = Some(r))
                 .map_err(|e| petsc_failure("switching to GMRES", e))?;

@@ -97,7 +97,9 @@ impl DeckOptions {
         self.options
             .iter()
             .filter(|(name, _)| {
-                let full = self.full_name(name);
+                // PETSc stores names without the `-`, and PetscOptionsUsed compares with them.
+                let full = CString::new(format!("{}{name}", self.prefix))
+                    .expect("names have no NUL (checked by the deck reader)");
                 let mut used = sys::PetscBool_PETSC_FALSE;
                 // SAFETY: a query of the global database with a NUL-terminated name.
                 let code = unsafe {

@@ -477,7 +477,7 @@ pub fn solve(
             }
             let mut ksp: sys::KSP = std::ptr::null_mut();
             check(sys::SNESGetKSP(snes, &mut ksp))?;
-            settings.linear.configure(&turn, ksp, n)?;
+            settings.linear.configure(&turn, ksp, n, false)?;
             check(sys::SNESSetFromOptions(snes))?;
             check(sys::SNESSetUp(snes))?;
             if settings.jacobian == SnesJacobian::MatrixFree {
@@ -612,7 +612,7 @@ pub fn resolve(
             }
             let mut ksp: sys::KSP = std::ptr::null_mut();
             check(sys::SNESGetKSP(snes, &mut ksp))?;
-            linear.configure(&turn, ksp, 1)?;
+            linear.configure(&turn, ksp, 1, false)?;
             check(sys::SNESSetFromOptions(snes))?;
             describe(snes)
         })()
