@@ -89,7 +89,7 @@ pub fn check(code: sys::PetscErrorCode) -> Result<(), PetscError> {
         return Ok(());
     }
     Err(PetscError {
-        code: code as i32,
+        code,
         message: message.unwrap_or_else(|| "PETSc reported an error without a message".into()),
     })
 }
@@ -171,7 +171,7 @@ fn finalize() {
 }
 
 /// A string PETSc handed out (a type name), copied.
-pub fn owned_string(p: *const c_char) -> String {
+pub(super) fn owned_string(p: *const c_char) -> String {
     if p.is_null() {
         return String::new();
     }
