@@ -1,13 +1,196 @@
-//! Build script: nothing to do unless a C++ backend feature is enabled.
+//! Build script: nothing to do unless a backend feature is enabled.
 //!
 //! With feature `trilinos` it compiles the cxx bridges `src/backend/trilinos/{ffi,nox_ffi}.rs`
 //! and the shims `cpp/src/trilinos_{linear,nox}.cpp` with `cxx_build`, against the Trilinos and MPI found by
 //! [`trilinos::discover`].
+//!
+//! With feature `petsc` it generates the C bindings `$OUT_DIR/petsc_bindings.rs` of the PETSc
+//! functions `src/backend/petsc/sys.rs` calls ([`petsc::FUNCTIONS`]) with bindgen, against the
+//! PETSc found by [`petsc::discover`].
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     #[cfg(feature = "trilinos")]
     trilinos::build();
+    #[cfg(feature = "petsc")]
+    petsc::build();
+}
+
+#[cfg(feature = "petsc")]
+mod petsc {
+    use std::path::PathBuf;
+
+    /// Every PETSc function the backend calls: the allow-list of the bindings, so a PETSc
+    /// header's other declarations (and their types) stay out.
+    pub const FUNCTIONS: &[&str] = &[
+        "PetscInitializeNoArguments",
+        "PetscInitialized",
+        "PetscFinalize",
+        "PetscFinalized",
+        "PetscPushErrorHandler",
+        "PetscPopErrorHandler",
+        "PetscOptionsInsertString",
+        "PetscOptionsPrefixPush",
+        "PetscOptionsPrefixPop",
+        "PetscOptionsUsed",
+        "PetscOptionsClearValue",
+        "PetscOptionsHasName",
+        "PetscObjectGetType",
+        "VecCreateSeqWithArray",
+        "VecCreateSeq",
+        "VecPlaceArray",
+        "VecResetArray",
+        "VecGetArrayRead",
+        "VecRestoreArrayRead",
+        "VecGetArray",
+        "VecRestoreArray",
+        "VecGetLocalSize",
+        "VecDestroy",
+        "MatCreateSeqAIJWithArrays",
+        "MatDestroy",
+        "MatSetNearNullSpace",
+        "MatNullSpaceCreate",
+        "MatNullSpaceDestroy",
+        "MatAssemblyBegin",
+        "MatAssemblyEnd",
+        "MatSeqAIJGetArray",
+        "MatSeqAIJRestoreArray",
+        "KSPCreate",
+        "KSPDestroy",
+        "KSPSetType",
+        "KSPGetType",
+        "KSPGetPC",
+        "KSPSetOperators",
+        "KSPSetTolerances",
+        "KSPGMRESSetRestart",
+        "KSPSetInitialGuessNonzero",
+        "KSPSetOptionsPrefix",
+        "KSPSetFromOptions",
+        "KSPSetUp",
+        "KSPSolve",
+        "KSPGetIterationNumber",
+        "KSPGetConvergedReason",
+        "KSPGetResidualNorm",
+        "KSPSetNormType",
+        "PCSetType",
+        "PCGetType",
+        "PCFactorSetMatSolverType",
+        "SNESCreate",
+        "SNESDestroy",
+        "SNESSetType",
+        "SNESGetType",
+        "SNESGetKSP",
+        "SNESGetLineSearch",
+        "SNESLineSearchSetType",
+        "SNESLineSearchGetType",
+        "SNESSetFunction",
+        "SNESSetJacobian",
+        "SNESSetTolerances",
+        "SNESSetConvergenceTest",
+        "SNESSetOptionsPrefix",
+        "SNESSetFromOptions",
+        "SNESSolve",
+        "SNESGetIterationNumber",
+        "SNESGetLinearSolveIterations",
+        "SNESGetConvergedReason",
+        "SNESSetFunctionDomainError",
+        "SNESSetUseMatrixFree",
+        "SNESSetMaxLinearSolveFailures",
+        "SNESSetUp",
+        "SNESGetFunction",
+        "SNESGetJacobian",
+        "MatMFFDSetFunction",
+    ];
+
+    /// Include and link directories of PETSc and MPI.
+    struct Found {
+        include_dirs: Vec<PathBuf>,
+    }
+
+    pub fn build() {
+        println!("cargo:rerun-if-changed=src/backend/petsc/sys.rs");
+        for var in [
+            "PETSC_DIR",
+            "PETSC_ARCH",
+            "PKG_CONFIG_PATH",
+            "LIBCLANG_PATH",
+        ] {
+            println!("cargo:rerun-if-env-changed={var}");
+        }
+        let found = discover();
+        let mut builder = bindgen::Builder::default()
+            .header_contents("peridyn_petsc.h", "#include <petscsnes.h>\n")
+            .allowlist_recursively(true)
+            // rsmpi's `MPI_Comm` is the one the rest of the program holds: the same type, so
+            // its communicators pass straight through.
+            .blocklist_type("MPI_Comm|ompi_communicator_t")
+            .raw_line("pub use mpi::ffi::MPI_Comm;")
+            // PETSc's `typedef struct _p_Vec *Vec` would shadow `std::vec::Vec`.
+            .parse_callbacks(Box::new(RenameVec))
+            .layout_tests(false)
+            .generate_comments(false);
+        for function in FUNCTIONS {
+            builder = builder.allowlist_function(function);
+        }
+        for dir in &found.include_dirs {
+            builder = builder.clang_arg(format!("-I{}", dir.display()));
+        }
+        let bindings = builder.generate().unwrap_or_else(|e| {
+            panic!(
+                "feature `petsc`: bindgen could not read PETSc's headers ({e}); install libpetsc-real-dev and libclang-dev \
+                 (see .ci/petsc.sh), or set PETSC_DIR/PETSC_ARCH to your PETSc build; with several libclang versions \
+                 installed set LIBCLANG_PATH to the one matching `clang`"
+            )
+        });
+        let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+        bindings
+            .write_to_file(out.join("petsc_bindings.rs"))
+            .expect("writing the PETSc bindings");
+    }
+
+    #[derive(Debug)]
+    struct RenameVec;
+
+    impl bindgen::callbacks::ParseCallbacks for RenameVec {
+        fn item_name(&self, item: bindgen::callbacks::ItemInfo<'_>) -> Option<String> {
+            (item.name == "Vec").then(|| "PetscVec".to_string())
+        }
+    }
+
+    /// PETSc from pkg-config's `petsc` (Debian's `libpetsc-real-dev`, or a cluster build: with
+    /// `PETSC_DIR` set, `$PETSC_DIR/$PETSC_ARCH/lib/pkgconfig` is searched first, where PETSc's
+    /// own `make install` puts `petsc.pc`), which also emits the link flags; MPI's include
+    /// directories from pkg-config's `mpi` (PETSc's `petsc.pc` does not carry them).
+    fn discover() -> Found {
+        if let Some(dir) = std::env::var_os("PETSC_DIR") {
+            let dir = PathBuf::from(dir);
+            let arch = std::env::var_os("PETSC_ARCH").map(PathBuf::from);
+            let lib = match &arch {
+                Some(arch) => dir.join(arch).join("lib"),
+                None => dir.join("lib"),
+            };
+            let mut path = lib.join("pkgconfig").into_os_string();
+            if let Some(old) = std::env::var_os("PKG_CONFIG_PATH") {
+                path.push(":");
+                path.push(old);
+            }
+            std::env::set_var("PKG_CONFIG_PATH", path);
+        }
+        let petsc = pkg_config::Config::new()
+            .probe("petsc")
+            .or_else(|_| pkg_config::Config::new().probe("PETSc"))
+            .unwrap_or_else(|e| {
+                panic!(
+                    "feature `petsc`: pkg-config could not find PETSc ({e}); install libpetsc-real-dev (see .ci/petsc.sh) \
+                     or set PETSC_DIR (and PETSC_ARCH) to a PETSc build"
+                )
+            });
+        let mut include_dirs = petsc.include_paths;
+        if let Ok(mpi) = pkg_config::Config::new().cargo_metadata(false).probe("mpi") {
+            include_dirs.extend(mpi.include_paths);
+        }
+        Found { include_dirs }
+    }
 }
 
 #[cfg(feature = "trilinos")]

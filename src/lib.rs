@@ -98,7 +98,7 @@ pub mod interrupt;
 pub mod io;
 pub mod material;
 pub mod model;
-#[cfg(any(feature = "mpi", feature = "trilinos"))]
+#[cfg(any(feature = "mpi", feature = "trilinos", feature = "petsc"))]
 pub mod mpi_session;
 pub mod neighbors;
 pub mod parallel;

@@ -42,8 +42,8 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
         /// Backend of the implicit solver lists that do not name one with their `Backend`
-        /// key: `native` (the default for QuasiStatic and Implicit) or `trilinos` (the default
-        /// for NOXQuasiStatic in a build with the feature).
+        /// key: `native` (the default for QuasiStatic and Implicit), `trilinos` (the default
+        /// for NOXQuasiStatic in a build with the feature) or `petsc` (feature `petsc`).
         #[arg(long, value_enum)]
         backend: Option<BackendChoice>,
     },
@@ -84,6 +84,8 @@ enum BackendChoice {
     Native,
     /// Belos, and NOX for NOXQuasiStatic (Cargo feature `trilinos`).
     Trilinos,
+    /// KSP, and SNES for NOXQuasiStatic (Cargo feature `petsc`).
+    Petsc,
 }
 
 /// Failure classes that decide the exit code.
@@ -130,6 +132,7 @@ fn load_with_backend(path: &Path, backend: Option<BackendChoice>) -> Result<deck
         let backend = match choice {
             BackendChoice::Native => deck::LinearBackend::Native,
             BackendChoice::Trilinos => deck::LinearBackend::TRILINOS_DEFAULT,
+            BackendChoice::Petsc => deck::LinearBackend::PETSC_DEFAULT,
         };
         for solver in &mut deck.solvers {
             solver
@@ -177,7 +180,7 @@ fn run(
             .context("cannot set up the thread pool")?;
     }
     // The session lives to the end of the run: dropping it finalizes MPI.
-    #[cfg(any(feature = "mpi", feature = "trilinos"))]
+    #[cfg(any(feature = "mpi", feature = "trilinos", feature = "petsc"))]
     let _mpi = peridyn::mpi_session::MpiSession::start();
     #[cfg(feature = "mpi")]
     if _mpi.is_some() {

@@ -1,5 +1,5 @@
-//! The process's MPI environment (features `mpi` or `trilinos`, rsmpi): the one place that
-//! starts and finalises MPI, and hands communicators to C++ libraries as Fortran handles.
+//! The process's MPI environment (features `mpi`, `trilinos` or `petsc`, rsmpi): the one place
+//! that starts and finalises MPI, and hands communicators to C++ libraries as Fortran handles.
 //!
 //! The distributed run's communicator is [`crate::parallel::MpiCommunicator`] (feature `mpi`);
 //! this module only owns the environment, so the backends and the ranks both depend on it and
@@ -16,19 +16,49 @@
 //! a program run under `mpirun` must hold a session.
 //!
 //! MPI is started with `MPI_THREAD_SERIALIZED`: only one thread calls MPI at a time, but not
-//! always the same one (the Trilinos backend may be called from any thread, taking turns; the
-//! test harness runs tests on several threads).
+//! always the same one (the Trilinos and PETSc backends may be called from any thread, taking
+//! turns through [`MPI_TURN`]; the test harness runs tests on several threads).
+//!
+//! A library that must be shut down while MPI still runs (PETSc's `PetscFinalize`) registers
+//! its shutdown with [`before_finalize`]; the session runs it just before `MPI_Finalize`.
 
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 
 use mpi::environment::Universe;
 use mpi::raw::AsRaw;
 use mpi::topology::{Communicator as _, SimpleCommunicator};
 use mpi::Threading;
 
-/// MPI for the lifetime of this value: started by [`MpiSession::start`], finalised on drop.
+/// MPI for the lifetime of this value: started by [`MpiSession::start`], finalised on drop
+/// (after the shutdowns registered with [`before_finalize`]).
 pub struct MpiSession {
     _universe: Universe,
+}
+
+/// MPI runs with `MPI_THREAD_SERIALIZED`: the backends' calls into MPI and into libraries that
+/// call it (Trilinos, PETSc) hold this lock, so solves from several threads take turns.
+pub static MPI_TURN: Mutex<()> = Mutex::new(());
+
+/// Shutdowns to run before MPI is finalised, in the order registered.
+static BEFORE_FINALIZE: Mutex<Vec<fn()>> = Mutex::new(Vec::new());
+
+/// Runs `shutdown` when the process's [`MpiSession`] ends, before `MPI_Finalize` (once per
+/// registration; a process without a session never finalises MPI, see the module docs).
+pub fn before_finalize(shutdown: fn()) {
+    BEFORE_FINALIZE
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .push(shutdown);
+}
+
+impl Drop for MpiSession {
+    fn drop(&mut self) {
+        let shutdowns =
+            std::mem::take(&mut *BEFORE_FINALIZE.lock().unwrap_or_else(|p| p.into_inner()));
+        for shutdown in shutdowns {
+            shutdown();
+        }
+    }
 }
 
 impl MpiSession {

@@ -163,6 +163,10 @@ pub struct SolverPlan {
     pub initial_time: f64,
     /// `Final Time`.
     pub final_time: f64,
+    /// The solver the PETSc backend resolved from the deck's keys and `PETSc Options` (e.g.
+    /// `PETSc KSP cg + PC gamg`); `None` on the other backends.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resolved: Option<String>,
 }
 
 /// One output file.
@@ -334,6 +338,9 @@ impl RunPlan {
                 "  {:<12} {:<16} t = {} → {}",
                 s.name, s.kind, s.initial_time, s.final_time
             )?;
+            if let Some(resolved) = &s.resolved {
+                writeln!(f, "  {:<12} {resolved}", "")?;
+            }
         }
         if !self.outputs.is_empty() {
             writeln!(f, "\noutputs")?;

@@ -2,15 +2,15 @@
 //! `peridyn run --backend` already applied) and the rank count to a backend, and says in one
 //! message what this build or rank count cannot run.
 //!
-//! | solver list                     | `Backend: "Native"`             | `Backend: "Trilinos"`        |
-//! |---------------------------------|---------------------------------|------------------------------|
-//! | `QuasiStatic`, `Implicit`       | peridyn Newton, native linear   | peridyn Newton, Belos        |
-//! | `NOXQuasiStatic`                | peridyn Newton (JFNK or native) | Trilinos NOX                 |
-//! | `Verlet`                        | explicit, any rank count        | explicit, any rank count     |
+//! | solver list                     | `Backend: "Native"`             | `Backend: "Trilinos"`        | `Backend: "PETSc"`             |
+//! |---------------------------------|---------------------------------|------------------------------|--------------------------------|
+//! | `QuasiStatic`, `Implicit`       | peridyn Newton, native linear   | peridyn Newton, Belos        | peridyn Newton, KSP            |
+//! | `NOXQuasiStatic`                | peridyn Newton (JFNK or native) | Trilinos NOX                 | SNES (Newton or JFNK)          |
+//! | `Verlet`                        | explicit, any rank count        | explicit, any rank count     | explicit, any rank count       |
 //!
 //! On several ranks every implicit list needs `Backend: "Trilinos"` in a build with the
-//! feature `trilinos` (the distributed linear and nonlinear solves are Trilinos'); the
-//! Trilinos backend has no direct linear solver. The solver modules build the objects
+//! feature `trilinos` (the distributed linear and nonlinear solves are Trilinos'; the PETSc
+//! backend solves on one process); the Trilinos backend has no direct linear solver. The solver modules build the objects
 //! ([`crate::solver::linear`]); this module only decides.
 
 use super::Unsupported;
@@ -26,11 +26,21 @@ pub enum NonlinearBackend {
     Newton,
     /// Trilinos NOX (`NOXQuasiStatic` on the Trilinos backend).
     Nox,
+    /// PETSc SNES (`NOXQuasiStatic` on the PETSc backend).
+    Snes,
 }
 
 /// The nonlinear backend of `solver`: NOX for `NOXQuasiStatic` on the Trilinos backend,
 /// otherwise peridyn's Newton. Fails when the choice needs a feature this build lacks.
 pub fn nonlinear_backend(solver: &Solver) -> Result<NonlinearBackend, Unsupported> {
+    if matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
+        && matches!(solver.linear_solve.backend, LinearBackend::Petsc { .. })
+    {
+        if !cfg!(feature = "petsc") {
+            return Err(petsc_not_built(solver));
+        }
+        return Ok(NonlinearBackend::Snes);
+    }
     if !runs_on_nox(solver) {
         return Ok(NonlinearBackend::Newton);
     }
@@ -55,6 +65,15 @@ pub fn trilinos_not_built(solver: &Solver) -> Unsupported {
     Unsupported(format!(
         "solver \"{}\": Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
          (cargo build --release --features trilinos; see .ci/trilinos.sh)",
+        solver.name
+    ))
+}
+
+/// The refusal of `Backend "PETSc"` in a build without the feature.
+pub fn petsc_not_built(solver: &Solver) -> Unsupported {
+    Unsupported(format!(
+        "solver \"{}\": Backend \"PETSc\" needs a peridyn built with the Cargo feature `petsc` \
+         (cargo build --release --features petsc; see .ci/petsc.sh)",
         solver.name
     ))
 }
@@ -112,8 +131,12 @@ pub fn native_limitation(solver: &Solver) -> Option<String> {
     };
     (nox.direction_method != "Newton" && !on_trilinos(&solver.linear_solve.backend)).then(|| {
         format!(
-            "NOXQuasiStatic Direction Method \"{}\" on the native backend (it needs Trilinos NOX: a build with feature `trilinos`, Backend \"Trilinos\")",
-            nox.direction_method
+            "NOXQuasiStatic Direction Method \"{}\" on the {} backend (it needs Trilinos NOX: a build with feature `trilinos`, Backend \"Trilinos\")",
+            nox.direction_method,
+            match solver.linear_solve.backend {
+                LinearBackend::Petsc { .. } => "PETSc",
+                _ => "native",
+            }
         )
     })
 }

@@ -5,6 +5,8 @@
 mod csr;
 pub mod factory;
 pub mod native;
+#[cfg(feature = "petsc")]
+pub mod petsc;
 pub mod problem;
 #[cfg(feature = "trilinos")]
 pub mod trilinos;
@@ -85,6 +87,13 @@ pub trait LinearSolver {
         rhs: &[f64],
         x: &mut [f64],
     ) -> Result<KrylovReport, SolveError>;
+    /// Offers the near-null space of the matrices to come (row-major, unknowns × `count`:
+    /// the rigid-body modes for elasticity), for algebraic multigrid preconditioners; the
+    /// default ignores it.
+    fn set_near_null_space(&mut self, modes: &[f64], count: usize) {
+        let _ = (modes, count);
+    }
+
     /// Solves a system distributed over the MPI ranks (collective): this rank holds the rows
     /// with global ids `rows` (`matrix` has one row per id, its columns are global ids) and
     /// the matching entries of `rhs` and `x`. Solvers that run on one process only say so.

@@ -115,6 +115,13 @@ pub trait NonlinearProblem {
         Ok(None)
     }
 
+    /// The near-null space of J over this rank's unknowns (row-major, unknowns × modes: the
+    /// rigid-body modes for elasticity, m or m/m), and the number of modes, for algebraic
+    /// multigrid preconditioners; `None` (the default) when the problem offers none.
+    fn near_null_space(&self) -> Option<(Vec<f64>, usize)> {
+        None
+    }
+
     /// A number that changes whenever [`NonlinearProblem::preconditioning_operator`] would
     /// change at the current iterate (e.g. the count of bonds broken so far in the step), so
     /// a caller can keep one operator until it does. The default never changes.

@@ -396,11 +396,25 @@ pub(super) fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
                 kind: solver.integrator.deck_name().into(),
                 initial_time: solver.initial_time,
                 final_time: solver.final_time,
+                resolved: petsc_resolution(solver, model),
             })
             .collect(),
         time_step: time_step_plan(deck, model),
         outputs,
     })
+}
+
+/// What the PETSc backend makes of a `Backend: "PETSc"` list (its error when PETSc refuses
+/// the options; validation reports that as an input error first).
+#[cfg(feature = "petsc")]
+fn petsc_resolution(solver: &crate::io::deck::Solver, model: &Model) -> Option<String> {
+    crate::backend::petsc::deck::resolve(solver, 3 * model.points.len())
+        .map(|r| r.unwrap_or_else(|e| format!("PETSc refuses the settings: {e}")))
+}
+
+#[cfg(not(feature = "petsc"))]
+fn petsc_resolution(_solver: &crate::io::deck::Solver, _model: &Model) -> Option<String> {
+    None
 }
 
 /// Points, bonds, family sizes and horizons of every block.

@@ -12,7 +12,31 @@ use super::report::{critical_time_step, requested_variables};
 /// Every check, for a model whose families are built (one process).
 pub fn validate(deck: &Deck, model: &Model) -> Result<(), DeckError> {
     validate_points(deck, model)?;
-    validate_time_steps(deck, model)
+    validate_time_steps(deck, model)?;
+    validate_petsc_options(deck, model)
+}
+
+/// Every `Backend: "PETSc"` list's solver is set up once with its `PETSc Options`, so an
+/// option PETSc refuses (an unknown KSP type, a malformed value) is an input error naming the
+/// key before anything runs.
+#[cfg(feature = "petsc")]
+fn validate_petsc_options(deck: &Deck, model: &Model) -> Result<(), DeckError> {
+    for solver in &deck.solvers {
+        if let Some(Err(message)) =
+            crate::backend::petsc::deck::resolve(solver, 3 * model.points.len())
+        {
+            return Err(deck.error_at(
+                &[&solver.name, "PETSc Options"],
+                format!("PETSc refused the solver settings: {message}; fix or remove the option (PETSc's -help lists them)"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "petsc"))]
+fn validate_petsc_options(_deck: &Deck, _model: &Model) -> Result<(), DeckError> {
+    Ok(())
 }
 
 /// The checks that need points and node sets only (a distributed run's global model has no

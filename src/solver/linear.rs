@@ -14,6 +14,9 @@
 //!   ([`super::nox_newton`]; the default for `NOXQuasiStatic` in a build with the feature);
 //!   `QuasiStatic` and `Implicit` hand their assembled tangent to Belos
 //!   (`TrilinosLinearSolver`) with the Ifpack/ML preconditioner of the deck.
+//! * `Backend: "PETSc"` (feature `petsc`): `NOXQuasiStatic` is solved by SNES
+//!   ([`super::snes_newton`]); `QuasiStatic` and `Implicit` hand their assembled tangent to a
+//!   KSP (`PetscLinearSolver`) configured by the deck's keys and `PETSc Options`.
 
 use crate::backend::factory::{self, matrix_free_preconditioner, NonlinearBackend};
 use crate::backend::native::{
@@ -41,6 +44,7 @@ pub fn nonlinear_solver(
 ) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
     match factory::nonlinear_backend(solver)? {
         NonlinearBackend::Nox => nox_solver(solver),
+        NonlinearBackend::Snes => snes_solver(solver, model),
         NonlinearBackend::Newton => Ok(Box::new(strategy(solver, model, physics)?)),
     }
 }
@@ -53,6 +57,35 @@ fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, Unsupported> 
 #[cfg(not(feature = "trilinos"))]
 fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
     Err(factory::trilinos_not_built(solver))
+}
+
+#[cfg(feature = "petsc")]
+fn snes_solver(solver: &Solver, model: &Model) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
+    Ok(Box::new(super::snes_newton::SnesNewton::from_deck(
+        solver,
+        3 * model.points.len(),
+    )?))
+}
+
+#[cfg(not(feature = "petsc"))]
+fn snes_solver(solver: &Solver, _model: &Model) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
+    Err(factory::petsc_not_built(solver))
+}
+
+/// KSP through the PETSc bindings with the deck's keys and `PETSc Options`.
+#[cfg(feature = "petsc")]
+fn petsc_strategy(solver: &Solver, model: &Model) -> Result<LinearStrategy, Unsupported> {
+    use crate::backend::petsc::{deck, PetscLinearSolver};
+    let settings = deck::settings(solver, 3 * model.points.len())
+        .ok_or_else(|| factory::petsc_not_built(solver))?;
+    Ok(LinearStrategy::Assembled(Box::new(PetscLinearSolver::new(
+        settings,
+    ))))
+}
+
+#[cfg(not(feature = "petsc"))]
+fn petsc_strategy(solver: &Solver, _model: &Model) -> Result<LinearStrategy, Unsupported> {
+    Err(factory::petsc_not_built(solver))
 }
 
 /// The linear strategy of `solver` (see the module docs).
@@ -75,6 +108,9 @@ pub fn strategy(
             },
             preconditioner,
         });
+    }
+    if let LinearBackend::Petsc { .. } = settings.backend {
+        return petsc_strategy(solver, model);
     }
     if let LinearBackend::Trilinos {
         preconditioner,

@@ -14,6 +14,8 @@ pub mod newton;
 pub mod nox_newton;
 pub mod problem;
 pub mod quasistatic;
+#[cfg(feature = "petsc")]
+pub mod snes_newton;
 pub mod stability;
 
 pub use explicit::{VelocityVerlet, VerletSettings};

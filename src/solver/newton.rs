@@ -307,6 +307,11 @@ fn correct(
         }
         LinearStrategy::Assembled(solver) => {
             let matrix = problem.jacobian(x)?;
+            if problem.ranks() == 1 {
+                if let Some((modes, count)) = problem.near_null_space() {
+                    solver.set_near_null_space(&modes, count);
+                }
+            }
             let result = match problem.global_ids() {
                 Some(rows) => solver.solve_distributed(rows, &matrix, &rhs, correction),
                 None => solver.solve(&matrix, &rhs, correction),

@@ -405,6 +405,14 @@ impl NonlinearProblem for PhysicsProblem<'_> {
         }))
     }
 
+    fn near_null_space(&self) -> Option<(Vec<f64>, usize)> {
+        let Physical { system, model, .. } = &self.parts;
+        Some((
+            rigid_body_modes(&model.points.position, &system.dofs.free),
+            6,
+        ))
+    }
+
     fn preconditioning_version(&self) -> usize {
         self.broken_bonds
     }

@@ -27,8 +27,6 @@ mod nox_ffi;
 pub mod nox_problem;
 mod parameters;
 
-use std::sync::Mutex;
-
 use self::ffi::bridge;
 use super::native::KrylovSettings;
 use super::{Csr, KrylovReport, LinearSolver, SolveError};
@@ -111,8 +109,8 @@ pub struct TrilinosLinearSolver {
 }
 
 /// MPI runs with `MPI_THREAD_SERIALIZED` ([`crate::mpi_session::MpiSession`]): solves from
-/// several threads (cargo's test harness) take turns.
-pub(crate) static MPI_TURN: Mutex<()> = Mutex::new(());
+/// several threads (cargo's test harness) take turns, with the PETSc backend's too.
+pub(crate) use crate::mpi_session::MPI_TURN;
 
 impl TrilinosLinearSolver {
     /// A solver with these settings; nothing is allocated until the first solve.

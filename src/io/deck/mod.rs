@@ -51,10 +51,10 @@ pub use materials::{
 pub use output::{CalculationType, ComputeClass, ComputeClassKind, Output};
 pub use parameters::ParameterValue;
 pub use solver::{
-    AdaptiveLoadStepping, AlgebraicPreconditioner, BelosSettings, BelosSolver, Implicit,
-    ImplicitDiffusion, Integrator, LinearBackend, LinearMethod, LinearPreconditioner, LinearSolve,
-    LoadSteps, NoxQuasiStatic, PeridigmPreconditioner, QuasiStatic, SolveFor, Solver,
-    SwitchToVerlet, Verlet,
+    parse_petsc_options, AdaptiveLoadStepping, AlgebraicPreconditioner, BelosSettings, BelosSolver,
+    Implicit, ImplicitDiffusion, Integrator, LinearBackend, LinearMethod, LinearPreconditioner,
+    LinearSolve, LoadSteps, NoxQuasiStatic, PeridigmPreconditioner, PetscPreconditioner,
+    QuasiStatic, SolveFor, Solver, SwitchToVerlet, Verlet,
 };
 
 use reader::{suggest, Ctx, Field, ListReader};

@@ -39,10 +39,11 @@ pub struct Solver {
 ///
 /// | key | values | default |
 /// |---|---|---|
-/// | `Backend` | `Native`, `Trilinos` (a build with Cargo feature `trilinos`) | `Native` |
-/// | `Linear Solver` | `Automatic`, `Direct`, `Cholesky`, `LU`, `CG`, `GMRES`; `Trilinos`: `Automatic` (= `CG`), `CG`, `GMRES` | `CG` when the deck gives `Belos Linear Solver: BlockCG`, `GMRES` for `BlockGMRES`, else `Automatic` |
-/// | `Linear Solver Preconditioner` | `Native`: `Block 3x3`, `AMG`, `Jacobi`, `None`; `Trilinos`: `Jacobi`, `ILU`, `ML`, `None` | `Block 3x3` (`Native`), `ILU` (`Trilinos`) |
-/// | `Linear Solver ILU Level Of Fill` | `Trilinos` with `ILU`: Ifpack's `fact: level-of-fill` | 0 |
+/// | `Backend` | `Native`, `Trilinos` (a build with Cargo feature `trilinos`), `PETSc` (feature `petsc`) | `Native` |
+/// | `Linear Solver` | `Automatic`, `Direct`, `Cholesky`, `LU`, `CG`, `GMRES`; `Trilinos`: `Automatic` (= `CG`), `CG`, `GMRES`; `PETSc`: all (`Direct`, `LU`, `Cholesky` are MUMPS) | `CG` when the deck gives `Belos Linear Solver: BlockCG`, `GMRES` for `BlockGMRES`, else `Automatic` |
+/// | `Linear Solver Preconditioner` | `Native`: `Block 3x3`, `AMG`, `Jacobi`, `None`; `Trilinos`: `Jacobi`, `ILU`, `ML`, `None`; `PETSc`: `Jacobi`, `ILU` (block Jacobi with ILU blocks), `GAMG`, `Hypre` (BoomerAMG), `None` | `Block 3x3` (`Native`), `ILU` (`Trilinos`, `PETSc`) |
+/// | `Linear Solver ILU Level Of Fill` | `Trilinos`/`PETSc` with `ILU`: Ifpack's `fact: level-of-fill`, PETSc's `-sub_pc_factor_levels` | 0 |
+/// | `PETSc Options` | `Backend: "PETSc"`: PETSc command-line options (`-ksp_type gmres -pc_type gamg -snes_linesearch_type bt …`) put in PETSc's options database under this list's prefix (its name in lower case and `_`, e.g. `solver_`); they override the keys above | none |
 /// | `Linear Solver Tolerance` | relative residual of the Krylov methods | `Belos Relative Tolerance` when given, else 1e-10 |
 /// | `Linear Solver Maximum Iterations` | Krylov iteration limit | `Belos Maximum Iterations`, else the number of unknowns |
 /// | `Belos` | a sublist of Belos parameters (`Backend: "Trilinos"`): `Maximum Iterations`, `Convergence Tolerance`, `Num Blocks`, `Maximum Restarts`, `Verbosity`, `Output Frequency`, … (see [`super::belos`]) | none |
@@ -76,6 +77,10 @@ pub struct LinearSolve {
     /// then the `Belos` sublist's (names and types checked, in file order); each replaces the
     /// value peridyn would set, a later one an earlier one (see [`super::belos`]).
     pub belos_parameters: Vec<(String, ParameterValue)>,
+    /// `PETSc Options` for `Backend: "PETSc"` as (option name without its `-`, value) pairs
+    /// in deck order; the syntax is checked by the deck reader, the names and values by PETSc
+    /// when the run (or `peridyn check`) sets the solver up. Default none.
+    pub petsc_options: Vec<(String, Option<String>)>,
 }
 
 /// `Linear Solver`.
@@ -112,12 +117,26 @@ pub enum LinearBackend {
         /// `Linear Solver ILU Level Of Fill` (default 0).
         ilu_fill_level: u32,
     },
+    /// `"PETSc"`: KSP/PC and SNES through the PETSc bindings (Cargo feature `petsc`).
+    Petsc {
+        /// `Linear Solver Preconditioner`.
+        preconditioner: PetscPreconditioner,
+        /// `Linear Solver ILU Level Of Fill` (default 0).
+        ilu_fill_level: u32,
+    },
 }
 
 impl LinearBackend {
     /// `Backend: "Trilinos"` with its default preconditioner (ILU(0)).
     pub const TRILINOS_DEFAULT: LinearBackend = LinearBackend::Trilinos {
         preconditioner: AlgebraicPreconditioner::Ilu,
+        ilu_fill_level: 0,
+    };
+
+    /// `Backend: "PETSc"` with its default preconditioner (block Jacobi with ILU(0) blocks,
+    /// PETSc's own default).
+    pub const PETSC_DEFAULT: LinearBackend = LinearBackend::Petsc {
+        preconditioner: PetscPreconditioner::Ilu,
         ilu_fill_level: 0,
     };
 }
@@ -129,6 +148,9 @@ impl Solver {
     pub fn choose_backend(&mut self, backend: LinearBackend) -> Result<(), String> {
         if self.linear_solve.backend_given || matches!(self.integrator, Integrator::Verlet(_)) {
             return Ok(());
+        }
+        if matches!(backend, LinearBackend::Petsc { .. }) && !cfg!(feature = "petsc") {
+            return Err(PETSC_NOT_BUILT.to_string());
         }
         if matches!(backend, LinearBackend::Trilinos { .. }) {
             if !cfg!(feature = "trilinos") {
@@ -160,6 +182,22 @@ pub enum AlgebraicPreconditioner {
     Ilu,
     /// `"ML"`: ML smoothed-aggregation algebraic multigrid.
     Ml,
+}
+
+/// `Linear Solver Preconditioner` values of the PETSc backend.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PetscPreconditioner {
+    /// `"None"`: `-pc_type none`.
+    None,
+    /// `"Jacobi"`: `-pc_type jacobi`.
+    Jacobi,
+    /// `"ILU"` (default): `-pc_type bjacobi` with ILU(k) on each block (one block per process).
+    Ilu,
+    /// `"GAMG"`: PETSc's smoothed-aggregation multigrid with the rigid-body modes of the
+    /// unknowns as its near-null space.
+    Gamg,
+    /// `"Hypre"`: hypre's BoomerAMG (`-pc_type hypre`).
+    Hypre,
 }
 
 /// `Linear Solver Preconditioner` values of the native backend.
@@ -479,6 +517,10 @@ fn read_belos(ctx: &Ctx, list: &mut ListReader) -> Result<(BelosSettings, bool),
 /// StatusTestDetails` (0 + 0x1 + 0x20).
 const BELOS_STATUS_VERBOSITY: i64 = 0x21;
 
+/// The error for `Backend: "PETSc"` in a build without the backend.
+pub(crate) const PETSC_NOT_BUILT: &str = "Backend \"PETSc\" needs a peridyn built with the Cargo feature `petsc` \
+     (cargo build --release --features petsc, with PETSc, MPI and libclang installed: see .ci/petsc.sh)";
+
 /// The error for `Backend: "Trilinos"` in a build without the backend.
 pub(crate) const TRILINOS_NOT_BUILT: &str = "Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
      (cargo build --release --features trilinos, with Trilinos and MPI installed: see .ci/trilinos.sh); \
@@ -512,16 +554,41 @@ fn read_linear_solve(
         },
     };
     let backend_given = list.peek("Backend").is_some();
-    let trilinos = match list.get("Backend") {
-        None => false,
-        Some(f) => match f.choice(ctx, &["Native", "Trilinos"])? {
+    let chosen = match list.get("Backend") {
+        None => Chosen::Native,
+        Some(f) => match f.choice(ctx, &["Native", "Trilinos", "PETSc"])? {
             "Trilinos" if !cfg!(feature = "trilinos") => {
                 return Err(f.err(ctx, TRILINOS_NOT_BUILT));
             }
-            choice => choice == "Trilinos",
+            "PETSc" if !cfg!(feature = "petsc") => {
+                return Err(f.err(ctx, PETSC_NOT_BUILT));
+            }
+            "Trilinos" => Chosen::Trilinos,
+            "PETSc" => Chosen::Petsc,
+            _ => Chosen::Native,
         },
     };
-    let (backend, preconditioner) = read_preconditioner(ctx, list, method, trilinos)?;
+    let trilinos = chosen == Chosen::Trilinos;
+    let (backend, preconditioner) = if chosen == Chosen::Petsc {
+        read_petsc_preconditioner(ctx, list)?
+    } else {
+        read_preconditioner(ctx, list, method, trilinos)?
+    };
+    let petsc_options = match list.get("PETSc Options") {
+        None => Vec::new(),
+        Some(f) => {
+            let text = f.string(ctx)?;
+            let options = parse_petsc_options(&text).map_err(|e| f.err(ctx, e))?;
+            if backend_given && chosen != Chosen::Petsc {
+                ctx.warn(
+                    f.line(),
+                    &f.path,
+                    "PETSc Options apply to Backend \"PETSc\" only; ignored",
+                );
+            }
+            options
+        }
+    };
     let relative_tolerance = match list.positive_opt(ctx, "Linear Solver Tolerance")? {
         Some(t) => t,
         None => match belos {
@@ -564,7 +631,93 @@ fn read_linear_solve(
         relative_tolerance,
         maximum_iterations,
         belos_parameters,
+        petsc_options,
     })
+}
+
+/// The `Backend` a solver list names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Chosen {
+    Native,
+    Trilinos,
+    Petsc,
+}
+
+/// The options of a `PETSc Options` string: whitespace-separated, each option a `-` followed
+/// by a letter and then letters, digits or `_`, optionally followed by one value (a token that
+/// is not an option: a negative number such as `-1e-3` is a value). Returns (name without the
+/// `-`, value) pairs in order, or what is wrong and how to write it.
+pub fn parse_petsc_options(text: &str) -> Result<Vec<(String, Option<String>)>, String> {
+    let is_option = |token: &str| {
+        token
+            .strip_prefix('-')
+            .and_then(|name| name.chars().next())
+            .is_some_and(|c| c.is_ascii_alphabetic())
+    };
+    let mut options: Vec<(String, Option<String>)> = Vec::new();
+    for token in text.split_whitespace() {
+        if is_option(token) {
+            let name = &token[1..];
+            if !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                return Err(format!(
+                    "\"{token}\" is not a PETSc option name (letters, digits and _ after the -), e.g. \"-ksp_type gmres -pc_type gamg\""
+                ));
+            }
+            options.push((name.to_string(), None));
+            continue;
+        }
+        match options.last_mut() {
+            Some((_, value @ None)) => *value = Some(token.to_string()),
+            Some((name, Some(previous))) => {
+                return Err(format!(
+                    "\"{token}\" follows \"-{name} {previous}\": a PETSc option takes one value; start each option with -, e.g. \"-ksp_type gmres -pc_type gamg\""
+                ))
+            }
+            None => {
+                return Err(format!(
+                    "\"{token}\" is not an option: PETSc options start with -, e.g. \"-ksp_type gmres -pc_type gamg\""
+                ))
+            }
+        }
+    }
+    Ok(options)
+}
+
+/// `Linear Solver Preconditioner` and `Linear Solver ILU Level Of Fill` for the PETSc backend;
+/// returns the backend and the native preconditioner (`Block 3x3`, unused on PETSc).
+fn read_petsc_preconditioner(
+    ctx: &mut Ctx,
+    list: &mut ListReader,
+) -> Result<(LinearBackend, LinearPreconditioner), DeckError> {
+    let preconditioner = match list.get("Linear Solver Preconditioner") {
+        None => PetscPreconditioner::Ilu,
+        Some(f) => match f.choice(
+            ctx,
+            &["ILU", "Jacobi", "GAMG", "Hypre", "None", "Block 3x3", "AMG", "ML"],
+        )? {
+            "ILU" => PetscPreconditioner::Ilu,
+            "Jacobi" => PetscPreconditioner::Jacobi,
+            "GAMG" => PetscPreconditioner::Gamg,
+            "Hypre" => PetscPreconditioner::Hypre,
+            "None" => PetscPreconditioner::None,
+            other => {
+                return Err(f.err(
+                    ctx,
+                    format!("\"{other}\" is not a PETSc preconditioner; with Backend \"PETSc\" choose \"ILU\", \"GAMG\", \"Hypre\", \"Jacobi\" or \"None\" (or give -pc_type in PETSc Options)"),
+                ))
+            }
+        },
+    };
+    let ilu_fill_level = list
+        .int_opt(ctx, "Linear Solver ILU Level Of Fill", 0)?
+        .map_or(0, |v| v as u32);
+    Ok((
+        LinearBackend::Petsc {
+            preconditioner,
+            ilu_fill_level,
+        },
+        LinearPreconditioner::Block3x3,
+    ))
 }
 
 /// `Linear Solver Preconditioner` and `Linear Solver ILU Level Of Fill` for the Trilinos

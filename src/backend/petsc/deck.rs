@@ -1,0 +1,80 @@
+//! The PETSc settings of a deck's solver list, and what `peridyn check` shows of them.
+//!
+//! | solver list | PETSc |
+//! |---|---|
+//! | `QuasiStatic`, `Implicit` | peridyn's Newton; each correction a KSP solve ([`super::linear`]) |
+//! | `NOXQuasiStatic` | SNES `newtonls` ([`super::snes`]); `Jacobian Operator: "Matrix-Free"` with `Peridigm Preconditioner` `Block 3x3`, `None` or `AMG` is `-snes_mf_operator` with the 3×3 block diagonal as preconditioning matrix |
+//!
+//! `Linear Solver`: `CG` is `KSPCG`, `GMRES` `KSPGMRES`; `Direct` and `LU` are MUMPS' LU,
+//! `Cholesky` MUMPS' Cholesky; `Automatic` is MUMPS' LU up to
+//! [`LinearMethod::AUTOMATIC_DIRECT_LIMIT`] unknowns and CG beyond, as on the native backend.
+
+use super::linear::{KspMethod, PetscLinearSolver, PetscSettings};
+use super::options::DeckOptions;
+use super::snes::{self, SnesJacobian};
+use crate::backend::factory::matrix_free_preconditioner;
+use crate::backend::native::KrylovSettings;
+use crate::io::deck::{Integrator, LinearBackend, LinearMethod, Solver};
+
+/// The PETSc settings of `solver` (a list with `Backend: "PETSc"`) for a system of `unknowns`
+/// unknowns (which decides `Automatic`); `None` for a list on another backend.
+pub fn settings(solver: &Solver, unknowns: usize) -> Option<PetscSettings> {
+    let LinearBackend::Petsc {
+        preconditioner,
+        ilu_fill_level,
+    } = solver.linear_solve.backend
+    else {
+        return None;
+    };
+    let linear = &solver.linear_solve;
+    let method = match linear.method {
+        LinearMethod::Cg => KspMethod::Cg,
+        LinearMethod::Gmres => KspMethod::Gmres,
+        LinearMethod::Direct | LinearMethod::Lu => KspMethod::Lu,
+        LinearMethod::Cholesky => KspMethod::Cholesky,
+        LinearMethod::Automatic if unknowns <= LinearMethod::AUTOMATIC_DIRECT_LIMIT => {
+            KspMethod::Lu
+        }
+        LinearMethod::Automatic => KspMethod::Cg,
+    };
+    Some(PetscSettings {
+        method,
+        preconditioner,
+        ilu_fill_level,
+        krylov: KrylovSettings {
+            relative_tolerance: linear.relative_tolerance,
+            max_iterations: linear.maximum_iterations.map(|m| m as usize),
+            ..KrylovSettings::default()
+        },
+        options: DeckOptions::new(&solver.name, linear.petsc_options.clone()),
+    })
+}
+
+/// How SNES forms the Newton operator of a `NOXQuasiStatic` list on PETSc.
+pub fn snes_jacobian(solver: &Solver) -> SnesJacobian {
+    match matrix_free_preconditioner(solver) {
+        Some(_) => SnesJacobian::MatrixFree,
+        None => SnesJacobian::Assembled,
+    }
+}
+
+/// True when PETSc's SNES solves `solver` (a `NOXQuasiStatic` list on PETSc).
+pub fn runs_on_snes(solver: &Solver) -> bool {
+    matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
+        && matches!(solver.linear_solve.backend, LinearBackend::Petsc { .. })
+}
+
+/// Sets up `solver`'s PETSc objects with its options, without a matrix: their description
+/// (`PETSc KSP cg + PC gamg`, or the SNES with its KSP), or PETSc's refusal of an option, for
+/// `peridyn check` and the validation `peridyn run` shares with it. `None` for a list on
+/// another backend.
+pub fn resolve(solver: &Solver, unknowns: usize) -> Option<Result<String, String>> {
+    let settings = settings(solver, unknowns)?;
+    let result = if runs_on_snes(solver) {
+        let line_search = !solver.disable_heuristics;
+        snes::resolve(&settings, snes_jacobian(solver), line_search)
+    } else {
+        PetscLinearSolver::new(settings).resolve()
+    };
+    Some(result.map_err(|e| e.message))
+}

@@ -1,0 +1,110 @@
+//! `NOXQuasiStatic` through PETSc's SNES (feature `petsc`): each load step is solved by SNES
+//! Newton with a line search (or Jacobian-free, `-snes_mf_operator`) on the same residual the
+//! native and NOX solvers use (the one-residual rule, DESIGN §5); see
+//! [`crate::backend::petsc::snes`] for what SNES sees.
+//!
+//! As for NOX, the unknowns are the current coordinates of the free dofs (the matrix-free
+//! probes then move them by a relative amount PETSc's differencing parameter is made for), F
+//! is −V ⊙ (f_int + b), and points with too few bonds for a stiffness are held for the whole
+//! solve (SNES cannot change its unknowns mid-solve). The convergence test is peridyn's own
+//! measure against the load step's tolerance.
+
+use crate::backend::petsc::deck;
+use crate::backend::petsc::snes::{self, SnesJacobian, SnesSettings};
+use crate::backend::petsc::PetscSettings;
+use crate::backend::problem::NonlinearProblem;
+use crate::backend::{SolveError, Unsupported};
+use crate::io::deck::{Integrator, Solver};
+use crate::solver::newton::{NewtonReport, NewtonSettings, NonlinearSolver};
+use crate::solver::problem::{Origin, Physical, PhysicsProblem};
+use std::time::Instant;
+
+/// `NOXQuasiStatic` on the PETSc backend.
+pub struct SnesNewton {
+    linear: PetscSettings,
+    jacobian: SnesJacobian,
+    /// The method PETSc resolved at the first solve.
+    method: Option<String>,
+}
+
+impl SnesNewton {
+    /// The SNES solver of a `NOXQuasiStatic` list with `Backend: "PETSc"` over a model of
+    /// `unknowns` dofs.
+    pub fn from_deck(solver: &Solver, unknowns: usize) -> Result<Self, Unsupported> {
+        if !matches!(solver.integrator, Integrator::NoxQuasiStatic(_)) {
+            return Err(Unsupported(format!(
+                "solver \"{}\": SNES runs NOXQuasiStatic lists only",
+                solver.name
+            )));
+        }
+        let linear = deck::settings(solver, unknowns).ok_or_else(|| {
+            Unsupported(format!(
+                "solver \"{}\": SNES needs Backend \"PETSc\"",
+                solver.name
+            ))
+        })?;
+        Ok(Self {
+            linear,
+            jacobian: deck::snes_jacobian(solver),
+            method: None,
+        })
+    }
+
+    /// How the Newton operator is formed.
+    pub fn jacobian(&self) -> SnesJacobian {
+        self.jacobian
+    }
+}
+
+impl NonlinearSolver for SnesNewton {
+    fn logs_after_each_iteration(&self) -> bool {
+        true
+    }
+
+    fn describe(&self) -> String {
+        match &self.method {
+            Some(method) => method.clone(),
+            None => format!(
+                "PETSc SNES newtonls ({})",
+                match self.jacobian {
+                    SnesJacobian::Assembled => "assembled tangent",
+                    SnesJacobian::MatrixFree =>
+                        "Jacobian-free, -snes_mf_operator with the 3x3 block diagonal",
+                }
+            ),
+        }
+    }
+
+    fn solve(
+        &mut self,
+        parts: Physical<'_>,
+        settings: &NewtonSettings,
+    ) -> Result<NewtonReport, SolveError> {
+        let start = Instant::now();
+        let mut problem = PhysicsProblem::new(parts, settings.measure, Origin::Coordinates);
+        problem.hold_deficient_points();
+        let snes_settings = SnesSettings {
+            linear: &self.linear,
+            jacobian: self.jacobian,
+            tolerance: settings.tolerance,
+            max_iterations: settings.max_iterations,
+            line_search: settings.line_search,
+            print_iterations: settings.print_iterations,
+            warn_unused: self.method.is_none(),
+        };
+        let report = snes::solve(&mut problem, &snes_settings)?;
+        self.method = Some(report.method.clone());
+        Ok(NewtonReport {
+            converged: report.converged,
+            iterations: report.iterations,
+            linear_iterations: report.linear_iterations,
+            residual_history: report.history,
+            residual_evaluations: problem.residual_evaluations(),
+            broken_bonds: problem.broken_bonds(),
+            held_points: problem.held_points(),
+            tangent_bytes: problem.jacobian_bytes(),
+            linear_method: report.method,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+}
