@@ -106,6 +106,15 @@ impl<T: Copy> Staged<T> {
         (committed, &mut self.trial)
     }
 
+    /// Sets the accepted values: the trial values and, when one is kept, the committed copy
+    /// (a run resumed from a restart file). `values` has the field's length.
+    pub fn set_accepted(&mut self, values: &[T]) {
+        self.trial.copy_from_slice(values);
+        if let Some(committed) = &mut self.committed {
+            committed.copy_from_slice(values);
+        }
+    }
+
     /// Abandons the trial values: they become the committed ones again.
     pub fn restore(&mut self) {
         if let Some(committed) = &self.committed {
@@ -190,6 +199,11 @@ impl History {
     /// Sets Δt of the step about to be solved (see [`History::step_duration`]).
     pub fn set_step_duration(&mut self, duration: f64) {
         self.step_duration = duration;
+    }
+
+    /// Every field with its declaration, in declaration order (restart files).
+    pub fn fields(&self) -> impl Iterator<Item = (&FieldDeclaration, &Staged<f64>)> {
+        self.fields.iter().map(|(f, values)| (f, values))
     }
 
     /// The declared fields, in declaration order.

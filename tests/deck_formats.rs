@@ -315,7 +315,7 @@ fn defaults_when_keys_are_absent() {
 fn restart_false_is_honoured_with_a_warning() {
     let text = base_with("  Solver:", "  Restart:\n    Restart: false\n  Solver:");
     let deck = yaml(&text).unwrap();
-    assert!(!deck.restart);
+    assert!(deck.restart.is_none());
     assert!(
         deck.warnings
             .iter()
@@ -324,7 +324,27 @@ fn restart_false_is_honoured_with_a_warning() {
         deck.warnings
     );
     let text = base_with("  Solver:", "  Restart: true\n  Solver:");
-    assert!(yaml(&text).unwrap().restart);
+    assert_eq!(yaml(&text).unwrap().restart, Some(Default::default()));
+}
+
+#[test]
+fn restart_frequency_and_wall_clock_interval_are_read() {
+    let text = base_with(
+        "  Solver:",
+        "  Restart:\n    Frequency: 100\n    Wall Clock Interval: 3600.0\n  Solver:",
+    );
+    let restart = yaml(&text).unwrap().restart.expect("restart is on");
+    assert_eq!(restart.every_steps, Some(100));
+    assert_eq!(restart.every_seconds, Some(3600.0));
+    for (bad, key) in [
+        ("    Frequency: 0", "Frequency"),
+        ("    Wall Clock Interval: -1.0", "Wall Clock Interval"),
+        ("    Frequncy: 10", "Frequncy"),
+    ] {
+        let text = base_with("  Solver:", &format!("  Restart:\n{bad}\n  Solver:"));
+        let error = yaml(&text).unwrap_err().to_string();
+        assert!(error.contains(&format!("Restart → {key}")), "{error}");
+    }
 }
 
 #[test]

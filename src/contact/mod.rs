@@ -59,6 +59,7 @@
 //! N alike.
 
 mod ranks;
+mod restart;
 mod search;
 mod short_range_force;
 
