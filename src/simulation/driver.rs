@@ -240,6 +240,11 @@ impl Run<'_> {
             (Some(index), Some(restarts)) => restarts.take_resume(index),
             _ => None,
         };
+        let saved_start = index == Some(0)
+            && self
+                .restarts
+                .as_mut()
+                .is_some_and(Restarts::take_saved_start);
         let (first, mut monitor, mut pending) = match &resume {
             // Continued from a restart file inside this list: the state, monitor and output
             // frames are those after step k, so the list goes on with step k + 1.
@@ -250,6 +255,16 @@ impl Run<'_> {
                 }
                 self.summary.steps -= snapshot.position.step.min(self.summary.steps);
                 (snapshot.position.step + 1, monitor, None)
+            }
+            // Started from a saved state (Peridigm's restart): its acceleration is the one the
+            // uninterrupted run goes on with, so the forces are not evaluated again (that
+            // would round differently); the list starts at its Initial Time.
+            None if saved_start => {
+                state.time = solver.initial_time;
+                state.drop_committed();
+                state.history.set_step_duration(time_step);
+                let monitor = self.energy_monitor(physics, state);
+                (1, monitor, self.output_or_return(physics, state)?)
             }
             None => {
                 let initialized = integrator.initialize_with(model, physics, state, self.ranks);

@@ -86,8 +86,9 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
             restarts.resume_at(snapshot);
             (Some(restarts), Some(outputs))
         }
-        (Some(restarts), restarts::Start::FromState(snapshot)) => {
+        (Some(mut restarts), restarts::Start::FromState(snapshot)) => {
             restarts.apply(&snapshot, model, &physics, &mut state)?;
+            restarts.start_from_saved_state();
             (Some(restarts), None)
         }
         (restarts, _) => (restarts, None),

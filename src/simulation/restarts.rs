@@ -40,6 +40,9 @@ pub(super) struct Restarts {
     resume: Option<Snapshot>,
     /// The first solver list to run.
     first_solver: usize,
+    /// The run starts from a saved state (Peridigm's restart) and its first list has not
+    /// taken it yet.
+    saved_start: bool,
 }
 
 /// How a run starts with restart on.
@@ -70,6 +73,7 @@ impl Restarts {
             order: BondOrder::of(model),
             resume: None,
             first_solver: 0,
+            saved_start: false,
         };
         let Some((_, newest)) = found.last() else {
             return Ok((restarts, Start::Fresh));
@@ -150,6 +154,18 @@ impl Restarts {
     /// From now on the run resumes at the position of `snapshot`.
     pub fn resume_at(&mut self, snapshot: Snapshot) {
         self.resume = Some(snapshot);
+    }
+
+    /// Marks the run as starting from a saved state (Peridigm's restart).
+    pub fn start_from_saved_state(&mut self) {
+        self.saved_start = true;
+    }
+
+    /// True (once) when the run starts from a saved state: the first explicit list then
+    /// takes the saved acceleration instead of evaluating the forces again, as the
+    /// uninterrupted run would go on.
+    pub fn take_saved_start(&mut self) -> bool {
+        std::mem::take(&mut self.saved_start)
     }
 
     /// True when solver list `index` is before the one a continued run starts with.
