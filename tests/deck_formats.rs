@@ -283,7 +283,7 @@ fn ignored_keys_are_accepted_with_a_warning() {
 #[test]
 fn defaults_when_keys_are_absent() {
     let deck = yaml(BASE_YAML).unwrap();
-    assert!(!deck.verbose && !deck.restart && !deck.multiphysics);
+    assert!(!deck.verbose && deck.restart.is_none() && !deck.multiphysics);
     assert_eq!(
         deck.discretization.influence_function,
         InfluenceFunction::One
