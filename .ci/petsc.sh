@@ -18,8 +18,6 @@ cargo build --release --locked --features petsc
 # Compile first, then run under `timeout`: the limits are for hangs, not for compiling.
 cargo test --release --locked --features petsc --no-run --test petsc_backend
 timeout 600 cargo test --release --locked --features petsc --test petsc_backend
-cargo test --release --locked --features petsc --no-run --lib
-timeout 300 cargo test --release --locked --features petsc --lib -- backend::petsc io::deck::solver
 
 # Peridigm's regression decks with every implicit solver list on PETSc (KSP for QuasiStatic and
 # Implicit, SNES for NOXQuasiStatic). The README lists the decks that pass.

@@ -63,12 +63,13 @@ pub enum RunError {
         measured: Option<f64>,
     },
     /// SIGINT or SIGTERM stopped the run after a completed step; every results file holds a
-    /// frame of that step ([`crate::interrupt`], exit code [`crate::interrupt::EXIT_CODE`]).
+    /// frame of that step, and with restart on a restart file holds the state
+    /// ([`crate::interrupt`], exit code [`crate::interrupt::EXIT_CODE`]).
     #[error(
-        "stopped by {} after step {step} of solver \"{solver}\" (t = {time:.6e} s); {}. \
-         peridyn cannot resume a run from its results yet: run the deck again to go further",
+        "stopped by {} after step {step} of solver \"{solver}\" (t = {time:.6e} s); {}. {}",
         .signal.map_or_else(|| "a stop signal".to_string(), |s| s.to_string()),
-        files_message(.files)
+        files_message(.files),
+        restart_message(.restart)
     )]
     Interrupted {
         /// The signal, when this rank received it (on N ranks it may have reached another).
@@ -81,7 +82,13 @@ pub enum RunError {
         time: f64,
         /// The results files, each complete up to that step.
         files: Vec<std::path::PathBuf>,
+        /// The restart directory written at the stop, or why none was.
+        restart: Result<std::path::PathBuf, String>,
     },
+    /// A restart file cannot be written, read or used with this deck (exit code 2: the deck
+    /// or the restart directory must change).
+    #[error("{0}")]
+    Restart(String),
     /// Another rank of a distributed run failed (or reports an error all ranks share); that
     /// rank prints the message, this one stops quietly with the same exit code.
     #[error("rank {rank} stopped the run; its message is above")]
@@ -106,6 +113,7 @@ impl RunError {
             RunError::Unstable { .. } | RunError::QuasiStatic(_) | RunError::Newmark(_) => 3,
             RunError::OtherRank { code, .. } => *code,
             RunError::Setup(_) | RunError::Input(_) | RunError::Boundary(_) => 2,
+            RunError::Restart(_) => 2,
             RunError::Interrupted { .. } => crate::interrupt::EXIT_CODE,
             _ => 1,
         }
@@ -146,6 +154,17 @@ fn files_message(files: &[std::path::PathBuf]) -> String {
     }
     let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
     format!("its last state is the last frame of {}", names.join(", "))
+}
+
+/// How to go on after a stop: from the restart file written at it, or from the start.
+fn restart_message(restart: &Result<std::path::PathBuf, String>) -> String {
+    match restart {
+        Ok(directory) => format!(
+            "The state is saved in {}: run the same deck again with the same output folder to continue from it",
+            directory.display()
+        ),
+        Err(reason) => format!("No restart file was written ({reason}): running the deck again starts over"),
+    }
 }
 
 /// What cannot run where (a build feature, a backend, a rank count) is a run error with exit

@@ -106,6 +106,15 @@ impl<T: Copy> Staged<T> {
         (committed, &mut self.trial)
     }
 
+    /// Sets the accepted values: the trial values and, when one is kept, the committed copy
+    /// (a run resumed from a restart file). `values` has the field's length.
+    pub fn set_accepted(&mut self, values: &[T]) {
+        self.trial.copy_from_slice(values);
+        if let Some(committed) = &mut self.committed {
+            committed.copy_from_slice(values);
+        }
+    }
+
     /// Abandons the trial values: they become the committed ones again.
     pub fn restore(&mut self) {
         if let Some(committed) = &self.committed {
@@ -249,6 +258,11 @@ impl History {
     pub fn with_thermal(mut self, points: usize) -> Self {
         self.thermal = Some(Thermal::at_rest(points));
         self
+    }
+
+    /// Every field with its declaration, in declaration order (restart files).
+    pub fn fields(&self) -> impl Iterator<Item = (&FieldDeclaration, &Staged<f64>)> {
+        self.fields.iter().map(|(f, values)| (f, values))
     }
 
     /// The declared fields, in declaration order.

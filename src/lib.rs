@@ -40,6 +40,7 @@
 //! | [`solver`] | how time advances (velocity Verlet and its stability monitor; quasi-static Newton load stepping, Newmark-β, Jacobian-free Newton–Krylov); [`solver::problem`] wraps the physics as a physics-free nonlinear problem |
 //! | [`tangent`] | ∂f/∂u in 3×3 blocks: patterns, analytic / automatic-differentiation / finite-difference assembly |
 //! | [`backend`] | who does the linear algebra: the `Csr` matrix, the `LinearSolver` trait, the physics-free [`backend::problem::NonlinearProblem`] every nonlinear backend solves, [`backend::factory`] (what runs where), native direct and Krylov solvers, Trilinos |
+//! | [`restart`] | where a run stands, in a file a later run continues from (HDF5, feature `hdf5`) |
 //! | [`simulation`] | a run from start to end: one driver for one rank and N ranks, outputs, progress |
 //! | [`io::exodus`], [`io::output`], [`io::history`] | results in Exodus II and CSV, and exodiff-style comparison |
 //! | [`plan`] | what `peridyn check` reports |
@@ -104,6 +105,7 @@ pub mod neighbors;
 pub mod parallel;
 pub mod physics;
 pub mod plan;
+pub mod restart;
 pub mod setup;
 pub mod simulation;
 pub mod solver;

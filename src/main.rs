@@ -12,7 +12,7 @@ mod cli;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use peridyn::io::deck::{self, DeckError};
-use peridyn::io::exodus::{compare, ComparisonSpec, ExodusFile};
+use peridyn::io::exodus::{compare_from, ComparisonSpec, ExodusFile};
 use peridyn::setup::{self, SetupError};
 use peridyn::simulation;
 use std::path::{Path, PathBuf};
@@ -68,6 +68,10 @@ enum Command {
         /// joins them); may be repeated.
         #[arg(long = "then")]
         then: Vec<PathBuf>,
+        /// Compare A's frames with B's from the frame of B at A's first time (a restarted run
+        /// against the uninterrupted one, which has more frames).
+        #[arg(long)]
+        align_times: bool,
     },
     /// Time the explicit-dynamics speed check (the LAMMPS PERI problem); optionally run LAMMPS.
     Bench(cli::bench::BenchArgs),
@@ -366,7 +370,13 @@ fn run_on_ranks_collectively(
     }
 }
 
-fn diff(a: &Path, then: &[PathBuf], b: &Path, comp: Option<&Path>) -> Result<()> {
+fn diff(
+    a: &Path,
+    then: &[PathBuf],
+    b: &Path,
+    comp: Option<&Path>,
+    align_times: bool,
+) -> Result<()> {
     let spec = match comp {
         Some(path) => ComparisonSpec::from_file(path).map_err(invalid)?,
         None => ComparisonSpec::default(),
@@ -375,7 +385,20 @@ fn diff(a: &Path, then: &[PathBuf], b: &Path, comp: Option<&Path>) -> Result<()>
     parts.extend(then.iter().map(PathBuf::as_path));
     let first = ExodusFile::open_conjoined(&parts).map_err(invalid)?;
     let second = ExodusFile::open(b).map_err(invalid)?;
-    let report = compare(&first, &second, &spec).map_err(invalid)?;
+    // The frame of B nearest A's first time; the time comparison reports how near it is.
+    let offset = align_times.then(|| {
+        let start = first.times.first().copied().unwrap_or(0.0);
+        (0..second.times.len())
+            .min_by(|&i, &j| {
+                let (di, dj) = (
+                    (second.times[i] - start).abs(),
+                    (second.times[j] - start).abs(),
+                );
+                di.total_cmp(&dj)
+            })
+            .unwrap_or(0)
+    });
+    let report = compare_from(&first, &second, &spec, offset).map_err(invalid)?;
     emit(&report.to_string())?;
     if report.passed() {
         Ok(())
@@ -415,7 +438,13 @@ fn main() -> ExitCode {
             backend,
         } => run(deck, output_dir, *threads, *backend),
         Command::Check { deck, json } => check(deck, *json),
-        Command::Diff { a, b, comp, then } => diff(a, then, b, comp.as_deref()),
+        Command::Diff {
+            a,
+            b,
+            comp,
+            then,
+            align_times,
+        } => diff(a, then, b, comp.as_deref(), *align_times),
         Command::Bench(args) => cli::bench::main(args).map_err(Into::into),
         Command::Modulus(args) => cli::modulus::main(args)
             .map_err(invalid)

@@ -320,7 +320,7 @@ fn the_shear_correction_on_elastic_is_applied_with_a_warning_and_off_by_default(
 #[test]
 fn defaults_when_keys_are_absent() {
     let deck = yaml(BASE_YAML).unwrap();
-    assert!(!deck.verbose && !deck.restart && !deck.multiphysics);
+    assert!(!deck.verbose && deck.restart.is_none() && !deck.multiphysics);
     assert_eq!(
         deck.discretization.influence_function,
         InfluenceFunction::One
@@ -352,7 +352,7 @@ fn defaults_when_keys_are_absent() {
 fn restart_false_is_honoured_with_a_warning() {
     let text = base_with("  Solver:", "  Restart:\n    Restart: false\n  Solver:");
     let deck = yaml(&text).unwrap();
-    assert!(!deck.restart);
+    assert!(deck.restart.is_none());
     assert!(
         deck.warnings
             .iter()
@@ -361,7 +361,27 @@ fn restart_false_is_honoured_with_a_warning() {
         deck.warnings
     );
     let text = base_with("  Solver:", "  Restart: true\n  Solver:");
-    assert!(yaml(&text).unwrap().restart);
+    assert_eq!(yaml(&text).unwrap().restart, Some(Default::default()));
+}
+
+#[test]
+fn restart_frequency_and_wall_clock_interval_are_read() {
+    let text = base_with(
+        "  Solver:",
+        "  Restart:\n    Frequency: 100\n    Wall Clock Interval: 3600.0\n  Solver:",
+    );
+    let restart = yaml(&text).unwrap().restart.expect("restart is on");
+    assert_eq!(restart.every_steps, Some(100));
+    assert_eq!(restart.every_seconds, Some(3600.0));
+    for (bad, key) in [
+        ("    Frequency: 0", "Frequency"),
+        ("    Wall Clock Interval: -1.0", "Wall Clock Interval"),
+        ("    Frequncy: 10", "Frequncy"),
+    ] {
+        let text = base_with("  Solver:", &format!("  Restart:\n{bad}\n  Solver:"));
+        let error = yaml(&text).unwrap_err().to_string();
+        assert!(error.contains(&format!("Restart → {key}")), "{error}");
+    }
 }
 
 #[test]

@@ -61,6 +61,7 @@
 //! N alike.
 
 mod ranks;
+mod restart;
 mod search;
 mod short_range_force;
 

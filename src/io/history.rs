@@ -108,6 +108,38 @@ impl HistoryWriter {
         Ok(())
     }
 
+    /// Takes over the first `rows` rows of `previous`, a file with this writer's header (the
+    /// history of an interrupted run being continued): its lines are copied unchanged.
+    pub fn adopt_rows(&mut self, previous: &Path, rows: usize) -> Result<(), HistoryError> {
+        let io = |source| HistoryError::Io {
+            path: previous.to_path_buf(),
+            source,
+        };
+        let text = std::fs::read_to_string(previous).map_err(io)?;
+        let mut lines = text.lines();
+        let header = lines.next().unwrap_or_default();
+        let columns = header.split(',').count().saturating_sub(1);
+        if columns != self.columns {
+            return Err(HistoryError::RowLength {
+                path: previous.to_path_buf(),
+                given: columns,
+                expected: self.columns,
+            });
+        }
+        let kept: Vec<&str> = lines.take(rows).collect();
+        if kept.len() < rows {
+            return Err(io(std::io::Error::new(
+                std::io::ErrorKind::UnexpectedEof,
+                format!("{rows} rows expected, {} found", kept.len()),
+            )));
+        }
+        for line in kept {
+            self.write_line(line)?;
+        }
+        self.rows = rows;
+        Ok(())
+    }
+
     /// Rows written so far (without the header).
     pub fn rows_written(&self) -> usize {
         self.rows

@@ -279,6 +279,24 @@ fn undefined_columns(variables: &[RequestedVariable], lacks: Option<&Vec<&str>>)
     columns
 }
 
+/// Moves `path`, a results file of an interrupted run, to `<path>.before-restart` and returns
+/// that path; a copy set aside by an earlier attempt that stopped before finishing is used as
+/// it is.
+fn set_aside(path: &Path) -> Result<PathBuf, ExodusError> {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".before-restart");
+    let aside = PathBuf::from(name);
+    if aside.exists() {
+        return Ok(aside);
+    }
+    std::fs::rename(path, &aside).map_err(|source| ExodusError::Io {
+        path: path.to_path_buf(),
+        action: "find the results file of the run being continued (restart)",
+        source,
+    })?;
+    Ok(aside)
+}
+
 /// One open results file (one deck `Output` list).
 pub struct OutputFile {
     path: PathBuf,
@@ -399,6 +417,57 @@ impl OutputFile {
             calls: 0,
             run_index: geometry.run_index.clone(),
         })
+    }
+
+    /// [`OutputFile::create`] for a run that continues an interrupted one from a restart file:
+    /// the files written so far are set aside, created anew, given back their first `frames`
+    /// frames and `rows` CSV rows, and the call count is set to `calls`, so the continued file
+    /// is the one an uninterrupted run writes.
+    #[allow(clippy::too_many_arguments)]
+    pub fn create_continuing(
+        dir: &Path,
+        base: &str,
+        title: &str,
+        schedule: Schedule,
+        variables: Vec<RequestedVariable>,
+        geometry: &OutputGeometry,
+        (calls, frames, rows): (i64, u64, usize),
+    ) -> Result<Self, OutputError> {
+        let exodus_path = dir.join(Self::file_name(base, &variables));
+        let csv_path = dir.join(format!("{base}.csv"));
+        let has_globals = variables
+            .iter()
+            .any(|v| matches!(v.kind, VariableKind::Global | VariableKind::GlobalVector));
+        let exodus_prior = set_aside(&exodus_path)?;
+        let csv_prior = if has_globals {
+            Some(set_aside(&csv_path)?)
+        } else {
+            None
+        };
+        let mut file = Self::create(dir, base, title, schedule, variables, geometry)?;
+        file.exodus.adopt_frames(&exodus_prior, frames)?;
+        if let (Some(history), Some(prior)) = (&mut file.history, &csv_prior) {
+            history.adopt_rows(prior, rows)?;
+        }
+        file.calls = calls;
+        for prior in std::iter::once(&exodus_prior).chain(&csv_prior) {
+            std::fs::remove_file(prior).map_err(|source| ExodusError::Io {
+                path: prior.clone(),
+                action: "remove the set-aside copy",
+                source,
+            })?;
+        }
+        Ok(file)
+    }
+
+    /// Output calls counted so far.
+    pub fn calls(&self) -> i64 {
+        self.calls
+    }
+
+    /// CSV rows written so far (0 without globals).
+    pub fn rows_written(&self) -> usize {
+        self.history.as_ref().map_or(0, HistoryWriter::rows_written)
     }
 
     /// Path of the results file.

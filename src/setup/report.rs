@@ -234,9 +234,6 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
     if deck.multiphysics {
         note("Multiphysics".into());
     }
-    if deck.restart {
-        note("Restart".into());
-    }
     if deck.data_loader.is_some() {
         note("Data Loader".into());
     }

@@ -42,6 +42,7 @@ fn validate_petsc_options(_deck: &Deck, _model: &Model) -> Result<(), DeckError>
 /// The checks that need points and node sets only (a distributed run's global model has no
 /// families; its driver makes the time-step checks on the families it finds).
 pub fn validate_points(deck: &Deck, model: &Model) -> Result<(), DeckError> {
+    validate_restart(deck)?;
     for output in &deck.outputs {
         requested_variables(deck, output)?;
     }
@@ -54,6 +55,20 @@ pub fn validate_points(deck: &Deck, model: &Model) -> Result<(), DeckError> {
             Some(class) => deck.error_at(&["Compute Class Parameters", &class.name], message),
             None => deck.error_at(&["Compute Class Parameters"], message),
         });
+    }
+    Ok(())
+}
+
+/// A deck that asks for restart files needs a build with HDF5 (feature `hdf5`).
+fn validate_restart(deck: &Deck) -> Result<(), DeckError> {
+    if deck.restart.is_some() && !cfg!(feature = "hdf5") {
+        return Err(deck.error_at(
+            &["Restart"],
+            "restart files are written with HDF5, and this peridyn was built without the `hdf5` \
+             feature: install the HDF5 library (`apt-get install libhdf5-dev` on Debian and \
+             Ubuntu) and rebuild with `cargo build --release --features hdf5`, or remove the \
+             Restart entry to run without restart files",
+        ));
     }
     Ok(())
 }

@@ -102,6 +102,15 @@ pub fn run_distributed(
     comm: &dyn Communicator,
 ) -> Result<RunSummary, RunError> {
     check_distributable(deck, comm.size()).map_err(|e| collective(comm, e.into()))?;
+    if deck.restart.is_some() {
+        return Err(collective(
+            comm,
+            RunError::Unsupported(format!(
+                "Restart: restart files are written and read by one-process runs only; run this deck without mpirun (threads still share the work), or remove the Restart entry to run it on {} ranks",
+                comm.size()
+            )),
+        ));
+    }
     let compute_classes = prepare_compute_classes(&deck.compute_classes, global)
         .map_err(|e| collective(comm, RunError::Unsupported(e)))?;
     let rank = comm.rank();

@@ -5,6 +5,7 @@
 use super::agreement::{agree, agree_on_failure, collective};
 use super::outputs::RunOutputs;
 use super::progress::Progress;
+use super::restarts::{load_step_position, Inside, Restarts};
 use super::{energy_floor_of, Fields, PreparedComputeClass, RunError, RunSummary};
 use crate::backend::SolveError;
 use crate::interrupt;
@@ -13,6 +14,7 @@ use crate::io::output::FieldSource;
 use crate::model::Model;
 use crate::parallel::Ranks;
 use crate::physics::Physics;
+use crate::restart::Position;
 use crate::solver::newmark::{self, NewmarkError, NewmarkSettings};
 use crate::solver::newton::ConvergenceMeasure;
 use crate::solver::quasistatic::{self, QuasiStaticError, QuasiStaticSettings};
@@ -38,6 +40,8 @@ pub(super) struct Run<'a> {
     pub summary: RunSummary,
     /// Newton iterations of the last accepted implicit step (`Nonlinear_Solver_Iterations`).
     pub nonlinear_iterations: Option<f64>,
+    /// The restart files, when the deck asks for them.
+    pub restarts: Option<Restarts>,
 }
 
 impl<'a> Run<'a> {
@@ -57,7 +61,14 @@ impl<'a> Run<'a> {
             outputs,
             summary: RunSummary::default(),
             nonlinear_iterations: None,
+            restarts: None,
         }
+    }
+
+    /// The same run writing (and perhaps resuming from) `restarts`.
+    pub fn with_restarts(mut self, restarts: Option<Restarts>) -> Self {
+        self.restarts = restarts;
+        self
     }
 
     /// Runs every solver list of `deck` in order, then closes the results files: the summary,
@@ -85,11 +96,16 @@ impl Run<'_> {
         state: &mut State,
     ) -> Result<(), RunError> {
         for (index, solver) in deck.solvers.iter().enumerate() {
+            if self.restarts.as_ref().is_some_and(|r| r.skips(index)) {
+                continue;
+            }
             let start = Instant::now();
             let result = match &solver.integrator {
-                Integrator::Verlet(verlet) => self.verlet(solver, verlet, physics, state),
+                Integrator::Verlet(verlet) => {
+                    self.verlet(solver, verlet, Some(index), physics, state)
+                }
                 Integrator::QuasiStatic(_) | Integrator::NoxQuasiStatic(_) => {
-                    self.quasi_static(solver, index > 0, physics, state)
+                    self.quasi_static(solver, index, physics, state)
                 }
                 Integrator::Implicit(implicit) => self.newmark(solver, implicit, physics, state),
                 Integrator::ImplicitDiffusion(_) => Err(RunError::Unsupported(format!(
@@ -99,6 +115,29 @@ impl Run<'_> {
             };
             self.summary.solve_seconds += start.elapsed().as_secs_f64();
             result?;
+            if let Some(restarts) = &mut self.restarts {
+                let position = Position {
+                    solver: index + 1,
+                    step: 0,
+                };
+                let written = restarts.write(
+                    self.model,
+                    physics,
+                    state,
+                    &self.outputs,
+                    &self.summary,
+                    position,
+                    Inside::Boundary,
+                );
+                let directory = agree(self.ranks.communicator(), written)?;
+                if self.root() {
+                    eprintln!(
+                        "{}: restart written to {}",
+                        solver.name,
+                        directory.display()
+                    );
+                }
+            }
         }
         Ok(())
     }
@@ -121,6 +160,16 @@ impl Run<'_> {
         Ok(summary)
     }
 
+    /// Why a stop inside an explicit list wrote no restart file.
+    fn no_restart_reason(&self, index: Option<usize>) -> String {
+        match (&self.restarts, index) {
+            (None, _) => "the deck has no Restart entry".to_string(),
+            (Some(_), _) => {
+                "the explicit end of a quasi-static list (Switch to Verlet) writes none".to_string()
+            }
+        }
+    }
+
     fn root(&self) -> bool {
         self.ranks.rank() == 0
     }
@@ -141,11 +190,14 @@ impl Run<'_> {
         self.outputs.call(&*self.ranks, &fields)
     }
 
-    /// One `Verlet` solver list.
+    /// One `Verlet` solver list, list `index` of the deck (`None` for the explicit end of a
+    /// quasi-static list, `Switch to Verlet`, which neither writes nor resumes restart files
+    /// inside it).
     fn verlet(
         &mut self,
         solver: &Solver,
         verlet: &Verlet,
+        index: Option<usize>,
         physics: &mut Physics,
         state: &mut State,
     ) -> Result<(), RunError> {
@@ -184,15 +236,48 @@ impl Run<'_> {
                 contact.points().len()
             );
         }
-        let initialized = integrator.initialize_with(model, physics, state, self.ranks);
-        agree(
-            self.ranks.communicator(),
-            initialized.map_err(RunError::from),
-        )?;
-        let mut monitor = self.energy_monitor(physics, state);
-        let mut pending = self.output_or_return(physics, state)?;
+        let resume = match (index, &mut self.restarts) {
+            (Some(index), Some(restarts)) => restarts.take_resume(index),
+            _ => None,
+        };
+        let saved_start = index == Some(0)
+            && self
+                .restarts
+                .as_mut()
+                .is_some_and(Restarts::take_saved_start);
+        let (first, mut monitor, mut pending) = match &resume {
+            // Continued from a restart file inside this list: the state, monitor and output
+            // frames are those after step k, so the list goes on with step k + 1.
+            Some(snapshot) => {
+                let mut monitor = self.energy_monitor(physics, state);
+                if let Some(energies) = snapshot.monitor {
+                    monitor.restore(energies);
+                }
+                self.summary.steps -= snapshot.position.step.min(self.summary.steps);
+                (snapshot.position.step + 1, monitor, None)
+            }
+            // Started from a saved state (Peridigm's restart): its acceleration is the one the
+            // uninterrupted run goes on with, so the forces are not evaluated again (that
+            // would round differently); the list starts at its Initial Time.
+            None if saved_start => {
+                state.time = solver.initial_time;
+                state.drop_committed();
+                state.history.set_step_duration(time_step);
+                let monitor = self.energy_monitor(physics, state);
+                (1, monitor, self.output_or_return(physics, state)?)
+            }
+            None => {
+                let initialized = integrator.initialize_with(model, physics, state, self.ranks);
+                agree(
+                    self.ranks.communicator(),
+                    initialized.map_err(RunError::from),
+                )?;
+                let monitor = self.energy_monitor(physics, state);
+                (1, monitor, self.output_or_return(physics, state)?)
+            }
+        };
         let mut progress = root.then(|| Progress::new(&solver.name, steps));
-        for step in 1..=steps {
+        for step in first..=steps {
             let result = integrator.step_with(model, physics, state, step, self.ranks);
             let stop = f64::from(u8::from(interrupt::requested().is_some()));
             let mut sums = match &result {
@@ -246,19 +331,45 @@ impl Run<'_> {
             if let Some(progress) = &mut progress {
                 progress.update(step);
             }
-            if sums[3] > 0.0 {
+            let signalled = sums[3] > 0.0;
+            let restart = match (index, &mut self.restarts) {
+                (Some(index), Some(restarts))
+                    if signalled || (step < steps && restarts.due(step)) =>
+                {
+                    let written = restarts.write(
+                        model,
+                        physics,
+                        state,
+                        &self.outputs,
+                        &self.summary,
+                        Position {
+                            solver: index,
+                            step,
+                        },
+                        Inside::Explicit {
+                            monitor: monitor.energies(),
+                            steps: step,
+                        },
+                    );
+                    Some(agree(self.ranks.communicator(), written)?)
+                }
+                _ => None,
+            };
+            if signalled {
                 if let Some(progress) = progress.take() {
                     progress.finish();
                 }
                 agree(self.ranks.communicator(), pending.map_or(Ok(()), Err))?;
                 self.summary.steps += step;
                 let fields = Fields::new(model, physics, state, self.compute_classes);
+                let restart = restart.ok_or_else(|| self.no_restart_reason(index));
                 return Err(stop_on_signal(
                     &mut self.outputs,
                     &mut *self.ranks,
                     &fields,
                     solver,
                     step,
+                    restart,
                 ));
             }
         }
@@ -369,12 +480,20 @@ impl Run<'_> {
     fn quasi_static(
         &mut self,
         solver: &Solver,
-        predecessor: bool,
+        index: usize,
         physics: &mut Physics,
         state: &mut State,
     ) -> Result<(), RunError> {
-        let settings = quasi_static_settings(solver, predecessor)
+        let mut settings = quasi_static_settings(solver, index > 0)
             .map_err(|error| collective(self.ranks.communicator(), error))?;
+        let resume = self
+            .restarts
+            .as_mut()
+            .and_then(|restarts| restarts.take_resume(index));
+        settings.resume = resume
+            .as_ref()
+            .and_then(|s| s.load_schedule.as_ref())
+            .map(load_step_position);
         let mut nonlinear = linear::nonlinear_solver(solver, self.model, physics)
             .map_err(|error| collective(self.ranks.communicator(), error.into()))?;
         if self.root() {
@@ -387,26 +506,30 @@ impl Run<'_> {
                 nonlinear.describe()
             );
         }
-        state.time = solver.initial_time;
         self.nonlinear_iterations = None;
-        // The initial frame shows the body force (and the temperature) at the initial time,
-        // as Peridigm writes it.
-        let initial = match &mut state.external_force_density {
-            Some(b) => self
-                .model
-                .boundary
-                .body_force(&self.model.points.position, state.time, b)
-                .map_err(RunError::from),
-            None => Ok(()),
-        };
-        let initial = initial.and_then(|()| {
-            self.model
-                .boundary
-                .apply_temperature(&self.model.points.position, state.time, &mut state.history)
-                .map_err(RunError::from)
-        });
-        let written = initial.and_then(|()| self.output(physics, state));
-        agree(self.ranks.communicator(), written)?;
+        // Continued from a restart file inside this list: the state and the output frames
+        // are those after the saved load step.
+        if resume.is_none() {
+            state.time = solver.initial_time;
+            // The initial frame shows the body force (and the temperature) at the initial time,
+            // as Peridigm writes it.
+            let initial = match &mut state.external_force_density {
+                Some(b) => self
+                    .model
+                    .boundary
+                    .body_force(&self.model.points.position, state.time, b)
+                    .map_err(RunError::from),
+                None => Ok(()),
+            };
+            let initial = initial.and_then(|()| {
+                self.model
+                    .boundary
+                    .apply_temperature(&self.model.points.position, state.time, &mut state.history)
+                    .map_err(RunError::from)
+            });
+            let written = initial.and_then(|()| self.output(physics, state));
+            agree(self.ranks.communicator(), written)?;
+        }
         let (model, ranks) = (self.model, &mut *self.ranks);
         let result = quasistatic::run(
             model,
@@ -427,14 +550,36 @@ impl Run<'_> {
                 fields.nonlinear_iterations = self.nonlinear_iterations;
                 let written = self.outputs.call(ranks, &fields);
                 agree(ranks.communicator(), recorded.and(written))?;
-                if signalled(ranks) {
-                    let step = report.step as u64;
+                let step = report.step as u64;
+                let stop = signalled(ranks);
+                let restart = match &mut self.restarts {
+                    Some(restarts) if stop || restarts.due(step) => {
+                        let written = restarts.write(
+                            model,
+                            physics,
+                            state,
+                            &self.outputs,
+                            &self.summary,
+                            Position {
+                                solver: index,
+                                step,
+                            },
+                            Inside::QuasiStatic(&report.position),
+                        );
+                        Some(agree(ranks.communicator(), written)?)
+                    }
+                    _ => None,
+                };
+                if stop {
+                    let restart =
+                        restart.ok_or_else(|| "the deck has no Restart entry".to_string());
                     return Err(stop_on_signal(
                         &mut self.outputs,
                         ranks,
                         &fields,
                         solver,
                         step,
+                        restart,
                     ));
                 }
                 Ok(())
@@ -482,7 +627,7 @@ impl Run<'_> {
                     fixed_dt: verlet.fixed_dt,
                     safety_factor: verlet.safety_factor,
                 };
-                self.verlet(&explicit, &settings, physics, state)
+                self.verlet(&explicit, &settings, None, physics, state)
             }
             (Err(error @ RunError::QuasiStatic(QuasiStaticError::NotConverged { .. })), None) => {
                 Err(collective(self.ranks.communicator(), error))
@@ -542,12 +687,19 @@ impl Run<'_> {
                 let written = self.outputs.call(ranks, &fields);
                 agree(ranks.communicator(), recorded.and(written))?;
                 if signalled(ranks) {
+                    let restart = Err(if self.restarts.is_some() {
+                        "Implicit (Newmark-β) lists write restart files at their end only"
+                            .to_string()
+                    } else {
+                        "the deck has no Restart entry".to_string()
+                    });
                     return Err(stop_on_signal(
                         &mut self.outputs,
                         ranks,
                         &fields,
                         solver,
                         step,
+                        restart,
                     ));
                 }
                 Ok(())
@@ -588,6 +740,7 @@ fn stop_on_signal(
     fields: &Fields,
     solver: &Solver,
     step: u64,
+    restart: Result<std::path::PathBuf, String>,
 ) -> RunError {
     let written = outputs.last_frame(&*ranks, fields);
     if let Err(error) = agree(ranks.communicator(), written) {
@@ -599,6 +752,7 @@ fn stop_on_signal(
         step,
         time: fields.state.time,
         files: outputs.paths(),
+        restart,
     };
     collective(ranks.communicator(), error)
 }
@@ -695,5 +849,6 @@ fn quasi_static_settings(
         line_search: heuristics,
         verbose: solver.verbose,
         adaptive,
+        resume: None,
     })
 }

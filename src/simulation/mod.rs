@@ -10,6 +10,7 @@ mod driver;
 mod fields;
 mod outputs;
 mod progress;
+mod restarts;
 
 /// The run error lives in [`crate::error`] (reachable from every module); re-exported here
 /// under the name call sites use.
@@ -68,12 +69,38 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
     let mut ranks = SerialRanks {
         points: model.points.len(),
     };
-    let outputs = RunOutputs::one_rank(deck, model, dir)?;
-    Run::new(model, &mut ranks, None, &compute_classes, outputs).complete(
-        deck,
-        &mut physics,
-        &mut state,
-    )
+    let (restarts, start) = match deck.restart {
+        Some(_) => {
+            let (restarts, start) = restarts::Restarts::open(deck, model, dir)?;
+            (Some(restarts), start)
+        }
+        None => (None, restarts::Start::Fresh),
+    };
+    let mut summary = RunSummary::default();
+    let (restarts, continued) = match (restarts, start) {
+        (Some(mut restarts), restarts::Start::Continue(snapshot)) => {
+            restarts.apply(&snapshot, model, &physics, &mut state)?;
+            summary.steps = snapshot.steps;
+            summary.broken_bonds = snapshot.broken_bonds as usize;
+            let outputs = RunOutputs::one_rank(deck, model, dir, Some(&snapshot))?;
+            restarts.resume_at(snapshot);
+            (Some(restarts), Some(outputs))
+        }
+        (Some(mut restarts), restarts::Start::FromState(snapshot)) => {
+            restarts.apply(&snapshot, model, &physics, &mut state)?;
+            restarts.start_from_saved_state();
+            (Some(restarts), None)
+        }
+        (restarts, _) => (restarts, None),
+    };
+    let outputs = match continued {
+        Some(outputs) => outputs,
+        None => RunOutputs::one_rank(deck, model, dir, None)?,
+    };
+    let mut run =
+        Run::new(model, &mut ranks, None, &compute_classes, outputs).with_restarts(restarts);
+    run.summary = summary;
+    run.complete(deck, &mut physics, &mut state)
 }
 
 /// The physics of this rank's `model` (the whole model on one rank); a model or key this

@@ -11,6 +11,7 @@ use crate::io::history::HistoryWriter;
 use crate::io::output::{kind_of, FieldSource, OutputFile, OutputGeometry, Schedule, VariableKind};
 use crate::model::Model;
 use crate::parallel::{Communicator, Partition, Ranks};
+use crate::restart::{OutputPosition, Snapshot};
 use crate::setup;
 use crate::solver::newton::NewtonReport;
 use std::borrow::Cow;
@@ -39,12 +40,46 @@ pub(super) enum RunOutputs<'a> {
 }
 
 impl<'a> RunOutputs<'a> {
-    /// The files of a one-rank run of `deck` on `model`, in `dir`.
-    pub(super) fn one_rank(deck: &Deck, model: &Model, dir: &Path) -> Result<Self, RunError> {
+    /// The files of a one-rank run of `deck` on `model`, in `dir`; with `resume`, the files of
+    /// the interrupted run being continued, kept up to where the restart file says.
+    pub(super) fn one_rank(
+        deck: &Deck,
+        model: &Model,
+        dir: &Path,
+        resume: Option<&Snapshot>,
+    ) -> Result<Self, RunError> {
+        let mut history = SolverHistory::new(deck, dir);
+        if let Some(snapshot) = resume {
+            history.continue_from(snapshot.solver_rows as usize)?;
+        }
         Ok(Self::OneRank {
-            outputs: Outputs::create(deck, model, dir)?,
-            history: SolverHistory::new(deck, dir),
+            outputs: Outputs::create(deck, model, dir, resume.map(|s| &s.outputs[..]))?,
+            history,
         })
+    }
+
+    /// Where every results file stands (output calls, frames, CSV rows) and the rows of
+    /// `<output>_solver.csv`, for a restart file.
+    pub(super) fn positions(&self) -> (Vec<OutputPosition>, u64) {
+        let (files, solver_rows) = match self {
+            Self::OneRank { outputs, history } => (&outputs.files, history.rows()),
+            Self::Ranks { outputs, .. } => (
+                &outputs.files,
+                outputs
+                    .solver_history
+                    .as_ref()
+                    .map_or(0, SolverHistory::rows),
+            ),
+        };
+        let positions = files
+            .iter()
+            .map(|f| OutputPosition {
+                calls: f.calls(),
+                frames: f.frames_written() as u64,
+                rows: f.rows_written() as u64,
+            })
+            .collect();
+        (positions, solver_rows as u64)
     }
 
     /// One output call at the time of `fields.state`. Collective on N ranks; a failure to
@@ -161,7 +196,21 @@ pub(super) struct Outputs {
 }
 
 impl Outputs {
-    fn create(deck: &Deck, model: &Model, dir: &Path) -> Result<Self, RunError> {
+    fn create(
+        deck: &Deck,
+        model: &Model,
+        dir: &Path,
+        resume: Option<&[OutputPosition]>,
+    ) -> Result<Self, RunError> {
+        if let Some(positions) = resume {
+            if positions.len() != deck.outputs.len() {
+                return Err(RunError::Input(format!(
+                    "the restart file counts {} output lists and the deck has {}; a run continued from a restart file needs the deck it was written with",
+                    positions.len(),
+                    deck.outputs.len()
+                )));
+            }
+        }
         let n = model.points.len();
         let mut coordinates = vec![[0.0; 3]; n];
         for (k, &run) in model.run_index.iter().enumerate() {
@@ -191,7 +240,7 @@ impl Outputs {
                 .collect(),
         };
         let mut files = Vec::new();
-        for output in &deck.outputs {
+        for (k, output) in deck.outputs.iter().enumerate() {
             let variables = setup::report::requested_variables(deck, output)
                 .map_err(|e| RunError::Unsupported(e.to_string()))?;
             let schedule = Schedule {
@@ -199,14 +248,30 @@ impl Outputs {
                 initial_step: output.initial_output_step,
                 final_step: output.final_output_step,
             };
-            files.push(OutputFile::create(
-                dir,
-                &output.filename,
-                "peridyn",
-                schedule,
-                variables,
-                &geometry,
-            )?);
+            let file = match resume {
+                Some(positions) => OutputFile::create_continuing(
+                    dir,
+                    &output.filename,
+                    "peridyn",
+                    schedule,
+                    variables,
+                    &geometry,
+                    (
+                        positions[k].calls,
+                        positions[k].frames,
+                        positions[k].rows as usize,
+                    ),
+                )?,
+                None => OutputFile::create(
+                    dir,
+                    &output.filename,
+                    "peridyn",
+                    schedule,
+                    variables,
+                    &geometry,
+                )?,
+            };
+            files.push(file);
         }
         Ok(Self {
             files,
@@ -299,6 +364,44 @@ impl SolverHistory {
             .expect("created above")
             .write_row(time, &row)
             .map_err(unavailable)
+    }
+
+    /// Rows written so far.
+    fn rows(&self) -> usize {
+        self.writer.as_ref().map_or(0, HistoryWriter::rows_written)
+    }
+
+    /// Continues the file of an interrupted run: creates it now with the first `rows` rows
+    /// of the one written so far (none: it is created at the first step, as usual).
+    fn continue_from(&mut self, rows: usize) -> Result<(), RunError> {
+        if rows == 0 {
+            return Ok(());
+        }
+        let unavailable = |e: String| RunError::Unsupported(e);
+        let mut name = self.path.as_os_str().to_owned();
+        name.push(".before-restart");
+        let aside = PathBuf::from(name);
+        if !aside.exists() {
+            std::fs::rename(&self.path, &aside).map_err(|e| {
+                unavailable(format!(
+                    "{}: cannot find the solver report of the run being continued: {e}",
+                    self.path.display()
+                ))
+            })?;
+        }
+        let names: Vec<String> = SOLVER_HISTORY_COLUMNS
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let mut writer =
+            HistoryWriter::create(&self.path, &names).map_err(|e| unavailable(e.to_string()))?;
+        writer
+            .adopt_rows(&aside, rows)
+            .map_err(|e| unavailable(e.to_string()))?;
+        std::fs::remove_file(&aside)
+            .map_err(|e| unavailable(format!("{}: cannot remove: {e}", aside.display())))?;
+        self.writer = Some(writer);
+        Ok(())
     }
 
     /// Closes the file, if a step wrote one.
@@ -448,7 +551,7 @@ impl<'a> DistributedOutputs<'a> {
             })
             .collect();
         let files = if rank == 0 {
-            Outputs::create(deck, global, dir)?.files
+            Outputs::create(deck, global, dir, None)?.files
         } else {
             Vec::new()
         };

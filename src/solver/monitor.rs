@@ -46,6 +46,17 @@ impl EnergyMonitor {
         }
     }
 
+    /// Initial energy and the work supplied so far (a restart file keeps them).
+    pub fn energies(&self) -> [f64; 2] {
+        [self.initial_energy, self.supplied_work]
+    }
+
+    /// Continues a monitor whose [`EnergyMonitor::energies`] were `energies` (a run resumed
+    /// from a restart file; the floor stays this monitor's).
+    pub fn restore(&mut self, energies: [f64; 2]) {
+        [self.initial_energy, self.supplied_work] = energies;
+    }
+
     /// Adds the magnitude of work done on the body in one step (body forces, constraints).
     pub fn add_work(&mut self, work: f64) {
         if work.is_finite() {

@@ -66,6 +66,23 @@ pub struct QuasiStaticSettings {
     pub verbose: bool,
     /// `Adaptive Load-Stepping`.
     pub adaptive: Option<AdaptiveLoadStepping>,
+    /// Where to start: `None` at the first load step of `times`; a position saved in a
+    /// restart file ([`LoadStepReport::position`]) continues from there.
+    pub resume: Option<LoadStepPosition>,
+}
+
+/// Where a quasi-static list stands after an accepted step: its load-step times with the cuts
+/// made so far, the next step and the counts that decide the next cut and the predictor.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LoadStepPosition {
+    /// Load-step end times, the cuts included (s).
+    pub times: Vec<f64>,
+    /// The next step goes from `times[next − 1]` to `times[next]`.
+    pub next: usize,
+    /// Cuts made so far in the list.
+    pub total_cuts: u64,
+    /// Steps accepted so far in the list.
+    pub accepted: usize,
 }
 
 /// The load-step end times of a `Number of Load Steps` / `Time Steps` setting.
@@ -132,6 +149,8 @@ pub struct LoadStepReport {
     pub newton: NewtonReport,
     /// Load-step halvings before this step was accepted.
     pub cuts: u64,
+    /// Where the list stands after this step (what a restart file keeps).
+    pub position: LoadStepPosition,
 }
 
 /// Runs the load steps of `settings` from the current state, calling `on_step` after every
@@ -153,12 +172,22 @@ pub fn run<E: From<QuasiStaticError>>(
         // On several ranks every rank runs this loop in step; rank 0 alone writes the log.
         root: collective.rank() == 0,
     };
-    let mut schedule = LoadSchedule {
-        times: settings.times.clone(),
-        k: 1,
-        cuts_this_step: 0,
-        total_cuts: 0,
+    let mut schedule = match &settings.resume {
+        Some(position) => LoadSchedule {
+            times: position.times.clone(),
+            k: position.next,
+            cuts_this_step: 0,
+            total_cuts: position.total_cuts,
+        },
+        None => LoadSchedule {
+            times: settings.times.clone(),
+            k: 1,
+            cuts_this_step: 0,
+            total_cuts: 0,
+        },
     };
+    // Steps accepted before this call (a list resumed from a restart file).
+    let accepted_before = settings.resume.as_ref().map_or(0, |p| p.accepted);
     let mut reports = Vec::new();
     let run_start = Instant::now();
     while let Some((number, from, to)) = schedule.current() {
@@ -176,7 +205,8 @@ pub fn run<E: From<QuasiStaticError>>(
             DofMap::new(model.points.len(), &stepping.constrained, &[]),
             state,
         );
-        let predict = settings.predictor && (!reports.is_empty() || settings.predict_first_step);
+        let predict = settings.predictor
+            && (accepted_before + reports.len() > 0 || settings.predict_first_step);
         let tolerance = stepping.begin(&step, physics, state, &mut system, predict, collective)?;
         let parts = Physical {
             system: &mut system,
@@ -213,12 +243,19 @@ pub fn run<E: From<QuasiStaticError>>(
                 run_start.elapsed().as_secs_f64()
             );
         }
+        let cuts = schedule.accept();
         let accepted = LoadStepReport {
-            step: reports.len() + 1,
+            step: accepted_before + reports.len() + 1,
             time: to,
             tolerance,
             newton: report,
-            cuts: schedule.accept(),
+            cuts,
+            position: LoadStepPosition {
+                times: schedule.times.clone(),
+                next: schedule.k,
+                total_cuts: schedule.total_cuts,
+                accepted: accepted_before + reports.len() + 1,
+            },
         };
         on_step(physics, state, collective, &accepted)?;
         reports.push(accepted);
@@ -546,6 +583,7 @@ mod tests {
             predict_first_step: false,
             line_search: true,
             verbose: false,
+            resume: None,
             adaptive: Some(AdaptiveLoadStepping {
                 max_reductions_in_one_step: Some(2),
                 max_total_reductions: Some(3),

@@ -104,9 +104,10 @@ pub struct Deck {
     pub verbose: bool,
     /// `Multiphysics: 1` — adds a fluid-pressure unknown; default off (only 1 is accepted).
     pub multiphysics: bool,
-    /// `Restart` — write restart data after each solver and resume from the newest; present
-    /// and not `false` turns it on; default off.
-    pub restart: bool,
+    /// `Restart` — write restart files (after each solver list, every `Frequency` steps, every
+    /// `Wall Clock Interval` seconds and on a stop signal) and resume from the newest; present
+    /// and not `false` turns it on; default off (`None`).
+    pub restart: Option<Restart>,
     /// `Discretization` (required).
     pub discretization: Discretization,
     /// `Materials` (required, ≥ 1), file order.
@@ -130,6 +131,19 @@ pub struct Deck {
     /// Accepted keys that have no effect, and other remarks, each as `file:line: path: text`.
     pub warnings: Vec<String>,
     lines: HashMap<Vec<String>, usize>,
+}
+
+/// The `Restart` list: when restart files are written besides the end of every solver list
+/// (Peridigm's only moment) and a stop signal.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Restart {
+    /// `Frequency` (peridyn's key): also write one every this many steps of an explicit list
+    /// or accepted load steps of a quasi-static list; default none.
+    pub every_steps: Option<u64>,
+    /// `Wall Clock Interval` (peridyn's key, seconds of wall-clock time): also write one after
+    /// the first step that ends this long after the last restart file (or the start); default
+    /// none.
+    pub every_seconds: Option<f64>,
 }
 
 impl PartialEq for Deck {
@@ -285,7 +299,7 @@ fn empty_deck(ctx: &Ctx, format: DeckFormat) -> Deck {
         format,
         verbose: false,
         multiphysics: false,
-        restart: false,
+        restart: None,
         discretization: Discretization {
             source: PointSource::TextFile {
                 input_mesh_file: PathBuf::new(),
@@ -374,11 +388,15 @@ fn read_top_entry(ctx: &mut Ctx, deck: &mut Deck, f: &Field) -> Result<(), DeckE
     Ok(())
 }
 
-/// `Restart`: a flag, an empty entry (on) or a list with a `Restart` flag.
-fn read_restart(ctx: &mut Ctx, f: &Field) -> Result<bool, DeckError> {
-    let restart = if f.is_list() {
+/// `Restart`: a flag, an empty entry (on) or a list with a `Restart` flag and peridyn's
+/// `Frequency` (steps) and `Wall Clock Interval` (seconds) keys.
+fn read_restart(ctx: &mut Ctx, f: &Field) -> Result<Option<Restart>, DeckError> {
+    let mut restart = Restart::default();
+    let on = if f.is_list() {
         let mut l = f.list(ctx)?;
         let on = l.bool_or(ctx, "Restart", true)?;
+        restart.every_steps = l.int_opt(ctx, "Frequency", 1)?.map(|n| n as u64);
+        restart.every_seconds = l.positive_opt(ctx, "Wall Clock Interval")?;
         l.finish(ctx, &[])?;
         on
     } else {
@@ -387,10 +405,10 @@ fn read_restart(ctx: &mut Ctx, f: &Field) -> Result<bool, DeckError> {
             _ => f.bool(ctx)?,
         }
     };
-    if !restart {
+    if !on {
         ctx.warn(f.line(), &f.path, "restart is off; note that Peridigm would turn restart on whenever a Restart entry is present, even when false");
     }
-    Ok(restart)
+    Ok(on.then_some(restart))
 }
 
 /// `Data Loader`: the file and the field it loads.

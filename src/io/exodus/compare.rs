@@ -765,10 +765,23 @@ pub fn compare(
     second: &ExodusFile,
     spec: &ComparisonSpec,
 ) -> Result<ComparisonReport, ExodusError> {
+    compare_from(first, second, spec, None)
+}
+
+/// [`compare`] with frame k of `first` against frame k + `offset` of `second` when `offset` is
+/// given (exodiff's `-TimeStepOffset`): a run that covers part of another's time span (a
+/// restarted run against the uninterrupted one). `second` may then have more frames.
+pub fn compare_from(
+    first: &ExodusFile,
+    second: &ExodusFile,
+    spec: &ComparisonSpec,
+    offset: Option<usize>,
+) -> Result<ComparisonReport, ExodusError> {
     let names = |f: &ExodusFile| format!("{}", f.path.display());
     let mut c = Comparison {
         first,
         second,
+        offset,
         ignore_case: spec.ignore_case,
         name_a: names(first),
         name_b: names(second),
@@ -811,6 +824,8 @@ type VariablePair = (usize, usize, Tolerance);
 struct Comparison<'a> {
     first: &'a ExodusFile,
     second: &'a ExodusFile,
+    /// Frame k of `first` is compared with frame k + offset of `second` (see [`compare_from`]).
+    offset: Option<usize>,
     ignore_case: bool,
     /// The files' paths, for messages.
     name_a: String,
@@ -942,8 +957,14 @@ impl Comparison<'_> {
     /// Compares the step counts and the times of the common steps; returns their number.
     fn times(&mut self, tolerance: Tolerance) -> usize {
         let (first, second) = (self.first, self.second);
-        let steps = first.times.len().min(second.times.len());
-        if first.times.len() != second.times.len() {
+        let offset = self.offset.unwrap_or(0);
+        let available = second.times.len().saturating_sub(offset);
+        let steps = first.times.len().min(available);
+        let mismatch = match self.offset {
+            None => first.times.len() != second.times.len(),
+            Some(_) => first.times.len() > available,
+        };
+        if mismatch {
             self.report.structural.push(format!(
                 "{} time steps in {} but {} in {}",
                 first.times.len(),
@@ -959,7 +980,7 @@ impl Comparison<'_> {
                     Some(step),
                     0,
                     &first.times[step..=step],
-                    &second.times[step..=step],
+                    &second.times[step + offset..=step + offset],
                 );
             }
             self.report.quantities.push(t.worst);
@@ -1048,7 +1069,7 @@ impl Comparison<'_> {
             .collect();
         for step in 0..steps {
             let a = first.global_values(step)?;
-            let b = second.global_values(step)?;
+            let b = second.global_values(step + self.offset.unwrap_or(0))?;
             for (t, &(ia, ib, _)) in trackers.iter_mut().zip(global) {
                 t.add(Some(step), ia, &a[ia..=ia], &b[ib..=ib]);
             }
@@ -1074,7 +1095,7 @@ impl Comparison<'_> {
                     Some(step),
                     0,
                     &first.nodal_values(step, ia)?,
-                    &second.nodal_values(step, ib)?,
+                    &second.nodal_values(step + self.offset.unwrap_or(0), ib)?,
                 );
             }
             self.report.quantities.push(t.worst);
@@ -1108,7 +1129,9 @@ impl Comparison<'_> {
                 let mut t = Tracker::new(QuantityKind::Element, name, Some(block_id), tol);
                 for step in 0..steps {
                     let a = first.element_values(step, ia, ba)?.unwrap_or_default();
-                    let b = second.element_values(step, ib, bb)?.unwrap_or_default();
+                    let b = second
+                        .element_values(step + self.offset.unwrap_or(0), ib, bb)?
+                        .unwrap_or_default();
                     t.add(Some(step), 0, &a, &b);
                 }
                 self.report.quantities.push(t.worst);

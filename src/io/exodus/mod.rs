@@ -25,7 +25,7 @@ use std::path::PathBuf;
 
 use thiserror::Error;
 
-pub use compare::{compare, ComparisonReport, ComparisonSpec};
+pub use compare::{compare, compare_from, ComparisonReport, ComparisonSpec};
 pub use reader::{ElementBlock, ExodusFile, NodeSetData};
 pub use writer::{write_shell_mesh, ExodusWriter};
 

@@ -914,6 +914,45 @@ impl NcWriter {
         Ok(())
     }
 
+    /// Takes over the first `count` records of `previous`, a file this writer's header
+    /// describes too (the results file of an interrupted run being continued): copies their
+    /// bytes and sets the record count. Fails when `previous` has another header or fewer
+    /// records.
+    pub fn adopt_records(&mut self, previous: &std::path::Path, count: u64) -> Result<(), NcError> {
+        let mut old = File::open(previous)?;
+        let len = old.metadata()?.len();
+        let mut old_header = Header::read(&mut old, len)?;
+        if old_header.numrecs < count {
+            return Err(NcError::Truncated(format!(
+                "{} frames expected, {} found",
+                count, old_header.numrecs
+            )));
+        }
+        old_header.numrecs = 0;
+        let mut own = self.header.clone();
+        own.numrecs = 0;
+        if old_header.encode()? != own.encode()? {
+            return Err(NcError::BadHeader(
+                "its variables or dimensions differ from the ones this run writes".to_string(),
+            ));
+        }
+        old.seek(SeekFrom::Start(self.first_record))?;
+        self.file.seek(SeekFrom::Start(self.first_record))?;
+        let bytes = count * self.record_size;
+        let copied = std::io::copy(&mut (&mut old).take(bytes), &mut self.file)?;
+        if copied != bytes {
+            return Err(NcError::Truncated(format!(
+                "{bytes} bytes of frames expected, {copied} found"
+            )));
+        }
+        self.header.numrecs = count;
+        self.file.seek(SeekFrom::Start(4))?;
+        self.file
+            .write_all(&to_u32(count, "record count")?.to_be_bytes())?;
+        self.file.flush()?;
+        Ok(())
+    }
+
     /// Records written so far.
     pub fn numrecs(&self) -> u64 {
         self.header.numrecs

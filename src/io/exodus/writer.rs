@@ -622,6 +622,17 @@ impl ExodusWriter {
             })
     }
 
+    /// Takes over the first `frames` frames of `previous`, an Exodus file with this writer's
+    /// layout (the results file of an interrupted run being continued).
+    pub fn adopt_frames(&mut self, previous: &Path, frames: u64) -> Result<(), ExodusError> {
+        self.nc
+            .adopt_records(previous, frames)
+            .map_err(|source| ExodusError::NetCdf {
+                path: previous.to_path_buf(),
+                source,
+            })
+    }
+
     /// Number of frames (time steps) written so far.
     pub fn frames_written(&self) -> usize {
         self.nc.numrecs() as usize
