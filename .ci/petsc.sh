@@ -20,7 +20,9 @@ cargo test --release --locked --features petsc --no-run --test petsc_backend
 timeout 600 cargo test --release --locked --features petsc --test petsc_backend
 
 # Peridigm's regression decks with every implicit solver list on PETSc (KSP for QuasiStatic and
-# Implicit, SNES for NOXQuasiStatic). The README lists the decks that pass.
+# Implicit, SNES for NOXQuasiStatic). 32 pass today (the native 35 less Body_Force_QS_NOX,
+# DiskFilter and NOX_QS_MatrixFree_NoPrec, where SNES stalls); fewer is a regression.
 if [ -d ../shared/peridigm ]; then
-  scripts/peridigm-regression ../shared/peridigm --peridyn target/release/peridyn --backend petsc
+  scripts/peridigm-regression ../shared/peridigm --peridyn target/release/peridyn --backend petsc \
+    --min-pass 32
 fi
