@@ -516,7 +516,7 @@ fn hardening_and_viscoelastic_keys_are_checked() {
             HARDENING,
             "      Hardening Modulus: 1.0e9\n",
             "      Hardening Modulus: 1.0e9\n      Thermal Expansion Coefficient: 1.0e-5\n",
-            &["Thermal Expansion Coefficient", "does not support"],
+            &["Thermal Expansion Coefficient", "has no thermal strain"],
         ),
         (VISCOELASTIC, "      tau b: 1.0e-6\n", "", &["tau b"]),
         (

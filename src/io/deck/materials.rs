@@ -611,10 +611,7 @@ fn read_model(
         }
         "Elastic Plastic" => read_elastic_plastic(ctx, list, ignored)?,
         "Elastic Plastic Hardening" => MaterialModel::ElasticPlasticHardening {
-            yield_stress: {
-                refuse(ctx, list, model_name, "Thermal Expansion Coefficient")?;
-                list.positive_req(ctx, "Yield Stress")?
-            },
+            yield_stress: list.positive_req(ctx, "Yield Stress")?,
             hardening_modulus: non_negative_req(ctx, list, "Hardening Modulus")?,
             disable_plasticity: list.bool_or(ctx, "Disable Plasticity", false)?,
             automatic_differentiation: list.bool_or(
@@ -628,7 +625,6 @@ fn read_model(
             for key in [
                 "Apply Automatic Differentiation Jacobian",
                 "Apply Shear Correction Factor",
-                "Thermal Expansion Coefficient",
             ] {
                 refuse(ctx, list, model_name, key)?;
             }
