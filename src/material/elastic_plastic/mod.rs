@@ -463,18 +463,7 @@ impl Material for ElasticPlastic {
     ) -> Result<(), MaterialError> {
         let bonds = reference.bonds;
         assert_point_set(&points, bonds.num_points());
-        self.weighted_volume = points
-            .iter()
-            .map(|&i| {
-                bonds
-                    .range(i as usize)
-                    .map(|b| {
-                        let zeta = bonds.reference_length[b];
-                        zeta * zeta * reference.volume[bonds.neighbor[b] as usize]
-                    })
-                    .sum()
-            })
-            .collect();
+        self.weighted_volume = unit_weighted_volumes(reference, &points);
         self.local_offsets = local_offsets(bonds, &points);
         self.reverse = reverse_bonds(bonds, &points);
         self.correction = if self.shear_correction {
@@ -761,6 +750,25 @@ impl Material for ElasticPlastic {
             tangent,
         )
     }
+}
+
+/// The weighted volume m_i = Σ_j ζ_ij² V_j of each of `points` with ω ≡ 1 (reference
+/// configuration, no damage), the m of the models that fix ω = 1 as Peridigm's
+/// `Elastic Plastic` and `Viscoelastic` do.
+pub(super) fn unit_weighted_volumes(reference: &ReferenceView<'_>, points: &[u32]) -> Vec<f64> {
+    let bonds = reference.bonds;
+    points
+        .iter()
+        .map(|&i| {
+            bonds
+                .range(i as usize)
+                .map(|b| {
+                    let zeta = bonds.reference_length[b];
+                    zeta * zeta * reference.volume[bonds.neighbor[b] as usize]
+                })
+                .sum()
+        })
+        .collect()
 }
 
 /// For each bond i→j of the rows of `points` (block-local order), the global index of j→i

@@ -42,7 +42,7 @@
 
 use rayon::prelude::*;
 
-use super::elastic_plastic::{family_positions, reverse_bonds, NO_REVERSE};
+use super::elastic_plastic::{family_positions, reverse_bonds, unit_weighted_volumes, NO_REVERSE};
 use super::{
     assert_point_set, checked_differentiated_tangent_method, kept_points, local_offsets, positive,
     CurrentView, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
@@ -297,18 +297,7 @@ impl Material for Viscoelastic {
     ) -> Result<(), MaterialError> {
         let bonds = reference.bonds;
         assert_point_set(&points, bonds.num_points());
-        self.weighted_volume = points
-            .iter()
-            .map(|&i| {
-                bonds
-                    .range(i as usize)
-                    .map(|b| {
-                        let zeta = bonds.reference_length[b];
-                        zeta * zeta * reference.volume[bonds.neighbor[b] as usize]
-                    })
-                    .sum()
-            })
-            .collect();
+        self.weighted_volume = unit_weighted_volumes(reference, &points);
         self.local_offsets = local_offsets(bonds, &points);
         self.reverse = reverse_bonds(bonds, &points);
         self.points = points;
