@@ -22,8 +22,9 @@ export OMPI_MCA_rmaps_base_oversubscribe=1
 export NUM_JOBS=1 CMAKE_BUILD_PARALLEL_LEVEL=1
 
 features=mpi,trilinos,petsc,hdf5
-cargo build --release --locked --features "$features"
-# Compile first, then run under `timeout`: the limit is for hangs, not for compiling.
+# The test build also builds target/release/peridyn, which the regression decks below run: one
+# compile of peridyn (a separate `cargo build` would compile it again, without the
+# dev-dependencies' features). Compile first, then run under `timeout`: the limit is for hangs.
 cargo test --release --locked --features "$features" --no-run
 timeout 1200 cargo test --release --locked --features "$features"
 cargo clippy --locked --all-targets --features "$features" -- -D warnings
