@@ -13,11 +13,26 @@ use crate::solver::monitor::{EnergyMonitor, Instability};
 use crate::solver::newmark::NewmarkError;
 use crate::solver::quasistatic::QuasiStaticError;
 
+/// Exit code of a run that could not write its results or restart files part-way (a full
+/// disk, a quota or file-size limit, the output folder removed or made read-only): every
+/// results file still opens with the frames completed before the failure.
+pub const WRITE_FAILED: u8 = 6;
+
+/// What a results file still holds after a failed write, and what to do.
+fn write_advice(error: &OutputError) -> &'static str {
+    if error.is_write_failure() {
+        ". Writing the results failed (disk full, quota or file-size limit, or the folder became unwritable); every results file holds the frames completed before this one and opens as usual. Free space (or give --output-dir another folder) and run the deck again; with a `Restart` entry it continues from its newest restart folder"
+    } else {
+        ""
+    }
+}
+
 /// Why a run stopped early.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
-    /// Writing results failed.
-    #[error(transparent)]
+    /// Writing results failed; an I/O failure (a full disk, a quota, the folder gone) is
+    /// exit code [`WRITE_FAILED`], with what the files still hold.
+    #[error("{error}{advice}", error = .0, advice = write_advice(.0))]
     Output(#[from] OutputError),
     /// A boundary-condition expression failed or gave a non-finite value during the run
     /// (exit code 2: the deck's expression is at fault).
@@ -85,10 +100,14 @@ pub enum RunError {
         /// The restart directory written at the stop, or why none was.
         restart: Result<std::path::PathBuf, String>,
     },
-    /// A restart file cannot be written, read or used with this deck (exit code 2: the deck
-    /// or the restart directory must change).
+    /// A restart file cannot be read or used with this deck (exit code 2: the deck or the
+    /// restart directory must change).
     #[error("{0}")]
     Restart(String),
+    /// A restart file cannot be written (exit code [`WRITE_FAILED`]): the previous restart
+    /// folder and the results files up to the last frame stay valid.
+    #[error("{0}. The newest complete restart folder and every results file up to its last frame are intact; free space (or give --output-dir another folder) and run the deck again")]
+    RestartWrite(String),
     /// Another rank of a distributed run failed (or reports an error all ranks share); that
     /// rank prints the message, this one stops quietly with the same exit code.
     #[error("rank {rank} stopped the run; its message is above")]
@@ -102,7 +121,8 @@ pub enum RunError {
 
 impl RunError {
     /// Process exit code: 3 for solver failures and instabilities, 2 for invalid input, 4 for a
-    /// clean stop on a signal, 1 otherwise (for [`RunError::OtherRank`], the code of the rank
+    /// clean stop on a signal, [`WRITE_FAILED`] when results or restart files cannot be
+    /// written, 1 otherwise (for [`RunError::OtherRank`], the code of the rank
     /// that failed).
     pub fn exit_code(&self) -> u8 {
         match self {
@@ -114,6 +134,8 @@ impl RunError {
             RunError::OtherRank { code, .. } => *code,
             RunError::Setup(_) | RunError::Input(_) | RunError::Boundary(_) => 2,
             RunError::Restart(_) => 2,
+            RunError::Output(error) if error.is_write_failure() => WRITE_FAILED,
+            RunError::RestartWrite(_) => WRITE_FAILED,
             RunError::Interrupted { .. } => crate::interrupt::EXIT_CODE,
             _ => 1,
         }

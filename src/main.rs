@@ -54,6 +54,10 @@ enum Command {
         /// Print the plan as one JSON object.
         #[arg(long)]
         json: bool,
+        /// The folder `run` would write to, whose free space the plan compares with what the
+        /// run will write (default: the current folder).
+        #[arg(long, default_value = ".")]
+        output_dir: PathBuf,
     },
     /// Compare two Exodus files like SEACAS exodiff (tolerances from a .comp command file).
     Diff {
@@ -159,10 +163,12 @@ fn build(deck: &deck::Deck) -> Result<peridyn::model::Model> {
     setup::build(deck).map_err(|e: SetupError| invalid(e))
 }
 
-fn check(path: &Path, json: bool) -> Result<()> {
+fn check(path: &Path, json: bool, output_dir: &Path) -> Result<()> {
     let deck = load(path)?;
     let model = build(&deck)?;
     let plan = setup::plan(&deck, &model).map_err(invalid)?;
+    let disk = setup::disk::disk_plan(&deck, &model, &plan.fields, output_dir).map_err(invalid)?;
+    let plan = plan.with_disk(disk);
     if json {
         emit(&format!("{}\n", serde_json::to_string_pretty(&plan)?))
     } else {
@@ -196,6 +202,9 @@ fn run(
     }
     let deck = load_with_backend(path, backend)?;
     print_warnings(&deck);
+    // Before the body is built: a folder the run cannot write to fails at once.
+    peridyn::io::output_folder::prepare(output_dir)
+        .map_err(|e| Failure::WithCode(peridyn::io::output_folder::EXIT_CODE, e.to_string()))?;
     let model = build(&deck)?;
     setup::validate(&deck, &model).map_err(invalid)?;
     let unsupported = setup::unsupported_features(&deck);
@@ -207,14 +216,13 @@ fn run(
         ))
         .into());
     }
-    std::fs::create_dir_all(output_dir)
-        .with_context(|| format!("cannot create the output folder {}", output_dir.display()))?;
     eprintln!(
         "{}: {} points, {} bonds",
         path.display(),
         model.points.len(),
         model.bonds.num_bonds()
     );
+    warn_of_disk_space(&deck, &model, output_dir)?;
     install_stop_handlers()?;
     match simulation::run(&deck, &model, output_dir) {
         Ok(summary) => {
@@ -229,6 +237,18 @@ fn run(
         }
         Err(error) => Err(Failure::WithCode(error.exit_code(), error.to_string()).into()),
     }
+}
+
+/// Warns, as `check` does, when the results and restart files will not fit in the free space
+/// of the output folder's file system (the run still starts: the estimate may be pessimistic,
+/// and space may be freed while it runs).
+fn warn_of_disk_space(deck: &deck::Deck, model: &peridyn::model::Model, dir: &Path) -> Result<()> {
+    let fields = setup::plan(deck, model).map_err(invalid)?.fields;
+    let disk = setup::disk::disk_plan(deck, model, &fields, dir).map_err(invalid)?;
+    if let Some(warning) = setup::disk::warning(&disk) {
+        eprintln!("warning: {warning}");
+    }
+    Ok(())
 }
 
 /// From here on SIGINT and SIGTERM stop the run after its current step
@@ -318,20 +338,19 @@ fn run_on_ranks_collectively(
     }
     // Only rank 0 writes; the others learn of a failure through the sum.
     let created = if rank == 0 {
-        std::fs::create_dir_all(output_dir).err()
+        peridyn::io::output_folder::prepare(output_dir).err()
     } else {
         None
     };
     let mut failed = [f64::from(u8::from(created.is_some()))];
     comm.sum(&mut failed);
     if let Some(error) = created {
-        return Err(anyhow::Error::new(error).context(format!(
-            "cannot create the output folder {}",
-            output_dir.display()
-        )));
+        return Err(
+            Failure::WithCode(peridyn::io::output_folder::EXIT_CODE, error.to_string()).into(),
+        );
     }
     if failed[0] > 0.0 {
-        return Err(Failure::Quiet(1).into());
+        return Err(Failure::Quiet(peridyn::io::output_folder::EXIT_CODE).into());
     }
     if rank == 0 {
         eprintln!(
@@ -437,7 +456,11 @@ fn main() -> ExitCode {
             threads,
             backend,
         } => run(deck, output_dir, *threads, *backend),
-        Command::Check { deck, json } => check(deck, *json),
+        Command::Check {
+            deck,
+            json,
+            output_dir,
+        } => check(deck, *json, output_dir),
         Command::Diff {
             a,
             b,

@@ -41,6 +41,22 @@ pub struct RunPlan {
     pub unsupported: Vec<String>,
     /// Deck keys that are accepted but have no effect, and other notes.
     pub warnings: Vec<String>,
+    /// What the run will write against the free space of its output folder.
+    pub disk: Option<DiskPlan>,
+}
+
+/// The volume a run will write and the free space of its output folder's file system
+/// ([`crate::setup::disk`] says how it is estimated).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct DiskPlan {
+    /// The output folder.
+    pub folder: String,
+    /// Estimated bytes of the Exodus results files.
+    pub results_bytes: u64,
+    /// Estimated bytes of the restart files that can exist at once (0 without restart).
+    pub restart_bytes: u64,
+    /// Bytes free for this user on the folder's file system (`statvfs`), when known.
+    pub available_bytes: Option<u64>,
 }
 
 /// One block of points.
@@ -224,6 +240,25 @@ impl fmt::Display for RunPlan {
         self.fmt_storage(f)?;
         self.fmt_time(f)?;
         self.fmt_parallel(f)?;
+        if let Some(disk) = &self.disk {
+            writeln!(f, "\ndisk ({})", disk.folder)?;
+            writeln!(
+                f,
+                "  results (estimate)  {}",
+                format_bytes(disk.results_bytes)
+            )?;
+            if disk.restart_bytes > 0 {
+                writeln!(
+                    f,
+                    "  restart (estimate)  {}",
+                    format_bytes(disk.restart_bytes)
+                )?;
+            }
+            match disk.available_bytes {
+                Some(bytes) => writeln!(f, "  free                {}", format_bytes(bytes))?,
+                None => writeln!(f, "  free                unknown")?,
+            }
+        }
         for w in &self.warnings {
             writeln!(f, "\nwarning: {w}")?;
         }
@@ -237,7 +272,39 @@ impl fmt::Display for RunPlan {
     }
 }
 
+impl DiskPlan {
+    /// The warning a run plan carries when the run will not fit in the free space.
+    pub fn warning(&self) -> Option<String> {
+        let disk = self;
+        let needed = disk.results_bytes.saturating_add(disk.restart_bytes);
+        let available = disk.available_bytes?;
+        (needed > available).then(|| {
+            format!(
+                "the run will write about {} ({} of results{}) but only {} is free on the file system of {}: it would stop with exit code 6 when the disk is full. Free space, give --output-dir another file system, or write fewer frames (Output Frequency) or variables",
+                format_bytes(needed),
+                format_bytes(disk.results_bytes),
+                if disk.restart_bytes > 0 {
+                    format!(", {} of restart files", format_bytes(disk.restart_bytes))
+                } else {
+                    String::new()
+                },
+                format_bytes(available),
+                disk.folder
+            )
+        })
+    }
+}
+
 impl RunPlan {
+    /// The plan with its disk section, and the warning when the run will not fit.
+    pub fn with_disk(mut self, disk: DiskPlan) -> Self {
+        if let Some(warning) = disk.warning() {
+            self.warnings.push(warning);
+        }
+        self.disk = Some(disk);
+        self
+    }
+
     /// The `blocks` section: sizes, families, horizon, material and damage of every block.
     fn fmt_blocks(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "\nblocks")?;

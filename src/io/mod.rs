@@ -4,3 +4,4 @@ pub mod deck;
 pub mod exodus;
 pub mod history;
 pub mod output;
+pub mod output_folder;

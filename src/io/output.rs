@@ -209,6 +209,25 @@ pub enum OutputError {
     },
 }
 
+impl OutputError {
+    /// True when the operating system refused a write (or the read of a continued run's
+    /// previous file): a full disk, a quota or file-size limit, a vanished folder; false for
+    /// a results layout that does not fit the data.
+    pub fn is_write_failure(&self) -> bool {
+        use crate::io::exodus::netcdf::NcError;
+        matches!(
+            self,
+            OutputError::Exodus(
+                ExodusError::Io { .. }
+                    | ExodusError::NetCdf {
+                        source: NcError::Io(_),
+                        ..
+                    }
+            ) | OutputError::History(HistoryError::Io { .. })
+        )
+    }
+}
+
 /// When to write, per Peridigm's counting.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Schedule {

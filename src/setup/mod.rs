@@ -4,6 +4,7 @@
 //! line), like load-time errors: a node id beyond the number of points, a node set no one
 //! defines, a block the mesh does not have, an expression that does not compile.
 
+pub mod disk;
 mod families;
 mod node_sets;
 mod physics;

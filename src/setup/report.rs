@@ -398,6 +398,7 @@ pub(super) fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
             .collect(),
         time_step: time_step_plan(deck, model),
         outputs,
+        disk: None,
     })
 }
 

@@ -86,6 +86,15 @@ impl Restarts {
                 dir.display()
             ))
         })?;
+        if snapshot.displacement.len() != model.points.len() {
+            return Err(RunError::Restart(format!(
+                "{} was written for a body of {} points, but this deck's mesh now has {}: the mesh file has changed since. Restore the mesh it was written with, or remove the restart-* folders in {} to start over",
+                file.display(),
+                snapshot.displacement.len(),
+                model.points.len(),
+                dir.display()
+            )));
+        }
         if snapshot.model_hash != restarts.model_hash {
             return Err(RunError::Restart(format!(
                 "{} was written for another body: the deck's mesh, materials, damage models, blocks, contact or boundary conditions have changed since (hash {:016x}, this deck {:016x}). Restore the deck it was written with, or remove the restart-* folders in {} to start over",
@@ -229,7 +238,7 @@ impl Restarts {
             }
         }
         let directory = restart::write_directory(&self.dir, self.next_number, &snapshot)
-            .map_err(|e| RunError::Restart(format!("cannot write a restart file: {e}")))?;
+            .map_err(|e| RunError::RestartWrite(format!("cannot write a restart file: {e}")))?;
         self.next_number += 1;
         self.last_write = Instant::now();
         Ok(directory)
