@@ -3,7 +3,12 @@
 //! | solver list | PETSc |
 //! |---|---|
 //! | `QuasiStatic`, `Implicit` | peridyn's Newton; each correction a KSP solve ([`super::linear`]) |
-//! | `NOXQuasiStatic` | SNES `newtonls` ([`super::snes`]); `Jacobian Operator: "Matrix-Free"` with `Peridigm Preconditioner` `Block 3x3`, `None` or `AMG` is `-snes_mf_operator` with the 3×3 block diagonal as preconditioning matrix |
+//! | `NOXQuasiStatic` | SNES `newtonls` ([`super::snes`]); `Jacobian Operator: "Matrix-Free"` with `Peridigm Preconditioner` `Block 3x3` or `None` is `-snes_mf_operator` with the 3×3 block diagonal as preconditioning matrix, with `AMG` the one-hop operator and its rigid-body near-null space (PC GAMG unless `Linear Solver Preconditioner` or `-pc_type` says otherwise, e.g. `Hypre`) |
+//!
+//! `Linear Solver Preconditioner: "AMG"` on the assembled paths (`QuasiStatic`, `Implicit`,
+//! SNES with the full tangent) is GAMG on the assembled tangent with the rigid-body
+//! near-null space: that matrix is already there, and multigrid on the exact operator needs
+//! fewer iterations than on the one-hop stand-in.
 //!
 //! `Linear Solver`: `CG` is `KSPCG`, `GMRES` `KSPGMRES`; `Direct` and `LU` are MUMPS' LU,
 //! `Cholesky` MUMPS' Cholesky; `Automatic` is MUMPS' LU up to
@@ -14,7 +19,7 @@ use super::options::DeckOptions;
 use super::snes::{self, SnesJacobian};
 use crate::backend::factory::matrix_free_preconditioner;
 use crate::backend::native::KrylovSettings;
-use crate::io::deck::{Integrator, LinearBackend, LinearMethod, Solver};
+use crate::io::deck::{Integrator, LinearBackend, LinearMethod, LinearPreconditioner, Solver};
 
 /// The PETSc settings of `solver` (a list with `Backend: "PETSc"`) for a system of `unknowns`
 /// unknowns (which decides `Automatic`); `None` for a list on another backend.
@@ -53,6 +58,7 @@ pub fn settings(solver: &Solver, unknowns: usize) -> Option<PetscSettings> {
 /// How SNES forms the Newton operator of a `NOXQuasiStatic` list on PETSc.
 pub fn snes_jacobian(solver: &Solver) -> SnesJacobian {
     match matrix_free_preconditioner(solver) {
+        Some(LinearPreconditioner::Amg) => SnesJacobian::MatrixFreeMultigrid,
         Some(_) => SnesJacobian::MatrixFree,
         None => SnesJacobian::Assembled,
     }
