@@ -439,6 +439,15 @@ fn quasi_static_bar_through_ksp_and_snes_matches_the_native_direct_solve() {
             ),
         ),
         (
+            // No `Linear Solver`: `Automatic` is GMRES with the Jacobian-free operator (a
+            // direct solve of the 3×3 blocks alone made SNES stall).
+            "SNES JFNK (-snes_mf_operator, 3x3 blocks, Linear Solver Automatic)",
+            bar(
+                "    Backend: \"PETSc\"\n    Peridigm Preconditioner: \"Block 3x3\"\n    Linear Solver Tolerance: 1.0e-8",
+                &nox_quasi_static("            Jacobian Operator: \"Matrix-Free\""),
+            ),
+        ),
+        (
             "KSP CG + AMG (GAMG on the tangent)",
             bar(
                 "    Backend: \"PETSc\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"AMG\"\n    Linear Solver Tolerance: 1.0e-12",

@@ -13,6 +13,9 @@
 //! `Linear Solver`: `CG` is `KSPCG`, `GMRES` `KSPGMRES`; `Direct` and `LU` are MUMPS' LU,
 //! `Cholesky` MUMPS' Cholesky; `Automatic` is MUMPS' LU up to
 //! [`LinearMethod::AUTOMATIC_DIRECT_LIMIT`] unknowns and CG beyond, as on the native backend.
+//! With the Jacobian-free operator (`-snes_mf_operator`) `Automatic`, `Direct`, `LU` and
+//! `Cholesky` are GMRES, the Krylov method NOX's matrix-free Newton uses: a direct solve
+//! could only factor the preconditioning matrix, not the Newton operator.
 
 use super::linear::{KspMethod, PetscLinearSolver, PetscSettings};
 use super::options::DeckOptions;
@@ -32,7 +35,20 @@ pub fn settings(solver: &Solver, unknowns: usize) -> Option<PetscSettings> {
         return None;
     };
     let linear = &solver.linear_solve;
+    // The Jacobian-free operator exists only as products: a direct solve could only factor
+    // the preconditioning matrix, which is not the Newton operator (its "solution" is one
+    // block-Jacobi sweep, on which Newton stalls). Its linear solve is GMRES, as NOX's
+    // matrix-free Newton uses, preconditioned by the factored or approximated matrix.
+    let matrix_free = runs_on_snes(solver) && snes_jacobian(solver) != SnesJacobian::Assembled;
     let method = match linear.method {
+        LinearMethod::Direct
+        | LinearMethod::Lu
+        | LinearMethod::Cholesky
+        | LinearMethod::Automatic
+            if matrix_free =>
+        {
+            KspMethod::Gmres
+        }
         LinearMethod::Cg => KspMethod::Cg,
         LinearMethod::Gmres => KspMethod::Gmres,
         LinearMethod::Direct | LinearMethod::Lu => KspMethod::Lu,
