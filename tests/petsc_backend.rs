@@ -702,3 +702,27 @@ fn gamg_on_the_one_hop_operator_needs_fewer_iterations_with_the_rigid_body_modes
     eprintln!("GAMG iterations: {with} with the rigid-body modes, {without} without");
     assert!(with < without, "{with} with the modes, {without} without");
 }
+
+#[test]
+fn check_shows_gamg_or_hypre_on_the_one_hop_operator_for_jfnk_with_amg() {
+    let dir = tempfile::tempdir().unwrap();
+    for (extra, pc) in [
+        ("", "PC gamg"),
+        ("\n    PETSc Options: \"-pc_type hypre\"", "PC hypre"),
+    ] {
+        let deck = bar(
+            &format!("    Backend: \"PETSc\"\n    Peridigm Preconditioner: \"AMG\"{extra}"),
+            &nox_quasi_static("            Jacobian Operator: \"Matrix-Free\""),
+        );
+        let path = dir.path().join("amg.yaml");
+        std::fs::write(&path, deck).unwrap();
+        let (code, log) = run_cli(&["check", path.to_str().unwrap()]);
+        assert_eq!(code, Some(0), "{log}");
+        assert!(
+            log.contains(&format!(
+                "KSP gmres + {pc}, -snes_mf_operator, PC built on the one-hop operator"
+            )),
+            "{log}"
+        );
+    }
+}

@@ -94,7 +94,16 @@ pub fn resolve(solver: &Solver, unknowns: usize) -> Option<Result<String, String
     let settings = settings(solver, unknowns)?;
     let result = if runs_on_snes(solver) {
         let line_search = !solver.disable_heuristics;
-        snes::resolve(&settings, snes_jacobian(solver), line_search)
+        let jacobian = snes_jacobian(solver);
+        snes::resolve(&settings, jacobian, line_search).map(|resolved| match jacobian {
+            SnesJacobian::Assembled => resolved,
+            SnesJacobian::MatrixFree => {
+                format!("{resolved}, -snes_mf_operator, PC built on the 3x3 block diagonal")
+            }
+            SnesJacobian::MatrixFreeMultigrid => format!(
+                "{resolved}, -snes_mf_operator, PC built on the one-hop operator with the rigid-body near-null space"
+            ),
+        })
     } else {
         PetscLinearSolver::new(settings).resolve()
     };
