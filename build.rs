@@ -49,6 +49,7 @@ mod petsc {
         "MatCreateSeqAIJWithArrays",
         "MatDestroy",
         "MatSetNearNullSpace",
+        "MatSetBlockSize",
         "MatNullSpaceCreate",
         "MatNullSpaceDestroy",
         "MatAssemblyBegin",

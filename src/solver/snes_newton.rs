@@ -70,6 +70,8 @@ impl NonlinearSolver for SnesNewton {
                     SnesJacobian::Assembled => "assembled tangent",
                     SnesJacobian::MatrixFree =>
                         "Jacobian-free, -snes_mf_operator with the 3x3 block diagonal",
+                    SnesJacobian::MatrixFreeMultigrid =>
+                        "Jacobian-free, -snes_mf_operator with the one-hop operator",
                 }
             ),
         }

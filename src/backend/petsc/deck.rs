@@ -3,18 +3,26 @@
 //! | solver list | PETSc |
 //! |---|---|
 //! | `QuasiStatic`, `Implicit` | peridyn's Newton; each correction a KSP solve ([`super::linear`]) |
-//! | `NOXQuasiStatic` | SNES `newtonls` ([`super::snes`]); `Jacobian Operator: "Matrix-Free"` with `Peridigm Preconditioner` `Block 3x3`, `None` or `AMG` is `-snes_mf_operator` with the 3×3 block diagonal as preconditioning matrix |
+//! | `NOXQuasiStatic` | SNES `newtonls` ([`super::snes`]); `Jacobian Operator: "Matrix-Free"` with `Peridigm Preconditioner` `Block 3x3` or `None` is `-snes_mf_operator` with the 3×3 block diagonal as preconditioning matrix, with `AMG` the one-hop operator and its rigid-body near-null space (PC GAMG unless `Linear Solver Preconditioner` or `-pc_type` says otherwise, e.g. `Hypre`) |
+//!
+//! `Linear Solver Preconditioner: "AMG"` on the assembled paths (`QuasiStatic`, `Implicit`,
+//! SNES with the full tangent) is GAMG on the assembled tangent with the rigid-body
+//! near-null space: that matrix is already there, and multigrid on the exact operator needs
+//! fewer iterations than on the one-hop stand-in.
 //!
 //! `Linear Solver`: `CG` is `KSPCG`, `GMRES` `KSPGMRES`; `Direct` and `LU` are MUMPS' LU,
 //! `Cholesky` MUMPS' Cholesky; `Automatic` is MUMPS' LU up to
 //! [`LinearMethod::AUTOMATIC_DIRECT_LIMIT`] unknowns and CG beyond, as on the native backend.
+//! With the Jacobian-free operator (`-snes_mf_operator`) `Automatic`, `Direct`, `LU` and
+//! `Cholesky` are GMRES, the Krylov method NOX's matrix-free Newton uses: a direct solve
+//! could only factor the preconditioning matrix, not the Newton operator.
 
 use super::linear::{KspMethod, PetscLinearSolver, PetscSettings};
 use super::options::DeckOptions;
 use super::snes::{self, SnesJacobian};
 use crate::backend::factory::matrix_free_preconditioner;
 use crate::backend::native::KrylovSettings;
-use crate::io::deck::{Integrator, LinearBackend, LinearMethod, Solver};
+use crate::io::deck::{Integrator, LinearBackend, LinearMethod, LinearPreconditioner, Solver};
 
 /// The PETSc settings of `solver` (a list with `Backend: "PETSc"`) for a system of `unknowns`
 /// unknowns (which decides `Automatic`); `None` for a list on another backend.
@@ -27,7 +35,20 @@ pub fn settings(solver: &Solver, unknowns: usize) -> Option<PetscSettings> {
         return None;
     };
     let linear = &solver.linear_solve;
+    // The Jacobian-free operator exists only as products: a direct solve could only factor
+    // the preconditioning matrix, which is not the Newton operator (its "solution" is one
+    // block-Jacobi sweep, on which Newton stalls). Its linear solve is GMRES, as NOX's
+    // matrix-free Newton uses, preconditioned by the factored or approximated matrix.
+    let matrix_free = runs_on_snes(solver) && snes_jacobian(solver) != SnesJacobian::Assembled;
     let method = match linear.method {
+        LinearMethod::Direct
+        | LinearMethod::Lu
+        | LinearMethod::Cholesky
+        | LinearMethod::Automatic
+            if matrix_free =>
+        {
+            KspMethod::Gmres
+        }
         LinearMethod::Cg => KspMethod::Cg,
         LinearMethod::Gmres => KspMethod::Gmres,
         LinearMethod::Direct | LinearMethod::Lu => KspMethod::Lu,
@@ -53,6 +74,7 @@ pub fn settings(solver: &Solver, unknowns: usize) -> Option<PetscSettings> {
 /// How SNES forms the Newton operator of a `NOXQuasiStatic` list on PETSc.
 pub fn snes_jacobian(solver: &Solver) -> SnesJacobian {
     match matrix_free_preconditioner(solver) {
+        Some(LinearPreconditioner::Amg) => SnesJacobian::MatrixFreeMultigrid,
         Some(_) => SnesJacobian::MatrixFree,
         None => SnesJacobian::Assembled,
     }
@@ -72,7 +94,16 @@ pub fn resolve(solver: &Solver, unknowns: usize) -> Option<Result<String, String
     let settings = settings(solver, unknowns)?;
     let result = if runs_on_snes(solver) {
         let line_search = !solver.disable_heuristics;
-        snes::resolve(&settings, snes_jacobian(solver), line_search)
+        let jacobian = snes_jacobian(solver);
+        snes::resolve(&settings, jacobian, line_search).map(|resolved| match jacobian {
+            SnesJacobian::Assembled => resolved,
+            SnesJacobian::MatrixFree => {
+                format!("{resolved}, -snes_mf_operator, PC built on the 3x3 block diagonal")
+            }
+            SnesJacobian::MatrixFreeMultigrid => format!(
+                "{resolved}, -snes_mf_operator, PC built on the one-hop operator with the rigid-body near-null space"
+            ),
+        })
     } else {
         PetscLinearSolver::new(settings).resolve()
     };

@@ -13,7 +13,20 @@
 //!   difference of F (`MATMFFD`), whose probes call F with damage frozen
 //!   ([`Evaluation::Probe`], through `MatMFFDSetFunction`); the matrix the PC is built from is
 //!   the 3×3 point-block diagonal of the tangent ([`NonlinearProblem::block_diagonal`]), so the
-//!   full tangent is never assembled.
+//!   full tangent is never assembled;
+//! * [`SnesJacobian::MatrixFreeMultigrid`]: the same `-snes_mf_operator` operator, with the
+//!   problem's one-hop operator ([`NonlinearProblem::preconditioning_operator`], the PMB-like
+//!   stiffness over the bonds) as the matrix the PC is built from, carrying the rigid-body
+//!   modes as its near-null space (`MatSetNearNullSpace`, orthonormalised) and block size 3
+//!   when every point keeps its three unknowns: the PC is GAMG by default, hypre's BoomerAMG
+//!   with `-pc_type hypre`. The operator is refilled (into the first pattern, which bonds
+//!   breaking only thin out) when [`NonlinearProblem::preconditioning_version`] changes, and
+//!   otherwise kept, so PETSc keeps the multigrid hierarchy across Newton iterations.
+//!
+//! The prescribed dofs are not unknowns of the problem (eliminated as on the other backends),
+//! so the near-null space is not built with `MatNullSpaceCreateRigidBody` (which needs a
+//! coordinate vector in the matrix's point-block layout) but from the problem's rigid-body
+//! modes over the remaining unknowns: the same space.
 //!
 //! Errors: a callback never unwinds into C. It runs inside `catch_unwind`; a Rust error (a
 //! non-finite residual, say) is kept in the context and the callback returns `PETSC_ERR_USER`,
@@ -22,7 +35,7 @@
 use std::ffi::c_void;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use super::linear::{resolved_types, PetscSettings};
+use super::linear::{resolved_types, set_near_null_space, PetscSettings};
 use super::runtime::{check, owned_string, PetscError, Turn};
 use super::sys;
 use crate::backend::problem::{Evaluation, NonlinearProblem};
@@ -35,6 +48,9 @@ pub enum SnesJacobian {
     Assembled,
     /// `-snes_mf_operator` with the 3×3 block diagonal as preconditioning matrix.
     MatrixFree,
+    /// `-snes_mf_operator` with the one-hop operator and the rigid-body near-null space as
+    /// preconditioning matrix (for GAMG or hypre).
+    MatrixFreeMultigrid,
 }
 
 /// One SNES solve's configuration.
@@ -82,6 +98,11 @@ struct Context<'a> {
     values: Vec<f64>,
     /// `values[k] = source[order[k]]` (columns sorted within rows).
     order: Vec<usize>,
+    /// The pattern's row offsets and (sorted) columns, to refill the one-hop operator.
+    offsets: Vec<usize>,
+    columns: Vec<usize>,
+    /// [`NonlinearProblem::preconditioning_version`] of the one-hop operator in `values`.
+    operator_version: usize,
     tolerance: f64,
     max_iterations: u64,
     history: Vec<f64>,
@@ -206,7 +227,12 @@ unsafe extern "C" fn form_jacobian(
 ) -> sys::PetscErrorCode {
     // SAFETY: as in `evaluate`.
     let context = &mut *(context as *mut Context);
+    let mut refilled = true;
     let code = context.guard(|c| {
+        if c.jacobian == SnesJacobian::MatrixFreeMultigrid {
+            refilled = c.refill_operator()?;
+            return Ok(());
+        }
         let mut input = Vec::new();
         with_read(x, |x| {
             input.extend_from_slice(x);
@@ -214,7 +240,9 @@ unsafe extern "C" fn form_jacobian(
         })?;
         let source = match c.jacobian {
             SnesJacobian::Assembled => c.problem.jacobian(&input)?.values,
-            SnesJacobian::MatrixFree => c.problem.block_diagonal(&input)?,
+            SnesJacobian::MatrixFree | SnesJacobian::MatrixFreeMultigrid => {
+                c.problem.block_diagonal(&input)?
+            }
         };
         if source.len() != c.order.len() {
             return Err(SolveError::Breakdown {
@@ -234,7 +262,12 @@ unsafe extern "C" fn form_jacobian(
     if code != 0 {
         return code;
     }
-    for matrix in [preconditioning, operator] {
+    for matrix in [operator, preconditioning] {
+        // A preconditioning matrix left as it was is not reassembled, so PETSc keeps its PC
+        // (the multigrid hierarchy); the operator always is.
+        if matrix == preconditioning && !refilled {
+            break;
+        }
         // SAFETY: live matrices handed over by SNES; assembling the MFFD operator sets its
         // base point to the new iterate.
         let assembled = sys::MatAssemblyBegin(matrix, sys::MatAssemblyType_MAT_FINAL_ASSEMBLY);
@@ -250,6 +283,71 @@ unsafe extern "C" fn form_jacobian(
         }
     }
     0
+}
+
+impl Context<'_> {
+    /// Refills the one-hop operator when the problem's changed since it was built (bonds
+    /// broke); returns whether it did.
+    fn refill_operator(&mut self) -> Result<bool, SolveError> {
+        let version = self.problem.preconditioning_version();
+        if version == self.operator_version {
+            return Ok(false);
+        }
+        let operator = self
+            .problem
+            .preconditioning_operator()?
+            .ok_or_else(no_operator)?;
+        scatter_into_pattern(
+            &operator.matrix,
+            &self.offsets,
+            &self.columns,
+            &mut self.values,
+        )?;
+        self.operator_version = version;
+        Ok(true)
+    }
+}
+
+fn no_operator() -> SolveError {
+    SolveError::Breakdown {
+        method: "PETSc SNES",
+        reason: "Peridigm Preconditioner \"AMG\" needs the one-hop preconditioning operator, which this problem does not offer".into(),
+    }
+}
+
+/// Writes `matrix`'s entries into `values` laid out on the pattern (`offsets`, sorted
+/// `columns`), entries of the pattern that `matrix` lacks set to zero.
+fn scatter_into_pattern(
+    matrix: &Csr,
+    offsets: &[usize],
+    columns: &[usize],
+    values: &mut [f64],
+) -> Result<(), SolveError> {
+    if matrix.nrows + 1 != offsets.len() {
+        return Err(SolveError::Breakdown {
+            method: "PETSc SNES",
+            reason: format!(
+                "a preconditioning operator of {} rows for {} unknowns",
+                matrix.nrows,
+                offsets.len() - 1
+            ),
+        });
+    }
+    values.fill(0.0);
+    for r in 0..matrix.nrows {
+        let row = &columns[offsets[r]..offsets[r + 1]];
+        for k in matrix.offsets[r]..matrix.offsets[r + 1] {
+            let column = matrix.columns[k];
+            let slot = row.binary_search(&column).map_err(|_| SolveError::Breakdown {
+                method: "PETSc SNES",
+                reason: format!(
+                    "the preconditioning operator gained the entry ({r}, {column}) outside its first pattern"
+                ),
+            })?;
+            values[offsets[r] + slot] += matrix.values[k];
+        }
+    }
+    Ok(())
 }
 
 /// peridyn's convergence test: the problem's measure of F against the tolerance.
@@ -356,6 +454,8 @@ pub fn solve(
     let n = problem.len();
     let mut x = vec![0.0; n];
     problem.unknowns(&mut x);
+    let operator_version = problem.preconditioning_version();
+    let mut near_null_space = None;
     let pattern: Csr = match settings.jacobian {
         SnesJacobian::Assembled => problem.jacobian(&x)?,
         SnesJacobian::MatrixFree => {
@@ -363,7 +463,16 @@ pub fn solve(
             let entries = groups.windows(2).map(|g| (g[1] - g[0]).pow(2)).sum();
             block_diagonal_csr(&groups, &vec![0.0; entries])
         }
+        SnesJacobian::MatrixFreeMultigrid => {
+            let operator = problem
+                .preconditioning_operator()?
+                .ok_or_else(no_operator)?;
+            near_null_space = Some((operator.null_space, operator.modes));
+            operator.matrix
+        }
     };
+    // Block size 3 (GAMG aggregates whole points) when every point kept its three unknowns.
+    let whole_points = problem.groups().windows(2).all(|g| g[1] - g[0] == 3);
     let mut order = Vec::with_capacity(pattern.nnz());
     for r in 0..n {
         let mut row: Vec<usize> = (pattern.offsets[r]..pattern.offsets[r + 1]).collect();
@@ -390,7 +499,10 @@ pub fn solve(
         problem: &mut *problem,
         jacobian: settings.jacobian,
         values: order.iter().map(|&k| pattern.values[k]).collect(),
+        offsets: pattern.offsets.clone(),
+        columns: order.iter().map(|&k| pattern.columns[k]).collect(),
         order,
+        operator_version,
         tolerance: settings.tolerance,
         max_iterations: settings.max_iterations,
         history: Vec::new(),
@@ -421,6 +533,12 @@ pub fn solve(
                 (*(context_pointer as *mut Context)).values.as_mut_ptr(),
                 &mut objects.matrix,
             ))?;
+            if let Some((modes, count)) = &near_null_space {
+                if whole_points {
+                    check(sys::MatSetBlockSize(objects.matrix, 3))?;
+                }
+                set_near_null_space(&turn, objects.matrix, modes, *count, n)?;
+            }
             check(sys::VecCreateSeq(comm, rows, &mut objects.solution))?;
             check(sys::VecCreateSeq(comm, rows, &mut objects.residual))?;
             check(sys::SNESCreate(comm, &mut objects.snes))?;
@@ -468,7 +586,7 @@ pub fn solve(
             // A Krylov solve stopped at its limit still gives a direction; the line search
             // and the convergence test judge the step (as peridyn's inexact Newton does).
             check(sys::SNESSetMaxLinearSolveFailures(snes, sys::PetscInt::MAX))?;
-            if settings.jacobian == SnesJacobian::MatrixFree {
+            if settings.jacobian != SnesJacobian::Assembled {
                 check(sys::SNESSetUseMatrixFree(
                     snes,
                     sys::PetscBool_PETSC_TRUE,
@@ -480,7 +598,7 @@ pub fn solve(
             settings.linear.configure(&turn, ksp, n, false)?;
             check(sys::SNESSetFromOptions(snes))?;
             check(sys::SNESSetUp(snes))?;
-            if settings.jacobian == SnesJacobian::MatrixFree {
+            if settings.jacobian != SnesJacobian::Assembled {
                 let mut operator: sys::Mat = std::ptr::null_mut();
                 check(sys::SNESGetJacobian(
                     snes,
@@ -603,7 +721,7 @@ pub fn resolve(
             check(sys::SNESGetLineSearch(snes, &mut line))?;
             let kind = if line_search { c"bt" } else { c"basic" };
             check(sys::SNESLineSearchSetType(line, kind.as_ptr()))?;
-            if jacobian == SnesJacobian::MatrixFree {
+            if jacobian != SnesJacobian::Assembled {
                 check(sys::SNESSetUseMatrixFree(
                     snes,
                     sys::PetscBool_PETSC_TRUE,

@@ -41,7 +41,7 @@ pub struct Solver {
 /// |---|---|---|
 /// | `Backend` | `Native`, `Trilinos` (a build with Cargo feature `trilinos`), `PETSc` (feature `petsc`) | `Native` |
 /// | `Linear Solver` | `Automatic`, `Direct`, `Cholesky`, `LU`, `CG`, `GMRES`; `Trilinos`: `Automatic` (= `CG`), `CG`, `GMRES`; `PETSc`: all (`Direct`, `LU`, `Cholesky` are MUMPS) | `CG` when the deck gives `Belos Linear Solver: BlockCG`, `GMRES` for `BlockGMRES`, else `Automatic` |
-/// | `Linear Solver Preconditioner` | `Native`: `Block 3x3`, `AMG`, `Jacobi`, `None`; `Trilinos`: `Jacobi`, `ILU`, `ML`, `None`; `PETSc`: `Jacobi`, `ILU` (block Jacobi with ILU blocks), `GAMG`, `Hypre` (BoomerAMG), `None` | `Block 3x3` (`Native`), `ILU` (`Trilinos`, `PETSc`) |
+/// | `Linear Solver Preconditioner` | `Native`: `Block 3x3`, `AMG`, `Jacobi`, `None`; `Trilinos`: `Jacobi`, `ILU`, `ML`, `None`; `PETSc`: `Jacobi`, `ILU` (block Jacobi with ILU blocks), `GAMG` (or `AMG`), `Hypre` (BoomerAMG), `None` | `Block 3x3` (`Native`), `ILU` (`Trilinos`, `PETSc`; `GAMG` with `Peridigm Preconditioner: "AMG"`) |
 /// | `Linear Solver ILU Level Of Fill` | `Trilinos`/`PETSc` with `ILU`: Ifpack's `fact: level-of-fill`, PETSc's `-sub_pc_factor_levels` | 0 |
 /// | `PETSc Options` | `Backend: "PETSc"`: PETSc command-line options (`-ksp_type gmres -pc_type gamg -snes_linesearch_type bt …`) put in PETSc's options database under this list's prefix (its name in lower case and `_`, e.g. `solver_`); they override the keys above | none |
 /// | `Linear Solver Tolerance` | relative residual of the Krylov methods | `Belos Relative Tolerance` when given, else 1e-10 |
@@ -193,8 +193,9 @@ pub enum PetscPreconditioner {
     Jacobi,
     /// `"ILU"` (default): `-pc_type bjacobi` with ILU(k) on each block (one block per process).
     Ilu,
-    /// `"GAMG"`: PETSc's smoothed-aggregation multigrid with the rigid-body modes of the
-    /// unknowns as its near-null space.
+    /// `"GAMG"` (or `"AMG"`): PETSc's smoothed-aggregation multigrid with the rigid-body modes
+    /// of the unknowns as its near-null space, on the assembled tangent or (JFNK with
+    /// `Peridigm Preconditioner: "AMG"`) the one-hop operator.
     Gamg,
     /// `"Hypre"`: hypre's BoomerAMG (`-pc_type hypre`).
     Hypre,
@@ -697,13 +698,13 @@ fn read_petsc_preconditioner(
         )? {
             "ILU" => PetscPreconditioner::Ilu,
             "Jacobi" => PetscPreconditioner::Jacobi,
-            "GAMG" => PetscPreconditioner::Gamg,
+            "GAMG" | "AMG" => PetscPreconditioner::Gamg,
             "Hypre" => PetscPreconditioner::Hypre,
             "None" => PetscPreconditioner::None,
             other => {
                 return Err(f.err(
                     ctx,
-                    format!("\"{other}\" is not a PETSc preconditioner; with Backend \"PETSc\" choose \"ILU\", \"GAMG\", \"Hypre\", \"Jacobi\" or \"None\" (or give -pc_type in PETSc Options)"),
+                    format!("\"{other}\" is not a PETSc preconditioner; with Backend \"PETSc\" choose \"ILU\", \"GAMG\" (or \"AMG\"), \"Hypre\", \"Jacobi\" or \"None\" (or give -pc_type in PETSc Options)"),
                 ))
             }
         },
@@ -856,7 +857,15 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field, first: bool) -> Result<Solver, 
         Integrator::QuasiStatic(q) => Some((&q.belos, read.belos_given)),
         _ => None,
     };
+    let preconditioner_given = list.peek("Linear Solver Preconditioner").is_some();
     let mut linear_solve = read_linear_solve(ctx, &mut list, belos)?;
+    // On PETSc, `Peridigm Preconditioner: "AMG"` is GAMG on the one-hop operator unless the
+    // list names another PC.
+    if let LinearBackend::Petsc { preconditioner, .. } = &mut linear_solve.backend {
+        if peridigm_preconditioner == PeridigmPreconditioner::Amg && !preconditioner_given {
+            *preconditioner = PetscPreconditioner::Gamg;
+        }
+    }
     // A Peridigm deck that names NOX gets NOX when this build has it; `Peridigm Preconditioner:
     // "AMG"` is peridyn's own multigrid (no Peridigm deck has it), so such a list stays native.
     if matches!(integrator, Integrator::NoxQuasiStatic(_))
