@@ -511,3 +511,78 @@ fn a_point_without_bonds_is_held_instead_of_making_the_stiffness_singular() {
     assert_eq!(ux[24], 0.0);
     assert!((ux[5] - 0.001).abs() < 1e-15);
 }
+
+/// The rows of `dir/bar_solver.csv` as column name → value maps.
+fn solver_report(dir: &Path) -> Vec<std::collections::HashMap<String, f64>> {
+    let text = std::fs::read_to_string(dir.join("bar_solver.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<String> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(|s| s.trim().to_string())
+        .collect();
+    lines
+        .map(|line| {
+            header
+                .iter()
+                .cloned()
+                .zip(line.split(',').map(|v| v.trim().parse::<f64>().unwrap()))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn the_solver_report_shows_one_amg_setup_per_load_step_and_the_gmres_restart() {
+    // Jacobian-free Newton–Krylov + AMG on the bar (no damage model, so no bond breaks): the
+    // hierarchy is built at the first linear solve of each load step and reused by the
+    // step's later Newton iterations.
+    let jfnk_amg = "    Final Time: 1.0
+    Peridigm Preconditioner: \"AMG\"
+    NOXQuasiStatic:
+      Number of Load Steps: {steps}
+      Absolute Tolerance: 1.0
+      Max Solver Iterations: 30
+      Direction:
+        Method: \"Newton\"
+        Newton:
+          Linear Solver:
+            Jacobian Operator: \"Matrix-Free\"";
+    let dir = tempfile::tempdir().unwrap();
+    run_deck(dir.path(), &bar_deck(jfnk_amg, 0.012, 0.004, 2)).expect("JFNK + AMG runs");
+    let rows = solver_report(dir.path());
+    assert_eq!(rows.len(), 2, "{rows:?}");
+    for row in &rows {
+        assert!(row["Newton_Iterations"] >= 2.0, "{row:?}");
+        assert_eq!(row["Broken_Bonds"], 0.0, "{row:?}");
+        assert_eq!(row["Preconditioner_Setups"], 1.0, "{row:?}");
+        // 99 free points × 3 = 297 unknowns, below the 1000-unknown coarse limit: the
+        // hierarchy is the one-hop operator itself, solved by LU (1 level, complexity 1).
+        assert_eq!(row["AMG_Levels"], 1.0, "{row:?}");
+        assert_eq!(row["AMG_Operator_Complexity"], 1.0, "{row:?}");
+        // KrylovSettings' default restart (Peridigm's BlockGMRES default).
+        assert_eq!(row["GMRES_Restart"], 500.0, "{row:?}");
+        assert!(row["Preconditioner_Setup_Seconds"] > 0.0, "{row:?}");
+        assert_eq!(row["Tangent_Bytes"], 0.0, "{row:?}");
+    }
+    // A direct solve has no preconditioner to report.
+    let direct = "    Final Time: 1.0
+    Linear Solver: \"LU\"
+    QuasiStatic:
+      Number of Load Steps: {steps}
+      Absolute Tolerance: 1.0
+      Maximum Solver Iterations: 20";
+    let dir = tempfile::tempdir().unwrap();
+    run_deck(dir.path(), &bar_deck(direct, 0.012, 0.004, 1)).expect("LU runs");
+    let row = &solver_report(dir.path())[0];
+    for column in [
+        "Preconditioner_Setup_Seconds",
+        "Preconditioner_Setups",
+        "AMG_Levels",
+        "AMG_Operator_Complexity",
+        "GMRES_Restart",
+    ] {
+        assert_eq!(row[column], 0.0, "{column}: {row:?}");
+    }
+}
