@@ -586,3 +586,60 @@ fn the_solver_report_shows_one_amg_setup_per_load_step_and_the_gmres_restart() {
         assert_eq!(row[column], 0.0, "{column}: {row:?}");
     }
 }
+
+#[test]
+fn check_plans_the_amg_operator_and_hierarchy_only_for_decks_that_ask_for_amg() {
+    let parts = |solver: &str| -> Vec<(String, u64)> {
+        let dir = tempfile::tempdir().unwrap();
+        let text = bar_deck(solver, 0.012, 0.0, 1);
+        let origin = dir.path().join("deck.yaml");
+        let deck = parse_str(&text, DeckFormat::Yaml, &origin).unwrap();
+        let model = setup::build(&deck).unwrap();
+        let plan = setup::plan(&deck, &model).unwrap();
+        plan.memory.into_iter().map(|m| (m.part, m.bytes)).collect()
+    };
+    let jfnk_amg = parts(
+        "    Peridigm Preconditioner: \"AMG\"
+    NOXQuasiStatic:
+      Number of Load Steps: 1
+      Direction:
+        Method: \"Newton\"
+        Newton:
+          Linear Solver:
+            Jacobian Operator: \"Matrix-Free\"",
+    );
+    let names: Vec<&str> = jfnk_amg.iter().map(|(p, _)| p.as_str()).collect();
+    for part in [
+        "one-hop operator (AMG)",
+        "AMG hierarchy",
+        "GMRES basis (at most)",
+    ] {
+        assert!(names.contains(&part), "{part} missing from {names:?}");
+    }
+    // The bar has 108 points, 324 dofs: the basis holds min(restart 500, iteration limit =
+    // the 324 dofs) + 1 = 325 vectors of 324 values of 8 bytes.
+    let basis = jfnk_amg
+        .iter()
+        .find(|(p, _)| p == "GMRES basis (at most)")
+        .unwrap()
+        .1;
+    assert_eq!(basis, 325 * 324 * 8);
+    // Assembled CG + AMG plans the tangent and the AMG, and no GMRES basis.
+    let cg_amg = parts(
+        "    Linear Solver: \"CG\"
+    Linear Solver Preconditioner: \"AMG\"
+    QuasiStatic:
+      Number of Load Steps: 1",
+    );
+    let names: Vec<&str> = cg_amg.iter().map(|(p, _)| p.as_str()).collect();
+    assert!(names.contains(&"AMG hierarchy"), "{names:?}");
+    assert!(!names.contains(&"GMRES basis (at most)"), "{names:?}");
+    // A direct solve ignores the AMG preconditioner, so nothing is planned for it.
+    let direct = parts(
+        "    Linear Solver: \"LU\"
+    Linear Solver Preconditioner: \"AMG\"
+    QuasiStatic:
+      Number of Load Steps: 1",
+    );
+    assert!(direct.iter().all(|(p, _)| !p.contains("AMG")), "{direct:?}");
+}

@@ -47,6 +47,11 @@ impl Chebyshev {
         })
     }
 
+    /// Bytes held (the inverted diagonal blocks).
+    pub fn memory_bytes(&self) -> usize {
+        self.block_jacobi.memory_bytes()
+    }
+
     /// Improves x towards A x = b with [`CHEBYSHEV_DEGREE`] Chebyshev steps.
     pub fn smooth(&self, a: &Csr, b: &[f64], x: &mut [f64]) {
         let upper = 1.1 * self.lambda_max;
@@ -177,6 +182,11 @@ impl DenseLu {
             }
         }
         Ok(Self { n, factors, pivots })
+    }
+
+    /// Bytes held (the n² factors and n pivots).
+    pub fn memory_bytes(&self) -> usize {
+        self.factors.len() * 8 + self.pivots.len() * std::mem::size_of::<usize>()
     }
 
     /// x = A⁻¹ b.
