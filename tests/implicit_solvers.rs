@@ -553,8 +553,10 @@ fn the_solver_report_shows_one_amg_setup_per_load_step_and_the_gmres_restart() {
     run_deck(dir.path(), &bar_deck(jfnk_amg, 0.012, 0.004, 2)).expect("JFNK + AMG runs");
     let rows = solver_report(dir.path());
     assert_eq!(rows.len(), 2, "{rows:?}");
+    // The first step starts from rest and needs several Newton iterations (the second
+    // starts from the predictor and may need one): one setup served them all.
+    assert!(rows[0]["Newton_Iterations"] >= 2.0, "{rows:?}");
     for row in &rows {
-        assert!(row["Newton_Iterations"] >= 2.0, "{row:?}");
         assert_eq!(row["Broken_Bonds"], 0.0, "{row:?}");
         assert_eq!(row["Preconditioner_Setups"], 1.0, "{row:?}");
         // 99 free points × 3 = 297 unknowns, below the 1000-unknown coarse limit: the
@@ -599,7 +601,8 @@ fn check_plans_the_amg_operator_and_hierarchy_only_for_decks_that_ask_for_amg() 
         plan.memory.into_iter().map(|m| (m.part, m.bytes)).collect()
     };
     let jfnk_amg = parts(
-        "    Peridigm Preconditioner: \"AMG\"
+        "    Final Time: 1.0
+    Peridigm Preconditioner: \"AMG\"
     NOXQuasiStatic:
       Number of Load Steps: 1
       Direction:
@@ -626,7 +629,8 @@ fn check_plans_the_amg_operator_and_hierarchy_only_for_decks_that_ask_for_amg() 
     assert_eq!(basis, 325 * 324 * 8);
     // Assembled CG + AMG plans the tangent and the AMG, and no GMRES basis.
     let cg_amg = parts(
-        "    Linear Solver: \"CG\"
+        "    Final Time: 1.0
+    Linear Solver: \"CG\"
     Linear Solver Preconditioner: \"AMG\"
     QuasiStatic:
       Number of Load Steps: 1",
@@ -636,7 +640,8 @@ fn check_plans_the_amg_operator_and_hierarchy_only_for_decks_that_ask_for_amg() 
     assert!(!names.contains(&"GMRES basis (at most)"), "{names:?}");
     // A direct solve ignores the AMG preconditioner, so nothing is planned for it.
     let direct = parts(
-        "    Linear Solver: \"LU\"
+        "    Final Time: 1.0
+    Linear Solver: \"LU\"
     Linear Solver Preconditioner: \"AMG\"
     QuasiStatic:
       Number of Load Steps: 1",
