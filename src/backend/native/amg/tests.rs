@@ -270,3 +270,29 @@ fn the_planned_memory_is_close_to_what_the_hierarchy_holds() {
         amg.describe()
     );
 }
+
+#[test]
+fn the_reused_workspace_carries_nothing_from_one_application_to_the_next() {
+    // 16³ with horizon 1.5: three levels, and a finest level above Csr::PARALLEL_ROWS so the
+    // parallel products run too.
+    let (_, amg, rhs) = clamped_system(16, 6);
+    assert!(amg.levels() >= 3, "{}", amg.describe());
+    let fresh = amg.clone();
+    let mut first = vec![0.0; rhs.len()];
+    amg.apply(&rhs, &mut first);
+    // Another right-hand side in between leaves other values in every workspace vector.
+    let other: Vec<f64> = rhs
+        .iter()
+        .enumerate()
+        .map(|(i, r)| r * (i % 7) as f64)
+        .collect();
+    let mut scratch = vec![1.0; rhs.len()];
+    amg.apply(&other, &mut scratch);
+    let mut again = vec![0.0; rhs.len()];
+    amg.apply(&rhs, &mut again);
+    let mut from_fresh = vec![0.0; rhs.len()];
+    fresh.apply(&rhs, &mut from_fresh);
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&first), bits(&again));
+    assert_eq!(bits(&first), bits(&from_fresh));
+}
