@@ -615,10 +615,7 @@ fn memory_plans(
 /// length + 1, or the iteration limit + 1 when that is smaller.
 fn gmres_basis_vectors(solver: &Solver, unknowns: u64) -> u64 {
     let restart = crate::backend::native::KrylovSettings::default().restart as u64;
-    let limit = solver
-        .linear_solve
-        .maximum_iterations
-        .map_or(unknowns, |m| m as u64);
+    let limit = solver.linear_solve.maximum_iterations.unwrap_or(unknowns);
     restart.min(limit) + 1
 }
 
