@@ -511,3 +511,140 @@ fn a_point_without_bonds_is_held_instead_of_making_the_stiffness_singular() {
     assert_eq!(ux[24], 0.0);
     assert!((ux[5] - 0.001).abs() < 1e-15);
 }
+
+/// The rows of `dir/bar_solver.csv` as column name → value maps.
+fn solver_report(dir: &Path) -> Vec<std::collections::HashMap<String, f64>> {
+    let text = std::fs::read_to_string(dir.join("bar_solver.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<String> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(|s| s.trim().to_string())
+        .collect();
+    lines
+        .map(|line| {
+            header
+                .iter()
+                .cloned()
+                .zip(line.split(',').map(|v| v.trim().parse::<f64>().unwrap()))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn the_solver_report_shows_one_amg_setup_per_load_step_and_the_gmres_restart() {
+    // Jacobian-free Newton–Krylov + AMG on the bar (no damage model, so no bond breaks): the
+    // hierarchy is built at the first linear solve of each load step and reused by the
+    // step's later Newton iterations.
+    let jfnk_amg = "    Final Time: 1.0
+    Peridigm Preconditioner: \"AMG\"
+    NOXQuasiStatic:
+      Number of Load Steps: {steps}
+      Absolute Tolerance: 1.0
+      Max Solver Iterations: 30
+      Direction:
+        Method: \"Newton\"
+        Newton:
+          Linear Solver:
+            Jacobian Operator: \"Matrix-Free\"";
+    let dir = tempfile::tempdir().unwrap();
+    run_deck(dir.path(), &bar_deck(jfnk_amg, 0.012, 0.004, 2)).expect("JFNK + AMG runs");
+    let rows = solver_report(dir.path());
+    assert_eq!(rows.len(), 2, "{rows:?}");
+    // The first step starts from rest and needs several Newton iterations (the second
+    // starts from the predictor and may need one): one setup served them all.
+    assert!(rows[0]["Newton_Iterations"] >= 2.0, "{rows:?}");
+    for row in &rows {
+        assert_eq!(row["Broken_Bonds"], 0.0, "{row:?}");
+        assert_eq!(row["Preconditioner_Setups"], 1.0, "{row:?}");
+        // 99 free points × 3 = 297 unknowns, below the 1000-unknown coarse limit: the
+        // hierarchy is the one-hop operator itself, solved by LU (1 level, complexity 1).
+        assert_eq!(row["AMG_Levels"], 1.0, "{row:?}");
+        assert_eq!(row["AMG_Operator_Complexity"], 1.0, "{row:?}");
+        // KrylovSettings' default restart (Peridigm's BlockGMRES default).
+        assert_eq!(row["GMRES_Restart"], 500.0, "{row:?}");
+        assert!(row["Preconditioner_Setup_Seconds"] > 0.0, "{row:?}");
+        assert_eq!(row["Tangent_Bytes"], 0.0, "{row:?}");
+    }
+    // A direct solve has no preconditioner to report.
+    let direct = "    Final Time: 1.0
+    Linear Solver: \"LU\"
+    QuasiStatic:
+      Number of Load Steps: {steps}
+      Absolute Tolerance: 1.0
+      Maximum Solver Iterations: 20";
+    let dir = tempfile::tempdir().unwrap();
+    run_deck(dir.path(), &bar_deck(direct, 0.012, 0.004, 1)).expect("LU runs");
+    let row = &solver_report(dir.path())[0];
+    for column in [
+        "Preconditioner_Setup_Seconds",
+        "Preconditioner_Setups",
+        "AMG_Levels",
+        "AMG_Operator_Complexity",
+        "GMRES_Restart",
+    ] {
+        assert_eq!(row[column], 0.0, "{column}: {row:?}");
+    }
+}
+
+#[test]
+fn check_plans_the_amg_operator_and_hierarchy_only_for_decks_that_ask_for_amg() {
+    let parts = |solver: &str| -> Vec<(String, u64)> {
+        let dir = tempfile::tempdir().unwrap();
+        let text = bar_deck(solver, 0.012, 0.0, 1);
+        let origin = dir.path().join("deck.yaml");
+        let deck = parse_str(&text, DeckFormat::Yaml, &origin).unwrap();
+        let model = setup::build(&deck).unwrap();
+        let plan = setup::plan(&deck, &model).unwrap();
+        plan.memory.into_iter().map(|m| (m.part, m.bytes)).collect()
+    };
+    let jfnk_amg = parts(
+        "    Final Time: 1.0
+    Peridigm Preconditioner: \"AMG\"
+    NOXQuasiStatic:
+      Number of Load Steps: 1
+      Direction:
+        Method: \"Newton\"
+        Newton:
+          Linear Solver:
+            Jacobian Operator: \"Matrix-Free\"",
+    );
+    let names: Vec<&str> = jfnk_amg.iter().map(|(p, _)| p.as_str()).collect();
+    for part in [
+        "one-hop operator (AMG)",
+        "AMG hierarchy",
+        "GMRES basis (at most)",
+    ] {
+        assert!(names.contains(&part), "{part} missing from {names:?}");
+    }
+    // The bar has 108 points, 324 dofs: the basis holds min(restart 500, iteration limit =
+    // the 324 dofs) + 1 = 325 vectors of 324 values of 8 bytes.
+    let basis = jfnk_amg
+        .iter()
+        .find(|(p, _)| p == "GMRES basis (at most)")
+        .unwrap()
+        .1;
+    assert_eq!(basis, 325 * 324 * 8);
+    // Assembled CG + AMG plans the tangent and the AMG, and no GMRES basis.
+    let cg_amg = parts(
+        "    Final Time: 1.0
+    Linear Solver: \"CG\"
+    Linear Solver Preconditioner: \"AMG\"
+    QuasiStatic:
+      Number of Load Steps: 1",
+    );
+    let names: Vec<&str> = cg_amg.iter().map(|(p, _)| p.as_str()).collect();
+    assert!(names.contains(&"AMG hierarchy"), "{names:?}");
+    assert!(!names.contains(&"GMRES basis (at most)"), "{names:?}");
+    // A direct solve ignores the AMG preconditioner, so nothing is planned for it.
+    let direct = parts(
+        "    Final Time: 1.0
+    Linear Solver: \"LU\"
+    Linear Solver Preconditioner: \"AMG\"
+    QuasiStatic:
+      Number of Load Steps: 1",
+    );
+    assert!(direct.iter().all(|(p, _)| !p.contains("AMG")), "{direct:?}");
+}

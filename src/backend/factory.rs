@@ -162,6 +162,28 @@ pub fn matrix_free_preconditioner(solver: &Solver) -> Option<LinearPreconditione
     }
 }
 
+/// True when `solver` preconditions with peridyn's AMG on the one-hop operator (so that
+/// `peridyn check` plans its memory): Jacobian-free with `Peridigm Preconditioner: "AMG"`, or
+/// `Linear Solver Preconditioner: "AMG"` on the native backend with a Krylov method (`CG`,
+/// `GMRES`, or `Automatic` above [`LinearMethod::AUTOMATIC_DIRECT_LIMIT`] dofs, `points` the
+/// model's points), the choice [`crate::solver::linear::strategy`] makes.
+pub fn uses_multigrid(solver: &Solver, points: usize) -> bool {
+    if !solver.integrator.is_implicit() {
+        return false;
+    }
+    if let Some(preconditioner) = matrix_free_preconditioner(solver) {
+        return preconditioner == LinearPreconditioner::Amg;
+    }
+    let settings = &solver.linear_solve;
+    settings.backend == LinearBackend::Native
+        && settings.preconditioner == LinearPreconditioner::Amg
+        && match settings.method {
+            LinearMethod::Cg | LinearMethod::Gmres => true,
+            LinearMethod::Automatic => 3 * points > LinearMethod::AUTOMATIC_DIRECT_LIMIT,
+            _ => false,
+        }
+}
+
 /// A string parameter at `path` in a NOX parameter tree.
 fn nox_string<'a>(tree: &'a [(String, ParameterValue)], path: &[&str]) -> Option<&'a str> {
     let (first, rest) = path.split_first()?;

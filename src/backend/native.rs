@@ -26,7 +26,8 @@ mod preconditioner;
 use std::str::FromStr;
 
 pub use amg::{
-    one_hop_operator, pmb_micromodulus, rigid_body_modes, Amg, OneHopInput, COARSE_UNKNOWNS,
+    multigrid_memory_estimate, one_hop_operator, pmb_micromodulus, rigid_body_modes, Amg,
+    MultigridMemory, OneHopInput, COARSE_UNKNOWNS,
 };
 pub use direct::{SparseCholesky, SparseLu};
 pub use krylov::{

@@ -3,6 +3,7 @@
 
 use crate::io::deck::{
     BoundaryConditionKind, ComputeClassKind, Deck, DeckError, Horizon, Integrator, PointSource,
+    Solver,
 };
 use crate::io::output::{closest_name, kind_of, OutputFile, RequestedVariable, VariableKind};
 use crate::model::Model;
@@ -582,6 +583,26 @@ fn memory_plans(
         // Jacobian-free Newton–Krylov keeps only the 3×3 diagonal blocks.
         memory.push(("block-diagonal tangent (Jacobian-free)", n * 9 * 8));
     }
+    if let Some(vectors) = deck
+        .solvers
+        .iter()
+        .filter(|s| crate::backend::factory::matrix_free_preconditioner(s).is_some())
+        .map(|s| gmres_basis_vectors(s, 3 * n))
+        .max()
+    {
+        // The GMRES basis grows one vector of the unknowns per iteration up to the restart
+        // length, so this is its largest size; a solve that converges sooner holds less.
+        memory.push(("GMRES basis (at most)", vectors * 3 * n * 8));
+    }
+    if deck
+        .solvers
+        .iter()
+        .any(|s| crate::backend::factory::uses_multigrid(s, model.points.len()))
+    {
+        let amg = crate::backend::native::multigrid_memory_estimate(n, bonds);
+        memory.push(("one-hop operator (AMG)", amg.operator));
+        memory.push(("AMG hierarchy", amg.hierarchy));
+    }
     memory
         .into_iter()
         .map(|(part, bytes)| MemoryPlan {
@@ -589,6 +610,14 @@ fn memory_plans(
             bytes,
         })
         .collect()
+}
+
+/// Vectors of `unknowns` entries the GMRES basis of `solver` holds at most: the restart
+/// length + 1, or the iteration limit + 1 when that is smaller.
+fn gmres_basis_vectors(solver: &Solver, unknowns: u64) -> u64 {
+    let restart = crate::backend::native::KrylovSettings::default().restart as u64;
+    let limit = solver.linear_solve.maximum_iterations.unwrap_or(unknowns);
+    restart.min(limit) + 1
 }
 
 /// The time step of the first `Verlet` solver: the stable estimate, the safety factor and the

@@ -358,6 +358,11 @@ impl SolverHistory {
             report.seconds,
             tangent_bytes,
             report.broken_bonds as f64,
+            report.preconditioner.setup_seconds,
+            report.preconditioner.setups as f64,
+            report.preconditioner.levels as f64,
+            report.preconditioner.operator_complexity,
+            report.preconditioner.gmres_restart as f64,
         ];
         self.writer
             .as_mut()
@@ -415,8 +420,9 @@ impl SolverHistory {
     }
 }
 
-/// Columns of the implicit solver report (`<output>_solver.csv`, after `Time`).
-pub const SOLVER_HISTORY_COLUMNS: [&str; 9] = [
+/// Columns of the implicit solver report (`<output>_solver.csv`, after `Time`); the last five
+/// are [`crate::solver::multigrid::PreconditionerReport`].
+pub const SOLVER_HISTORY_COLUMNS: [&str; 14] = [
     "Step",
     "Newton_Iterations",
     "Linear_Iterations",
@@ -426,6 +432,11 @@ pub const SOLVER_HISTORY_COLUMNS: [&str; 9] = [
     "Seconds",
     "Tangent_Bytes",
     "Broken_Bonds",
+    "Preconditioner_Setup_Seconds",
+    "Preconditioner_Setups",
+    "AMG_Levels",
+    "AMG_Operator_Complexity",
+    "GMRES_Restart",
 ];
 
 /// How a gathered point field is stored.

@@ -12,6 +12,7 @@ use crate::backend::problem::{Evaluation, NonlinearProblem};
 use crate::backend::{block_diagonal_csr, KrylovReport, SolveError};
 use crate::io::deck::LinearPreconditioner;
 use crate::solver::multigrid::MultigridCache;
+use std::time::Instant;
 
 /// One Jacobian-free solve of `J Δ = rhs` (rhs = −F) at the iterate `x` (see
 /// [`LinearStrategy::MatrixFree`](crate::solver::newton::LinearStrategy::MatrixFree)): J v is
@@ -28,13 +29,10 @@ pub fn solve(
 ) -> Result<KrylovReport, SolveError> {
     const LAMBDA: f64 = 1e-7;
     let n = problem.len();
-    let amg = match preconditioner {
-        LinearPreconditioner::Amg => Some(multigrid.hierarchy(problem)?),
-        _ => None,
-    };
     let operator = match preconditioner {
         LinearPreconditioner::None | LinearPreconditioner::Amg => None,
         kind => {
+            let start = Instant::now();
             let blocks = problem.block_diagonal(x)?;
             let matrix = block_diagonal_csr(problem.groups(), &blocks);
             let choice = match kind {
@@ -43,8 +41,14 @@ pub fn solve(
                     groups: problem.groups().to_vec(),
                 },
             };
-            Some(PreconditionerOperator::build(&choice, &matrix)?)
+            let operator = PreconditionerOperator::build(&choice, &matrix)?;
+            multigrid.add_setup_seconds(start.elapsed().as_secs_f64());
+            Some(operator)
         }
+    };
+    let amg = match preconditioner {
+        LinearPreconditioner::Amg => Some(multigrid.hierarchy(problem)?),
+        _ => None,
     };
     // Forces are computed from positions Y, whose round-off is ε_mach·|Y|, so the probe is
     // scaled by the largest coordinate, not by ‖u‖ (which is 0 at the start of a load step).

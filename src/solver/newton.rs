@@ -16,7 +16,7 @@ use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
 use crate::io::deck::LinearPreconditioner;
 use crate::solver::jfnk;
 pub use crate::solver::measure::{norm2, ConvergenceMeasure};
-use crate::solver::multigrid::MultigridCache;
+use crate::solver::multigrid::{MultigridCache, PreconditionerReport};
 use crate::solver::problem::{Origin, Physical, PhysicsProblem};
 use std::time::Instant;
 
@@ -82,6 +82,22 @@ pub enum LinearStrategy {
 }
 
 impl LinearStrategy {
+    /// The restart length of the GMRES this strategy runs (0 when it runs none).
+    pub fn gmres_restart(&self) -> usize {
+        match self {
+            LinearStrategy::Native {
+                solver: NativeLinearSolver::Gmres(gmres),
+                ..
+            } => gmres.settings.restart,
+            LinearStrategy::Multigrid {
+                method: NativeMethod::Gmres,
+                krylov,
+            }
+            | LinearStrategy::MatrixFree { krylov, .. } => krylov.restart,
+            _ => 0,
+        }
+    }
+
     /// A short description for the log.
     pub fn describe(&self) -> String {
         match self {
@@ -194,6 +210,8 @@ pub struct NewtonReport {
     pub tangent_bytes: usize,
     /// Last linear-solver method name.
     pub linear_method: String,
+    /// Preconditioner setup time, AMG hierarchy shape and GMRES restart of the solve.
+    pub preconditioner: PreconditionerReport,
 }
 
 /// Runs Newton from `state.displacement` (prescribed dofs already set) on the physics as a
@@ -284,6 +302,10 @@ pub fn solve_problem(
         }
     }
     report.converged = measure <= settings.tolerance;
+    report.preconditioner = multigrid.report();
+    if report.iterations > 0 {
+        report.preconditioner.gmres_restart = linear.gmres_restart();
+    }
     report.seconds = start.elapsed().as_secs_f64();
     Ok(report)
 }

@@ -247,6 +247,7 @@ impl NonlinearSolver for NoxNewton {
             tangent_bytes: problem.jacobian_bytes(),
             linear_method: "AztecOO (NOX)".to_string(),
             seconds: start.elapsed().as_secs_f64(),
+            preconditioner: Default::default(),
         })
     }
 }

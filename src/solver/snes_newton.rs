@@ -107,6 +107,7 @@ impl NonlinearSolver for SnesNewton {
             tangent_bytes: problem.jacobian_bytes(),
             linear_method: report.method,
             seconds: start.elapsed().as_secs_f64(),
+            preconditioner: Default::default(),
         })
     }
 }

@@ -146,6 +146,20 @@ impl PreconditionerOperator {
         self.label
     }
 
+    /// Bytes held by the inverse (offsets and inverted blocks, or the inverted diagonal).
+    pub fn memory_bytes(&self) -> usize {
+        let word = std::mem::size_of::<usize>();
+        match &self.inverse {
+            Inverse::Identity => 0,
+            Inverse::Diagonal(inverse) => inverse.len() * 8,
+            Inverse::Blocks {
+                groups,
+                starts,
+                inverses,
+            } => (groups.len() + starts.len()) * word + inverses.len() * 8,
+        }
+    }
+
     /// What was adjusted while building (zero pivots, singular blocks), for the log.
     pub fn notes(&self) -> &[String] {
         &self.notes

@@ -1,6 +1,9 @@
 //! The pieces of one V-cycle: a Chebyshev smoother preconditioned by block Jacobi, and the
 //! dense LU of the coarsest operator.
 //!
+//! The smoother works in a [`Scratch`] the hierarchy keeps, so applying a V-cycle allocates
+//! nothing: a Krylov solve applies it once per iteration, hundreds of times a Newton step.
+//!
 //! Chebyshev (degree [`CHEBYSHEV_DEGREE`]) on D⁻¹A, D the inverted diagonal blocks of the
 //! level's groups, targets the upper part [λ_max/[`CHEBYSHEV_RATIO`], 1.1 λ_max] of its
 //! spectrum: the smooth rest is the coarse level's job. A polynomial in D⁻¹A is self-adjoint
@@ -47,31 +50,61 @@ impl Chebyshev {
         })
     }
 
-    /// Improves x towards A x = b with [`CHEBYSHEV_DEGREE`] Chebyshev steps.
-    pub fn smooth(&self, a: &Csr, b: &[f64], x: &mut [f64]) {
+    /// Bytes held (the inverted diagonal blocks).
+    pub fn memory_bytes(&self) -> usize {
+        self.block_jacobi.memory_bytes()
+    }
+
+    /// Improves x towards A x = b with [`CHEBYSHEV_DEGREE`] Chebyshev steps, working in
+    /// `scratch` (sized for `a`'s rows by [`Scratch::new`]).
+    pub fn smooth(&self, a: &Csr, b: &[f64], x: &mut [f64], scratch: &mut Scratch) {
         let upper = 1.1 * self.lambda_max;
         let lower = self.lambda_max / CHEBYSHEV_RATIO;
         let (theta, delta) = (0.5 * (upper + lower), 0.5 * (upper - lower));
         let sigma = theta / delta;
-        let n = b.len();
-        let mut r = vec![0.0; n];
-        let mut z = vec![0.0; n];
-        let mut ax = vec![0.0; n];
-        residual(a, b, x, &mut ax, &mut r);
-        self.block_jacobi.apply(&r, &mut z);
-        let mut d: Vec<f64> = z.iter().map(|z| z / theta).collect();
+        let Scratch { r, z, ax, d } = scratch;
+        residual(a, b, x, ax, r);
+        self.block_jacobi.apply(r, z);
+        d.iter_mut().zip(z.iter()).for_each(|(d, z)| *d = z / theta);
         let mut rho = 1.0 / sigma;
         for _ in 1..CHEBYSHEV_DEGREE {
-            x.iter_mut().zip(&d).for_each(|(x, d)| *x += d);
-            residual(a, b, x, &mut ax, &mut r);
-            self.block_jacobi.apply(&r, &mut z);
+            x.iter_mut().zip(d.iter()).for_each(|(x, d)| *x += d);
+            residual(a, b, x, ax, r);
+            self.block_jacobi.apply(r, z);
             let rho_next = 1.0 / (2.0 * sigma - rho);
-            for (d, z) in d.iter_mut().zip(&z) {
+            for (d, z) in d.iter_mut().zip(z.iter()) {
                 *d = rho_next * rho * *d + 2.0 * rho_next / delta * z;
             }
             rho = rho_next;
         }
-        x.iter_mut().zip(&d).for_each(|(x, d)| *x += d);
+        x.iter_mut().zip(d.iter()).for_each(|(x, d)| *x += d);
+    }
+}
+
+/// The vectors one [`Chebyshev::smooth`] works in: residual r, preconditioned residual z,
+/// the product A x and the step d, each of the level's unknowns.
+#[derive(Debug, Clone)]
+pub(super) struct Scratch {
+    r: Vec<f64>,
+    z: Vec<f64>,
+    ax: Vec<f64>,
+    d: Vec<f64>,
+}
+
+impl Scratch {
+    /// Scratch for a level of `n` unknowns.
+    pub fn new(n: usize) -> Self {
+        Self {
+            r: vec![0.0; n],
+            z: vec![0.0; n],
+            ax: vec![0.0; n],
+            d: vec![0.0; n],
+        }
+    }
+
+    /// Bytes held.
+    pub fn memory_bytes(&self) -> usize {
+        8 * (self.r.len() + self.z.len() + self.ax.len() + self.d.len())
     }
 }
 
@@ -177,6 +210,11 @@ impl DenseLu {
             }
         }
         Ok(Self { n, factors, pivots })
+    }
+
+    /// Bytes held (the n² factors and n pivots).
+    pub fn memory_bytes(&self) -> usize {
+        self.factors.len() * 8 + self.pivots.len() * std::mem::size_of::<usize>()
     }
 
     /// x = A⁻¹ b.

@@ -19,7 +19,9 @@ mod one_hop;
 mod prolongator;
 
 use super::super::{Csr, SolveError};
-use cycle::{not_positive_definite, spectral_radius, Chebyshev, DenseLu};
+use std::cell::RefCell;
+
+use cycle::{not_positive_definite, spectral_radius, Chebyshev, DenseLu, Scratch};
 pub use one_hop::{one_hop_operator, pmb_micromodulus, rigid_body_modes, OneHopInput};
 
 /// The coarsest level has at most this many unknowns (solved by dense LU: 8 MB, about
@@ -35,6 +37,64 @@ const STRENGTH_THRESHOLD: f64 = 0.5;
 /// A coarsening that keeps more than this fraction of the unknowns has stalled (e.g. every
 /// node its own aggregate); the hierarchy stops there.
 const STALLED_COARSENING: f64 = 0.8;
+
+/// Prolongators, restrictions and coarse operators of a hierarchy relative to the bytes of
+/// the one-hop operator it is built on, (nnz(P) + nnz(R) + Σ_{l≥1} nnz(A_l)) / nnz(A_0):
+/// 0.47–0.54 measured on PMB lattices of 8³–16³ points with δ = 3.015 Δx (Peridigm's usual
+/// horizon). Smaller horizons give relatively more (1.5 at δ = 1.5 Δx: fewer bonds a row,
+/// the same aggregates).
+const TRANSFER_AND_COARSE_FRACTION: f64 = 0.5;
+
+/// Points per aggregate at δ ≈ 3Δx (32 measured on the 16³ lattice: 3,840 free points, 118
+/// aggregates): each level has 6/(3·32) = 1/16 of the unknowns of the level above.
+const POINTS_PER_AGGREGATE: u64 = 32;
+
+/// Planned memory of AMG on the one-hop operator (bytes), printed by `peridyn check`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MultigridMemory {
+    /// The one-hop operator (also the hierarchy's finest level).
+    pub operator: u64,
+    /// Everything else the hierarchy holds: prolongators, restrictions, coarse operators,
+    /// smoothers, the coarsest LU factors and the V-cycle's workspace.
+    pub hierarchy: u64,
+}
+
+/// The memory of AMG for `points` points with `bonds` directed bonds (every dof counted as
+/// an unknown, so prescribed dofs make it an overestimate by their share, twice: rows and
+/// columns):
+///
+/// * one-hop operator: n₀ = 3N rows and one 3×3 block per bond and per point,
+///   nnz₀ = 9(B + N) entries of 16 bytes (an 8-byte value and an 8-byte column) plus
+///   8(n₀ + 1) bytes of row offsets;
+/// * hierarchy: [`TRANSFER_AND_COARSE_FRACTION`] × the operator's bytes for the
+///   prolongators, restrictions and coarse operators; 88 bytes a point for the finest
+///   smoother (an inverted 3×3 block and two offsets); the dense LU of the coarsest level,
+///   8n² + 8n bytes, where n is n₀ divided by 16 ([`POINTS_PER_AGGREGATE`]) until it is at
+///   most [`COARSE_UNKNOWNS`].
+/// * V-cycle workspace: per level the residual and four smoother vectors of its unknowns and
+///   the next level's right-hand side and correction, Σ ≈ 5.5 n₀ with each level 1/16 of the
+///   one above; planned as 6 vectors of n₀, 48 n₀ bytes.
+///
+/// Assembly briefly holds the operator's rows twice (rows collected in parallel, then
+/// copied into one CSR); the previous hierarchy is dropped before a new one is built.
+pub fn multigrid_memory_estimate(points: u64, bonds: u64) -> MultigridMemory {
+    let unknowns = 3 * points;
+    let entries = 9 * (bonds + points);
+    let operator = 16 * entries + 8 * (unknowns + 1);
+    let mut coarsest = unknowns;
+    while coarsest > COARSE_UNKNOWNS as u64 {
+        coarsest = coarsest * 6 / (3 * POINTS_PER_AGGREGATE);
+    }
+    let hierarchy = (TRANSFER_AND_COARSE_FRACTION * operator as f64) as u64
+        + 88 * points
+        + 8 * coarsest * coarsest
+        + 8 * coarsest
+        + 8 * 6 * unknowns;
+    MultigridMemory {
+        operator,
+        hierarchy,
+    }
+}
 
 /// One level above the coarsest.
 #[derive(Debug, Clone)]
@@ -59,6 +119,64 @@ pub struct Amg {
     levels: Vec<Level>,
     coarsest_operator: Csr,
     coarsest: Coarsest,
+    /// The vectors a V-cycle works in, sized at setup so that [`Amg::apply`] allocates
+    /// nothing. A `RefCell` because applying M⁻¹ is logically read-only (`&self`, as the
+    /// Krylov methods' preconditioner callback is `Fn`); one application runs at a time.
+    workspace: RefCell<Workspace>,
+}
+
+/// The vectors of one V-cycle.
+#[derive(Debug, Clone)]
+struct Workspace {
+    /// One per level above the coarsest, finest first.
+    levels: Vec<LevelWork>,
+    /// The coarsest level's smoother scratch (empty when the coarsest is solved by LU).
+    coarsest: Scratch,
+}
+
+/// The vectors of one level above the coarsest.
+#[derive(Debug, Clone)]
+struct LevelWork {
+    /// b − A x, then the prolongated coarse correction (the level's unknowns).
+    residual: Vec<f64>,
+    /// The restricted residual: the next level's right-hand side.
+    coarse_b: Vec<f64>,
+    /// The next level's correction.
+    coarse_x: Vec<f64>,
+    /// The level's smoother scratch.
+    smoothing: Scratch,
+}
+
+impl Workspace {
+    fn new(levels: &[Level], coarsest: &Coarsest, coarsest_operator: &Csr) -> Self {
+        Self {
+            levels: levels
+                .iter()
+                .map(|level| LevelWork {
+                    residual: vec![0.0; level.operator.nrows],
+                    coarse_b: vec![0.0; level.restriction.nrows],
+                    coarse_x: vec![0.0; level.restriction.nrows],
+                    smoothing: Scratch::new(level.operator.nrows),
+                })
+                .collect(),
+            coarsest: Scratch::new(match coarsest {
+                Coarsest::Lu(_) => 0,
+                Coarsest::Smoother(_) => coarsest_operator.nrows,
+            }),
+        }
+    }
+
+    fn memory_bytes(&self) -> usize {
+        let levels: usize = self
+            .levels
+            .iter()
+            .map(|l| {
+                8 * (l.residual.len() + l.coarse_b.len() + l.coarse_x.len())
+                    + l.smoothing.memory_bytes()
+            })
+            .sum();
+        levels + self.coarsest.memory_bytes()
+    }
 }
 
 impl Amg {
@@ -117,10 +235,12 @@ impl Amg {
         } else {
             Coarsest::Smoother(Chebyshev::new(&operator, &groups)?)
         };
+        let workspace = RefCell::new(Workspace::new(&levels, &coarsest, &operator));
         Ok(Self {
             levels,
             coarsest_operator: operator,
             coarsest,
+            workspace,
         })
     }
 
@@ -142,6 +262,30 @@ impl Amg {
         total as f64 / finest as f64
     }
 
+    /// Bytes the hierarchy holds: every level's operator (the finest is the one-hop operator
+    /// it was built on), prolongator, restriction and smoother, the coarsest solve and the
+    /// V-cycle's workspace.
+    pub fn memory_bytes(&self) -> usize {
+        let levels: usize = self
+            .levels
+            .iter()
+            .map(|l| {
+                l.operator.memory_bytes()
+                    + l.prolongator.memory_bytes()
+                    + l.restriction.memory_bytes()
+                    + l.smoother.memory_bytes()
+            })
+            .sum();
+        let coarsest = match &self.coarsest {
+            Coarsest::Lu(lu) => lu.memory_bytes(),
+            Coarsest::Smoother(smoother) => smoother.memory_bytes(),
+        };
+        levels
+            + self.coarsest_operator.memory_bytes()
+            + coarsest
+            + self.workspace.borrow().memory_bytes()
+    }
+
     /// A one-line summary for the log, e.g. `AMG, 3 levels (36000 → 912 unknowns, operator
     /// complexity 1.21)`.
     pub fn describe(&self) -> String {
@@ -157,36 +301,59 @@ impl Amg {
         )
     }
 
-    /// z = M⁻¹ r: one V-cycle from z = 0.
+    /// z = M⁻¹ r: one V-cycle from z = 0, in the hierarchy's workspace (no allocation).
     pub fn apply(&self, r: &[f64], z: &mut [f64]) {
         z.fill(0.0);
-        self.cycle(0, r, z);
+        let mut workspace = self.workspace.borrow_mut();
+        let Workspace { levels, coarsest } = &mut *workspace;
+        self.cycle(0, r, z, levels, coarsest);
     }
 
-    fn cycle(&self, depth: usize, b: &[f64], x: &mut [f64]) {
+    /// One V-cycle on level `depth` from the guess x; `work` holds the workspace of this
+    /// level and the coarser ones.
+    fn cycle(
+        &self,
+        depth: usize,
+        b: &[f64],
+        x: &mut [f64],
+        work: &mut [LevelWork],
+        coarsest_scratch: &mut Scratch,
+    ) {
         let Some(level) = self.levels.get(depth) else {
             match &self.coarsest {
                 Coarsest::Lu(lu) => lu.solve(b, x),
-                Coarsest::Smoother(smoother) => smoother.smooth(&self.coarsest_operator, b, x),
+                Coarsest::Smoother(smoother) => {
+                    smoother.smooth(&self.coarsest_operator, b, x, coarsest_scratch)
+                }
             }
             return;
         };
+        let (mine, coarser) = work
+            .split_first_mut()
+            .expect("the workspace has one entry per level above the coarsest");
         let a = &level.operator;
-        level.smoother.smooth(a, b, x);
-        let mut residual = vec![0.0; b.len()];
-        a.multiply_parallel(x, &mut residual);
-        residual.iter_mut().zip(b).for_each(|(r, b)| *r = b - *r);
-        let mut coarse_b = vec![0.0; level.restriction.nrows];
+        level.smoother.smooth(a, b, x, &mut mine.smoothing);
+        a.multiply_parallel(x, &mut mine.residual);
+        mine.residual
+            .iter_mut()
+            .zip(b)
+            .for_each(|(r, b)| *r = b - *r);
         level
             .restriction
-            .multiply_parallel(&residual, &mut coarse_b);
-        let mut coarse_x = vec![0.0; coarse_b.len()];
-        self.cycle(depth + 1, &coarse_b, &mut coarse_x);
+            .multiply_parallel(&mine.residual, &mut mine.coarse_b);
+        mine.coarse_x.fill(0.0);
+        self.cycle(
+            depth + 1,
+            &mine.coarse_b,
+            &mut mine.coarse_x,
+            coarser,
+            coarsest_scratch,
+        );
         level
             .prolongator
-            .multiply_parallel(&coarse_x, &mut residual);
-        x.iter_mut().zip(&residual).for_each(|(x, c)| *x += c);
-        level.smoother.smooth(a, b, x);
+            .multiply_parallel(&mine.coarse_x, &mut mine.residual);
+        x.iter_mut().zip(&mine.residual).for_each(|(x, c)| *x += c);
+        level.smoother.smooth(a, b, x, &mut mine.smoothing);
     }
 }
 
