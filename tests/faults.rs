@@ -5,7 +5,6 @@
 //! naming what changed).
 #![cfg(unix)]
 
-use std::os::unix::process::CommandExt;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -198,8 +197,16 @@ fn a_full_disk_is_exit_code_6_naming_the_file() {
 /// file at half the size of the complete one. Exit code 6, and the file opens with peridyn's
 /// reader holding the frames completed before the failure, each equal bit for bit to the
 /// complete run's frame.
+///
+/// Only in a build without MPI: a binary with MPI (features `mpi`, `trilinos`, `petsc`) starts
+/// it even on one process, and OpenMPI's start-up (PMIx) writes shared-memory files larger than
+/// the limit, so MPI_Init aborts before the run begins. The `/dev/full` test above covers a
+/// full disk in those builds.
 #[test]
+#[cfg(not(any(feature = "mpi", feature = "trilinos", feature = "petsc")))]
 fn a_disk_full_part_way_keeps_the_earlier_frames_readable() {
+    use std::os::unix::process::CommandExt;
+
     let dir = tempfile::tempdir().unwrap();
     bar_deck(dir.path(), "");
     let (code, stderr) = run(dir.path(), "complete");

@@ -315,13 +315,14 @@ fn a_nan_condition_on_one_ranks_points_stops_every_rank_with_its_exit_code() {
 fn a_failure_on_rank_zero_alone_stops_every_rank() {
     // The results file cannot be created (a folder has its name): only rank 0 opens files,
     // so only rank 0 fails; the others must learn of it at the next collective, stop, and
-    // stay quiet. `timeout` would exit with 124 on a hang.
+    // stay quiet. `timeout` would exit with 124 on a hang. A results file that cannot be
+    // written is exit code 6 (README, "Restart and interruptions").
     let dir = tempfile::tempdir().unwrap();
     let deck = bar_deck(dir.path(), "Elastic");
     std::fs::create_dir_all(dir.path().join("out/bar.e")).unwrap();
     let output = mpirun(dir.path(), 3, &["run", deck, "--output-dir", "out"]);
     let log = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(1), "{log}");
+    assert_eq!(output.status.code(), Some(6), "{log}");
     assert_eq!(log.matches("error: ").count(), 1, "{log}");
     assert!(log.contains("bar.e"), "{log}");
 }
