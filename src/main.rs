@@ -206,7 +206,8 @@ fn run(
     peridyn::io::output_folder::prepare(output_dir)
         .map_err(|e| Failure::WithCode(peridyn::io::output_folder::EXIT_CODE, e.to_string()))?;
     let model = build(&deck)?;
-    setup::validate(&deck, &model).map_err(invalid)?;
+    // The checks `check` makes, in the same order; the plan's fields size the restart files.
+    let plan = setup::plan(&deck, &model).map_err(invalid)?;
     let unsupported = setup::unsupported_features(&deck);
     if !unsupported.is_empty() {
         return Err(Failure::Unsupported(format!(
@@ -222,7 +223,7 @@ fn run(
         model.points.len(),
         model.bonds.num_bonds()
     );
-    warn_of_disk_space(&deck, &model, output_dir)?;
+    warn_of_disk_space(&deck, &model, &plan.fields, output_dir)?;
     install_stop_handlers()?;
     match simulation::run(&deck, &model, output_dir) {
         Ok(summary) => {
@@ -242,9 +243,13 @@ fn run(
 /// Warns, as `check` does, when the results and restart files will not fit in the free space
 /// of the output folder's file system (the run still starts: the estimate may be pessimistic,
 /// and space may be freed while it runs).
-fn warn_of_disk_space(deck: &deck::Deck, model: &peridyn::model::Model, dir: &Path) -> Result<()> {
-    let fields = setup::plan(deck, model).map_err(invalid)?.fields;
-    let disk = setup::disk::disk_plan(deck, model, &fields, dir).map_err(invalid)?;
+fn warn_of_disk_space(
+    deck: &deck::Deck,
+    model: &peridyn::model::Model,
+    fields: &[peridyn::plan::FieldPlan],
+    dir: &Path,
+) -> Result<()> {
+    let disk = setup::disk::disk_plan(deck, model, fields, dir).map_err(invalid)?;
     if let Some(warning) = setup::disk::warning(&disk) {
         eprintln!("warning: {warning}");
     }
