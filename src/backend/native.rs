@@ -27,7 +27,7 @@ use std::str::FromStr;
 
 pub use amg::{
     multigrid_memory_estimate, one_hop_operator, pmb_micromodulus, rigid_body_modes, Amg,
-    MultigridMemory, OneHopInput, COARSE_UNKNOWNS,
+    MultigridMemory, OneHopInput, Stencil, COARSE_UNKNOWNS, NEAREST_SHELLS,
 };
 pub use direct::{SparseCholesky, SparseLu};
 pub use krylov::{

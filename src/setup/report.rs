@@ -356,7 +356,7 @@ pub(super) fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
     let used = used_declarations(deck, model);
     let physics = physics_plan(deck, model, &used);
     let fields = field_plans(model, &used, physics.contact);
-    let memory = memory_plans(deck, model, &fields, physics.state_based, physics.implicit);
+    let memory = memory_plans(deck, model, &fields, physics.state_based);
     let mut outputs = Vec::new();
     for output in &deck.outputs {
         let variables = requested_variables(deck, output)?;
@@ -547,7 +547,6 @@ fn memory_plans(
     model: &Model,
     fields: &[FieldPlan],
     state_based: bool,
-    implicit: bool,
 ) -> Vec<MemoryPlan> {
     let n = model.points.len() as u64;
     let bonds = model.bonds.num_bonds() as u64;
@@ -579,8 +578,12 @@ fn memory_plans(
             "tangent matrix (blocks + CSR)",
             blocks * (9 * 8 + 4) + blocks * 9 * 16 + 8 * (4 * n + 2),
         ));
-    } else if implicit {
-        // Jacobian-free Newton–Krylov keeps only the 3×3 diagonal blocks.
+    } else if deck.solvers.iter().any(|s| {
+        crate::backend::factory::matrix_free_preconditioner(s)
+            .is_some_and(|p| p != crate::io::deck::LinearPreconditioner::Amg)
+    }) {
+        // Jacobian-free Newton–Krylov with block 3×3 keeps only the 3×3 diagonal blocks (with
+        // AMG the hierarchy below holds its own).
         memory.push(("block-diagonal tangent (Jacobian-free)", n * 9 * 8));
     }
     if let Some(vectors) = deck

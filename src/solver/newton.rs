@@ -347,7 +347,7 @@ fn correct(
                 matrix.multiply_parallel(v, y);
                 Ok(())
             };
-            let precondition = |r: &[f64], z: &mut [f64]| amg.apply(r, z);
+            let precondition = |r: &[f64], z: &mut [f64]| amg.apply_additive(r, z);
             let krylov_method = match method {
                 NativeMethod::Gmres => gmres_matrix_free,
                 _ => cg_matrix_free,

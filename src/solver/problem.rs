@@ -7,7 +7,9 @@
 //! of [`ImplicitSystem::residual`]; every evaluation first refreshes the ghosts, and failures
 //! and reductions are agreed over the ranks through the [`Collective`].
 
-use crate::backend::native::{one_hop_operator, pmb_micromodulus, rigid_body_modes, OneHopInput};
+use crate::backend::native::{
+    one_hop_operator, pmb_micromodulus, rigid_body_modes, OneHopInput, Stencil,
+};
 use crate::backend::problem::{Evaluation, NonlinearProblem, PreconditioningOperator};
 use crate::backend::{Csr, SolveError};
 use crate::model::Model;
@@ -397,6 +399,7 @@ impl NonlinearProblem for PhysicsProblem<'_> {
             diagonal_shift: mass.as_deref(),
             dof_index: &system.dofs.index,
             unknowns: system.dofs.len(),
+            stencil: Stencil::Nearest,
         });
         Ok(Some(PreconditioningOperator {
             matrix,

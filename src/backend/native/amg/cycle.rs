@@ -50,6 +50,11 @@ impl Chebyshev {
         })
     }
 
+    /// z = D⁻¹ r with the level's inverted diagonal blocks.
+    pub fn block_jacobi(&self, r: &[f64], z: &mut [f64]) {
+        self.block_jacobi.apply(r, z);
+    }
+
     /// Bytes held (the inverted diagonal blocks).
     pub fn memory_bytes(&self) -> usize {
         self.block_jacobi.memory_bytes()
