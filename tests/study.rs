@@ -273,3 +273,61 @@ fn an_unknown_key_path_is_invalid_input_naming_it_and_the_line() {
     );
     assert!(!dir.path().join("study_bar").exists(), "nothing ran");
 }
+
+#[test]
+fn stable_dt_brackets_the_measured_stability_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    write_deck(dir.path());
+    let args = ["study", "bar.yaml", "--stable-dt", "--output-dir", "dt"];
+    let output = peridyn(&args, dir.path());
+    let stdout = text(&output.stdout);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let (header, rows) = read_csv(&dir.path().join("dt/stable_dt.csv"));
+    let (factor, dt, status, reason) = (
+        column(&header, "Safety Factor"),
+        column(&header, "dt_s"),
+        column(&header, "status"),
+        column(&header, "reason"),
+    );
+    let value = |row: &Vec<String>, k: usize| row[k].parse::<f64>().unwrap();
+    let stable: Vec<&Vec<String>> = rows.iter().filter(|r| r[status] == "stable").collect();
+    let unstable: Vec<&Vec<String>> = rows.iter().filter(|r| r[status] == "unstable").collect();
+    assert!(!stable.is_empty() && !unstable.is_empty(), "{rows:?}");
+    let low = stable.iter().map(|r| value(r, dt)).fold(0.0, f64::max);
+    let high = unstable
+        .iter()
+        .map(|r| value(r, dt))
+        .fold(f64::INFINITY, f64::min);
+    let (low_factor, high_factor) = (
+        stable.iter().map(|r| value(r, factor)).fold(0.0, f64::max),
+        unstable
+            .iter()
+            .map(|r| value(r, factor))
+            .fold(f64::INFINITY, f64::min),
+    );
+    // Bisection to the default tolerance of 2 %.
+    assert!(
+        low < high && (high_factor - low_factor) / low_factor <= 0.02,
+        "{rows:?}"
+    );
+    // Velocity Verlet on ρü = −Ku is stable for Δt < 2/ω_max. The monitor's message of an
+    // unstable trial quotes 2/ω_max measured by power iteration on the undeformed body
+    // (src/solver/stability.rs: an upper bound within a few per cent), so the bracket found by
+    // running must hold it, widened by those few per cent.
+    let quoted = &unstable[0][reason];
+    let measured: f64 = quoted
+        .split("the largest stable step is ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|number| number.parse().ok())
+        .unwrap_or_else(|| panic!("no measured step in {quoted}"));
+    assert!(
+        0.97 * low <= measured && measured <= 1.03 * high,
+        "bracket {low:e}..{high:e} s, measured {measured:e} s"
+    );
+    assert!(
+        stdout.contains("largest stable Safety Factor: between"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("Silling–Askari estimate"), "{stdout}");
+}

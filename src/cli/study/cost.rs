@@ -99,6 +99,8 @@ pub struct LogSummary {
     pub points: Option<u64>,
     /// The run's error message, when it failed.
     pub error: Option<String>,
+    /// The stable time step estimate of the first Verlet list (`stable estimate X s`).
+    pub stable_estimate: Option<f64>,
     /// The files the run wrote (`wrote PATH`), in order.
     pub files: Vec<std::path::PathBuf>,
 }
@@ -107,6 +109,12 @@ pub struct LogSummary {
 pub fn read_log(text: &str) -> LogSummary {
     let mut summary = LogSummary::default();
     for line in text.lines() {
+        if let Some((_, rest)) = line.split_once("(stable estimate ") {
+            if summary.stable_estimate.is_none() {
+                summary.stable_estimate =
+                    rest.split_whitespace().next().and_then(|e| e.parse().ok());
+            }
+        }
         if let Some(rest) = line.strip_prefix("done: ") {
             summary.steps = rest.split_whitespace().next().and_then(|n| n.parse().ok());
         } else if let Some(rest) = line.strip_prefix("wrote ") {
@@ -161,11 +169,13 @@ mod tests {
     #[test]
     fn the_log_gives_steps_points_and_the_error() {
         let log = "bar.yaml: 250 points, 4000 bonds\n\
+                   Solver: Verlet, Δt = 1e-6 s (stable estimate 1.25e-6 s, safety factor 0.8), 9 steps\n\
                    done: 123 steps in 0.01 s (+ 0.00 s output), 0 bonds broken\n\
                    wrote out/bar.e\n";
         let summary = read_log(log);
         assert_eq!(summary.steps, Some(123));
         assert_eq!(summary.points, Some(250));
+        assert_eq!(summary.stable_estimate, Some(1.25e-6));
         assert_eq!(summary.error, None);
         assert_eq!(summary.files, [std::path::PathBuf::from("out/bar.e")]);
         let failed = read_log("bar.yaml: 8 points, 0 bonds\nerror: the run became unstable\n");

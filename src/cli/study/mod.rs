@@ -25,6 +25,7 @@ mod grid;
 mod measure;
 mod plot;
 mod runner;
+mod stable;
 mod table;
 
 use std::path::PathBuf;
@@ -60,6 +61,14 @@ pub struct StudyArgs {
     /// Folder of the study's runs, CSV and plots (default: `study_<deck name>`).
     #[arg(long)]
     pub output_dir: Option<PathBuf>,
+    /// Instead of a grid: find the largest stable time step of an explicit deck by bisection
+    /// on its Safety Factor (the run's stability monitor decides), against the stable estimate.
+    #[arg(long, conflicts_with_all = ["vary", "measure"])]
+    pub stable_dt: bool,
+    /// `--stable-dt`: stop when the stable and unstable Safety Factors differ by less than
+    /// this fraction.
+    #[arg(long, default_value_t = 0.02)]
+    pub tolerance: f64,
 }
 
 /// Why a study could not be carried out.
@@ -77,6 +86,9 @@ pub enum StudyError {
 pub fn main(args: &StudyArgs) -> Result<String, StudyError> {
     let input = StudyError::Input;
     let deck = deck::load(&args.deck).map_err(|e| input(e.to_string()))?;
+    if args.stable_dt {
+        return stable_dt(args, &deck);
+    }
     let section = deck.study.clone().unwrap_or_default();
     let mut variations = section.variations.clone();
     let mut given = Vec::new();
@@ -127,22 +139,7 @@ pub fn main(args: &StudyArgs) -> Result<String, StudyError> {
     if threads == 0 || jobs == 0 {
         return Err(input("--threads and --jobs must be at least 1".to_string()));
     }
-    let folder = args.output_dir.clone().unwrap_or_else(|| {
-        let stem = args
-            .deck
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("deck");
-        PathBuf::from(format!("study_{stem}"))
-    });
-    std::fs::create_dir_all(&folder).map_err(|e| {
-        StudyError::Output(format!(
-            "{}: cannot create the folder: {e}",
-            folder.display()
-        ))
-    })?;
-    let executable = std::env::current_exe()
-        .map_err(|e| StudyError::Output(format!("cannot find the peridyn executable: {e}")))?;
+    let (folder, executable) = prepare(args)?;
     let variants = grid::product(&variations);
     eprintln!(
         "study: {} variant(s) of {}, {jobs} at a time, {threads} thread(s) each, in {}",
@@ -217,6 +214,69 @@ pub fn main(args: &StudyArgs) -> Result<String, StudyError> {
             ));
         }
     }
+    Ok(report)
+}
+
+/// The study's folder (created) and the `peridyn` executable the variants run.
+fn prepare(args: &StudyArgs) -> Result<(PathBuf, PathBuf), StudyError> {
+    let folder = args.output_dir.clone().unwrap_or_else(|| {
+        let stem = args
+            .deck
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("deck");
+        PathBuf::from(format!("study_{stem}"))
+    });
+    std::fs::create_dir_all(&folder).map_err(|e| {
+        StudyError::Output(format!(
+            "{}: cannot create the folder: {e}",
+            folder.display()
+        ))
+    })?;
+    let executable = std::env::current_exe()
+        .map_err(|e| StudyError::Output(format!("cannot find the peridyn executable: {e}")))?;
+    Ok((folder, executable))
+}
+
+/// `--stable-dt`: the bisection of [`stable`], its table, `stable_dt.csv` and the bracket.
+fn stable_dt(args: &StudyArgs, deck: &deck::Deck) -> Result<String, StudyError> {
+    let path = stable::safety_factor_path(deck).map_err(StudyError::Input)?;
+    if !(args.tolerance > 0.0 && args.tolerance < 1.0) {
+        return Err(StudyError::Input(format!(
+            "--tolerance {}: give a fraction between 0 and 1, e.g. 0.02",
+            args.tolerance
+        )));
+    }
+    let threads = args.threads.unwrap_or(1);
+    if threads == 0 {
+        return Err(StudyError::Input(
+            "--threads must be at least 1".to_string(),
+        ));
+    }
+    let (folder, executable) = prepare(args)?;
+    eprintln!(
+        "study: largest stable Safety Factor of {} ({}), in {}",
+        args.deck.display(),
+        path.join(" → "),
+        folder.display()
+    );
+    let setup = runner::Setup {
+        executable,
+        deck: &args.deck,
+        folder: &folder,
+        threads,
+        variations: &[],
+        measures: &[],
+    };
+    let trials = stable::search(&setup, &path, args.tolerance)?;
+    let table = stable::table(&trials);
+    let csv = folder.join("stable_dt.csv");
+    std::fs::write(&csv, table.csv())
+        .map_err(|e| StudyError::Output(format!("{}: cannot write: {e}", csv.display())))?;
+    let mut report = table.render();
+    report.push('\n');
+    report.push_str(&stable::summary(&trials));
+    report.push_str(&format!("wrote {}\n", csv.display()));
     Ok(report)
 }
 

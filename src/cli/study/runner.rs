@@ -41,6 +41,8 @@ pub struct Outcome {
     pub cost: Cost,
     /// Points of the body (from the run's log).
     pub points: Option<u64>,
+    /// The Silling–Askari stable time step estimate of an explicit run (s, from its log).
+    pub stable_estimate: Option<f64>,
     /// Each measure's value, or why it could not be read.
     pub values: Vec<Result<f64, String>>,
     /// Why the variant failed (`None`: it ran to the end and every value is finite).
@@ -82,6 +84,7 @@ pub fn run_one(setup: &Setup, variant: Variant) -> Outcome {
         folder: folder.clone(),
         cost: Cost::default(),
         points: None,
+        stable_estimate: None,
         values: Vec::new(),
         failure: None,
     };
@@ -120,6 +123,7 @@ pub fn run_one(setup: &Setup, variant: Variant) -> Outcome {
     let log = cost::read_log(&std::fs::read_to_string(&log_path).unwrap_or_default());
     outcome.cost.steps = log.steps;
     outcome.points = log.points;
+    outcome.stable_estimate = log.stable_estimate;
     let (newton, krylov) =
         solver_csv(&folder).map_or((None, None), |p| cost::solver_iterations(&p));
     outcome.cost.newton_iterations = newton;

@@ -36,7 +36,7 @@ pub struct Table {
 pub fn number(value: Option<f64>) -> String {
     match value {
         None => String::new(),
-        Some(v) if v == 0.0 => "0".to_string(),
+        Some(0.0) => "0".to_string(),
         Some(v) if v.is_nan() => "NaN".to_string(),
         Some(v) if (1e-3..1e5).contains(&v.abs()) => format!("{}", round_significant(v, 4)),
         Some(v) => format!("{v:.3e}"),
