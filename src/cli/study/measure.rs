@@ -347,6 +347,74 @@ mod tests {
         assert_eq!(reference(None, &[(None, None)]), None);
     }
 
+    /// Three points; node set `Right_Node_Set` = points 2 and 3; `DisplacementX` and the
+    /// tensile-test globals in two frames. Frame 1: gauge points at y = ±1 (L₀ = 2) moved by
+    /// ±0.001 (ε = 1e-3) under a grip reaction of −4e8 on A = 0.2 (σ = 2e9): E = 2e12.
+    fn results(dir: &std::path::Path) -> ExodusFile {
+        use peridyn::io::exodus::{ExodusWriter, OutputBlock, OutputLayout, OutputNodeSet};
+        let globals: Vec<String> = [
+            "Gage_Top_Initial_Position",
+            "Gage_Bottom_Initial_Position",
+            "Gage_Top_Displacement",
+            "Gage_Bottom_Displacement",
+            "Top_Reaction_Force",
+        ]
+        .iter()
+        .flat_map(|name| ["X", "Y", "Z"].map(|c| format!("{name}{c}")))
+        .collect();
+        let layout = OutputLayout {
+            title: "study measures".to_string(),
+            node_ids: vec![1, 2, 3],
+            coordinates: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
+            blocks: vec![OutputBlock {
+                id: 1,
+                name: "block_1".to_string(),
+                nodes: vec![0, 1, 2],
+                undefined: Vec::new(),
+            }],
+            node_sets: vec![OutputNodeSet {
+                id: 1,
+                name: "Right_Node_Set".to_string(),
+                nodes: vec![1, 2],
+            }],
+            nodal_variables: vec!["DisplacementX".to_string()],
+            element_variables: Vec::new(),
+            global_variables: globals,
+        };
+        let path = dir.join("run.e");
+        let mut writer = ExodusWriter::create(&path, &layout).unwrap();
+        let still = [
+            0.0, 1.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+        ];
+        writer.write_frame(0.0, &[&[0.0; 3]], &[], &still).unwrap();
+        let pulled = [
+            0.0, 1.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.001, 0.0, 0.0, -0.001, 0.0, 0.0, -4e8, 0.0,
+        ];
+        writer
+            .write_frame(1.0, &[&[0.0, 0.3, 0.6]], &[], &pulled)
+            .unwrap();
+        writer.finish().unwrap();
+        ExodusFile::open(&path).unwrap()
+    }
+
+    #[test]
+    fn measures_are_read_at_the_final_frame() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = results(dir.path());
+        let value = |text: &str| Measure::parse(text, text).unwrap().evaluate(&file);
+        assert_eq!(value("global:Top_Reaction_ForceY").unwrap(), -4e8);
+        assert_eq!(value("global:top_reaction_forcey").unwrap(), -4e8);
+        // (0.3 + 0.6) / 2 over the set, (0 + 0.3 + 0.6) / 3 over all points.
+        assert!((value("mean:DisplacementX@Right Node Set").unwrap() - 0.45).abs() < 1e-15);
+        assert!((value("mean:DisplacementX").unwrap() - 0.3).abs() < 1e-15);
+        let modulus = value("modulus:0.2").unwrap();
+        assert!((modulus / 2e12 - 1.0).abs() < 1e-12, "{modulus}");
+        let missing = value("global:Kinetic").unwrap_err();
+        assert!(missing.contains("Top_Reaction_ForceY"), "{missing}");
+        let no_set = value("mean:DisplacementX@Left").unwrap_err();
+        assert!(no_set.contains("Right_Node_Set"), "{no_set}");
+    }
+
     #[test]
     fn the_error_is_relative_unless_the_reference_is_zero() {
         assert!((error(1.1, 1.0) - 0.1).abs() < 1e-15);

@@ -167,6 +167,7 @@ impl PartialEq for Deck {
             && self.outputs == other.outputs
             && self.compute_classes == other.compute_classes
             && self.data_loader == other.data_loader
+            && self.study == other.study
     }
 }
 
