@@ -46,11 +46,18 @@ enum Command {
         /// for NOXQuasiStatic in a build with the feature) or `petsc` (feature `petsc`).
         #[arg(long, value_enum)]
         backend: Option<BackendChoice>,
+        /// Change one deck value before the run: `KEY PATH=VALUE`, keys in the deck's
+        /// spelling joined by `.` (e.g. `Solver.Verlet.Safety Factor=0.5`); may be repeated.
+        #[arg(long = "set", value_name = "KEY PATH=VALUE")]
+        set: Vec<String>,
     },
     /// Validate a deck and print the run plan: sizes, physics, fields, memory, time step.
     Check {
         /// The input deck.
         deck: PathBuf,
+        /// Change one deck value before checking, as `run --set` does; may be repeated.
+        #[arg(long = "set", value_name = "KEY PATH=VALUE")]
+        set: Vec<String>,
         /// Print the plan as one JSON object.
         #[arg(long)]
         json: bool,
@@ -83,6 +90,9 @@ enum Command {
     Modulus(cli::modulus::ModulusArgs),
     /// Write the roadmap's dog-bone tensile specimen: points, node sets and a deck.
     Dogbone(cli::dogbone::DogboneArgs),
+    /// Run a deck over a grid of variations; report cost and error per variant (table, CSV,
+    /// PNG plots of error against wall time).
+    Study(cli::study::StudyArgs),
 }
 
 /// `peridyn run --backend`.
@@ -129,13 +139,22 @@ fn invalid(error: impl std::fmt::Display) -> anyhow::Error {
     Failure::InvalidInput(error.to_string()).into()
 }
 
-fn load(path: &Path) -> Result<deck::Deck> {
-    deck::load(path).map_err(|e: DeckError| invalid(e))
+fn load(path: &Path, set: &[String]) -> Result<deck::Deck> {
+    let overrides = set
+        .iter()
+        .map(|text| deck::Override::parse(text).map_err(|e| invalid(format!("--set {e}"))))
+        .collect::<Result<Vec<_>>>()?;
+    deck::load_with(path, &overrides).map_err(|e: DeckError| invalid(e))
 }
 
-/// Loads a deck and applies `peridyn run --backend` to its implicit solver lists.
-fn load_with_backend(path: &Path, backend: Option<BackendChoice>) -> Result<deck::Deck> {
-    let mut deck = load(path)?;
+/// Loads a deck with the `--set` overrides and applies `peridyn run --backend` to its
+/// implicit solver lists.
+fn load_with_backend(
+    path: &Path,
+    set: &[String],
+    backend: Option<BackendChoice>,
+) -> Result<deck::Deck> {
+    let mut deck = load(path, set)?;
     if let Some(choice) = backend {
         let backend = match choice {
             BackendChoice::Native => deck::LinearBackend::Native,
@@ -163,8 +182,8 @@ fn build(deck: &deck::Deck) -> Result<peridyn::model::Model> {
     setup::build(deck).map_err(|e: SetupError| invalid(e))
 }
 
-fn check(path: &Path, json: bool, output_dir: &Path) -> Result<()> {
-    let deck = load(path)?;
+fn check(path: &Path, set: &[String], json: bool, output_dir: &Path) -> Result<()> {
+    let deck = load(path, set)?;
     let model = build(&deck)?;
     let plan = setup::plan(&deck, &model).map_err(invalid)?;
     let disk = setup::disk::disk_plan(&deck, &model, &plan.fields, output_dir).map_err(invalid)?;
@@ -178,6 +197,7 @@ fn check(path: &Path, json: bool, output_dir: &Path) -> Result<()> {
 
 fn run(
     path: &Path,
+    set: &[String],
     output_dir: &Path,
     threads: Option<usize>,
     backend: Option<BackendChoice>,
@@ -197,10 +217,10 @@ fn run(
         use peridyn::parallel::Communicator;
         let comm = peridyn::parallel::MpiCommunicator::world();
         if comm.size() > 1 {
-            return run_on_ranks(path, output_dir, backend, &comm);
+            return run_on_ranks(path, set, output_dir, backend, &comm);
         }
     }
-    let deck = load_with_backend(path, backend)?;
+    let deck = load_with_backend(path, set, backend)?;
     print_warnings(&deck);
     // Before the body is built: a folder the run cannot write to fails at once.
     peridyn::io::output_folder::prepare(output_dir)
@@ -288,11 +308,12 @@ fn check_thread_count(threads: usize) -> Result<()> {
 #[cfg(feature = "mpi")]
 fn run_on_ranks(
     path: &Path,
+    set: &[String],
     output_dir: &Path,
     backend: Option<BackendChoice>,
     comm: &dyn peridyn::parallel::Communicator,
 ) -> Result<()> {
-    let result = run_on_ranks_collectively(path, output_dir, backend, comm);
+    let result = run_on_ranks_collectively(path, set, output_dir, backend, comm);
     let code = match &result {
         Ok(()) => return result,
         Err(error) => {
@@ -310,6 +331,7 @@ fn run_on_ranks(
 #[cfg(feature = "mpi")]
 fn run_on_ranks_collectively(
     path: &Path,
+    set: &[String],
     output_dir: &Path,
     backend: Option<BackendChoice>,
     comm: &dyn peridyn::parallel::Communicator,
@@ -324,7 +346,7 @@ fn run_on_ranks_collectively(
             Failure::Quiet(exit_code(&error)).into()
         }
     };
-    let deck = load_with_backend(path, backend).map_err(shared)?;
+    let deck = load_with_backend(path, set, backend).map_err(shared)?;
     if rank == 0 {
         print_warnings(&deck);
     }
@@ -460,12 +482,14 @@ fn main() -> ExitCode {
             output_dir,
             threads,
             backend,
-        } => run(deck, output_dir, *threads, *backend),
+            set,
+        } => run(deck, set, output_dir, *threads, *backend),
         Command::Check {
             deck,
+            set,
             json,
             output_dir,
-        } => check(deck, *json, output_dir),
+        } => check(deck, set, *json, output_dir),
         Command::Diff {
             a,
             b,
@@ -480,6 +504,12 @@ fn main() -> ExitCode {
         Command::Dogbone(args) => cli::dogbone::main(args)
             .map_err(invalid)
             .and_then(|summary| emit(&summary)),
+        Command::Study(args) => cli::study::main(args)
+            .map_err(|e| match e {
+                cli::study::StudyError::Input(message) => invalid(message),
+                other => anyhow::Error::msg(other.to_string()),
+            })
+            .and_then(|table| emit(&table)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -3,3 +3,4 @@
 pub mod bench;
 pub mod dogbone;
 pub mod modulus;
+pub mod study;

@@ -3,7 +3,7 @@
 //! plotters draws text only through a font library (`ttf`: font-kit and the system's
 //! fontconfig; `ab_glyph`: a font file to embed) and panics without one, so the plot draws its
 //! few characters itself: digits, `.`, `-`, `+`, `=`, `e`, and the letters of "strain",
-//! "stress" and "E". No font file, no system library; the same pixels on every machine.
+//! "stress", "E" and (for `peridyn study`) "wall s" and "error". No font file, no system library; the same pixels on every machine.
 
 /// Rows of a glyph, top to bottom; bit 4 is the leftmost of the 5 columns.
 type Glyph = [u8; 7];
@@ -33,6 +33,9 @@ pub fn glyph(c: char) -> Option<Glyph> {
         'i' => [0x04, 0x00, 0x0C, 0x04, 0x04, 0x04, 0x0E],
         'n' => [0x00, 0x00, 0x16, 0x19, 0x11, 0x11, 0x11],
         'E' => [0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x1F],
+        'w' => [0x00, 0x00, 0x11, 0x11, 0x15, 0x15, 0x0A],
+        'l' => [0x0C, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E],
+        'o' => [0x00, 0x00, 0x0E, 0x11, 0x11, 0x11, 0x0E],
         _ => return None,
     })
 }
@@ -64,7 +67,7 @@ mod tests {
 
     #[test]
     fn every_tick_label_character_has_a_glyph() {
-        for c in "0123456789.-+=e strain stress E"
+        for c in "0123456789.-+=e strain stress E wall s error"
             .chars()
             .filter(|c| *c != ' ')
         {

@@ -13,9 +13,9 @@
 //! The unloaded frame (ε = 0 and F = 0, the initial state) is skipped; a frame with ε = 0
 //! under load has no modulus and is an error.
 
-mod glyphs;
-mod history;
-mod plot;
+pub mod glyphs;
+pub mod history;
+pub mod plot;
 
 use std::path::PathBuf;
 

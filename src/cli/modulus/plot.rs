@@ -11,7 +11,7 @@ use super::Sample;
 /// Image size in pixels.
 const SIZE: (u32, u32) = (800, 600);
 /// Font pixel size in image pixels.
-const SCALE: i32 = 2;
+pub const SCALE: i32 = 2;
 
 /// Round tick values covering [0, max]: steps of 1, 2 or 5 × 10^k, four to eight of them,
 /// each written in Rust's shortest form (`0`, `2e-3`, `1e9`).
@@ -39,7 +39,7 @@ fn ticks(max: f64) -> Vec<(f64, String)> {
 }
 
 /// Draws `text` with its top-left corner at `at` (image pixels).
-fn label(
+pub fn label(
     root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
     text: &str,
     at: (i32, i32),
@@ -57,7 +57,7 @@ fn label(
 }
 
 /// Width of `text` in image pixels.
-fn width(text: &str) -> i32 {
+pub fn width(text: &str) -> i32 {
     text.chars().count() as i32 * glyphs::ADVANCE * SCALE
 }
 

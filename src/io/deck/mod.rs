@@ -22,9 +22,11 @@ mod discretization;
 mod error;
 mod materials;
 mod output;
+mod overrides;
 mod parameters;
 mod reader;
 mod solver;
+mod study;
 mod tree;
 mod xml;
 mod yaml;
@@ -49,6 +51,7 @@ pub use materials::{
     Material, MaterialModel, PalsInfluence, PlanarKind,
 };
 pub use output::{CalculationType, ComputeClass, ComputeClassKind, Output};
+pub use overrides::{split_key_path, Override};
 pub use parameters::ParameterValue;
 pub use solver::{
     parse_petsc_options, AdaptiveLoadStepping, AlgebraicPreconditioner, BelosSettings, BelosSolver,
@@ -56,6 +59,7 @@ pub use solver::{
     LinearSolve, LoadSteps, NoxQuasiStatic, PeridigmPreconditioner, PetscPreconditioner,
     QuasiStatic, SolveFor, Solver, SwitchToVerlet, Verlet,
 };
+pub use study::{split_values, Study, Variation};
 
 use reader::{suggest, Ctx, Field, ListReader};
 use tree::NodeKind;
@@ -128,6 +132,8 @@ pub struct Deck {
     pub compute_classes: Vec<ComputeClass>,
     /// `Data Loader`; default none.
     pub data_loader: Option<DataLoader>,
+    /// `Study`: the variations `peridyn study` runs; `run` and `check` ignore it. Default none.
+    pub study: Option<Study>,
     /// Accepted keys that have no effect, and other remarks, each as `file:line: path: text`.
     pub warnings: Vec<String>,
     lines: HashMap<Vec<String>, usize>,
@@ -161,6 +167,7 @@ impl PartialEq for Deck {
             && self.outputs == other.outputs
             && self.compute_classes == other.compute_classes
             && self.data_loader == other.data_loader
+            && self.study == other.study
     }
 }
 
@@ -210,6 +217,12 @@ impl Deck {
 
 /// Reads and checks the deck at `path`; the format comes from the extension.
 pub fn load(path: &Path) -> Result<Deck, DeckError> {
+    load_with(path, &[])
+}
+
+/// [`load`] with `overrides` applied to the deck's values before it is checked
+/// (`peridyn run --set`, the variants of `peridyn study`).
+pub fn load_with(path: &Path, overrides: &[Override]) -> Result<Deck, DeckError> {
     let format = DeckFormat::from_path(path).ok_or_else(|| DeckError::UnknownFormat {
         file: path.to_path_buf(),
     })?;
@@ -217,17 +230,33 @@ pub fn load(path: &Path) -> Result<Deck, DeckError> {
         file: path.to_path_buf(),
         source,
     })?;
-    parse_str(&text, format, path)
+    parse_str_with(&text, format, path, overrides)
 }
 
 /// Parses and checks deck text; `origin` names the file in messages and anchors relative paths.
 pub fn parse_str(text: &str, format: DeckFormat, origin: &Path) -> Result<Deck, DeckError> {
+    parse_str_with(text, format, origin, &[])
+}
+
+/// [`parse_str`] with `overrides` applied to the parsed values before they are checked.
+pub fn parse_str_with(
+    text: &str,
+    format: DeckFormat,
+    origin: &Path,
+    overrides: &[Override],
+) -> Result<Deck, DeckError> {
     // Editors on Windows may start a UTF-8 file with a byte-order mark; it is not content.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let (root, parse_warnings) = match format {
+    let (mut root, parse_warnings) = match format {
         DeckFormat::Yaml => yaml::parse(text, origin)?,
         DeckFormat::Xml => xml::parse(text, origin)?,
     };
+    if !overrides.is_empty() {
+        let line = root.line;
+        if let NodeKind::List(entries) = &mut root.kind {
+            overrides::apply(entries, line, overrides, origin)?;
+        }
+    }
     let entries = match &root.kind {
         NodeKind::List(entries) => entries.as_slice(),
         NodeKind::Scalar(_) => unreachable!("both parsers return a list as the root"),
@@ -259,6 +288,7 @@ const TOP_LEVEL: &[&str] = &[
     "Data Loader",
     "Solver",
     "Output",
+    "Study",
 ];
 
 fn named_lists<T>(
@@ -318,6 +348,7 @@ fn empty_deck(ctx: &Ctx, format: DeckFormat) -> Deck {
         outputs: Vec::new(),
         compute_classes: Vec::new(),
         data_loader: None,
+        study: None,
         warnings: Vec::new(),
         lines: HashMap::new(),
     }
@@ -346,6 +377,7 @@ fn read_top_entry(ctx: &mut Ctx, deck: &mut Deck, f: &Field) -> Result<(), DeckE
             deck.compute_classes = named_lists(ctx, f, "compute class", output::read_compute_class)?
         }
         "Data Loader" => deck.data_loader = Some(read_data_loader(ctx, f)?),
+        "Study" => deck.study = Some(study::read(ctx, f)?),
         // Read by Peridigm's parameter list but used by no model it ships (the bond-associated
         // correspondence models read their own keys).
         "Enable Bond-Associated Hypoelastic Model" => {
