@@ -3,6 +3,7 @@
 //! | solver list | PETSc |
 //! |---|---|
 //! | `QuasiStatic`, `Implicit` | peridyn's Newton; each correction a KSP solve ([`super::linear`]) |
+//! | `QuasiStatic`, `Implicit` with `Nonlinear Solver: "SNES"` | SNES `newtonls` on the assembled tangent ([`super::snes`]), the same KSP and PC |
 //! | `NOXQuasiStatic` | SNES `newtonls` ([`super::snes`]); `Jacobian Operator: "Matrix-Free"` with `Peridigm Preconditioner` `Block 3x3` or `None` is `-snes_mf_operator` with the 3×3 block diagonal as preconditioning matrix, with `AMG` the one-hop operator and its rigid-body near-null space (PC GAMG unless `Linear Solver Preconditioner` or `-pc_type` says otherwise, e.g. `Hypre`) |
 //!
 //! `Linear Solver Preconditioner: "AMG"` on the assembled paths (`QuasiStatic`, `Implicit`,
@@ -22,7 +23,9 @@ use super::options::DeckOptions;
 use super::snes::{self, SnesJacobian};
 use crate::backend::factory::matrix_free_preconditioner;
 use crate::backend::native::KrylovSettings;
-use crate::io::deck::{Integrator, LinearBackend, LinearMethod, LinearPreconditioner, Solver};
+use crate::io::deck::{
+    Integrator, LinearBackend, LinearMethod, LinearPreconditioner, NonlinearMethod, Solver,
+};
 
 /// The PETSc settings of `solver` (a list with `Backend: "PETSc"`) for a system of `unknowns`
 /// unknowns (which decides `Automatic`); `None` for a list on another backend.
@@ -80,10 +83,17 @@ pub fn snes_jacobian(solver: &Solver) -> SnesJacobian {
     }
 }
 
-/// True when PETSc's SNES solves `solver` (a `NOXQuasiStatic` list on PETSc).
+/// True when PETSc's SNES solves `solver`: a `NOXQuasiStatic` list on PETSc, or a
+/// `QuasiStatic` or `Implicit` list on PETSc with `Nonlinear Solver: "SNES"`.
 pub fn runs_on_snes(solver: &Solver) -> bool {
-    matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
-        && matches!(solver.linear_solve.backend, LinearBackend::Petsc { .. })
+    matches!(solver.linear_solve.backend, LinearBackend::Petsc { .. })
+        && match solver.integrator {
+            Integrator::NoxQuasiStatic(_) => true,
+            Integrator::QuasiStatic(_) | Integrator::Implicit(_) => {
+                solver.linear_solve.nonlinear_method == NonlinearMethod::Snes
+            }
+            _ => false,
+        }
 }
 
 /// Sets up `solver`'s PETSc objects with its options, without a matrix: their description
