@@ -119,3 +119,33 @@ pub fn resolve(solver: &Solver, unknowns: usize) -> Option<Result<String, String
     };
     Some(result.map_err(|e| e.message))
 }
+
+/// How `solver` runs on several MPI ranks, for `peridyn check`: the solver PETSc resolves (as
+/// [`resolve`]) on `MPI_COMM_WORLD` over a `MATMPIAIJ` of each rank's rows, and what its
+/// preconditioner does with them (block Jacobi: one ILU block per rank; the one-hop operator of
+/// `Peridigm Preconditioner: "AMG"`: the couplings inside each rank only). `None` for a list on
+/// another backend or one whose options PETSc refuses.
+pub fn on_ranks(solver: &Solver, unknowns: usize) -> Option<String> {
+    let resolved = resolve(solver, unknowns)?.ok()?;
+    let multigrid_operator =
+        runs_on_snes(solver) && snes_jacobian(solver) == SnesJacobian::MatrixFreeMultigrid;
+    let pc = resolved
+        .split(" + PC ")
+        .nth(1)
+        .and_then(|rest| rest.split([',', ' ']).next())
+        .unwrap_or("");
+    let preconditioner = match pc {
+        "bjacobi" => "block Jacobi, one ILU block per rank",
+        "lu" | "cholesky" => "MUMPS factors across the ranks",
+        "none" => "no preconditioner",
+        _ => "the preconditioner works across the ranks",
+    };
+    let operator = if multigrid_operator {
+        "; the one-hop operator keeps the couplings inside each rank only"
+    } else {
+        ""
+    };
+    Some(format!(
+        "{resolved} on MPI_COMM_WORLD (a MATMPIAIJ of each rank's rows): {preconditioner}{operator}; iteration counts change with the rank count"
+    ))
+}
