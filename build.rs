@@ -101,6 +101,17 @@ mod petsc {
         "SNESGetFunction",
         "SNESGetJacobian",
         "MatMFFDSetFunction",
+        "MatCreateMPIAIJWithArrays",
+        "MatSetValues",
+        "MatMult",
+        "VecCreateMPI",
+        "VecCreateMPIWithArray",
+        "VecDuplicate",
+        "VecNorm",
+        "VecAYPX",
+        "AOCreateMapping",
+        "AOApplicationToPetsc",
+        "AODestroy",
     ];
 
     /// Include and link directories of PETSc and MPI.
@@ -120,7 +131,10 @@ mod petsc {
         }
         let found = discover();
         let mut builder = bindgen::Builder::default()
-            .header_contents("peridyn_petsc.h", "#include <petscsnes.h>\n")
+            .header_contents(
+                "peridyn_petsc.h",
+                "#include <petscsnes.h>\n#include <petscao.h>\n",
+            )
             .allowlist_recursively(true)
             // rsmpi's `MPI_Comm` is the one the rest of the program holds: the same type, so
             // its communicators pass straight through.

@@ -151,6 +151,10 @@ pub struct ParallelPlan {
     pub families: String,
     /// Why the deck cannot run on several ranks, when it cannot.
     pub refused: Option<String>,
+    /// How each solver list on the PETSc backend runs on several ranks (`Solver: PETSc KSP cg +
+    /// PC bjacobi on MPI_COMM_WORLD …`), the resolved solver and what its preconditioner does
+    /// with each rank's rows.
+    pub solvers: Vec<String>,
 }
 
 /// The explicit stable time step.
@@ -436,6 +440,9 @@ impl RunPlan {
                     writeln!(f, "  exchanged        {data}")?;
                 }
                 writeln!(f, "  families         {}", p.families)?;
+                for solver in &p.solvers {
+                    writeln!(f, "  solver           {solver}")?;
+                }
             }
         }
         Ok(())

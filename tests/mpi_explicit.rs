@@ -267,7 +267,7 @@ fn implicit_solvers_are_refused_on_two_ranks_before_any_message() {
     let output = mpirun(dir.path(), 2, &["run", "qs.yaml", "--output-dir", "out"]);
     let log = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success());
-    let expected = "solver \"Solver\": QuasiStatic on 2 ranks needs the Trilinos backend (QuasiStatic, NOXQuasiStatic or Implicit with Backend \"Trilinos\", or `peridyn run --backend trilinos`, in a build with the features mpi and trilinos); the native backend runs on one rank";
+    let expected = "solver \"Solver\": QuasiStatic on 2 ranks needs the Trilinos or PETSc backend (QuasiStatic, NOXQuasiStatic or Implicit with Backend \"Trilinos\" or \"PETSc\", or `peridyn run --backend trilinos` or `--backend petsc`, in a build with the feature mpi and that backend's feature); the native backend runs on one rank";
     assert_eq!(log.matches(expected).count(), 1, "{log}");
 }
 

@@ -558,6 +558,35 @@ fn check_shows_the_resolved_solver_and_run_warns_about_unused_options() {
 }
 
 #[test]
+fn check_shows_how_the_petsc_solver_runs_on_several_ranks() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bar.yaml");
+    for (keys, integrator, expected) in [
+        (
+            "    Backend: \"PETSc\"\n    Linear Solver: \"CG\"",
+            quasi_static(),
+            "solver           Solver: PETSc KSP cg + PC bjacobi on MPI_COMM_WORLD (a MATMPIAIJ of each rank's rows): block Jacobi, one ILU block per rank;",
+        ),
+        (
+            "    Backend: \"PETSc\"\n    Linear Solver: \"Direct\"",
+            quasi_static(),
+            "PETSc KSP preonly + PC lu on MPI_COMM_WORLD (a MATMPIAIJ of each rank's rows): MUMPS factors across the ranks;",
+        ),
+        (
+            "    Backend: \"PETSc\"\n    Peridigm Preconditioner: \"AMG\"\n    Linear Solver: \"GMRES\"",
+            nox_quasi_static("            Jacobian Operator: \"Matrix-Free\""),
+            "KSP gmres + PC gamg, -snes_mf_operator, PC built on the one-hop operator with the rigid-body near-null space on MPI_COMM_WORLD (a MATMPIAIJ of each rank's rows): the preconditioner works across the ranks; the one-hop operator keeps the couplings inside each rank only;",
+        ),
+    ] {
+        std::fs::write(&path, bar(keys, &integrator)).unwrap();
+        let (code, log) = run_cli(&["check", path.to_str().unwrap()]);
+        assert_eq!(code, Some(0), "{log}");
+        let section = log.split("on several MPI ranks").nth(1).unwrap_or("");
+        assert!(section.contains(expected), "{keys}: {log}");
+    }
+}
+
+#[test]
 fn backend_petsc_on_the_command_line_runs_implicit_lists_on_petsc() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bar.yaml");

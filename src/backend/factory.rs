@@ -5,17 +5,19 @@
 //! | solver list                     | `Backend: "Native"`             | `Backend: "Trilinos"`        | `Backend: "PETSc"`             |
 //! |---------------------------------|---------------------------------|------------------------------|--------------------------------|
 //! | `QuasiStatic`, `Implicit`       | peridyn Newton, native linear   | peridyn Newton, Belos        | peridyn Newton, KSP            |
+//! | … with `Nonlinear Solver: "SNES"` | refused (needs PETSc)         | refused (needs PETSc)        | SNES Newton, KSP               |
 //! | `NOXQuasiStatic`                | peridyn Newton (JFNK or native) | Trilinos NOX                 | SNES (Newton or JFNK)          |
 //! | `Verlet`                        | explicit, any rank count        | explicit, any rank count     | explicit, any rank count       |
 //!
-//! On several ranks every implicit list needs `Backend: "Trilinos"` in a build with the
-//! feature `trilinos` (the distributed linear and nonlinear solves are Trilinos'; the PETSc
-//! backend solves on one process); the Trilinos backend has no direct linear solver. The solver modules build the objects
-//! ([`crate::solver::linear`]); this module only decides.
+//! On several ranks every implicit list needs `Backend: "Trilinos"` or `Backend: "PETSc"` in a
+//! build with that feature (the distributed linear and nonlinear solves are Trilinos' Belos
+//! and NOX, or PETSc's KSP and SNES on `MATMPIAIJ`); the native backend solves on one
+//! process. The Trilinos backend has no direct linear solver. The solver modules build the
+//! objects ([`crate::solver::linear`]); this module only decides.
 
 use super::Unsupported;
 use crate::io::deck::{
-    Integrator, LinearBackend, LinearMethod, LinearPreconditioner, ParameterValue,
+    Integrator, LinearBackend, LinearMethod, LinearPreconditioner, NonlinearMethod, ParameterValue,
     PeridigmPreconditioner, Solver,
 };
 
@@ -26,16 +28,28 @@ pub enum NonlinearBackend {
     Newton,
     /// Trilinos NOX (`NOXQuasiStatic` on the Trilinos backend).
     Nox,
-    /// PETSc SNES (`NOXQuasiStatic` on the PETSc backend).
+    /// PETSc SNES (`NOXQuasiStatic` on the PETSc backend, `Nonlinear Solver: "SNES"`).
     Snes,
 }
 
-/// The nonlinear backend of `solver`: NOX for `NOXQuasiStatic` on the Trilinos backend,
-/// otherwise peridyn's Newton. Fails when the choice needs a feature this build lacks.
+/// The nonlinear backend of `solver`: NOX for `NOXQuasiStatic` on the Trilinos backend, SNES
+/// for `NOXQuasiStatic` on the PETSc backend and for `QuasiStatic` and `Implicit` lists with
+/// `Nonlinear Solver: "SNES"`, otherwise peridyn's Newton. Fails when the choice needs a
+/// feature this build lacks, or SNES is asked for on another backend.
 pub fn nonlinear_backend(solver: &Solver) -> Result<NonlinearBackend, Unsupported> {
-    if matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
-        && matches!(solver.linear_solve.backend, LinearBackend::Petsc { .. })
-    {
+    let on_petsc = matches!(solver.linear_solve.backend, LinearBackend::Petsc { .. });
+    let snes_asked = solver.linear_solve.nonlinear_method == NonlinearMethod::Snes
+        && matches!(
+            solver.integrator,
+            Integrator::QuasiStatic(_) | Integrator::Implicit(_)
+        );
+    if snes_asked && !on_petsc {
+        return Err(Unsupported(format!(
+            "solver \"{}\": Nonlinear Solver \"SNES\" is PETSc's: give Backend \"PETSc\" (or `peridyn run --backend petsc`), or remove the key for peridyn's Newton",
+            solver.name
+        )));
+    }
+    if snes_asked || (matches!(solver.integrator, Integrator::NoxQuasiStatic(_)) && on_petsc) {
         if !cfg!(feature = "petsc") {
             return Err(petsc_not_built(solver));
         }
@@ -89,13 +103,15 @@ pub fn check_trilinos_method(solver: &Solver) -> Result<(), Unsupported> {
     }
 }
 
-/// Refuses an implicit list on `ranks` > 1 ranks unless the Trilinos backend, built in,
-/// solves it; `Verlet` runs on any number of ranks.
+/// Refuses an implicit list on `ranks` > 1 ranks unless the Trilinos or PETSc backend, built
+/// in, solves it; `Verlet` runs on any number of ranks.
 pub fn check_ranks(solver: &Solver, ranks: usize) -> Result<(), Unsupported> {
+    let backend = &solver.linear_solve.backend;
     let distributable = match solver.integrator {
         Integrator::Verlet(_) => true,
         Integrator::QuasiStatic(_) | Integrator::NoxQuasiStatic(_) | Integrator::Implicit(_) => {
-            on_trilinos(&solver.linear_solve.backend) && cfg!(feature = "trilinos")
+            (on_trilinos(backend) && cfg!(feature = "trilinos"))
+                || (matches!(backend, LinearBackend::Petsc { .. }) && cfg!(feature = "petsc"))
         }
         Integrator::ImplicitDiffusion(_) => false,
     };
@@ -103,8 +119,8 @@ pub fn check_ranks(solver: &Solver, ranks: usize) -> Result<(), Unsupported> {
         return Ok(());
     }
     Err(Unsupported(format!(
-        "solver \"{}\": {} on {ranks} ranks needs the Trilinos backend (QuasiStatic, NOXQuasiStatic or Implicit with Backend \"Trilinos\", \
-         or `peridyn run --backend trilinos`, in a build with the features mpi and trilinos); the native backend runs on one rank",
+        "solver \"{}\": {} on {ranks} ranks needs the Trilinos or PETSc backend (QuasiStatic, NOXQuasiStatic or Implicit with Backend \"Trilinos\" or \"PETSc\", \
+         or `peridyn run --backend trilinos` or `--backend petsc`, in a build with the feature mpi and that backend's feature); the native backend runs on one rank",
         solver.name,
         solver.integrator.deck_name()
     )))

@@ -321,7 +321,7 @@ fn two_hop_nonzero_blocks(model: &Model) -> u64 {
 
 /// What a run of `deck` on several ranks holds and exchanges (see
 /// [`crate::simulation::run_distributed`]).
-fn parallel_plan(deck: &Deck, explicit: bool, implicit: bool) -> ParallelPlan {
+fn parallel_plan(deck: &Deck, model: &Model, explicit: bool, implicit: bool) -> ParallelPlan {
     let mut exchanged = Vec::new();
     if explicit {
         exchanged.push("ghost positions, every explicit step (3 f64 per ghost)".to_string());
@@ -348,7 +348,26 @@ fn parallel_plan(deck: &Deck, explicit: bool, implicit: bool) -> ParallelPlan {
         refused: crate::parallel::check_distributable(deck, 2)
             .err()
             .map(|e| e.to_string()),
+        solvers: deck
+            .solvers
+            .iter()
+            .filter_map(|solver| {
+                petsc_on_ranks(solver, model).map(|how| format!("{}: {how}", solver.name))
+            })
+            .collect(),
     }
+}
+
+/// How a `Backend: "PETSc"` list runs on several ranks (`None` for other lists, or when PETSc
+/// refuses its settings, which the solver section reports).
+#[cfg(feature = "petsc")]
+fn petsc_on_ranks(solver: &crate::io::deck::Solver, model: &Model) -> Option<String> {
+    crate::backend::petsc::deck::on_ranks(solver, 3 * model.points.len())
+}
+
+#[cfg(not(feature = "petsc"))]
+fn petsc_on_ranks(_solver: &crate::io::deck::Solver, _model: &Model) -> Option<String> {
+    None
 }
 
 /// Builds the plan for a model set up from `deck` (validated by [`super::plan`]).
@@ -381,7 +400,7 @@ pub(super) fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
         unsupported: unsupported_features(deck),
         blocks: block_plans(deck, model),
         node_sets: node_set_plans(model),
-        parallel: parallel_plan(deck, physics.explicit, physics.implicit),
+        parallel: parallel_plan(deck, model, physics.explicit, physics.implicit),
         physics,
         fields,
         memory_total: memory.iter().map(|m| m.bytes).sum(),

@@ -474,8 +474,8 @@ impl Run<'_> {
     }
 
     /// One quasi-static solver list: the load steps of [`crate::solver::quasistatic`], on N
-    /// ranks with Trilinos NOX (`NOXQuasiStatic`) or peridyn's Newton with distributed Belos
-    /// solves (`QuasiStatic`) over the owned unknowns, the ghosts refreshed before every
+    /// ranks with Trilinos NOX or PETSc SNES (`NOXQuasiStatic`) or peridyn's Newton with
+    /// distributed Belos or KSP solves (`QuasiStatic`) over the owned unknowns, the ghosts refreshed before every
     /// residual evaluation. An unconverged step continues explicitly with `Switch to Verlet`.
     fn quasi_static(
         &mut self,
@@ -637,8 +637,9 @@ impl Run<'_> {
     }
 
     /// One `Implicit` (Newmark-β) solver list: the steps of [`crate::solver::newmark`] with
-    /// peridyn's Newton, on N ranks with distributed Belos solves over the owned unknowns, the
-    /// ghosts refreshed before every residual evaluation.
+    /// peridyn's Newton (or PETSc's SNES with `Nonlinear Solver: "SNES"`), on N ranks with
+    /// distributed Belos or KSP solves over the owned unknowns, the ghosts refreshed before
+    /// every residual evaluation.
     fn newmark(
         &mut self,
         solver: &Solver,
@@ -648,7 +649,7 @@ impl Run<'_> {
     ) -> Result<(), RunError> {
         let settings = newmark_settings(solver, implicit)
             .map_err(|error| collective(self.ranks.communicator(), error))?;
-        let mut linear = linear::strategy(solver, self.model, physics)
+        let mut nonlinear = linear::nonlinear_solver(solver, self.model, physics)
             .map_err(|error| collective(self.ranks.communicator(), error.into()))?;
         if self.root() {
             eprintln!(
@@ -659,7 +660,7 @@ impl Run<'_> {
                 settings.time_step,
                 settings.steps,
                 self.on_ranks(),
-                linear.describe()
+                nonlinear.describe()
             );
         }
         state.time = solver.initial_time;
@@ -672,7 +673,7 @@ impl Run<'_> {
             physics,
             state,
             &settings,
-            &mut linear,
+            nonlinear.as_mut(),
             ranks,
             |physics, state, ranks, step, report| -> Result<(), RunError> {
                 self.summary.steps += 1;

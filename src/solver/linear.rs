@@ -16,7 +16,8 @@
 //!   (`TrilinosLinearSolver`) with the Ifpack/ML preconditioner of the deck.
 //! * `Backend: "PETSc"` (feature `petsc`): `NOXQuasiStatic` is solved by SNES
 //!   ([`super::snes_newton`]); `QuasiStatic` and `Implicit` hand their assembled tangent to a
-//!   KSP (`PetscLinearSolver`) configured by the deck's keys and `PETSc Options`.
+//!   KSP (`PetscLinearSolver`) configured by the deck's keys and `PETSc Options`, or with
+//!   `Nonlinear Solver: "SNES"` are solved by SNES too. Both run on N MPI ranks.
 
 use crate::backend::factory::{self, matrix_free_preconditioner, NonlinearBackend};
 use crate::backend::native::{

@@ -5,7 +5,8 @@
 //! * unknown u_{n+1} with `a = (u − ũ)/(βΔt²)`, `v = ṽ + γΔt a`; prescribed displacements
 //!   follow their increments g(t_{n+1}) − g(t_n) **every step** (Peridigm applies them only at
 //!   t = 0, its issue #23), so at those dofs a and v follow from the prescribed motion;
-//! * equilibrium `V(f_int(u) + b − ρ a) = 0` over the free dofs by Newton, with the consistent
+//! * equilibrium `V(f_int(u) + b − ρ a) = 0` over the free dofs by Newton (peridyn's, or
+//!   PETSc's SNES with `Nonlinear Solver: "SNES"`), with the consistent
 //!   stiffness `K = K_int + Vρ/(βΔt²) I` (force units in residual and matrix alike; Peridigm
 //!   mixes force density and force, reference §5.2);
 //! * convergence: Peridigm's measure `βΔt²·‖f + b − ρa‖₂` (force density) ≤ `Absolute
@@ -21,9 +22,7 @@ use crate::model::Model;
 use crate::physics::Physics;
 use crate::solver::collective::{any_failed, Collective};
 use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem, Inertia};
-use crate::solver::newton::{
-    self, ConvergenceMeasure, LinearStrategy, NewtonReport, NewtonSettings,
-};
+use crate::solver::newton::{ConvergenceMeasure, NewtonReport, NewtonSettings, NonlinearSolver};
 use crate::solver::problem::Physical;
 use crate::state::State;
 
@@ -94,7 +93,7 @@ pub fn run<E: From<NewmarkError>>(
     physics: &mut Physics,
     state: &mut State,
     settings: &NewmarkSettings,
-    linear: &mut LinearStrategy,
+    nonlinear: &mut dyn NonlinearSolver,
     collective: &mut dyn Collective,
     mut on_step: impl FnMut(&Physics, &State, &mut dyn Collective, u64, &NewtonReport) -> Result<(), E>,
 ) -> Result<(), E> {
@@ -158,13 +157,14 @@ pub fn run<E: From<NewmarkError>>(
             collective,
             constrained: &constrained,
         };
-        let report = newton::solve(parts, linear, &newton_settings).map_err(|source| {
-            NewmarkError::Solve {
-                step,
-                time: to,
-                source,
-            }
-        })?;
+        let report =
+            nonlinear
+                .solve(parts, &newton_settings)
+                .map_err(|source| NewmarkError::Solve {
+                    step,
+                    time: to,
+                    source,
+                })?;
         let measure = *report.residual_history.last().unwrap_or(&f64::INFINITY);
         if !report.converged {
             return Err(NewmarkError::NotConverged {

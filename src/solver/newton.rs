@@ -240,7 +240,8 @@ pub fn solve(
 /// held points, residual evaluations) are left for the caller, which knows the physics.
 ///
 /// On several ranks the correction comes from a distributed assembled solve
-/// ([`LinearSolver::solve_distributed`], the Trilinos backend) over the problem's global ids.
+/// ([`LinearSolver::solve_distributed`], the Trilinos or PETSc backend) over the problem's
+/// global ids.
 pub fn solve_problem(
     problem: &mut dyn NonlinearProblem,
     linear: &mut LinearStrategy,
@@ -250,7 +251,7 @@ pub fn solve_problem(
     if problem.ranks() > 1 && !matches!(linear, LinearStrategy::Assembled(_)) {
         return Err(SolveError::Breakdown {
             method: "Newton",
-            reason: "on several ranks peridyn's Newton solves its corrections with Backend \"Trilinos\" (Belos)".into(),
+            reason: "on several ranks peridyn's Newton solves its corrections with Backend \"Trilinos\" (Belos) or \"PETSc\" (KSP)".into(),
         });
     }
     let mut report = NewtonReport::default();
@@ -329,10 +330,9 @@ fn correct(
         }
         LinearStrategy::Assembled(solver) => {
             let matrix = problem.jacobian(x)?;
-            if problem.ranks() == 1 {
-                if let Some((modes, count)) = problem.near_null_space() {
-                    solver.set_near_null_space(&modes, count);
-                }
+            // On several ranks the modes are this rank's rows (PETSc's GAMG takes them so).
+            if let Some((modes, count)) = problem.near_null_space() {
+                solver.set_near_null_space(&modes, count);
             }
             let result = match problem.global_ids() {
                 Some(rows) => solver.solve_distributed(rows, &matrix, &rhs, correction),

@@ -1,7 +1,11 @@
-//! `NOXQuasiStatic` through PETSc's SNES (feature `petsc`): each load step is solved by SNES
-//! Newton with a line search (or Jacobian-free, `-snes_mf_operator`) on the same residual the
-//! native and NOX solvers use (the one-residual rule, DESIGN §5); see
-//! [`crate::backend::petsc::snes`] for what SNES sees.
+//! PETSc's SNES as the nonlinear solver (feature `petsc`) of `NOXQuasiStatic` lists on the
+//! PETSc backend, and of `QuasiStatic` and `Implicit` (Newmark-β) lists that ask for it with
+//! `Nonlinear Solver: "SNES"`: each load step or time step is solved by SNES Newton with a
+//! line search (or Jacobian-free, `-snes_mf_operator`, for `NOXQuasiStatic` with
+//! `Jacobian Operator: "Matrix-Free"`) on the same residual the native and NOX solvers use (the
+//! one-residual rule, DESIGN §5), the Newmark inertia included; see
+//! [`crate::backend::petsc::snes`] for what SNES sees. On several ranks the SNES runs on
+//! `MPI_COMM_WORLD` over the owned unknowns, the ghosts refreshed inside every residual.
 //!
 //! As for NOX, the unknowns are the current coordinates of the free dofs (the matrix-free
 //! probes then move them by a relative amount PETSc's differencing parameter is made for), F
@@ -14,7 +18,7 @@ use crate::backend::petsc::snes::{self, SnesJacobian, SnesSettings};
 use crate::backend::petsc::PetscSettings;
 use crate::backend::problem::NonlinearProblem;
 use crate::backend::{SolveError, Unsupported};
-use crate::io::deck::{Integrator, Solver};
+use crate::io::deck::Solver;
 use crate::solver::newton::{NewtonReport, NewtonSettings, NonlinearSolver};
 use crate::solver::problem::{Origin, Physical, PhysicsProblem};
 use std::time::Instant;
@@ -28,12 +32,12 @@ pub struct SnesNewton {
 }
 
 impl SnesNewton {
-    /// The SNES solver of a `NOXQuasiStatic` list with `Backend: "PETSc"` over a model of
+    /// The SNES solver of a list PETSc's SNES runs ([`deck::runs_on_snes`]) over a model of
     /// `unknowns` dofs.
     pub fn from_deck(solver: &Solver, unknowns: usize) -> Result<Self, Unsupported> {
-        if !matches!(solver.integrator, Integrator::NoxQuasiStatic(_)) {
+        if !deck::runs_on_snes(solver) {
             return Err(Unsupported(format!(
-                "solver \"{}\": SNES runs NOXQuasiStatic lists only",
+                "solver \"{}\": SNES runs NOXQuasiStatic lists on Backend \"PETSc\", and QuasiStatic or Implicit lists there with Nonlinear Solver \"SNES\"",
                 solver.name
             )));
         }

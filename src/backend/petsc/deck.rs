@@ -3,6 +3,7 @@
 //! | solver list | PETSc |
 //! |---|---|
 //! | `QuasiStatic`, `Implicit` | peridyn's Newton; each correction a KSP solve ([`super::linear`]) |
+//! | `QuasiStatic`, `Implicit` with `Nonlinear Solver: "SNES"` | SNES `newtonls` on the assembled tangent ([`super::snes`]), the same KSP and PC |
 //! | `NOXQuasiStatic` | SNES `newtonls` ([`super::snes`]); `Jacobian Operator: "Matrix-Free"` with `Peridigm Preconditioner` `Block 3x3` or `None` is `-snes_mf_operator` with the 3×3 block diagonal as preconditioning matrix, with `AMG` the one-hop operator and its rigid-body near-null space (PC GAMG unless `Linear Solver Preconditioner` or `-pc_type` says otherwise, e.g. `Hypre`) |
 //!
 //! `Linear Solver Preconditioner: "AMG"` on the assembled paths (`QuasiStatic`, `Implicit`,
@@ -22,7 +23,9 @@ use super::options::DeckOptions;
 use super::snes::{self, SnesJacobian};
 use crate::backend::factory::matrix_free_preconditioner;
 use crate::backend::native::KrylovSettings;
-use crate::io::deck::{Integrator, LinearBackend, LinearMethod, LinearPreconditioner, Solver};
+use crate::io::deck::{
+    Integrator, LinearBackend, LinearMethod, LinearPreconditioner, NonlinearMethod, Solver,
+};
 
 /// The PETSc settings of `solver` (a list with `Backend: "PETSc"`) for a system of `unknowns`
 /// unknowns (which decides `Automatic`); `None` for a list on another backend.
@@ -80,10 +83,17 @@ pub fn snes_jacobian(solver: &Solver) -> SnesJacobian {
     }
 }
 
-/// True when PETSc's SNES solves `solver` (a `NOXQuasiStatic` list on PETSc).
+/// True when PETSc's SNES solves `solver`: a `NOXQuasiStatic` list on PETSc, or a
+/// `QuasiStatic` or `Implicit` list on PETSc with `Nonlinear Solver: "SNES"`.
 pub fn runs_on_snes(solver: &Solver) -> bool {
-    matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
-        && matches!(solver.linear_solve.backend, LinearBackend::Petsc { .. })
+    matches!(solver.linear_solve.backend, LinearBackend::Petsc { .. })
+        && match solver.integrator {
+            Integrator::NoxQuasiStatic(_) => true,
+            Integrator::QuasiStatic(_) | Integrator::Implicit(_) => {
+                solver.linear_solve.nonlinear_method == NonlinearMethod::Snes
+            }
+            _ => false,
+        }
 }
 
 /// Sets up `solver`'s PETSc objects with its options, without a matrix: their description
@@ -108,4 +118,34 @@ pub fn resolve(solver: &Solver, unknowns: usize) -> Option<Result<String, String
         PetscLinearSolver::new(settings).resolve()
     };
     Some(result.map_err(|e| e.message))
+}
+
+/// How `solver` runs on several MPI ranks, for `peridyn check`: the solver PETSc resolves (as
+/// [`resolve`]) on `MPI_COMM_WORLD` over a `MATMPIAIJ` of each rank's rows, and what its
+/// preconditioner does with them (block Jacobi: one ILU block per rank; the one-hop operator of
+/// `Peridigm Preconditioner: "AMG"`: the couplings inside each rank only). `None` for a list on
+/// another backend or one whose options PETSc refuses.
+pub fn on_ranks(solver: &Solver, unknowns: usize) -> Option<String> {
+    let resolved = resolve(solver, unknowns)?.ok()?;
+    let multigrid_operator =
+        runs_on_snes(solver) && snes_jacobian(solver) == SnesJacobian::MatrixFreeMultigrid;
+    let pc = resolved
+        .split(" + PC ")
+        .nth(1)
+        .and_then(|rest| rest.split([',', ' ']).next())
+        .unwrap_or("");
+    let preconditioner = match pc {
+        "bjacobi" => "block Jacobi, one ILU block per rank",
+        "lu" | "cholesky" => "MUMPS factors across the ranks",
+        "none" => "no preconditioner",
+        _ => "the preconditioner works across the ranks",
+    };
+    let operator = if multigrid_operator {
+        "; the one-hop operator keeps the couplings inside each rank only"
+    } else {
+        ""
+    };
+    Some(format!(
+        "{resolved} on MPI_COMM_WORLD (a MATMPIAIJ of each rank's rows): {preconditioner}{operator}; iteration counts change with the rank count"
+    ))
 }

@@ -17,12 +17,14 @@
 //! a cluster's own build; see `build.rs`. Debian 12's `libpetsc-real-dev` (PETSc 3.18) has
 //! MUMPS, hypre and GAMG, all used here.
 //!
-//! Initialisation, finalisation and the error handler are in [`runtime`]. The objects live on
-//! `MPI_COMM_SELF`: this backend solves on one process (several ranks need distributed
-//! assembly into `MATMPIAIJ`, not done yet; the factory refuses such runs with the Trilinos
-//! backend as the way out).
+//! Initialisation, finalisation and the error handler are in [`runtime`]. On one process the
+//! objects live on `MPI_COMM_SELF` over arrays peridyn owns; on several MPI ranks they live on
+//! `MPI_COMM_WORLD`: each rank's unknowns become a contiguous range of PETSc rows, the tangent
+//! a `MATMPIAIJ` of every rank's rows ([`layout`]), and KSP ([`linear`]) and SNES ([`snes`])
+//! run across the ranks, SNES calling the residual that refreshes the ghosts.
 
 pub mod deck;
+pub mod layout;
 pub mod linear;
 pub mod options;
 pub mod runtime;

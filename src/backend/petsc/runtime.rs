@@ -143,6 +143,13 @@ impl Turn {
         // SAFETY: reads rsmpi's handle of the predefined communicator, valid while MPI runs.
         unsafe { mpi::ffi::RSMPI_COMM_SELF }
     }
+
+    /// MPI_COMM_WORLD, the communicator of the objects of a system distributed over the ranks
+    /// (PETSc's `PETSC_COMM_WORLD`, which PETSc took from the running MPI).
+    pub fn comm_world(&self) -> sys::MPI_Comm {
+        // SAFETY: as above.
+        unsafe { mpi::ffi::RSMPI_COMM_WORLD }
+    }
 }
 
 /// True while PETSc objects may be destroyed (PETSc initialised and not yet finalised).

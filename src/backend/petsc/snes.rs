@@ -23,6 +23,14 @@
 //!   breaking only thin out) when [`NonlinearProblem::preconditioning_version`] changes, and
 //!   otherwise kept, so PETSc keeps the multigrid hierarchy across Newton iterations.
 //!
+//! On several MPI ranks ([`NonlinearProblem::ranks`] > 1) the SNES, its vectors and matrix live
+//! on `MPI_COMM_WORLD` over this rank's unknowns ([`super::layout`]): the assembled tangent
+//! arrives with global column ids and becomes a `MATMPIAIJ` (values copied in at each Jacobian
+//! request, `MatSetValues`); the 3×3 block diagonal and the one-hop operator are built over the
+//! rank's own unknowns, so on N ranks the one-hop operator drops the couplings between ranks (a
+//! weaker preconditioner of the same Newton operator). Every callback is collective: PETSc calls
+//! it on all ranks together, and the residual refreshes the ghosts first.
+//!
 //! The prescribed dofs are not unknowns of the problem (eliminated as on the other backends),
 //! so the near-null space is not built with `MatNullSpaceCreateRigidBody` (which needs a
 //! coordinate vector in the matrix's point-block layout) but from the problem's rigid-body
@@ -33,8 +41,11 @@
 //! PETSc unwinds its own stack with error codes, and [`solve`] returns the kept error itself.
 
 use std::ffi::c_void;
+
+use mpi::topology::{Communicator as _, SimpleCommunicator};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
+use super::layout::{sum_over_ranks, Columns, DistributedMatrix, Layout};
 use super::linear::{resolved_types, set_near_null_space, PetscSettings};
 use super::runtime::{check, owned_string, PetscError, Turn};
 use super::sys;
@@ -103,6 +114,9 @@ struct Context<'a> {
     columns: Vec<usize>,
     /// [`NonlinearProblem::preconditioning_version`] of the one-hop operator in `values`.
     operator_version: usize,
+    /// On several ranks, the `MATMPIAIJ` that `values` are copied into (PETSc cannot work on
+    /// them in place there).
+    distributed: Option<DistributedMatrix>,
     tolerance: f64,
     max_iterations: u64,
     history: Vec<f64>,
@@ -257,7 +271,7 @@ unsafe extern "C" fn form_jacobian(
         for (slot, &k) in c.values.iter_mut().zip(&c.order) {
             *slot = source[k];
         }
-        Ok(())
+        c.push_values()
     });
     if code != 0 {
         return code;
@@ -303,8 +317,20 @@ impl Context<'_> {
             &self.columns,
             &mut self.values,
         )?;
+        self.push_values()?;
         self.operator_version = version;
         Ok(true)
+    }
+
+    /// On several ranks, copies `values` into the distributed matrix (on one process PETSc
+    /// reads them in place).
+    fn push_values(&self) -> Result<(), SolveError> {
+        match &self.distributed {
+            Some(matrix) => matrix
+                .set_values(&self.values)
+                .map_err(|e| failure("filling the matrix", e)),
+            None => Ok(()),
+        }
     }
 }
 
@@ -443,14 +469,8 @@ pub fn solve(
     problem: &mut dyn NonlinearProblem,
     settings: &SnesSettings,
 ) -> Result<SnesReport, SolveError> {
-    if problem.ranks() > 1 {
-        return Err(SolveError::Breakdown {
-            method: "PETSc SNES",
-            reason:
-                "the PETSc backend solves on one process; on several ranks use Backend \"Trilinos\""
-                    .into(),
-        });
-    }
+    let distributed = problem.ranks() > 1;
+    let global_ids: Option<Vec<usize>> = problem.global_ids().map(<[usize]>::to_vec);
     let n = problem.len();
     let mut x = vec![0.0; n];
     problem.unknowns(&mut x);
@@ -472,7 +492,10 @@ pub fn solve(
         }
     };
     // Block size 3 (GAMG aggregates whole points) when every point kept its three unknowns.
-    let whole_points = problem.groups().windows(2).all(|g| g[1] - g[0] == 3);
+    let mut whole_points = problem.groups().windows(2).all(|g| g[1] - g[0] == 3);
+    if distributed {
+        whole_points = sum_over_ranks(f64::from(u8::from(!whole_points))) == 0.0;
+    }
     let mut order = Vec::with_capacity(pattern.nnz());
     for r in 0..n {
         let mut row: Vec<usize> = (pattern.offsets[r]..pattern.offsets[r + 1]).collect();
@@ -495,6 +518,7 @@ pub fn solve(
         .map(|&k| index(pattern.columns[k]))
         .collect::<Result<_, _>>()?;
     let rows = index(n)?;
+    let pattern_columns = pattern.ncols;
     let mut context = Context {
         problem: &mut *problem,
         jacobian: settings.jacobian,
@@ -503,6 +527,7 @@ pub fn solve(
         columns: order.iter().map(|&k| pattern.columns[k]).collect(),
         order,
         operator_version,
+        distributed: None,
         tolerance: settings.tolerance,
         max_iterations: settings.max_iterations,
         history: Vec::new(),
@@ -517,30 +542,69 @@ pub fn solve(
         residual: std::ptr::null_mut(),
     };
     let options = &settings.linear.options;
+    // On several ranks: the assembled tangent's columns are global ids, the block diagonal's
+    // and the one-hop operator's this rank's own unknowns.
+    let layout = match distributed {
+        true => {
+            let ids = match settings.jacobian {
+                SnesJacobian::Assembled => global_ids.as_deref(),
+                _ => None,
+            };
+            Some(Layout::new(&turn, n, ids).map_err(|e| failure("laying out the unknowns", e))?)
+        }
+        false => None,
+    };
     let context_pointer = &mut context as *mut Context as *mut c_void;
-    // SAFETY: every object is created on MPI_COMM_SELF and destroyed by `objects`' Drop; the
-    // matrix works on `offsets`, `columns` and `context.values`, which outlive it; the
-    // callbacks get `context`, which outlives SNESSolve.
+    // SAFETY: every object is created on the run's communicator (MPI_COMM_SELF on one process)
+    // and destroyed by `objects`' Drop; on one process the matrix works on `offsets`,
+    // `columns` and `context.values`, which outlive it; the callbacks get `context`, which
+    // outlives SNESSolve.
     let setup = unsafe {
         (|| -> Result<String, PetscError> {
-            let comm = turn.comm_self();
-            check(sys::MatCreateSeqAIJWithArrays(
-                comm,
-                rows,
-                rows,
-                offsets.as_mut_ptr(),
-                columns.as_mut_ptr(),
-                (*(context_pointer as *mut Context)).values.as_mut_ptr(),
-                &mut objects.matrix,
-            ))?;
+            let comm = match layout {
+                Some(_) => turn.comm_world(),
+                None => turn.comm_self(),
+            };
+            let context = &mut *(context_pointer as *mut Context);
+            match &layout {
+                Some(layout) => {
+                    let sorted = Csr {
+                        nrows: n,
+                        ncols: pattern_columns,
+                        offsets: context.offsets.clone(),
+                        columns: context.columns.clone(),
+                        values: context.values.clone(),
+                    };
+                    let numbering = match settings.jacobian {
+                        SnesJacobian::Assembled => Columns::Global,
+                        _ => Columns::Local,
+                    };
+                    let matrix = DistributedMatrix::new(&turn, layout, &sorted, numbering)?;
+                    objects.matrix = matrix.matrix;
+                    context.distributed = Some(matrix);
+                    objects.solution = layout.vector(&turn)?;
+                    objects.residual = layout.vector(&turn)?;
+                }
+                None => {
+                    check(sys::MatCreateSeqAIJWithArrays(
+                        comm,
+                        rows,
+                        rows,
+                        offsets.as_mut_ptr(),
+                        columns.as_mut_ptr(),
+                        context.values.as_mut_ptr(),
+                        &mut objects.matrix,
+                    ))?;
+                    check(sys::VecCreateSeq(comm, rows, &mut objects.solution))?;
+                    check(sys::VecCreateSeq(comm, rows, &mut objects.residual))?;
+                }
+            }
             if let Some((modes, count)) = &near_null_space {
                 if whole_points {
                     check(sys::MatSetBlockSize(objects.matrix, 3))?;
                 }
-                set_near_null_space(&turn, objects.matrix, modes, *count, n)?;
+                set_near_null_space(&turn, objects.matrix, modes, *count, n, layout.as_ref())?;
             }
-            check(sys::VecCreateSeq(comm, rows, &mut objects.solution))?;
-            check(sys::VecCreateSeq(comm, rows, &mut objects.residual))?;
             check(sys::SNESCreate(comm, &mut objects.snes))?;
             let snes = objects.snes;
             let prefix = options.c_prefix();
@@ -595,7 +659,8 @@ pub fn solve(
             }
             let mut ksp: sys::KSP = std::ptr::null_mut();
             check(sys::SNESGetKSP(snes, &mut ksp))?;
-            settings.linear.configure(&turn, ksp, n, false)?;
+            let unknowns = layout.as_ref().map_or(n, Layout::global);
+            settings.linear.configure(&turn, ksp, unknowns, false)?;
             check(sys::SNESSetFromOptions(snes))?;
             check(sys::SNESSetUp(snes))?;
             if settings.jacobian != SnesJacobian::Assembled {
@@ -653,10 +718,11 @@ pub fn solve(
             check(sys::SNESGetConvergedReason(objects.snes, &mut reason))
         })()
     };
-    if settings.warn_unused {
+    if settings.warn_unused && !(distributed && SimpleCommunicator::world().rank() != 0) {
         options.warn_unused(&turn);
     }
     drop(objects);
+    drop(layout);
     options.clear(&turn, &settings.linear.option_defaults());
     drop(turn);
     let history = std::mem::take(&mut context.history);

@@ -56,8 +56,8 @@ pub use parameters::ParameterValue;
 pub use solver::{
     parse_petsc_options, AdaptiveLoadStepping, AlgebraicPreconditioner, BelosSettings, BelosSolver,
     Implicit, ImplicitDiffusion, Integrator, LinearBackend, LinearMethod, LinearPreconditioner,
-    LinearSolve, LoadSteps, NoxQuasiStatic, PeridigmPreconditioner, PetscPreconditioner,
-    QuasiStatic, SolveFor, Solver, SwitchToVerlet, Verlet,
+    LinearSolve, LoadSteps, NonlinearMethod, NoxQuasiStatic, PeridigmPreconditioner,
+    PetscPreconditioner, QuasiStatic, SolveFor, Solver, SwitchToVerlet, Verlet,
 };
 pub use study::{split_values, Study, Variation};
 

@@ -46,6 +46,7 @@ pub struct Solver {
 /// | `PETSc Options` | `Backend: "PETSc"`: PETSc command-line options (`-ksp_type gmres -pc_type gamg -snes_linesearch_type bt …`) put in PETSc's options database under this list's prefix (its name in lower case and `_`, e.g. `solver_`); they override the keys above | none |
 /// | `Linear Solver Tolerance` | relative residual of the Krylov methods | `Belos Relative Tolerance` when given, else 1e-10 |
 /// | `Linear Solver Maximum Iterations` | Krylov iteration limit | `Belos Maximum Iterations`, else the number of unknowns |
+/// | `Nonlinear Solver` | `QuasiStatic` and `Implicit` lists: `Newton` (peridyn's Newton with the linear solver above) or `SNES` (`Backend: "PETSc"` only: PETSc's SNES `newtonls` drives the iteration on the same residual, its KSP and PC as above; `-snes_*` options in `PETSc Options` reach it). `NOXQuasiStatic` lists on PETSc always run SNES | `Newton` |
 /// | `Belos` | a sublist of Belos parameters (`Backend: "Trilinos"`): `Maximum Iterations`, `Convergence Tolerance`, `Num Blocks`, `Maximum Restarts`, `Verbosity`, `Output Frequency`, … (see [`super::belos`]) | none |
 ///
 /// `Direct` is a sparse Cholesky factorization that falls back to LU when the stiffness is not
@@ -81,6 +82,18 @@ pub struct LinearSolve {
     /// in deck order; the syntax is checked by the deck reader, the names and values by PETSc
     /// when the run (or `peridyn check`) sets the solver up. Default none.
     pub petsc_options: Vec<(String, Option<String>)>,
+    /// `Nonlinear Solver`: who drives the Newton iteration of `QuasiStatic` and `Implicit`
+    /// lists. Default [`NonlinearMethod::Newton`].
+    pub nonlinear_method: NonlinearMethod,
+}
+
+/// `Nonlinear Solver` of `QuasiStatic` and `Implicit` lists.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NonlinearMethod {
+    /// `"Newton"` (default): peridyn's Newton with a backtracking line search.
+    Newton,
+    /// `"SNES"`: PETSc's SNES `newtonls` (`Backend: "PETSc"`, Cargo feature `petsc`).
+    Snes,
 }
 
 /// `Linear Solver`.
@@ -590,6 +603,19 @@ fn read_linear_solve(
             options
         }
     };
+    let nonlinear_method = match list.get("Nonlinear Solver") {
+        None => NonlinearMethod::Newton,
+        Some(f) => match f.choice(ctx, &["Newton", "SNES"])? {
+            "SNES" if backend_given && chosen != Chosen::Petsc => {
+                return Err(f.err(
+                    ctx,
+                    "Nonlinear Solver \"SNES\" is PETSc's: give Backend \"PETSc\" (or remove the key for peridyn's Newton)",
+                ));
+            }
+            "SNES" => NonlinearMethod::Snes,
+            _ => NonlinearMethod::Newton,
+        },
+    };
     let relative_tolerance = match list.positive_opt(ctx, "Linear Solver Tolerance")? {
         Some(t) => t,
         None => match belos {
@@ -633,6 +659,7 @@ fn read_linear_solve(
         maximum_iterations,
         belos_parameters,
         petsc_options,
+        nonlinear_method,
     })
 }
 

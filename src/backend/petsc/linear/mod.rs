@@ -19,7 +19,13 @@
 //! supplies them ([`LinearSolver::set_near_null_space`]; peridyn's Newton does), orthonormalised
 //! here. The deck's `PETSc Options` override all of the above ([`super::options`]). As on the
 //! Trilinos backend, CG that finds the operator indefinite hands over to GMRES for good.
+//!
+//! On several MPI ranks ([`LinearSolver::solve_distributed`]) the same KSP and PC run on
+//! `MPI_COMM_WORLD` over a `MATMPIAIJ` of every rank's rows ([`distributed`]).
 
+mod distributed;
+
+use super::layout::{sum_over_ranks, Layout};
 use super::options::DeckOptions;
 use super::runtime::{check, owned_string, PetscError, Turn};
 use super::sys;
@@ -158,6 +164,8 @@ impl PetscSettings {
 pub struct PetscLinearSolver {
     settings: PetscSettings,
     system: Option<System>,
+    /// The objects of a system distributed over the ranks.
+    distributed: Option<distributed::DistributedSystem>,
     /// Row-major unknowns × modes, and the number of modes.
     near_null_space: Option<(Vec<f64>, usize)>,
     /// `KSP type + PC type` after the options were applied.
@@ -195,6 +203,7 @@ impl PetscLinearSolver {
         Self {
             settings,
             system: None,
+            distributed: None,
             near_null_space: None,
             resolved: None,
             unused_reported: false,
@@ -257,7 +266,7 @@ impl PetscLinearSolver {
                     &mut system.matrix,
                 ))?;
                 if let Some((modes, count)) = &self.near_null_space {
-                    set_near_null_space(turn, system.matrix, modes, *count, n)?;
+                    set_near_null_space(turn, system.matrix, modes, *count, n, None)?;
                 }
                 check(sys::VecCreateSeqWithArray(
                     comm,
@@ -385,16 +394,23 @@ pub(super) fn resolved_types(ksp: sys::KSP) -> Result<String, PetscError> {
 }
 
 /// Attaches the orthonormalised `count` modes (row-major, `n` × `count`) to `matrix` as its
-/// near-null space (GAMG's aggregation basis).
+/// near-null space (GAMG's aggregation basis). With a `layout` the matrix is distributed, the
+/// modes are this rank's rows and the orthonormalisation's inner products are over all ranks
+/// (collective).
 pub(super) fn set_near_null_space(
     turn: &Turn,
     matrix: sys::Mat,
     modes: &[f64],
     count: usize,
     n: usize,
+    layout: Option<&Layout>,
 ) -> Result<(), PetscError> {
-    let basis = orthonormal_columns(modes, count, n);
+    let basis = orthonormal_columns(modes, count, n, layout.is_some());
     let rows = sys::PetscInt::try_from(n).unwrap_or(sys::PetscInt::MAX);
+    let comm = match layout {
+        Some(_) => turn.comm_world(),
+        None => turn.comm_self(),
+    };
     let mut vectors: Vec<sys::PetscVec> = Vec::with_capacity(basis.len());
     let result = (|| {
         for column in &basis {
@@ -403,7 +419,10 @@ pub(super) fn set_near_null_space(
             // SAFETY: a new vector of n entries, written through its array between Get and
             // Restore.
             unsafe {
-                check(sys::VecCreateSeq(turn.comm_self(), rows, &mut v))?;
+                match layout {
+                    Some(layout) => v = layout.vector(turn)?,
+                    None => check(sys::VecCreateSeq(comm, rows, &mut v))?,
+                }
                 vectors.push(v);
                 check(sys::VecGetArray(v, &mut data))?;
                 std::slice::from_raw_parts_mut(data, n).copy_from_slice(column);
@@ -415,7 +434,7 @@ pub(super) fn set_near_null_space(
         // matrix its own reference to the null space.
         unsafe {
             check(sys::MatNullSpaceCreate(
-                turn.comm_self(),
+                comm,
                 sys::PetscBool_PETSC_FALSE,
                 sys::PetscInt::try_from(vectors.len()).unwrap_or(0),
                 vectors.as_ptr(),
@@ -435,17 +454,26 @@ pub(super) fn set_near_null_space(
 
 /// Modified Gram–Schmidt on the columns of the row-major `n` × `count` array; columns that
 /// are (numerically) dependent on the earlier ones are dropped (e.g. the modes of a component
-/// that is prescribed everywhere).
-fn orthonormal_columns(modes: &[f64], count: usize, n: usize) -> Vec<Vec<f64>> {
+/// that is prescribed everywhere). With `distributed` the rows are this rank's share and the
+/// inner products are summed over the ranks (collective), so every rank keeps the same columns.
+fn orthonormal_columns(modes: &[f64], count: usize, n: usize, distributed: bool) -> Vec<Vec<f64>> {
+    let dot = |a: &[f64], b: &[f64]| {
+        let local: f64 = a.iter().zip(b).map(|(x, y)| x * y).sum();
+        if distributed {
+            sum_over_ranks(local)
+        } else {
+            local
+        }
+    };
     let mut basis: Vec<Vec<f64>> = Vec::new();
     for j in 0..count {
         let mut v: Vec<f64> = (0..n).map(|i| modes[i * count + j]).collect();
-        let original = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+        let original = dot(&v, &v).sqrt();
         for b in &basis {
-            let d: f64 = v.iter().zip(b).map(|(a, c)| a * c).sum();
+            let d = dot(&v, b);
             v.iter_mut().zip(b).for_each(|(a, c)| *a -= d * c);
         }
-        let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+        let norm = dot(&v, &v).sqrt();
         if norm > 1e-10 * original && norm > 0.0 {
             v.iter_mut().for_each(|a| *a /= norm);
             basis.push(v);
@@ -474,6 +502,14 @@ impl System {
 
 impl Drop for PetscLinearSolver {
     fn drop(&mut self) {
+        if let Some(system) = self.distributed.take() {
+            if let Ok(turn) = Turn::take() {
+                drop(system);
+                self.settings
+                    .options
+                    .clear(&turn, &self.settings.option_defaults());
+            }
+        }
         let Some(mut system) = self.system.take() else {
             return;
         };
@@ -514,6 +550,17 @@ impl LinearSolver for PetscLinearSolver {
         self.method_name()
     }
 
+    /// KSP on `MPI_COMM_WORLD` over every rank's rows (see [`distributed`]).
+    fn solve_distributed(
+        &mut self,
+        rows: &[usize],
+        matrix: &Csr,
+        rhs: &[f64],
+        x: &mut [f64],
+    ) -> Result<KrylovReport, SolveError> {
+        self.solve_on_ranks(rows, matrix, rhs, x)
+    }
+
     fn set_near_null_space(&mut self, modes: &[f64], count: usize) {
         if self.settings.preconditioner != PetscPreconditioner::Gamg {
             return;
@@ -528,6 +575,11 @@ impl LinearSolver for PetscLinearSolver {
             if let Some(mut system) = self.system.take() {
                 if let Ok(_turn) = Turn::take() {
                     system.destroy();
+                }
+            }
+            if let Some(system) = self.distributed.take() {
+                if let Ok(_turn) = Turn::take() {
+                    drop(system);
                 }
             }
         }
