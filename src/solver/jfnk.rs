@@ -1,7 +1,7 @@
 //! Jacobian-free Newton–Krylov: the Newton correction from GMRES on finite-difference
 //! directional derivatives of the one residual, `K v ≈ (r(u) − r(u + εv))/ε`, preconditioned by
-//! the inverted 3×3 diagonal blocks of the tangent (or their diagonal, or nothing), or by one
-//! V-cycle of smoothed-aggregation multigrid on the one-hop operator (`AMG`). No tangent is
+//! the inverted 3×3 diagonal blocks of the tangent (or their diagonal, or nothing), or by the
+//! additive two-level smoothed-aggregation multigrid on the one-hop operator (`AMG`). No tangent is
 //! assembled, which is what keeps memory near that of an explicit run (the one-hop operator
 //! and its hierarchy are O(bonds)).
 

@@ -56,8 +56,9 @@ pub enum LinearStrategy {
     },
     /// Assemble K and hand it to another backend's solver.
     Assembled(Box<dyn LinearSolver>),
-    /// Assemble K and solve with native CG or GMRES preconditioned by one V-cycle of
-    /// smoothed-aggregation multigrid on the problem's one-hop operator (`Linear Solver
+    /// Assemble K and solve with native CG or GMRES preconditioned by the additive
+    /// two-level smoothed-aggregation multigrid ([`crate::backend::native::Amg::apply_additive`])
+    /// on the problem's one-hop operator (`Linear Solver
     /// Preconditioner: "AMG"`), built once per Newton solve and rebuilt when bonds break.
     Multigrid {
         /// [`NativeMethod::Cg`] or [`NativeMethod::Gmres`].

@@ -223,7 +223,7 @@ pub enum LinearPreconditioner {
     Jacobi,
     /// `"None"`.
     None,
-    /// `"AMG"`: peridyn's smoothed-aggregation multigrid (one V-cycle) built on the one-hop
+    /// `"AMG"`: peridyn's smoothed-aggregation multigrid (additive two-level form) built on the one-hop
     /// PMB-like operator of the model ([`crate::tangent::one_hop_operator`]), rebuilt once per
     /// load step and whenever bonds break.
     Amg,
