@@ -121,6 +121,7 @@ impl Run<'_> {
                     step: 0,
                 };
                 let written = restarts.write(
+                    self.ranks.communicator(),
                     self.model,
                     physics,
                     state,
@@ -334,9 +335,11 @@ impl Run<'_> {
             let signalled = sums[3] > 0.0;
             let restart = match (index, &mut self.restarts) {
                 (Some(index), Some(restarts))
-                    if signalled || (step < steps && restarts.due(step)) =>
+                    if signalled
+                        || (step < steps && restarts.due(step, self.ranks.communicator())) =>
                 {
                     let written = restarts.write(
+                        self.ranks.communicator(),
                         model,
                         physics,
                         state,
@@ -553,8 +556,9 @@ impl Run<'_> {
                 let step = report.step as u64;
                 let stop = signalled(ranks);
                 let restart = match &mut self.restarts {
-                    Some(restarts) if stop || restarts.due(step) => {
+                    Some(restarts) if stop || restarts.due(step, ranks.communicator()) => {
                         let written = restarts.write(
+                            ranks.communicator(),
                             model,
                             physics,
                             state,
