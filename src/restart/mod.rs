@@ -42,6 +42,8 @@ mod capture;
 mod gather;
 #[cfg(feature = "hdf5")]
 mod hdf5_file;
+#[cfg(test)]
+mod tests;
 
 pub use capture::{apply, capture, restore_contact, ContactRestore, Share};
 pub use gather::{gather, gather_bonds};
