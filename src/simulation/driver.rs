@@ -107,7 +107,9 @@ impl Run<'_> {
                 Integrator::QuasiStatic(_) | Integrator::NoxQuasiStatic(_) => {
                     self.quasi_static(solver, index, physics, state)
                 }
-                Integrator::Implicit(implicit) => self.newmark(solver, implicit, physics, state),
+                Integrator::Implicit(implicit) => {
+                    self.newmark(solver, index, implicit, physics, state)
+                }
                 Integrator::ImplicitDiffusion(_) => Err(RunError::Unsupported(format!(
                     "solver \"{}\": ImplicitDiffusion is not available in this build",
                     solver.name
@@ -646,12 +648,20 @@ impl Run<'_> {
     fn newmark(
         &mut self,
         solver: &Solver,
+        index: usize,
         implicit: &Implicit,
         physics: &mut Physics,
         state: &mut State,
     ) -> Result<(), RunError> {
-        let settings = newmark_settings(solver, implicit)
+        let mut settings = newmark_settings(solver, implicit)
             .map_err(|error| collective(self.ranks.communicator(), error))?;
+        let resume = self
+            .restarts
+            .as_mut()
+            .and_then(|restarts| restarts.take_resume(index));
+        if let Some(snapshot) = &resume {
+            settings.first_step = snapshot.position.step + 1;
+        }
         let mut linear = linear::strategy(solver, self.model, physics)
             .map_err(|error| collective(self.ranks.communicator(), error.into()))?;
         if self.root() {
@@ -666,11 +676,16 @@ impl Run<'_> {
                 linear.describe()
             );
         }
-        state.time = solver.initial_time;
         self.nonlinear_iterations = None;
-        let written = self.output(physics, state);
-        agree(self.ranks.communicator(), written)?;
+        // Continued from a restart file inside this list: the state and the output frames
+        // are those after the saved step.
+        if resume.is_none() {
+            state.time = solver.initial_time;
+            let written = self.output(physics, state);
+            agree(self.ranks.communicator(), written)?;
+        }
         let (model, ranks) = (self.model, &mut *self.ranks);
+        let steps = settings.steps;
         let result = newmark::run(
             model,
             physics,
@@ -690,13 +705,31 @@ impl Run<'_> {
                 fields.nonlinear_iterations = self.nonlinear_iterations;
                 let written = self.outputs.call(ranks, &fields);
                 agree(ranks.communicator(), recorded.and(written))?;
-                if signalled(ranks) {
-                    let restart = Err(if self.restarts.is_some() {
-                        "Implicit (Newmark-β) lists write restart files at their end only"
-                            .to_string()
-                    } else {
-                        "the deck has no Restart entry".to_string()
-                    });
+                let stop = signalled(ranks);
+                let restart = match &mut self.restarts {
+                    Some(restarts)
+                        if stop || (step < steps && restarts.due(step, ranks.communicator())) =>
+                    {
+                        let written = restarts.write(
+                            ranks.communicator(),
+                            model,
+                            physics,
+                            state,
+                            &self.outputs,
+                            &self.summary,
+                            Position {
+                                solver: index,
+                                step,
+                            },
+                            Inside::Boundary,
+                        );
+                        Some(agree(ranks.communicator(), written)?)
+                    }
+                    _ => None,
+                };
+                if stop {
+                    let restart =
+                        restart.ok_or_else(|| "the deck has no Restart entry".to_string());
                     return Err(stop_on_signal(
                         &mut self.outputs,
                         ranks,
@@ -794,6 +827,7 @@ fn newmark_settings(solver: &Solver, implicit: &Implicit) -> Result<NewmarkSetti
     Ok(NewmarkSettings {
         time_step: implicit.fixed_dt,
         steps: run_steps(solver, implicit.fixed_dt)?,
+        first_step: 1,
         initial_time: solver.initial_time,
         beta: implicit.beta,
         gamma: implicit.gamma,

@@ -3,7 +3,7 @@
 //!
 //! Written, when the deck has a `Restart` entry: after every solver list (Peridigm's moment),
 //! every `Frequency` steps and after the first step past each `Wall Clock Interval`
-//! (explicit and quasi-static lists), and when a signal stops the run.
+//! (explicit, quasi-static and `Implicit` Newmark-β lists), and when a signal stops the run.
 //!
 //! Read at the start: the newest `restart-NNNNNN` of the output folder. Its body must be this
 //! deck's ([`crate::restart::model_hash`]), or the run is refused. Then:
@@ -278,7 +278,8 @@ impl Restarts {
         }
     }
 
-    /// True when step `step` of a list (1-based; accepted load step of a quasi-static one)
+    /// True when step `step` of a list (1-based: explicit or Newmark-β step, accepted load
+    /// step of a quasi-static one)
     /// is followed by a restart file: every `Frequency` steps, or once `Wall Clock Interval`
     /// has passed since the last (by rank 0's clock, so that every rank agrees). Collective
     /// when `Wall Clock Interval` is set.
@@ -357,7 +358,8 @@ impl Restarts {
 
 /// Where in a solver list a restart file is written.
 pub(super) enum Inside<'a> {
-    /// Between two lists.
+    /// Between two lists, or after a step of an `Implicit` (Newmark-β) list, whose position
+    /// is its step alone.
     Boundary,
     /// After a step of an explicit list: the monitor's energies and the steps of the list
     /// so far (not yet in the summary).
