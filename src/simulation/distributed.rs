@@ -17,6 +17,14 @@
 //! `Node_Set_Data`, `Nearest_Point_Data`) are reduced over the same numbers in the same order
 //! as on one rank.
 //!
+//! # Restart files
+//! With a `Restart` entry, the ranks open the restart files together before the results files
+//! (a continuation keeps the results written so far): every rank reads the newest file and
+//! takes the values of its owned points and ghosts, and every file written is gathered on
+//! rank 0 in the user's original order (see [`crate::restart`]), so the rank count may change
+//! between a run and its continuation. The summary's broken bonds are then counted from the
+//! owned rows' damage, with those of the run continued carried over.
+//!
 //! # Failures
 //! Problems every rank sees alike (a solver or feature that cannot run on N ranks, an
 //! instability seen by the global monitor) are reported by rank 0 alone. A failure on some
