@@ -69,6 +69,11 @@ pub(super) struct OnRanks {
 }
 
 impl OnRanks {
+    /// Local indices of the contact points owned here (ascending).
+    pub(super) fn owned_local(&self) -> &[u32] {
+        &self.owned_local
+    }
+
     /// The rank's part of [`Contact::initial_state`]: no partners yet.
     pub(super) fn initial_state(&self) -> RankState {
         let n = self.owner.len();

@@ -6,16 +6,17 @@
 //! |---|---|
 //! | `/` attributes | `format_version`, `model_hash`, `solvers_hash`, `solver`, `step`, `time`, `history_step_duration`, `solver_rows`, `steps`, `broken_bonds` |
 //! | `/points/*` | `displacement`, `velocity`, `acceleration`, `force_density`, `current_position`, `external_force_density` (with a body force) |
+//! | `/bonds/family_size`, `/bonds/neighbor` | bonds per point, far end's original id per bond (`u32`) |
 //! | `/bonds/damage` | bond damage (`f32`), with a damage model |
 //! | `/history/<name>` | count × width, attributes `per_bond` and `width` |
-//! | `/contact/*` | `force_density`, `searched_at` (after the first search) |
+//! | `/contact/*` | `points` (original ids, `u32`), `force_density`, `searched_at` (after the first search) |
 //! | `/load_schedule/times` | attributes `next`, `total_cuts`, `accepted` (inside a quasi-static list) |
 //! | `/monitor` | initial energy and supplied work (inside an explicit list) |
 //! | `/outputs/*` | `calls`, `frames`, `rows`, one entry per deck `Output` list |
 
 use super::{
-    ContactSnapshot, HistoryField, LoadSchedule, OutputPosition, Position, RestartError, Snapshot,
-    FORMAT_VERSION,
+    BondStructure, ContactSnapshot, HistoryField, LoadSchedule, OutputPosition, Position,
+    RestartError, Snapshot, FORMAT_VERSION,
 };
 use hdf5::{Group, H5Type};
 use std::path::Path;
@@ -93,6 +94,8 @@ fn write_file(path: &Path, s: &Snapshot) -> hdf5::Result<()> {
         put_vectors(&points, "external_force_density", b)?;
     }
     let bonds = file.create_group("bonds")?;
+    put(&bonds, "family_size", &s.bonds.family_size, 1)?;
+    put(&bonds, "neighbor", &s.bonds.neighbor, 1)?;
     if let Some(damage) = &s.bond_damage {
         put(&bonds, "damage", damage, 1)?;
     }
@@ -115,6 +118,7 @@ fn write_file(path: &Path, s: &Snapshot) -> hdf5::Result<()> {
     }
     if let Some(contact) = &s.contact {
         let group = file.create_group("contact")?;
+        put(&group, "points", &contact.points, 1)?;
         put_vectors(&group, "force_density", &contact.force_density)?;
         if let Some(at) = &contact.searched_at {
             put_vectors(&group, "searched_at", at)?;
@@ -175,6 +179,7 @@ fn read_file(path: &Path) -> hdf5::Result<Snapshot> {
     let contact = if has(&file, "contact") {
         let group = file.group("contact")?;
         Some(ContactSnapshot {
+            points: get(&group, "points")?,
             force_density: get_vectors(&group, "force_density")?,
             searched_at: if has(&group, "searched_at") {
                 Some(get_vectors(&group, "searched_at")?)
@@ -232,6 +237,10 @@ fn read_file(path: &Path) -> hdf5::Result<Snapshot> {
         acceleration: get_vectors(&points, "acceleration")?,
         force_density: get_vectors(&points, "force_density")?,
         current_position: get_vectors(&points, "current_position")?,
+        bonds: BondStructure {
+            family_size: get(&bonds, "family_size")?,
+            neighbor: get(&bonds, "neighbor")?,
+        },
         external_force_density: if has(&points, "external_force_density") {
             Some(get_vectors(&points, "external_force_density")?)
         } else {
@@ -277,6 +286,10 @@ mod tests {
             acceleration: vec![[4.0, 5.0, 6.0]; 2],
             force_density: vec![[7.0, 8.0, 9.0]; 2],
             current_position: vec![[third; 3]; 2],
+            bonds: BondStructure {
+                family_size: vec![1, 1],
+                neighbor: vec![1, 0],
+            },
             external_force_density: Some(vec![[0.5; 3]; 2]),
             bond_damage: Some(vec![0.0, 1.0]),
             history: vec![HistoryField {
@@ -287,6 +300,7 @@ mod tests {
             }],
             history_step_duration: 1e-7,
             contact: Some(ContactSnapshot {
+                points: vec![1],
                 searched_at: Some(vec![[third; 3]]),
                 force_density: vec![[1.5; 3]; 2],
             }),

@@ -1,4 +1,5 @@
-//! Restart files: where a run stands, written so that a later run continues it bit for bit.
+//! Restart files: where a run stands, written so that a later run continues it bit for bit,
+//! on the same number of ranks or another.
 //!
 //! A [`Snapshot`] holds everything of a run that evolves ([`crate::state::State`]: u, v, a,
 //! forces, current positions, bond damage, every staged history field, contact's last
@@ -7,10 +8,30 @@
 //! hashes of the deck: one of the body and its physics, one of the solver lists.
 //!
 //! Points and bonds are stored in the user's original order (bonds by the original ids of
-//! their two ends), never in run order, so that a file does not depend on the renumbering.
-//! With the `hdf5` feature a snapshot is one HDF5 file, `restart-NNNNNN/restart.h5` in the
-//! output folder ([`directory`]); without it every deck that asks for restart is refused by
-//! `peridyn check` and `peridyn run` alike.
+//! their two ends, [`BondStructure`]), never in run order, so that a file depends neither on
+//! the renumbering nor on the partition: a file written by a run on N ranks is the file one
+//! rank writes, and any number of ranks reads it. With the `hdf5` feature a snapshot is one
+//! HDF5 file, `restart-NNNNNN/restart.h5` in the output folder ([`directory`]); without it
+//! every deck that asks for restart is refused by `peridyn check` and `peridyn run` alike.
+//!
+//! # On N ranks: rank 0 gathers, every rank reads
+//! Each rank [`capture`]s the [`Share`] of its owned points (their original ids, their point
+//! values, their rows of bonds sorted by the far end's original id) and [`gather`] collects
+//! the shares on rank 0 in original order; rank 0 alone writes the file, through the same
+//! serial HDF5 writer one rank uses. To continue, every rank reads the whole file and takes the
+//! values of its own points, owned and ghosts ([`apply`]). One rank runs the same code with
+//! every point owned and no messages.
+//!
+//! Why not parallel HDF5 (every rank writing its slab of one file through MPI-IO): Debian 12
+//! ships the serial library (`libhdf5-dev`) and the MPI one (`libhdf5-openmpi-dev`) as two
+//! flavours of which pkg-config finds one; hdf5-metno's `mpio` feature needs the MPI flavour in
+//! every build with `hdf5`, the one-process builds without `mpi` included, and the MPI
+//! flavour's library needs MPI initialised before any file is opened, which one-process runs
+//! do not do. Gathering on rank 0 keeps one library and one writer for every build. Its costs:
+//! while a file is written rank 0 holds the whole snapshot (the state of every point and bond,
+//! about what one rank holds for the whole body), and while a run resumes every rank holds the
+//! whole file once. Every rank reads the file, so the output folder must be on a file system
+//! that every rank sees (as on clusters, and on one machine).
 //!
 //! Restart directories are numbered as Peridigm numbers them (`restart-000001`, …); a run
 //! resumes from the highest number. A directory is written under a temporary name and renamed
@@ -18,16 +39,22 @@
 //! newest are kept.
 
 mod capture;
+mod gather;
 #[cfg(feature = "hdf5")]
 mod hdf5_file;
+#[cfg(test)]
+mod tests;
 
-pub use capture::{apply, capture};
+pub use capture::{apply, capture, restore_contact, ContactRestore, Share};
+pub use gather::{gather, gather_bonds};
 
 use crate::model::Model;
 use std::path::{Path, PathBuf};
 
-/// Version of the snapshot layout; a file of another version is refused.
-pub const FORMAT_VERSION: u64 = 1;
+/// Version of the snapshot layout; a file of another version is refused. Version 2 added the
+/// bond structure ([`BondStructure`]) and the contact points' ids, which a run on N ranks needs
+/// to find the values of its points.
+pub const FORMAT_VERSION: u64 = 2;
 
 /// Name of the snapshot inside a restart directory.
 pub const FILE_NAME: &str = "restart.h5";
@@ -70,6 +97,28 @@ pub struct OutputPosition {
     pub rows: u64,
 }
 
+/// The bonds of the body in original order: the rows of the points by original id, each row
+/// by the original id of its far end. Bond fields of a [`Snapshot`] follow this order.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct BondStructure {
+    /// Bonds of every point (original order).
+    pub family_size: Vec<u32>,
+    /// Original id of the far end of every bond.
+    pub neighbor: Vec<u32>,
+}
+
+impl BondStructure {
+    /// Offset of every point's row (original order), with the bond count at the end.
+    pub fn offsets(&self) -> Vec<usize> {
+        let mut offsets = Vec::with_capacity(self.family_size.len() + 1);
+        offsets.push(0);
+        for &size in &self.family_size {
+            offsets.push(offsets[offsets.len() - 1] + size as usize);
+        }
+        offsets
+    }
+}
+
 /// A staged history field in original order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HistoryField {
@@ -86,6 +135,8 @@ pub struct HistoryField {
 /// Contact's last search: the positions it was made at (its candidates follow from them).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ContactSnapshot {
+    /// Original ids of the contact points, ascending: the order of `searched_at`.
+    pub points: Vec<u32>,
     /// Positions of the contact points at the last search, in original order of the points;
     /// `None` before the first search.
     pub searched_at: Option<Vec<[f64; 3]>>,
@@ -114,6 +165,8 @@ pub struct Snapshot {
     pub force_density: Vec<[f64; 3]>,
     /// Current position Y (length).
     pub current_position: Vec<[f64; 3]>,
+    /// The bonds, in the order of every bond field.
+    pub bonds: BondStructure,
     /// Body force density, when the deck has a body force.
     pub external_force_density: Option<Vec<[f64; 3]>>,
     /// Bond damage per directed bond, when a block has a damage model.
@@ -283,10 +336,11 @@ impl Fnv {
 
 /// Hash of what defines the body and its physics: the deck's materials, damage models,
 /// blocks, contact and boundary conditions (with file names relative to the deck, so the same
-/// deck run from another folder hashes alike), and the model's points (original order:
-/// position, volume, block, horizon) and bonds. A restart file whose hash differs was written
-/// for another body and is refused.
-pub fn model_hash(deck: &crate::io::deck::Deck, model: &Model) -> u64 {
+/// deck run from another folder hashes alike), the points of `global` (the whole model, in
+/// original order: position, volume, block, horizon) and its bonds (`bonds`, the far ends in
+/// original order, [`BondStructure`]). A restart file whose hash differs was written for
+/// another body and is refused. The hash does not depend on the number of ranks.
+pub fn model_hash(deck: &crate::io::deck::Deck, global: &Model, bonds: &BondStructure) -> u64 {
     let mut hash = Fnv::default();
     let deck_dir = deck.directory().display().to_string();
     let text = format!(
@@ -299,19 +353,18 @@ pub fn model_hash(deck: &crate::io::deck::Deck, model: &Model) -> u64 {
         text.replace(&deck_dir, "")
     };
     hash.add(text.as_bytes());
-    let points = &model.points;
-    for &p in &model.run_index {
+    let points = &global.points;
+    for &p in &global.run_index {
         let p = p as usize;
         for x in points.position[p] {
             hash.add(&x.to_le_bytes());
         }
         hash.add(&points.volume[p].to_le_bytes());
         hash.add(&points.block[p].to_le_bytes());
-        hash.add(&model.horizon[p].to_le_bytes());
+        hash.add(&global.horizon[p].to_le_bytes());
     }
-    let order = BondOrder::of(model);
-    for &bond in &order.run_bond {
-        hash.add(&BondOrder::other_end(model, bond).to_le_bytes());
+    for &far in &bonds.neighbor {
+        hash.add(&far.to_le_bytes());
     }
     hash.finish()
 }
@@ -322,67 +375,4 @@ pub fn solvers_hash(deck: &crate::io::deck::Deck) -> u64 {
     let mut hash = Fnv::default();
     hash.add(format!("{:?}", deck.solvers).as_bytes());
     hash.finish()
-}
-
-/// The bonds in original order: by the original id of the owning point, then of the other
-/// end. `run_bond[k]` is the run-order bond index of the k-th bond in that order.
-#[derive(Debug, Clone)]
-pub struct BondOrder {
-    /// Run-order bond index of each bond in original order.
-    pub run_bond: Vec<usize>,
-}
-
-impl BondOrder {
-    /// The order of `model`'s bonds.
-    pub fn of(model: &Model) -> Self {
-        let original = &model.points.original_id;
-        let mut run_bond = Vec::with_capacity(model.bonds.num_bonds());
-        for &p in &model.run_index {
-            let range = model.bonds.range(p as usize);
-            let family = model.bonds.family(p as usize);
-            let mut local: Vec<usize> = (0..family.len()).collect();
-            local.sort_by_key(|&j| original[family[j] as usize]);
-            run_bond.extend(local.into_iter().map(|j| range.start + j));
-        }
-        Self { run_bond }
-    }
-
-    /// Original id of the far end of run-order bond `run_bond`.
-    fn other_end(model: &Model, run_bond: usize) -> u32 {
-        model.points.original_id[model.bonds.neighbor[run_bond] as usize]
-    }
-}
-
-/// Values per run-order point → original order.
-pub fn points_to_original<T: Copy>(model: &Model, run: &[T], width: usize) -> Vec<T> {
-    let mut out = Vec::with_capacity(run.len());
-    for &p in &model.run_index {
-        let p = p as usize;
-        out.extend_from_slice(&run[p * width..(p + 1) * width]);
-    }
-    out
-}
-
-/// Values per original-order point → run order (into `run`).
-pub fn points_to_run<T: Copy>(model: &Model, original: &[T], run: &mut [T], width: usize) {
-    for (k, &p) in model.run_index.iter().enumerate() {
-        let p = p as usize;
-        run[p * width..(p + 1) * width].copy_from_slice(&original[k * width..(k + 1) * width]);
-    }
-}
-
-/// Values per run-order bond → original order.
-pub fn bonds_to_original<T: Copy>(order: &BondOrder, run: &[T], width: usize) -> Vec<T> {
-    let mut out = Vec::with_capacity(run.len());
-    for &b in &order.run_bond {
-        out.extend_from_slice(&run[b * width..(b + 1) * width]);
-    }
-    out
-}
-
-/// Values per original-order bond → run order (into `run`).
-pub fn bonds_to_run<T: Copy>(order: &BondOrder, original: &[T], run: &mut [T], width: usize) {
-    for (k, &b) in order.run_bond.iter().enumerate() {
-        run[b * width..(b + 1) * width].copy_from_slice(&original[k * width..(k + 1) * width]);
-    }
 }

@@ -17,6 +17,14 @@
 //! `Node_Set_Data`, `Nearest_Point_Data`) are reduced over the same numbers in the same order
 //! as on one rank.
 //!
+//! # Restart files
+//! With a `Restart` entry, the ranks open the restart files together before the results files
+//! (a continuation keeps the results written so far): every rank reads the newest file and
+//! takes the values of its owned points and ghosts, and every file written is gathered on
+//! rank 0 in the user's original order (see [`crate::restart`]), so the rank count may change
+//! between a run and its continuation. The summary's broken bonds are then counted from the
+//! owned rows' damage, with those of the run continued carried over.
+//!
 //! # Failures
 //! Problems every rank sees alike (a solver or feature that cannot run on N ranks, an
 //! instability seen by the global monitor) are reported by rank 0 alone. A failure on some
@@ -28,6 +36,7 @@
 use super::agreement::{agree, collective};
 use super::driver::Run;
 use super::outputs::{DistributedOutputs, RunOutputs};
+use super::restarts::{Restarts, Start};
 use super::{build_physics, initial_state, prepare_compute_classes, RunError, RunSummary};
 use crate::discretization::FamilyRule;
 use crate::io::deck::Deck;
@@ -102,15 +111,6 @@ pub fn run_distributed(
     comm: &dyn Communicator,
 ) -> Result<RunSummary, RunError> {
     check_distributable(deck, comm.size()).map_err(|e| collective(comm, e.into()))?;
-    if deck.restart.is_some() {
-        return Err(collective(
-            comm,
-            RunError::Unsupported(format!(
-                "Restart: restart files are written and read by one-process runs only; run this deck without mpirun (threads still share the work), or remove the Restart entry to run it on {} ranks",
-                comm.size()
-            )),
-        ));
-    }
     let compute_classes = prepare_compute_classes(&deck.compute_classes, global)
         .map_err(|e| collective(comm, RunError::Unsupported(e)))?;
     let rank = comm.rank();
@@ -146,10 +146,49 @@ pub fn run_distributed(
                 .map(|contact| contact.on_ranks(global, &sub.partition, rank, sub.plan.global()));
         }
         let state = initial_state(deck, &sub.model, &physics)?;
-        let outputs = DistributedOutputs::create(deck, global, dir, &compute_classes, rank)?;
-        Ok((physics, state, outputs))
+        Ok((physics, state))
     })();
-    let (mut physics, mut state, outputs) = agree(comm, prepared)?;
+    let (mut physics, mut state) = agree(comm, prepared)?;
+    // Restart files hold every point in original order, whatever the partition: the run that
+    // wrote them may have had another number of ranks.
+    let (restarts, start) = match deck.restart {
+        Some(_) => {
+            let (restarts, start) =
+                Restarts::open(deck, global, &sub.model, sub.owned().to_vec(), comm, dir)?;
+            (Some(restarts), start)
+        }
+        None => (None, Start::Fresh),
+    };
+    let mut carried = RunSummary::default();
+    let (restarts, resume) = match (restarts, start) {
+        (Some(mut restarts), Start::Continue(snapshot)) => {
+            restarts.apply(&snapshot, &sub.model, &physics, comm, &mut state)?;
+            carried.steps = snapshot.steps;
+            carried.broken_bonds = snapshot.broken_bonds as usize;
+            restarts.count_broken_bonds(&sub.model, comm, &state, carried.broken_bonds);
+            (Some(restarts), Some(snapshot))
+        }
+        (Some(mut restarts), Start::FromState(snapshot)) => {
+            restarts.apply(&snapshot, &sub.model, &physics, comm, &mut state)?;
+            restarts.start_from_saved_state();
+            restarts.count_broken_bonds(&sub.model, comm, &state, 0);
+            (Some(restarts), None)
+        }
+        (Some(mut restarts), Start::Fresh) => {
+            restarts.count_broken_bonds(&sub.model, comm, &state, 0);
+            (Some(restarts), None)
+        }
+        (None, _) => (None, None),
+    };
+    let outputs =
+        DistributedOutputs::create(deck, global, dir, &compute_classes, rank, resume.as_ref());
+    let outputs = agree(comm, outputs)?;
+    let restarts = restarts.map(|mut restarts| {
+        if let Some(snapshot) = resume {
+            restarts.resume_at(snapshot);
+        }
+        restarts
+    });
     if rank == 0 {
         let volume = sub.plan.volume();
         eprintln!(
@@ -177,8 +216,11 @@ pub fn run_distributed(
         partition,
         owned,
     };
-    let run = Run::new(model, &mut ranks, Some(ghosts), &compute_classes, outputs);
+    let mut run = Run::new(model, &mut ranks, Some(ghosts), &compute_classes, outputs)
+        .with_restarts(restarts);
+    run.summary.steps = carried.steps;
     let mut summary = run.complete(deck, &mut physics, &mut state)?;
-    summary.broken_bonds = broken_bonds(comm, &sub, &state) - broken_at_start;
+    summary.broken_bonds =
+        carried.broken_bonds + broken_bonds(comm, &sub, &state) - broken_at_start;
     Ok(summary)
 }

@@ -107,7 +107,9 @@ impl Run<'_> {
                 Integrator::QuasiStatic(_) | Integrator::NoxQuasiStatic(_) => {
                     self.quasi_static(solver, index, physics, state)
                 }
-                Integrator::Implicit(implicit) => self.newmark(solver, implicit, physics, state),
+                Integrator::Implicit(implicit) => {
+                    self.newmark(solver, index, implicit, physics, state)
+                }
                 Integrator::ImplicitDiffusion(_) => Err(RunError::Unsupported(format!(
                     "solver \"{}\": ImplicitDiffusion is not available in this build",
                     solver.name
@@ -121,6 +123,7 @@ impl Run<'_> {
                     step: 0,
                 };
                 let written = restarts.write(
+                    self.ranks.communicator(),
                     self.model,
                     physics,
                     state,
@@ -334,9 +337,11 @@ impl Run<'_> {
             let signalled = sums[3] > 0.0;
             let restart = match (index, &mut self.restarts) {
                 (Some(index), Some(restarts))
-                    if signalled || (step < steps && restarts.due(step)) =>
+                    if signalled
+                        || (step < steps && restarts.due(step, self.ranks.communicator())) =>
                 {
                     let written = restarts.write(
+                        self.ranks.communicator(),
                         model,
                         physics,
                         state,
@@ -553,8 +558,9 @@ impl Run<'_> {
                 let step = report.step as u64;
                 let stop = signalled(ranks);
                 let restart = match &mut self.restarts {
-                    Some(restarts) if stop || restarts.due(step) => {
+                    Some(restarts) if stop || restarts.due(step, ranks.communicator()) => {
                         let written = restarts.write(
+                            ranks.communicator(),
                             model,
                             physics,
                             state,
@@ -643,12 +649,20 @@ impl Run<'_> {
     fn newmark(
         &mut self,
         solver: &Solver,
+        index: usize,
         implicit: &Implicit,
         physics: &mut Physics,
         state: &mut State,
     ) -> Result<(), RunError> {
-        let settings = newmark_settings(solver, implicit)
+        let mut settings = newmark_settings(solver, implicit)
             .map_err(|error| collective(self.ranks.communicator(), error))?;
+        let resume = self
+            .restarts
+            .as_mut()
+            .and_then(|restarts| restarts.take_resume(index));
+        if let Some(snapshot) = &resume {
+            settings.first_step = snapshot.position.step + 1;
+        }
         let mut nonlinear = linear::nonlinear_solver(solver, self.model, physics)
             .map_err(|error| collective(self.ranks.communicator(), error.into()))?;
         if self.root() {
@@ -663,11 +677,16 @@ impl Run<'_> {
                 nonlinear.describe()
             );
         }
-        state.time = solver.initial_time;
         self.nonlinear_iterations = None;
-        let written = self.output(physics, state);
-        agree(self.ranks.communicator(), written)?;
+        // Continued from a restart file inside this list: the state and the output frames
+        // are those after the saved step.
+        if resume.is_none() {
+            state.time = solver.initial_time;
+            let written = self.output(physics, state);
+            agree(self.ranks.communicator(), written)?;
+        }
         let (model, ranks) = (self.model, &mut *self.ranks);
+        let steps = settings.steps;
         let result = newmark::run(
             model,
             physics,
@@ -687,13 +706,31 @@ impl Run<'_> {
                 fields.nonlinear_iterations = self.nonlinear_iterations;
                 let written = self.outputs.call(ranks, &fields);
                 agree(ranks.communicator(), recorded.and(written))?;
-                if signalled(ranks) {
-                    let restart = Err(if self.restarts.is_some() {
-                        "Implicit (Newmark-β) lists write restart files at their end only"
-                            .to_string()
-                    } else {
-                        "the deck has no Restart entry".to_string()
-                    });
+                let stop = signalled(ranks);
+                let restart = match &mut self.restarts {
+                    Some(restarts)
+                        if stop || (step < steps && restarts.due(step, ranks.communicator())) =>
+                    {
+                        let written = restarts.write(
+                            ranks.communicator(),
+                            model,
+                            physics,
+                            state,
+                            &self.outputs,
+                            &self.summary,
+                            Position {
+                                solver: index,
+                                step,
+                            },
+                            Inside::Boundary,
+                        );
+                        Some(agree(ranks.communicator(), written)?)
+                    }
+                    _ => None,
+                };
+                if stop {
+                    let restart =
+                        restart.ok_or_else(|| "the deck has no Restart entry".to_string());
                     return Err(stop_on_signal(
                         &mut self.outputs,
                         ranks,
@@ -791,6 +828,7 @@ fn newmark_settings(solver: &Solver, implicit: &Implicit) -> Result<NewmarkSetti
     Ok(NewmarkSettings {
         time_step: implicit.fixed_dt,
         steps: run_steps(solver, implicit.fixed_dt)?,
+        first_step: 1,
         initial_time: solver.initial_time,
         beta: implicit.beta,
         gamma: implicit.gamma,

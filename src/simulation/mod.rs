@@ -22,7 +22,7 @@ pub use outputs::SOLVER_HISTORY_COLUMNS;
 
 use crate::io::deck::Deck;
 use crate::model::Model;
-use crate::parallel::SerialRanks;
+use crate::parallel::{Serial, SerialRanks};
 use crate::physics::Physics;
 use crate::setup;
 use crate::state::{History, State};
@@ -71,7 +71,9 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
     };
     let (restarts, start) = match deck.restart {
         Some(_) => {
-            let (restarts, start) = restarts::Restarts::open(deck, model, dir)?;
+            let every_point = (0..model.points.len() as u32).collect();
+            let (restarts, start) =
+                restarts::Restarts::open(deck, model, model, every_point, &Serial, dir)?;
             (Some(restarts), start)
         }
         None => (None, restarts::Start::Fresh),
@@ -79,7 +81,7 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
     let mut summary = RunSummary::default();
     let (restarts, continued) = match (restarts, start) {
         (Some(mut restarts), restarts::Start::Continue(snapshot)) => {
-            restarts.apply(&snapshot, model, &physics, &mut state)?;
+            restarts.apply(&snapshot, model, &physics, &Serial, &mut state)?;
             summary.steps = snapshot.steps;
             summary.broken_bonds = snapshot.broken_bonds as usize;
             let outputs = RunOutputs::one_rank(deck, model, dir, Some(&snapshot))?;
@@ -87,7 +89,7 @@ pub fn run(deck: &Deck, model: &Model, dir: &Path) -> Result<RunSummary, RunErro
             (Some(restarts), Some(outputs))
         }
         (Some(mut restarts), restarts::Start::FromState(snapshot)) => {
-            restarts.apply(&snapshot, model, &physics, &mut state)?;
+            restarts.apply(&snapshot, model, &physics, &Serial, &mut state)?;
             restarts.start_from_saved_state();
             (Some(restarts), None)
         }

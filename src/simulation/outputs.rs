@@ -542,14 +542,16 @@ pub(super) struct DistributedOutputs<'a> {
 }
 
 impl<'a> DistributedOutputs<'a> {
-    /// Opens the files on rank 0 (geometry from the global model). Not collective; the caller
-    /// agrees on the result.
+    /// Opens the files on rank 0 (geometry from the global model); with `resume`, the files
+    /// of the interrupted run being continued, kept up to where the restart file says. Not
+    /// collective; the caller agrees on the result.
     pub(super) fn create(
         deck: &Deck,
         global: &Model,
         dir: &Path,
         classes: &'a [PreparedComputeClass],
         rank: usize,
+        resume: Option<&Snapshot>,
     ) -> Result<Self, RunError> {
         let fields = fields_to_gather(deck, classes)?;
         let schedules = deck
@@ -561,19 +563,31 @@ impl<'a> DistributedOutputs<'a> {
                 final_step: output.final_output_step,
             })
             .collect();
-        let files = if rank == 0 {
-            Outputs::create(deck, global, dir, None)?.files
+        let positions = resume.map(|s| &s.outputs[..]);
+        let (files, solver_history) = if rank == 0 {
+            let mut history = SolverHistory::new(deck, dir);
+            if let Some(snapshot) = resume {
+                history.continue_from(snapshot.solver_rows as usize)?;
+            }
+            (
+                Outputs::create(deck, global, dir, positions)?.files,
+                Some(history),
+            )
         } else {
-            Vec::new()
+            (Vec::new(), None)
         };
+        // Every file counts every call, so the first file's count is every file's.
+        let calls = positions
+            .and_then(|p| p.first())
+            .map_or(0, |position| position.calls);
         Ok(Self {
             files,
             schedules,
-            calls: 0,
+            calls,
             fields,
             classes,
             seconds: 0.0,
-            solver_history: (rank == 0).then(|| SolverHistory::new(deck, dir)),
+            solver_history,
         })
     }
 

@@ -33,6 +33,9 @@ pub struct NewmarkSettings {
     pub time_step: f64,
     /// Steps, `floor((t_final − t_initial)/Δt)` as Peridigm counts them.
     pub steps: u64,
+    /// The first step to solve: 1, or the step after the one a restart file was written at
+    /// (the state is then the one after step `first_step − 1`).
+    pub first_step: u64,
     /// `Initial Time`.
     pub initial_time: f64,
     /// β (`Beta`, default 0.25).
@@ -102,7 +105,7 @@ pub fn run<E: From<NewmarkError>>(
     let positions = &model.points.position;
     let n = model.points.len();
     let root = collective.rank() == 0;
-    for step in 1..=settings.steps {
+    for step in settings.first_step..=settings.steps {
         let from = settings.initial_time + (step - 1) as f64 * dt;
         let to = settings.initial_time + step as f64 * dt;
         state.history.set_step_duration(dt);
