@@ -6,44 +6,13 @@
 //! ranks bitwise as on one.
 #![cfg(all(feature = "mpi", feature = "trilinos"))]
 
+mod implicit_ranks;
 mod mpi_support;
 mod quasi_static_bar;
 
-use mpi_support::{diff_against_one_rank, mpirun, run_on_ranks};
+use implicit_ranks::{same_answer_on_one_two_and_three_ranks, Backend, NEWMARK, RELATIVE};
+use mpi_support::{mpirun, run_on_ranks};
 use peridyn::io::exodus::ExodusFile;
-
-/// exodiff command file: 1e-8 relative everywhere (the issue's bar for implicit runs), with
-/// floors below which values are round-off: 1e-14 m for displacements (the pull is 0.012 m)
-/// and 1 N for forces, far below the reactions (1e5–1e8 N) and above the interior residuals
-/// the Newton tolerances (0.01 N for NOX, 0.05 N for QuasiStatic) leave, whose size depends on
-/// the iterate.
-const RELATIVE: &str = "DEFAULT TOLERANCE relative 1.0E-8 floor 1.0E-14
-COORDINATES absolute 0.0
-TIME STEPS relative 1.0E-12 floor 0.0
-GLOBAL VARIABLES
-NODAL VARIABLES
-\tForceX relative 1.0E-8 floor 1.0
-\tForceY relative 1.0E-8 floor 1.0
-\tForceZ relative 1.0E-8 floor 1.0
-ELEMENT VARIABLES
-";
-
-/// exodiff command file for the Newmark-β runs: 1e-8 relative on displacements and velocities
-/// as in [`RELATIVE`]; forces to 0.01 N absolute. Inside the bar the force is no residual here
-/// but the inertial force ρVa (≈ 600 N), and two converged answers differ there by their Newton
-/// residuals: the residual stops at ≈ 2e-3 N (the log's measure 2e-11 over βΔt² = 1e-8), the
-/// round-off of terms ρV/(βΔt²)·u ≈ 8e8 N, so no solver gets these forces to 1e-8 relative.
-/// A wrong ghost or a missed row moves forces by 1e4 N and more.
-const NEWMARK: &str = "DEFAULT TOLERANCE relative 1.0E-8 floor 1.0E-14
-COORDINATES absolute 0.0
-TIME STEPS relative 1.0E-12 floor 0.0
-GLOBAL VARIABLES
-NODAL VARIABLES
-\tForceX absolute 1.0E-2
-\tForceY absolute 1.0E-2
-\tForceZ absolute 1.0E-2
-ELEMENT VARIABLES
-";
 
 /// The shared LPS bar (108 points, two load steps) as a NOXQuasiStatic deck on the Trilinos
 /// backend with `solver_keys` and the NOX `Linear Solver` keys `linear`.
@@ -54,79 +23,19 @@ fn deck(solver_keys: &str, linear: &str) -> String {
     quasi_static_bar::bar_deck(&solver, 0.012, 0.004, 2)
 }
 
-/// Runs `text` on 1, 2 and 3 ranks and compares the results files with the exodiff command
-/// file `comp`; `last_step` is the log line of the last step, which rank 0 alone prints.
-fn same_answer_on_one_two_and_three_ranks(name: &str, text: &str, comp: &str, last_step: &str) {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("bar.yaml"), text).unwrap();
-    std::fs::write(dir.path().join("relative.comp"), comp).unwrap();
-    for ranks in 1..=3 {
-        let log = run_on_ranks(dir.path(), ranks, "bar.yaml", name);
-        // Only rank 0 reports.
-        assert_eq!(log.matches("done:").count(), 1, "{log}");
-        assert_eq!(log.matches(last_step).count(), 1, "{log}");
-    }
-    // The per-step solver report is written on every rank count, rank 0 writing for all: the
-    // same steps and Newton iterations, and the same first residual (a global norm of the
-    // input, so only its summation order depends on the ranks). Later residuals start from
-    // answers that agree only to the solver tolerance, and the linear iterations and residual
-    // evaluations follow from each rank preconditioning its own rows.
-    let report = |ranks: usize| -> Vec<Vec<f64>> {
-        let path = dir.path().join(format!("ranks{ranks}/bar_solver.csv"));
-        let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path:?}: {e}"));
-        text.lines()
-            .skip(1)
-            .map(|line| line.split(',').map(|v| v.parse().unwrap()).collect())
-            .collect()
-    };
-    let one = report(1);
-    assert!(!one.is_empty());
-    // Every step converged: fewer Newton iterations than the decks' limits (10 and 20), not
-    // accepted at the limit.
-    assert!(
-        one.iter().all(|row| row[2] < 10.0),
-        "{name}: a step ran to its iteration limit on one rank: {one:?}"
-    );
-    for ranks in 2..=3 {
-        let many = report(ranks);
-        assert_eq!(
-            many.len(),
-            one.len(),
-            "{name}: solver report rows on {ranks} ranks"
-        );
-        for (a, b) in many.iter().zip(&one) {
-            // Time, Step, Newton_Iterations.
-            for column in [0, 1, 2] {
-                assert_eq!(
-                    a[column], b[column],
-                    "{name}: {ranks} ranks, column {column}"
-                );
-            }
-        }
-        let (first_many, first_one) = (many[0][5], one[0][5]);
-        assert!(
-            (first_many - first_one).abs() <= 1e-12 * first_one.abs(),
-            "{name}: first residual {first_many} on {ranks} ranks, {first_one} on one"
-        );
-    }
-    for ranks in 2..=3 {
-        let output = diff_against_one_rank(dir.path(), ranks, "bar.e", "relative.comp");
-        assert!(
-            output.status.success(),
-            "{name}: {ranks} ranks differ from one:\n{}{}",
-            String::from_utf8_lossy(&output.stdout),
-            String::from_utf8_lossy(&output.stderr)
-        );
-    }
-}
-
 #[test]
 fn nox_newton_gives_the_one_rank_answer_on_two_and_three_ranks() {
     let text = deck(
         "",
         "            Preconditioner: \"Ifpack\"\n            Tolerance: 1.0e-10",
     );
-    same_answer_on_one_two_and_three_ranks("NOX Newton", &text, RELATIVE, "Load step 2,");
+    same_answer_on_one_two_and_three_ranks(
+        "NOX Newton",
+        &text,
+        RELATIVE,
+        "Load step 2,",
+        Backend::Trilinos,
+    );
 }
 
 #[test]
@@ -135,7 +44,13 @@ fn jacobian_free_nox_gives_the_one_rank_answer_on_two_and_three_ranks() {
         "    Peridigm Preconditioner: \"Block 3x3\"",
         "            Jacobian Operator: \"Matrix-Free\"\n            Preconditioner: \"User Defined\"",
     );
-    same_answer_on_one_two_and_three_ranks("NOX JFNK", &text, RELATIVE, "Load step 2,");
+    same_answer_on_one_two_and_three_ranks(
+        "NOX JFNK",
+        &text,
+        RELATIVE,
+        "Load step 2,",
+        Backend::Trilinos,
+    );
 }
 
 #[test]
@@ -145,7 +60,13 @@ fn quasi_static_newton_with_belos_gives_the_one_rank_answer_on_two_and_three_ran
     // count, and the comparison's 1 N floor for forces stays above it.
     let solver = "    Final Time: 1.0\n    Backend: \"Trilinos\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"ILU\"\n    Linear Solver Tolerance: 1.0e-12\n    QuasiStatic:\n      Number of Load Steps: {steps}\n      Absolute Tolerance: 5.0e-2\n      Maximum Solver Iterations: 20";
     let text = quasi_static_bar::bar_deck(solver, 0.012, 0.004, 2);
-    same_answer_on_one_two_and_three_ranks("QuasiStatic + Belos", &text, RELATIVE, "Load step 2,");
+    same_answer_on_one_two_and_three_ranks(
+        "QuasiStatic + Belos",
+        &text,
+        RELATIVE,
+        "Load step 2,",
+        Backend::Trilinos,
+    );
 }
 
 #[test]
@@ -155,7 +76,13 @@ fn newmark_with_belos_gives_the_one_rank_answer_on_two_and_three_ranks() {
     // within the run, so inertia and stiffness both shape the answer.
     let solver = "    Final Time: 0.002\n    Backend: \"Trilinos\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"ILU\"\n    Linear Solver Tolerance: 1.0e-12\n    Implicit:\n      Fixed dt: 0.0002\n      Absolute Tolerance: 1.0e-10\n      Maximum Solver Iterations: 10";
     let text = quasi_static_bar::bar_deck(solver, 5.0, 2.0, 1);
-    same_answer_on_one_two_and_three_ranks("Newmark-β + Belos", &text, NEWMARK, "Time step 10,");
+    same_answer_on_one_two_and_three_ranks(
+        "Newmark-β + Belos",
+        &text,
+        NEWMARK,
+        "Time step 10,",
+        Backend::Trilinos,
+    );
 }
 
 #[test]
