@@ -338,12 +338,31 @@ impl Amg {
             .expect("the workspace has one entry per level above the coarsest");
         finest.smoother.block_jacobi(r, z);
         finest.restriction.multiply_parallel(r, &mut mine.coarse_b);
+        self.add_coarse_correction(0, z, mine, coarser, coarsest);
+    }
+
+    /// x += P V(b_c) on level `depth`: the V-cycle of the next level on the restricted
+    /// residual already in `mine.coarse_b`, prolongated through `mine.residual`.
+    fn add_coarse_correction(
+        &self,
+        depth: usize,
+        x: &mut [f64],
+        mine: &mut LevelWork,
+        coarser: &mut [LevelWork],
+        coarsest_scratch: &mut Scratch,
+    ) {
         mine.coarse_x.fill(0.0);
-        self.cycle(1, &mine.coarse_b, &mut mine.coarse_x, coarser, coarsest);
-        finest
+        self.cycle(
+            depth + 1,
+            &mine.coarse_b,
+            &mut mine.coarse_x,
+            coarser,
+            coarsest_scratch,
+        );
+        self.levels[depth]
             .prolongator
             .multiply_parallel(&mine.coarse_x, &mut mine.residual);
-        z.iter_mut().zip(&mine.residual).for_each(|(z, c)| *z += c);
+        x.iter_mut().zip(&mine.residual).for_each(|(x, c)| *x += c);
     }
 
     /// One V-cycle on level `depth` from the guess x; `work` holds the workspace of this
@@ -378,18 +397,7 @@ impl Amg {
         level
             .restriction
             .multiply_parallel(&mine.residual, &mut mine.coarse_b);
-        mine.coarse_x.fill(0.0);
-        self.cycle(
-            depth + 1,
-            &mine.coarse_b,
-            &mut mine.coarse_x,
-            coarser,
-            coarsest_scratch,
-        );
-        level
-            .prolongator
-            .multiply_parallel(&mine.coarse_x, &mut mine.residual);
-        x.iter_mut().zip(&mine.residual).for_each(|(x, c)| *x += c);
+        self.add_coarse_correction(depth, x, mine, coarser, coarsest_scratch);
         level.smoother.smooth(a, b, x, &mut mine.smoothing);
     }
 }
