@@ -26,7 +26,7 @@ mod preconditioner;
 use std::str::FromStr;
 
 pub use amg::{
-    multigrid_memory_estimate, one_hop_operator, pmb_micromodulus, rigid_body_modes, Amg,
+    multigrid_memory_estimate, one_hop_operator, pmb_micromodulus, rigid_body_modes, Amg, Cycle,
     MultigridMemory, OneHopInput, Stencil, COARSE_UNKNOWNS, NEAREST_SHELLS,
 };
 pub use direct::{SparseCholesky, SparseLu};

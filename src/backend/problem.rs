@@ -122,10 +122,11 @@ pub trait NonlinearProblem {
         None
     }
 
-    /// A number that changes whenever [`NonlinearProblem::preconditioning_operator`] would
-    /// change at the current iterate (e.g. the count of bonds broken so far in the step), so
-    /// a caller can keep one operator until it does. The default never changes.
-    fn preconditioning_version(&self) -> usize {
+    /// A fingerprint of what [`NonlinearProblem::preconditioning_operator`] is built from at
+    /// the current iterate (e.g. the unknowns and the bond damage), equal on every rank, so a
+    /// caller can keep one operator, across Newton iterations and load steps, until it
+    /// changes. Collective on several ranks. The default never changes.
+    fn preconditioning_version(&mut self) -> usize {
         0
     }
 }

@@ -77,13 +77,9 @@ pub fn solve(
         (Some(op), _) => {
             gmres_matrix_free(&mut apply, &|r, z| op.apply(r, z), rhs, correction, krylov)
         }
-        (None, Some(amg)) => gmres_matrix_free(
-            &mut apply,
-            &|r, z| amg.apply_additive(r, z),
-            rhs,
-            correction,
-            krylov,
-        ),
+        (None, Some(amg)) => {
+            gmres_matrix_free(&mut apply, &|r, z| amg.apply(r, z), rhs, correction, krylov)
+        }
         (None, None) => gmres_matrix_free(&mut apply, &identity, rhs, correction, krylov),
     };
     problem.move_to(x);

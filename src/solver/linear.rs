@@ -29,6 +29,7 @@ use crate::io::deck::{
 };
 use crate::model::Model;
 use crate::physics::Physics;
+use crate::solver::multigrid::MultigridCache;
 use crate::solver::newton::{LinearStrategy, NonlinearSolver};
 
 /// The smallest Krylov tolerance Jacobian-free solves use: a finite-difference directional
@@ -108,6 +109,7 @@ pub fn strategy(
                 ..krylov
             },
             preconditioner,
+            multigrid: MultigridCache::default(),
         });
     }
     if let LinearBackend::Petsc { .. } = settings.backend {
@@ -152,7 +154,11 @@ pub fn strategy(
             _ => None,
         };
         if let Some(method) = method {
-            return Ok(LinearStrategy::Multigrid { method, krylov });
+            return Ok(LinearStrategy::Multigrid {
+                method,
+                krylov,
+                multigrid: MultigridCache::default(),
+            });
         }
     }
     Ok(match method {

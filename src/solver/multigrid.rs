@@ -3,16 +3,17 @@
 //! CSV).
 //!
 //! Rebuild policy: the one-hop operator ([`NonlinearProblem::preconditioning_operator`], the
-//! PMB-like stiffness) and its AMG hierarchy are built at the first linear solve of every
-//! Newton solve (the driver makes a new cache per load step or time step, so each step starts
-//! from the damage it inherits), reused by the following Newton iterations of that step, and
-//! rebuilt within the step only when the unknowns change (a point held) or the count of bonds
-//! broken in the step changes ([`NonlinearProblem::preconditioning_version`]). Positions do
-//! not trigger a rebuild: the operator uses the reference bond directions.
+//! PMB-like stiffness) and its AMG hierarchy are built at the first linear solve that needs
+//! them and kept by the solver list's strategy for the rest of the run: the following Newton
+//! iterations, load steps and time steps reuse it until what the operator is built from
+//! changes — the unknowns (a point held), the bond damage (bonds broke, in this step or an
+//! earlier one) or the inertia factor ([`NonlinearProblem::preconditioning_version`], a
+//! fingerprint of those). Positions do not trigger a rebuild: the operator uses the
+//! reference bond directions. Without damage a whole quasi-static run builds one hierarchy.
 
 use std::time::Instant;
 
-use crate::backend::native::Amg;
+use crate::backend::native::{Amg, Cycle};
 use crate::backend::problem::NonlinearProblem;
 use crate::backend::SolveError;
 
@@ -26,8 +27,9 @@ pub struct PreconditionerReport {
     /// built inside an assembled linear solver (native CG/GMRES + block Jacobi, direct
     /// methods, Trilinos, PETSc), whose time is in `Seconds` only.
     pub setup_seconds: f64,
-    /// AMG hierarchies built during the solve (1 when it was reused by every Newton
-    /// iteration; more when bonds broke or points were held mid-step; 0 without AMG).
+    /// AMG hierarchies built during the solve (0 when the solve reused the one of an earlier
+    /// solve or ran without AMG, 1 when it built one for all its Newton iterations, more
+    /// when bonds broke or points were held mid-step).
     pub setups: usize,
     /// Levels of the last AMG hierarchy, the finest and the coarsest included (0 without
     /// AMG).
@@ -39,7 +41,7 @@ pub struct PreconditionerReport {
     pub gmres_restart: usize,
 }
 
-/// The hierarchy kept between the linear solves of one Newton solve.
+/// The hierarchy kept between linear solves, Newton solves included.
 #[derive(Debug, Default)]
 pub struct MultigridCache {
     /// The hierarchy and the (unknowns, version) it was built for.
@@ -57,6 +59,17 @@ impl MultigridCache {
             built: None,
             verbose,
             report: PreconditionerReport::default(),
+        }
+    }
+
+    /// Starts the report of a new Newton solve; the hierarchy is kept. `verbose` logs each
+    /// setup.
+    pub fn begin_solve(&mut self, verbose: bool) {
+        self.verbose = verbose;
+        self.report = PreconditionerReport::default();
+        if let Some((amg, _)) = &self.built {
+            self.report.levels = amg.levels();
+            self.report.operator_complexity = amg.operator_complexity();
         }
     }
 
@@ -96,6 +109,7 @@ impl MultigridCache {
             problem.groups(),
             &operator.null_space,
             operator.modes,
+            Cycle::Additive,
         )?;
         self.report.setup_seconds += start.elapsed().as_secs_f64();
         self.report.setups += 1;
@@ -179,7 +193,7 @@ mod tests {
                 modes: 6,
             }))
         }
-        fn preconditioning_version(&self) -> usize {
+        fn preconditioning_version(&mut self) -> usize {
             self.version
         }
     }
@@ -195,7 +209,7 @@ mod tests {
     }
 
     #[test]
-    fn the_hierarchy_is_reused_until_bonds_break() {
+    fn the_hierarchy_is_reused_until_its_inputs_change() {
         let mut problem = Counted {
             version: 0,
             assembled: 0,
@@ -221,9 +235,17 @@ mod tests {
         // so one level of complexity nnz/nnz = 1.
         assert_eq!((report.levels, report.operator_complexity), (1, 1.0));
         assert!(report.setup_seconds >= 0.0);
-        // A new load step starts from a new cache: built again.
-        let mut next_step = MultigridCache::new(false);
-        next_step.hierarchy(&mut problem).unwrap();
-        assert_eq!(problem.assembled, 3);
+        // The next load step, nothing changed: reused, and its report counts no setup but
+        // describes the hierarchy it used.
+        cache.begin_solve(false);
+        cache.hierarchy(&mut problem).unwrap();
+        let report = cache.report();
+        assert_eq!((problem.assembled, report.setups), (2, 0));
+        assert_eq!((report.levels, report.setup_seconds), (1, 0.0));
+        // Damage changed between the steps: built again.
+        problem.version = 2;
+        cache.begin_solve(false);
+        cache.hierarchy(&mut problem).unwrap();
+        assert_eq!((problem.assembled, cache.report().setups), (3, 1));
     }
 }

@@ -57,14 +57,16 @@ pub enum LinearStrategy {
     /// Assemble K and hand it to another backend's solver.
     Assembled(Box<dyn LinearSolver>),
     /// Assemble K and solve with native CG or GMRES preconditioned by the additive
-    /// two-level smoothed-aggregation multigrid ([`crate::backend::native::Amg::apply_additive`])
+    /// two-level smoothed-aggregation multigrid ([`crate::backend::native::Cycle::Additive`])
     /// on the problem's one-hop operator (`Linear Solver
-    /// Preconditioner: "AMG"`), built once per Newton solve and rebuilt when bonds break.
+    /// Preconditioner: "AMG"`), built once and rebuilt when bonds break or points are held.
     Multigrid {
         /// [`NativeMethod::Cg`] or [`NativeMethod::Gmres`].
         method: NativeMethod,
         /// Tolerance, iteration limit and restart.
         krylov: KrylovSettings,
+        /// The hierarchy, kept across the Newton solves of the run.
+        multigrid: MultigridCache,
     },
     /// Jacobian-free Newton–Krylov: GMRES on the directional derivative
     /// `K v ≈ (r(u) − r(u + εv))/ε`, with ε = λ·max|Y|/‖v‖∞, λ = 10⁻⁷ (about √ε_mach: the
@@ -77,8 +79,10 @@ pub enum LinearStrategy {
     MatrixFree {
         /// GMRES settings.
         krylov: KrylovSettings,
-        /// `Block 3x3` (inverted diagonal blocks), `Jacobi` or `None`.
+        /// `Block 3x3` (inverted diagonal blocks), `Jacobi`, `None` or `AMG`.
         preconditioner: LinearPreconditioner,
+        /// The AMG hierarchy (with `AMG`), kept across the Newton solves of the run.
+        multigrid: MultigridCache,
     },
 }
 
@@ -93,9 +97,29 @@ impl LinearStrategy {
             LinearStrategy::Multigrid {
                 method: NativeMethod::Gmres,
                 krylov,
+                ..
             }
             | LinearStrategy::MatrixFree { krylov, .. } => krylov.restart,
             _ => 0,
+        }
+    }
+
+    /// The AMG hierarchy this strategy keeps between Newton solves (an empty cache for the
+    /// strategies without one); give it back with [`LinearStrategy::keep_multigrid`].
+    fn take_multigrid(&mut self) -> MultigridCache {
+        match self {
+            LinearStrategy::Multigrid { multigrid, .. }
+            | LinearStrategy::MatrixFree { multigrid, .. } => std::mem::take(multigrid),
+            _ => MultigridCache::default(),
+        }
+    }
+
+    /// Keeps `cache` for the next Newton solve (dropped by strategies without AMG).
+    fn keep_multigrid(&mut self, cache: MultigridCache) {
+        if let LinearStrategy::Multigrid { multigrid, .. }
+        | LinearStrategy::MatrixFree { multigrid, .. } = self
+        {
+            *multigrid = cache;
         }
     }
 
@@ -256,7 +280,8 @@ pub fn solve_problem(
         });
     }
     let mut report = NewtonReport::default();
-    let mut multigrid = MultigridCache::new(settings.verbose);
+    let mut multigrid = linear.take_multigrid();
+    multigrid.begin_solve(settings.verbose);
     let mut x = vec![0.0; problem.len()];
     problem.unknowns(&mut x);
     let mut residual = vec![0.0; problem.len()];
@@ -305,6 +330,7 @@ pub fn solve_problem(
     }
     report.converged = measure <= settings.tolerance;
     report.preconditioner = multigrid.report();
+    linear.keep_multigrid(multigrid);
     if report.iterations > 0 {
         report.preconditioner.gmres_restart = linear.gmres_restart();
     }
@@ -341,14 +367,14 @@ fn correct(
             };
             accept_inexact(result)
         }
-        LinearStrategy::Multigrid { method, krylov } => {
+        LinearStrategy::Multigrid { method, krylov, .. } => {
             let matrix = problem.jacobian(x)?;
             let amg = multigrid.hierarchy(problem)?;
             let mut apply = |v: &[f64], y: &mut [f64]| {
                 matrix.multiply_parallel(v, y);
                 Ok(())
             };
-            let precondition = |r: &[f64], z: &mut [f64]| amg.apply_additive(r, z);
+            let precondition = |r: &[f64], z: &mut [f64]| amg.apply(r, z);
             let krylov_method = match method {
                 NativeMethod::Gmres => gmres_matrix_free,
                 _ => cg_matrix_free,
@@ -364,6 +390,7 @@ fn correct(
         LinearStrategy::MatrixFree {
             krylov,
             preconditioner,
+            ..
         } => accept_inexact(jfnk::solve(
             problem,
             krylov,

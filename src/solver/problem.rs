@@ -416,7 +416,53 @@ impl NonlinearProblem for PhysicsProblem<'_> {
         ))
     }
 
-    fn preconditioning_version(&self) -> usize {
-        self.broken_bonds
+    /// The unknowns, the bond damage and the inertia factor: everything
+    /// [`Self::preconditioning_operator`] reads that can change during a run (positions,
+    /// volumes, bonds and moduli are the reference configuration's).
+    fn preconditioning_version(&mut self) -> usize {
+        let Physical {
+            system,
+            state,
+            collective,
+            ..
+        } = &mut self.parts;
+        let mut fingerprint = Fingerprint::default();
+        fingerprint.add(system.dofs.free.len() as u64);
+        system
+            .dofs
+            .free
+            .iter()
+            .for_each(|&dof| fingerprint.add(dof as u64));
+        if let Some(damage) = state.bond_damage() {
+            damage.chunks(2).for_each(|pair| {
+                fingerprint.add(pair.iter().fold(0, |w, d| w << 32 | u64::from(d.to_bits())))
+            });
+        }
+        if let Some(inertia) = &system.inertia {
+            fingerprint.add(inertia.factor.to_bits());
+        }
+        fingerprint.agreed(&mut **collective) as usize
+    }
+}
+
+/// A 64-bit multiply–rotate hash of words (the FxHash step), enough to notice that the
+/// inputs of an operator changed: not for adversarial input.
+#[derive(Default)]
+struct Fingerprint(u64);
+
+impl Fingerprint {
+    fn add(&mut self, word: u64) {
+        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+
+    /// The sum of every rank's fingerprint (collective), in two 32-bit halves so that f64
+    /// sums stay exact.
+    fn agreed(self, collective: &mut dyn Collective) -> u64 {
+        if collective.ranks() == 1 {
+            return self.0;
+        }
+        let mut halves = [(self.0 >> 32) as f64, (self.0 & 0xffff_ffff) as f64];
+        collective.sum(&mut halves);
+        (halves[0] as u64) << 32 ^ halves[1] as u64
     }
 }

@@ -32,12 +32,7 @@ impl Chebyshev {
     /// The smoother of `a` with block Jacobi over `groups`, its λ_max estimated by power
     /// iteration.
     pub fn new(a: &Csr, groups: &[usize]) -> Result<Self, SolveError> {
-        let block_jacobi = PreconditionerOperator::build(
-            &Preconditioner::BlockJacobi {
-                groups: groups.to_vec(),
-            },
-            a,
-        )?;
+        let block_jacobi = block_jacobi(a, groups)?;
         let lambda_max = spectral_radius(a, |r, z| block_jacobi.apply(r, z));
         if !(lambda_max.is_finite() && lambda_max > 0.0) {
             return Err(not_positive_definite(
@@ -48,11 +43,6 @@ impl Chebyshev {
             block_jacobi,
             lambda_max,
         })
-    }
-
-    /// z = D⁻¹ r with the level's inverted diagonal blocks.
-    pub fn block_jacobi(&self, r: &[f64], z: &mut [f64]) {
-        self.block_jacobi.apply(r, z);
     }
 
     /// Bytes held (the inverted diagonal blocks).
@@ -84,6 +74,19 @@ impl Chebyshev {
         }
         x.iter_mut().zip(d.iter()).for_each(|(x, d)| *x += d);
     }
+}
+
+/// The inverted diagonal blocks of `a` over `groups` (block Jacobi's D⁻¹).
+pub(super) fn block_jacobi(
+    a: &Csr,
+    groups: &[usize],
+) -> Result<PreconditionerOperator, SolveError> {
+    PreconditionerOperator::build(
+        &Preconditioner::BlockJacobi {
+            groups: groups.to_vec(),
+        },
+        a,
+    )
 }
 
 /// The vectors one [`Chebyshev::smooth`] works in: residual r, preconditioned residual z,

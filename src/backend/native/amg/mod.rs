@@ -9,9 +9,11 @@
 //! 3. P = (I − ω D⁻¹A) T, ω = 4/(3ρ(D⁻¹A)) ([`prolongator`]);
 //! 4. the Galerkin coarse operator Pᵀ A P.
 //!
-//! The V-cycle smooths with Chebyshev on block Jacobi before and after the coarse correction
-//! and solves the coarsest operator by dense LU ([`cycle`]). The cycle is a fixed linear,
-//! symmetric positive definite map when A is SPD, as CG needs.
+//! [`Amg::apply`] runs the [`Cycle`] the hierarchy was built for. The V-cycle smooths with
+//! Chebyshev on block Jacobi before and after the coarse correction and solves the coarsest
+//! operator by dense LU ([`cycle`]). The additive form smooths the finest level with its
+//! inverted diagonal blocks only, so that level keeps no operator after setup. Either is a
+//! fixed linear, symmetric positive definite map when A is SPD, as CG needs.
 
 mod aggregation;
 mod cycle;
@@ -21,7 +23,8 @@ mod prolongator;
 use super::super::{Csr, SolveError};
 use std::cell::RefCell;
 
-use cycle::{not_positive_definite, spectral_radius, Chebyshev, DenseLu, Scratch};
+use super::preconditioner::PreconditionerOperator;
+use cycle::{block_jacobi, not_positive_definite, spectral_radius, Chebyshev, DenseLu, Scratch};
 pub use one_hop::{
     one_hop_operator, pmb_micromodulus, rigid_body_modes, OneHopInput, Stencil, NEAREST_SHELLS,
 };
@@ -102,6 +105,37 @@ pub fn multigrid_memory_estimate(points: u64, bonds: u64) -> MultigridMemory {
     }
 }
 
+/// How [`Amg::apply`] uses the hierarchy.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Cycle {
+    /// One V-cycle from z = 0: Chebyshev smoothing before and after the coarse correction
+    /// on every level above the coarsest. For an operator that is the system itself.
+    VCycle,
+    /// The additive two-level form M⁻¹ = D₀⁻¹ + P₀ V₁ R₀: the finest level's inverted
+    /// diagonal blocks plus the prolongated V-cycle V₁ of the coarse levels on the restricted
+    /// residual (an additive Schwarz preconditioner with the smoothed-aggregation coarse
+    /// space; Toselli & Widlund, *Domain Decomposition Methods*, 2005, ch. 2). The finest
+    /// operator is dropped once the coarse levels are built.
+    ///
+    /// This is the form for a stand-in operator such as the one-hop operator, where smoothing
+    /// the finest level with the stand-in tunes it to the wrong high frequencies: measured on
+    /// the 20,000-point tension block with the nearest-shells stencil, Krylov iterations per
+    /// Newton step fell from 45 (V-cycle) to 34, and each application skips the finest
+    /// level's five operator products.
+    Additive,
+}
+
+/// The finest level of an additive hierarchy: no operator, only what M⁻¹ applies.
+#[derive(Debug, Clone)]
+struct AdditiveFinest {
+    /// D₀⁻¹, the inverted diagonal blocks of the finest operator.
+    block_jacobi: PreconditionerOperator,
+    prolongator: Csr,
+    restriction: Csr,
+    /// nnz(A₀), for the operator complexity.
+    operator_entries: usize,
+}
+
 /// One level above the coarsest.
 #[derive(Debug, Clone)]
 struct Level {
@@ -122,6 +156,9 @@ enum Coarsest {
 /// The multigrid hierarchy of one operator: apply it with [`Amg::apply`].
 #[derive(Debug, Clone)]
 pub struct Amg {
+    /// The finest level when built for [`Cycle::Additive`] with coarse levels below it.
+    additive_finest: Option<AdditiveFinest>,
+    /// The V-cycle's levels above the coarsest, finest first (below `additive_finest`).
     levels: Vec<Level>,
     coarsest_operator: Csr,
     coarsest: Coarsest,
@@ -134,7 +171,9 @@ pub struct Amg {
 /// The vectors of one V-cycle.
 #[derive(Debug, Clone)]
 struct Workspace {
-    /// One per level above the coarsest, finest first.
+    /// The additive finest level's coarse correction.
+    additive_finest: Option<CoarseWork>,
+    /// One per level of [`Amg::levels`](Amg), finest first.
     levels: Vec<LevelWork>,
     /// The coarsest level's smoother scratch (empty when the coarsest is solved by LU).
     coarsest: Scratch,
@@ -143,25 +182,50 @@ struct Workspace {
 /// The vectors of one level above the coarsest.
 #[derive(Debug, Clone)]
 struct LevelWork {
+    coarse: CoarseWork,
+    /// The level's smoother scratch.
+    smoothing: Scratch,
+}
+
+/// The vectors of a level's coarse correction.
+#[derive(Debug, Clone)]
+struct CoarseWork {
     /// b − A x, then the prolongated coarse correction (the level's unknowns).
     residual: Vec<f64>,
     /// The restricted residual: the next level's right-hand side.
     coarse_b: Vec<f64>,
     /// The next level's correction.
     coarse_x: Vec<f64>,
-    /// The level's smoother scratch.
-    smoothing: Scratch,
+}
+
+impl CoarseWork {
+    /// For the transfer between a level and the next through `restriction`.
+    fn new(restriction: &Csr) -> Self {
+        Self {
+            residual: vec![0.0; restriction.ncols],
+            coarse_b: vec![0.0; restriction.nrows],
+            coarse_x: vec![0.0; restriction.nrows],
+        }
+    }
+
+    fn memory_bytes(&self) -> usize {
+        8 * (self.residual.len() + self.coarse_b.len() + self.coarse_x.len())
+    }
 }
 
 impl Workspace {
-    fn new(levels: &[Level], coarsest: &Coarsest, coarsest_operator: &Csr) -> Self {
+    fn new(
+        additive_finest: Option<&AdditiveFinest>,
+        levels: &[Level],
+        coarsest: &Coarsest,
+        coarsest_operator: &Csr,
+    ) -> Self {
         Self {
+            additive_finest: additive_finest.map(|finest| CoarseWork::new(&finest.restriction)),
             levels: levels
                 .iter()
                 .map(|level| LevelWork {
-                    residual: vec![0.0; level.operator.nrows],
-                    coarse_b: vec![0.0; level.restriction.nrows],
-                    coarse_x: vec![0.0; level.restriction.nrows],
+                    coarse: CoarseWork::new(&level.restriction),
                     smoothing: Scratch::new(level.operator.nrows),
                 })
                 .collect(),
@@ -176,12 +240,13 @@ impl Workspace {
         let levels: usize = self
             .levels
             .iter()
-            .map(|l| {
-                8 * (l.residual.len() + l.coarse_b.len() + l.coarse_x.len())
-                    + l.smoothing.memory_bytes()
-            })
+            .map(|l| l.coarse.memory_bytes() + l.smoothing.memory_bytes())
             .sum();
-        levels + self.coarsest.memory_bytes()
+        let finest = self
+            .additive_finest
+            .as_ref()
+            .map_or(0, CoarseWork::memory_bytes);
+        finest + levels + self.coarsest.memory_bytes()
     }
 }
 
@@ -189,7 +254,11 @@ impl Amg {
     /// The hierarchy of the symmetric positive definite `operator`, whose unknowns are grouped
     /// by `groups` (offsets: group g holds unknowns `groups[g]..groups[g + 1]`, as
     /// [`super::Preconditioner::BlockJacobi`]), with the near-null space `null_space`
-    /// (row-major: unknowns × `modes`, e.g. the six rigid-body modes of elasticity).
+    /// (row-major: unknowns × `modes`, e.g. the six rigid-body modes of elasticity), for
+    /// applications by `cycle`.
+    ///
+    /// Each level's products are formed in the order that holds the fewest at once: P, then
+    /// A P, then (the additive finest operator dropped) R = Pᵀ and R (A P).
     ///
     /// Errors (`Breakdown`): a non-positive or non-finite diagonal entry (not positive
     /// definite), a singular coarsest operator (e.g. nothing prescribed), or `groups` /
@@ -199,8 +268,10 @@ impl Amg {
         groups: &[usize],
         null_space: &[f64],
         modes: usize,
+        cycle: Cycle,
     ) -> Result<Self, SolveError> {
         check_input(&operator, groups, null_space, modes)?;
+        let mut additive_finest = None;
         let mut levels = Vec::new();
         let mut operator = operator;
         let mut groups = groups.to_vec();
@@ -208,6 +279,7 @@ impl Amg {
         while operator.nrows > COARSE_UNKNOWNS && levels.len() + 1 < MAX_LEVELS {
             let strong = aggregation::strong_neighbours(&operator, &groups, STRENGTH_THRESHOLD);
             let aggregates = aggregation::aggregate(&strong);
+            drop(strong);
             let tentative = prolongator::tentative(&groups, &aggregates, &null_space, modes);
             if tentative.prolongator.ncols as f64 > STALLED_COARSENING * operator.nrows as f64 {
                 break;
@@ -220,18 +292,40 @@ impl Amg {
                     .for_each(|((z, r), d)| *z = r / d)
             });
             let prolongator = prolongator::smooth(&operator, &tentative.prolongator, rho);
+            let finest_is_additive = cycle == Cycle::Additive && additive_finest.is_none();
+            let smoother = if finest_is_additive {
+                None
+            } else {
+                Some(Chebyshev::new(&operator, &groups)?)
+            };
+            let block_jacobi = if finest_is_additive {
+                Some(block_jacobi(&operator, &groups)?)
+            } else {
+                None
+            };
+            let product = prolongator::multiply(&operator, &prolongator);
+            let operator_entries = operator.nnz();
+            let kept_operator = smoother.is_some().then_some(operator);
             let restriction = prolongator::transpose(&prolongator);
-            let coarse = prolongator::multiply(
-                &restriction,
-                &prolongator::multiply(&operator, &prolongator),
-            );
-            let smoother = Chebyshev::new(&operator, &groups)?;
-            levels.push(Level {
-                operator,
-                smoother,
-                prolongator,
-                restriction,
-            });
+            let coarse = prolongator::multiply(&restriction, &product);
+            drop(product);
+            match (kept_operator, smoother, block_jacobi) {
+                (Some(operator), Some(smoother), _) => levels.push(Level {
+                    operator,
+                    smoother,
+                    prolongator,
+                    restriction,
+                }),
+                (_, _, Some(block_jacobi)) => {
+                    additive_finest = Some(AdditiveFinest {
+                        block_jacobi,
+                        prolongator,
+                        restriction,
+                        operator_entries,
+                    })
+                }
+                _ => unreachable!("a level keeps its operator and smoother, or is additive"),
+            }
             operator = coarse;
             groups = tentative.coarse_groups;
             null_space = tentative.coarse_null_space;
@@ -241,8 +335,14 @@ impl Amg {
         } else {
             Coarsest::Smoother(Chebyshev::new(&operator, &groups)?)
         };
-        let workspace = RefCell::new(Workspace::new(&levels, &coarsest, &operator));
+        let workspace = RefCell::new(Workspace::new(
+            additive_finest.as_ref(),
+            &levels,
+            &coarsest,
+            &operator,
+        ));
         Ok(Self {
+            additive_finest,
             levels,
             coarsest_operator: operator,
             coarsest,
@@ -252,26 +352,32 @@ impl Amg {
 
     /// Number of levels, the finest and the coarsest included.
     pub fn levels(&self) -> usize {
-        self.levels.len() + 1
+        usize::from(self.additive_finest.is_some()) + self.levels.len() + 1
     }
 
-    /// Σ nnz(A_l) / nnz(A_0): the hierarchy's memory and cycle cost relative to the operator.
+    /// Σ nnz(A_l) / nnz(A_0): the hierarchy's cycle cost relative to the operator (the
+    /// additive form's finest operator counted although it is not kept).
     pub fn operator_complexity(&self) -> f64 {
-        let finest = self
+        let kept: Vec<usize> = self
             .levels
-            .first()
-            .map_or(&self.coarsest_operator, |l| &l.operator)
-            .nnz()
-            .max(1);
-        let total: usize = self.levels.iter().map(|l| l.operator.nnz()).sum::<usize>()
-            + self.coarsest_operator.nnz();
-        total as f64 / finest as f64
+            .iter()
+            .map(|l| l.operator.nnz())
+            .chain([self.coarsest_operator.nnz()])
+            .collect();
+        let finest = self.additive_finest.as_ref().map(|f| f.operator_entries);
+        let total: usize = kept.iter().sum::<usize>() + finest.unwrap_or(0);
+        total as f64 / finest.unwrap_or(kept[0]).max(1) as f64
     }
 
-    /// Bytes the hierarchy holds: every level's operator (the finest is the one-hop operator
-    /// it was built on), prolongator, restriction and smoother, the coarsest solve and the
-    /// V-cycle's workspace.
+    /// Bytes the hierarchy holds: every kept level's operator (with [`Cycle::VCycle`] the
+    /// finest is the operator it was built on), prolongator, restriction and smoother, the
+    /// coarsest solve and the workspace of an application.
     pub fn memory_bytes(&self) -> usize {
+        let finest = self.additive_finest.as_ref().map_or(0, |f| {
+            f.block_jacobi.memory_bytes()
+                + f.prolongator.memory_bytes()
+                + f.restriction.memory_bytes()
+        });
         let levels: usize = self
             .levels
             .iter()
@@ -286,7 +392,8 @@ impl Amg {
             Coarsest::Lu(lu) => lu.memory_bytes(),
             Coarsest::Smoother(smoother) => smoother.memory_bytes(),
         };
-        levels
+        finest
+            + levels
             + self.coarsest_operator.memory_bytes()
             + coarsest
             + self.workspace.borrow().memory_bytes()
@@ -295,10 +402,11 @@ impl Amg {
     /// A one-line summary for the log, e.g. `AMG, 3 levels (36000 → 912 unknowns, operator
     /// complexity 1.21)`.
     pub fn describe(&self) -> String {
-        let finest = self
-            .levels
-            .first()
-            .map_or(self.coarsest_operator.nrows, |l| l.operator.nrows);
+        let finest = match (&self.additive_finest, self.levels.first()) {
+            (Some(f), _) => f.prolongator.nrows,
+            (None, Some(l)) => l.operator.nrows,
+            (None, None) => self.coarsest_operator.nrows,
+        };
         format!(
             "AMG, {} levels ({finest} → {} unknowns, operator complexity {:.2})",
             self.levels(),
@@ -307,66 +415,55 @@ impl Amg {
         )
     }
 
-    /// z = M⁻¹ r: one V-cycle from z = 0, in the hierarchy's workspace (no allocation).
+    /// z = M⁻¹ r for the [`Cycle`] the hierarchy was built for, in the hierarchy's workspace
+    /// (no allocation). Without levels above the coarsest it is the coarsest solve.
     pub fn apply(&self, r: &[f64], z: &mut [f64]) {
-        z.fill(0.0);
         let mut workspace = self.workspace.borrow_mut();
-        let Workspace { levels, coarsest } = &mut *workspace;
-        self.cycle(0, r, z, levels, coarsest);
+        let Workspace {
+            additive_finest: finest_work,
+            levels,
+            coarsest,
+        } = &mut *workspace;
+        match (&self.additive_finest, finest_work) {
+            (Some(finest), Some(work)) => {
+                finest.block_jacobi.apply(r, z);
+                finest.restriction.multiply_parallel(r, &mut work.coarse_b);
+                self.add_coarse_correction(0, &finest.prolongator, z, work, levels, coarsest);
+            }
+            _ => {
+                z.fill(0.0);
+                self.cycle(0, r, z, levels, coarsest);
+            }
+        }
     }
 
-    /// z = M⁻¹ r with the additive two-level form M⁻¹ = D₀⁻¹ + P₀ V₁ R₀: the finest level's
-    /// inverted diagonal blocks plus the prolongated V-cycle V₁ of the coarse levels on the
-    /// restricted residual (an additive Schwarz preconditioner with the smoothed-aggregation
-    /// coarse space; Toselli & Widlund, *Domain Decomposition Methods*, 2005, ch. 2).
-    /// Symmetric positive definite when the operator is, so CG may use it.
-    ///
-    /// This is the form for a stand-in operator such as the one-hop operator, where
-    /// smoothing the finest level with the stand-in tunes it to the wrong high frequencies:
-    /// measured on the 20,000-point tension block with the nearest-shells stencil, Krylov
-    /// iterations per Newton step fell from 45 (V-cycle) to 34 and each application skips the
-    /// finest level's five operator products. Without coarse levels it is the coarsest solve.
-    pub fn apply_additive(&self, r: &[f64], z: &mut [f64]) {
-        let Some(finest) = self.levels.first() else {
-            self.apply(r, z);
-            return;
-        };
-        let mut workspace = self.workspace.borrow_mut();
-        let Workspace { levels, coarsest } = &mut *workspace;
-        let (mine, coarser) = levels
-            .split_first_mut()
-            .expect("the workspace has one entry per level above the coarsest");
-        finest.smoother.block_jacobi(r, z);
-        finest.restriction.multiply_parallel(r, &mut mine.coarse_b);
-        self.add_coarse_correction(0, z, mine, coarser, coarsest);
-    }
-
-    /// x += P V(b_c) on level `depth`: the V-cycle of the next level on the restricted
-    /// residual already in `mine.coarse_b`, prolongated through `mine.residual`.
+    /// x += P V(b_c): the V-cycle of level `next` on the restricted residual already in
+    /// `transfer.coarse_b`, prolongated by `prolongator` through `transfer.residual`.
     fn add_coarse_correction(
         &self,
-        depth: usize,
+        next: usize,
+        prolongator: &Csr,
         x: &mut [f64],
-        mine: &mut LevelWork,
+        transfer: &mut CoarseWork,
         coarser: &mut [LevelWork],
         coarsest_scratch: &mut Scratch,
     ) {
-        mine.coarse_x.fill(0.0);
+        transfer.coarse_x.fill(0.0);
         self.cycle(
-            depth + 1,
-            &mine.coarse_b,
-            &mut mine.coarse_x,
+            next,
+            &transfer.coarse_b,
+            &mut transfer.coarse_x,
             coarser,
             coarsest_scratch,
         );
-        self.levels[depth]
-            .prolongator
-            .multiply_parallel(&mine.coarse_x, &mut mine.residual);
-        x.iter_mut().zip(&mine.residual).for_each(|(x, c)| *x += c);
+        prolongator.multiply_parallel(&transfer.coarse_x, &mut transfer.residual);
+        x.iter_mut()
+            .zip(&transfer.residual)
+            .for_each(|(x, c)| *x += c);
     }
 
-    /// One V-cycle on level `depth` from the guess x; `work` holds the workspace of this
-    /// level and the coarser ones.
+    /// One V-cycle on level `depth` of [`Amg::levels`](Amg) from the guess x; `work` holds
+    /// the workspace of this level and the coarser ones.
     fn cycle(
         &self,
         depth: usize,
@@ -389,15 +486,24 @@ impl Amg {
             .expect("the workspace has one entry per level above the coarsest");
         let a = &level.operator;
         level.smoother.smooth(a, b, x, &mut mine.smoothing);
-        a.multiply_parallel(x, &mut mine.residual);
-        mine.residual
+        let transfer = &mut mine.coarse;
+        a.multiply_parallel(x, &mut transfer.residual);
+        transfer
+            .residual
             .iter_mut()
             .zip(b)
             .for_each(|(r, b)| *r = b - *r);
         level
             .restriction
-            .multiply_parallel(&mine.residual, &mut mine.coarse_b);
-        self.add_coarse_correction(depth, x, mine, coarser, coarsest_scratch);
+            .multiply_parallel(&transfer.residual, &mut transfer.coarse_b);
+        self.add_coarse_correction(
+            depth + 1,
+            &level.prolongator,
+            x,
+            transfer,
+            coarser,
+            coarsest_scratch,
+        );
         level.smoother.smooth(a, b, x, &mut mine.smoothing);
     }
 }

@@ -119,14 +119,11 @@ pub(super) fn smooth(a: &Csr, tentative: &Csr, spectral_radius: f64) -> Csr {
     let omega = 4.0 / (3.0 * spectral_radius);
     let diagonal = a.diagonal();
     let at = multiply(a, tentative);
-    let rows: Vec<(Vec<usize>, Vec<f64>)> = (0..a.nrows)
-        .into_par_iter()
-        .map(|r| {
-            let scale = -omega / diagonal[r];
-            merge_rows(tentative.row(r), at.row(r), scale)
-        })
-        .collect();
-    from_rows(a.nrows, tentative.ncols, rows)
+    from_rows(a.nrows, tentative.ncols, |rows| {
+        rows.into_par_iter()
+            .map(|r| merge_rows(tentative.row(r), at.row(r), -omega / diagonal[r]))
+            .collect()
+    })
 }
 
 /// The sorted union of two sorted rows, x + scale·y.
@@ -152,21 +149,31 @@ fn merge_rows(x: (&[usize], &[f64]), y: (&[usize], &[f64]), scale: f64) -> (Vec<
     (columns, values)
 }
 
-/// A CSR matrix from its rows (each sorted).
-fn from_rows(nrows: usize, ncols: usize, rows: Vec<(Vec<usize>, Vec<f64>)>) -> Csr {
-    let nnz = rows.iter().map(|(c, _)| c.len()).sum();
+/// Rows computed in parallel before they are appended to the matrix: the rows in flight stay
+/// a small fraction of a product, so no product is held twice while it is formed.
+const ROW_CHUNK: usize = 32768;
+
+/// A CSR matrix of `nrows` × `ncols` whose rows (each sorted) `rows_of` computes, a chunk of
+/// row indices at a time.
+fn from_rows(
+    nrows: usize,
+    ncols: usize,
+    rows_of: impl Fn(std::ops::Range<usize>) -> Vec<(Vec<usize>, Vec<f64>)>,
+) -> Csr {
     let mut matrix = Csr {
         nrows,
         ncols,
         offsets: Vec::with_capacity(nrows + 1),
-        columns: Vec::with_capacity(nnz),
-        values: Vec::with_capacity(nnz),
+        columns: Vec::new(),
+        values: Vec::new(),
     };
     matrix.offsets.push(0);
-    for (columns, values) in rows {
-        matrix.columns.extend(columns);
-        matrix.values.extend(values);
-        matrix.offsets.push(matrix.columns.len());
+    for first in (0..nrows).step_by(ROW_CHUNK) {
+        for (columns, values) in rows_of(first..nrows.min(first + ROW_CHUNK)) {
+            matrix.columns.extend(columns);
+            matrix.values.extend(values);
+            matrix.offsets.push(matrix.columns.len());
+        }
     }
     matrix
 }
@@ -174,36 +181,36 @@ fn from_rows(nrows: usize, ncols: usize, rows: Vec<(Vec<usize>, Vec<f64>)>) -> C
 /// A B, rows shared among rayon's threads (each with its own dense accumulator).
 pub(super) fn multiply(a: &Csr, b: &Csr) -> Csr {
     assert_eq!(a.ncols, b.nrows, "inner dimensions differ");
-    let rows: Vec<(Vec<usize>, Vec<f64>)> = (0..a.nrows)
-        .into_par_iter()
-        .map_init(
-            || (vec![0.0; b.ncols], vec![false; b.ncols]),
-            |(accumulator, used), r| {
-                let mut columns = Vec::new();
-                let (a_columns, a_values) = a.row(r);
-                for (&k, &a_rk) in a_columns.iter().zip(a_values) {
-                    let (b_columns, b_values) = b.row(k);
-                    for (&c, &b_kc) in b_columns.iter().zip(b_values) {
-                        if !used[c] {
-                            used[c] = true;
-                            columns.push(c);
+    from_rows(a.nrows, b.ncols, |rows| {
+        rows.into_par_iter()
+            .map_init(
+                || (vec![0.0; b.ncols], vec![false; b.ncols]),
+                |(accumulator, used), r| {
+                    let mut columns = Vec::new();
+                    let (a_columns, a_values) = a.row(r);
+                    for (&k, &a_rk) in a_columns.iter().zip(a_values) {
+                        let (b_columns, b_values) = b.row(k);
+                        for (&c, &b_kc) in b_columns.iter().zip(b_values) {
+                            if !used[c] {
+                                used[c] = true;
+                                columns.push(c);
+                            }
+                            accumulator[c] += a_rk * b_kc;
                         }
-                        accumulator[c] += a_rk * b_kc;
                     }
-                }
-                columns.sort_unstable();
-                let values = columns
-                    .iter()
-                    .map(|&c| {
-                        used[c] = false;
-                        std::mem::take(&mut accumulator[c])
-                    })
-                    .collect();
-                (columns, values)
-            },
-        )
-        .collect();
-    from_rows(a.nrows, b.ncols, rows)
+                    columns.sort_unstable();
+                    let values = columns
+                        .iter()
+                        .map(|&c| {
+                            used[c] = false;
+                            std::mem::take(&mut accumulator[c])
+                        })
+                        .collect();
+                    (columns, values)
+                },
+            )
+            .collect()
+    })
 }
 
 /// Aᵀ.

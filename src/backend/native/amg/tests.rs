@@ -1,8 +1,8 @@
 //! AMG on PMB operators of cubic lattices (spacing 1, horizon 1.5: the 18 face and edge
 //! neighbours), the face x = 0 clamped: the 3-D elasticity-like systems of the issue.
 
-use super::Amg;
 use super::{one_hop_operator, rigid_body_modes, OneHopInput, Stencil};
+use super::{Amg, Cycle};
 use crate::backend::native::{cg_matrix_free, KrylovSettings, SparseCholesky};
 use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
 use crate::model::BondList;
@@ -99,8 +99,9 @@ fn operator(
     (matrix, groups, free)
 }
 
-/// The clamped n³ system, its AMG with the first `modes` rigid-body modes, and a smooth load.
-fn clamped_system(n: usize, modes: usize) -> (Csr, Amg, Vec<f64>) {
+/// The clamped n³ system, its AMG for `cycle` with the first `modes` rigid-body modes, and a
+/// smooth load.
+fn clamped_system(n: usize, modes: usize, cycle: Cycle) -> (Csr, Amg, Vec<f64>) {
     let lattice = lattice(n);
     let (matrix, groups, free) = operator(&lattice, |x| x[0] == 0.0);
     let all_modes = rigid_body_modes(&lattice.position, &free);
@@ -108,7 +109,7 @@ fn clamped_system(n: usize, modes: usize) -> (Csr, Amg, Vec<f64>) {
         .chunks(6)
         .flat_map(|row| row[..modes].to_vec())
         .collect();
-    let amg = Amg::new(matrix.clone(), &groups, &null_space, modes).expect("AMG setup");
+    let amg = Amg::new(matrix.clone(), &groups, &null_space, modes, cycle).expect("AMG setup");
     let rhs: Vec<f64> = free
         .iter()
         .map(|&dof| {
@@ -133,7 +134,7 @@ fn amg_cg(matrix: &Csr, amg: &Amg, rhs: &[f64], x: &mut [f64]) -> Result<KrylovR
 }
 
 fn iterations(n: usize, modes: usize) -> usize {
-    let (matrix, amg, rhs) = clamped_system(n, modes);
+    let (matrix, amg, rhs) = clamped_system(n, modes, Cycle::VCycle);
     let mut x = vec![0.0; rhs.len()];
     let report = amg_cg(&matrix, &amg, &rhs, &mut x).expect("AMG-CG converges");
     eprintln!(
@@ -146,7 +147,7 @@ fn iterations(n: usize, modes: usize) -> usize {
 
 #[test]
 fn amg_preconditioned_cg_reaches_the_direct_solution() {
-    let (matrix, amg, rhs) = clamped_system(8, 6);
+    let (matrix, amg, rhs) = clamped_system(8, 6, Cycle::VCycle);
     assert!(amg.levels() >= 2, "{}", amg.describe());
     let mut x = vec![0.0; rhs.len()];
     amg_cg(&matrix, &amg, &rhs, &mut x).unwrap();
@@ -215,7 +216,7 @@ fn an_operator_without_prescribed_dofs_is_a_clear_error() {
     let lattice = lattice(8);
     let (matrix, groups, free) = operator(&lattice, |_| false);
     let modes = rigid_body_modes(&lattice.position, &free);
-    let error = Amg::new(matrix, &groups, &modes, 6).unwrap_err();
+    let error = Amg::new(matrix, &groups, &modes, 6, Cycle::VCycle).unwrap_err();
     assert!(
         error
             .to_string()
@@ -228,7 +229,7 @@ fn an_operator_without_prescribed_dofs_is_a_clear_error() {
 fn an_indefinite_operator_is_a_clear_error() {
     let (mut matrix, groups, _) = operator(&lattice(3), |x| x[0] == 0.0);
     matrix.values.iter_mut().for_each(|v| *v = -*v);
-    let error = Amg::new(matrix, &groups, &vec![1.0; 54 * 3], 3).unwrap_err();
+    let error = Amg::new(matrix, &groups, &vec![1.0; 54 * 3], 3, Cycle::VCycle).unwrap_err();
     assert!(
         error
             .to_string()
@@ -244,7 +245,7 @@ fn the_planned_memory_is_close_to_what_the_hierarchy_holds() {
     let (matrix, groups, free) = operator(&lattice, |x| x[0] == 0.0);
     let operator_bytes = matrix.memory_bytes() as f64;
     let modes = rigid_body_modes(&lattice.position, &free);
-    let amg = Amg::new(matrix, &groups, &modes, 6).unwrap();
+    let amg = Amg::new(matrix, &groups, &modes, 6, Cycle::VCycle).unwrap();
     assert!(amg.levels() >= 2, "{}", amg.describe());
     let hierarchy_bytes = amg.memory_bytes() as f64 - operator_bytes;
     let planned = super::multigrid_memory_estimate(
@@ -278,7 +279,13 @@ fn the_planned_memory_is_close_to_what_the_hierarchy_holds() {
 fn the_reused_workspace_carries_nothing_from_one_application_to_the_next() {
     // 16³ with horizon 1.5: three levels, and a finest level above Csr::PARALLEL_ROWS so the
     // parallel products run too.
-    let (_, amg, rhs) = clamped_system(16, 6);
+    for cycle in [Cycle::VCycle, Cycle::Additive] {
+        workspace_carries_nothing(cycle);
+    }
+}
+
+fn workspace_carries_nothing(cycle: Cycle) {
+    let (_, amg, rhs) = clamped_system(16, 6, cycle);
     assert!(amg.levels() >= 3, "{}", amg.describe());
     let fresh = amg.clone();
     let mut first = vec![0.0; rhs.len()];
@@ -408,27 +415,21 @@ fn additive_cg(matrix: &Csr, amg: &Amg, rhs: &[f64], x: &mut [f64]) -> KrylovRep
         max_iterations: Some(500),
         ..KrylovSettings::default()
     };
-    cg_matrix_free(
-        &mut apply,
-        &|r, z| amg.apply_additive(r, z),
-        rhs,
-        x,
-        &settings,
-    )
-    .expect("CG with the additive two-level preconditioner converges")
+    cg_matrix_free(&mut apply, &|r, z| amg.apply(r, z), rhs, x, &settings)
+        .expect("CG with the additive two-level preconditioner converges")
 }
 
 #[test]
 fn the_additive_two_level_form_is_symmetric_and_cg_reaches_the_direct_solution() {
-    let (matrix, amg, rhs) = clamped_system(8, 6);
+    let (matrix, amg, rhs) = clamped_system(8, 6, Cycle::Additive);
     assert!(amg.levels() >= 2, "{}", amg.describe());
     // Symmetry: uᵀ M⁻¹ v = vᵀ M⁻¹ u for two unrelated vectors (CG needs it).
     let v: Vec<f64> = (0..rhs.len())
         .map(|k| ((k * 7) % 11) as f64 - 5.0)
         .collect();
     let (mut mu, mut mv) = (vec![0.0; rhs.len()], vec![0.0; rhs.len()]);
-    amg.apply_additive(&rhs, &mut mu);
-    amg.apply_additive(&v, &mut mv);
+    amg.apply(&rhs, &mut mu);
+    amg.apply(&v, &mut mv);
     let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(a, b)| a * b).sum::<f64>();
     let (uv, vu) = (dot(&rhs, &mv), dot(&v, &mu));
     assert!(
@@ -452,7 +453,7 @@ fn the_additive_two_level_form_is_symmetric_and_cg_reaches_the_direct_solution()
     // 38 at 16³ and 24³; the V-cycle takes 18–20 on this exact operator, where its smoother
     // is tuned to the right operator): the issue's ±25 %.
     let small = report.iterations;
-    let (matrix, amg, rhs) = clamped_system(16, 6);
+    let (matrix, amg, rhs) = clamped_system(16, 6, Cycle::Additive);
     let mut x = vec![0.0; rhs.len()];
     let large = additive_cg(&matrix, &amg, &rhs, &mut x).iterations;
     assert!(
