@@ -613,7 +613,8 @@ fn check_plans_the_amg_operator_and_hierarchy_only_for_decks_that_ask_for_amg() 
     );
     let names: Vec<&str> = jfnk_amg.iter().map(|(p, _)| p.as_str()).collect();
     for part in [
-        "one-hop operator (AMG)",
+        "one-hop operator (AMG setup)",
+        "AMG setup products",
         "AMG hierarchy",
         "GMRES basis (at most)",
     ] {

@@ -622,7 +622,8 @@ fn memory_plans(
         .any(|s| crate::backend::factory::uses_multigrid(s, model.points.len()))
     {
         let amg = crate::backend::native::multigrid_memory_estimate(n, bonds);
-        memory.push(("one-hop operator (AMG)", amg.operator));
+        memory.push(("one-hop operator (AMG setup)", amg.operator));
+        memory.push(("AMG setup products", amg.setup_products));
         memory.push(("AMG hierarchy", amg.hierarchy));
     }
     memory

@@ -339,7 +339,7 @@ pub fn solve_problem(
 }
 
 /// The Newton correction Δ of J Δ = −F at `x` (`residual` holds F); `multigrid` keeps the
-/// AMG hierarchy between the corrections of one solve.
+/// AMG hierarchy between corrections.
 fn correct(
     problem: &mut dyn NonlinearProblem,
     linear: &mut LinearStrategy,

@@ -13,6 +13,7 @@
 
 use super::super::super::{Csr, SolveError};
 use super::super::preconditioner::{Preconditioner, PreconditionerOperator};
+use super::compact::CompactCsr;
 
 /// Smoothing steps before and after the coarse correction.
 pub(super) const CHEBYSHEV_DEGREE: usize = 2;
@@ -52,7 +53,7 @@ impl Chebyshev {
 
     /// Improves x towards A x = b with [`CHEBYSHEV_DEGREE`] Chebyshev steps, working in
     /// `scratch` (sized for `a`'s rows by [`Scratch::new`]).
-    pub fn smooth(&self, a: &Csr, b: &[f64], x: &mut [f64], scratch: &mut Scratch) {
+    pub fn smooth(&self, a: &CompactCsr, b: &[f64], x: &mut [f64], scratch: &mut Scratch) {
         let upper = 1.1 * self.lambda_max;
         let lower = self.lambda_max / CHEBYSHEV_RATIO;
         let (theta, delta) = (0.5 * (upper + lower), 0.5 * (upper - lower));
@@ -117,7 +118,7 @@ impl Scratch {
 }
 
 /// r = b − A x (`ax` is scratch).
-fn residual(a: &Csr, b: &[f64], x: &[f64], ax: &mut [f64], r: &mut [f64]) {
+fn residual(a: &CompactCsr, b: &[f64], x: &[f64], ax: &mut [f64], r: &mut [f64]) {
     a.multiply_parallel(x, ax);
     for ((r, b), ax) in r.iter_mut().zip(b).zip(ax.iter()) {
         *r = b - ax;

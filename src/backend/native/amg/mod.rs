@@ -16,6 +16,7 @@
 //! fixed linear, symmetric positive definite map when A is SPD, as CG needs.
 
 mod aggregation;
+mod compact;
 mod cycle;
 mod one_hop;
 mod prolongator;
@@ -24,6 +25,7 @@ use super::super::{Csr, SolveError};
 use std::cell::RefCell;
 
 use super::preconditioner::PreconditionerOperator;
+use compact::CompactCsr;
 use cycle::{block_jacobi, not_positive_definite, spectral_radius, Chebyshev, DenseLu, Scratch};
 pub use one_hop::{
     one_hop_operator, pmb_micromodulus, rigid_body_modes, OneHopInput, Stencil, NEAREST_SHELLS,
@@ -43,12 +45,17 @@ const STRENGTH_THRESHOLD: f64 = 0.5;
 /// node its own aggregate); the hierarchy stops there.
 const STALLED_COARSENING: f64 = 0.8;
 
-/// Prolongators, restrictions and coarse operators of a hierarchy relative to the bytes of
-/// the one-hop operator it is built on, (nnz(P) + nnz(R) + Σ_{l≥1} nnz(A_l)) / nnz(A_0):
-/// 0.94–1.05 measured with [`Stencil::Nearest`] on lattices of 12³ and 16³ points with
-/// δ = 3.015 Δx (Peridigm's usual horizon). With the whole family (`Stencil::Family`) it
+/// Entries of the prolongators, restrictions and coarse operators of a hierarchy relative to
+/// the entries of the one-hop operator it is built on, (nnz(P) + nnz(R) + Σ_{l≥1} nnz(A_l)) /
+/// nnz(A_0): 0.94–1.05 measured with [`Stencil::Nearest`] on lattices of 12³ and 16³ points
+/// with δ = 3.015 Δx (Peridigm's usual horizon). With the whole family (`Stencil::Family`) it
 /// is about 0.5: more bonds a row, the same aggregates.
 const TRANSFER_AND_COARSE_FRACTION: f64 = 1.0;
+
+/// (nnz(P₀) + nnz(A₀P₀)) / nnz(A₀), the finest level's products held with the operator during
+/// setup: 1.31 measured on the 20,000-point tension block with [`Stencil::Nearest`] (1.60 M +
+/// 4.08 M entries over 4.34 M).
+const SETUP_PRODUCTS_FRACTION: f64 = 1.3;
 
 /// Bonds a point keeps in [`Stencil::Nearest`] on a cubic lattice: its 6 + 12 + 8 neighbours
 /// at Δx, √2Δx and √3Δx (fewer in 2-D and at surfaces, so the plan is an upper bound).
@@ -61,8 +68,11 @@ const POINTS_PER_AGGREGATE: u64 = 32;
 /// Planned memory of AMG on the one-hop operator (bytes), printed by `peridyn check`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct MultigridMemory {
-    /// The one-hop operator (also the hierarchy's finest level).
+    /// The one-hop operator, held while the hierarchy is built.
     pub operator: u64,
+    /// The finest level's products in double precision (P and A P), held with the operator
+    /// while the hierarchy is built.
+    pub setup_products: u64,
     /// Everything else the hierarchy holds: prolongators, restrictions, coarse operators,
     /// smoothers, the coarsest LU factors and the V-cycle's workspace.
     pub hierarchy: u64,
@@ -72,37 +82,44 @@ pub struct MultigridMemory {
 /// an unknown, so prescribed dofs make it an overestimate by their share, twice: rows and
 /// columns):
 ///
-/// * one-hop operator ([`Stencil::Nearest`]): n₀ = 3N rows and one 3×3 block per kept bond
-///   and per point, at most [`NEAREST_BONDS`] bonds a point, nnz₀ = 9(min(B, 26N) + N) entries of 16 bytes (an 8-byte value and an 8-byte column) plus
-///   8(n₀ + 1) bytes of row offsets;
-/// * hierarchy: [`TRANSFER_AND_COARSE_FRACTION`] × the operator's bytes for the
-///   prolongators, restrictions and coarse operators; 88 bytes a point for the finest
-///   smoother (an inverted 3×3 block and two offsets); the dense LU of the coarsest level,
+/// * one-hop operator ([`Stencil::Nearest`]), held while the hierarchy is built: n₀ = 3N rows
+///   and one 3×3 block per kept bond and per point, at most [`NEAREST_BONDS`] bonds a point,
+///   nnz₀ = 9(min(B, 26N) + N) entries of 16 bytes (an 8-byte value and an 8-byte column)
+///   plus 8(n₀ + 1) bytes of row offsets;
+/// * hierarchy ([`Cycle::Additive`], the form the solvers use): [`TRANSFER_AND_COARSE_FRACTION`]
+///   × nnz₀ entries of 8 bytes (single-precision values and 32-bit columns, see
+///   [`compact`]) for the prolongators, restrictions and coarse operators; 88 bytes a point
+///   for the finest level's inverted diagonal blocks; the dense LU of the coarsest level,
 ///   8n² + 8n bytes, where n is n₀ divided by 16 ([`POINTS_PER_AGGREGATE`]) until it is at
-///   most [`COARSE_UNKNOWNS`].
-/// * V-cycle workspace: per level the residual and four smoother vectors of its unknowns and
-///   the next level's right-hand side and correction, Σ ≈ 5.5 n₀ with each level 1/16 of the
-///   one above; planned as 6 vectors of n₀, 48 n₀ bytes.
+///   most [`COARSE_UNKNOWNS`]; an application's workspace, the finest level's prolongated
+///   correction and the coarse levels' vectors, planned as 2 vectors of n₀, 16 n₀ bytes.
 ///
-/// Assembly briefly holds the operator's rows twice (rows collected in parallel, then
-/// copied into one CSR); the previous hierarchy is dropped before a new one is built.
+/// * setup products: while the finest level is built, P and A P are held in double precision
+///   next to the operator, [`SETUP_PRODUCTS_FRACTION`] × nnz₀ entries of 16 bytes, freed
+///   before the Krylov solve starts.
 pub fn multigrid_memory_estimate(points: u64, bonds: u64) -> MultigridMemory {
     let unknowns = 3 * points;
-    let entries = 9 * (bonds.min(NEAREST_BONDS * points) + points);
+    let entries = one_hop_entries(points, bonds);
     let operator = 16 * entries + 8 * (unknowns + 1);
     let mut coarsest = unknowns;
     while coarsest > COARSE_UNKNOWNS as u64 {
         coarsest = coarsest * 6 / (3 * POINTS_PER_AGGREGATE);
     }
-    let hierarchy = (TRANSFER_AND_COARSE_FRACTION * operator as f64) as u64
+    let hierarchy = (TRANSFER_AND_COARSE_FRACTION * 8.0 * entries as f64) as u64
         + 88 * points
         + 8 * coarsest * coarsest
         + 8 * coarsest
-        + 8 * 6 * unknowns;
+        + 8 * 2 * unknowns;
     MultigridMemory {
         operator,
+        setup_products: (SETUP_PRODUCTS_FRACTION * 16.0 * entries as f64) as u64,
         hierarchy,
     }
+}
+
+/// nnz₀ of the one-hop operator of [`multigrid_memory_estimate`].
+fn one_hop_entries(points: u64, bonds: u64) -> u64 {
+    9 * (bonds.min(NEAREST_BONDS * points) + points)
 }
 
 /// How [`Amg::apply`] uses the hierarchy.
@@ -130,8 +147,8 @@ pub enum Cycle {
 struct AdditiveFinest {
     /// D₀⁻¹, the inverted diagonal blocks of the finest operator.
     block_jacobi: PreconditionerOperator,
-    prolongator: Csr,
-    restriction: Csr,
+    prolongator: CompactCsr,
+    restriction: CompactCsr,
     /// nnz(A₀), for the operator complexity.
     operator_entries: usize,
 }
@@ -139,10 +156,10 @@ struct AdditiveFinest {
 /// One level above the coarsest.
 #[derive(Debug, Clone)]
 struct Level {
-    operator: Csr,
+    operator: CompactCsr,
     smoother: Chebyshev,
-    prolongator: Csr,
-    restriction: Csr,
+    prolongator: CompactCsr,
+    restriction: CompactCsr,
 }
 
 /// How the coarsest operator is solved: LU when small, the smoother alone when coarsening
@@ -160,7 +177,7 @@ pub struct Amg {
     additive_finest: Option<AdditiveFinest>,
     /// The V-cycle's levels above the coarsest, finest first (below `additive_finest`).
     levels: Vec<Level>,
-    coarsest_operator: Csr,
+    coarsest_operator: CompactCsr,
     coarsest: Coarsest,
     /// The vectors a V-cycle works in, sized at setup so that [`Amg::apply`] allocates
     /// nothing. A `RefCell` because applying M⁻¹ is logically read-only (`&self`, as the
@@ -200,7 +217,7 @@ struct CoarseWork {
 
 impl CoarseWork {
     /// For the transfer between a level and the next through `restriction`.
-    fn new(restriction: &Csr) -> Self {
+    fn new(restriction: &CompactCsr) -> Self {
         Self {
             residual: vec![0.0; restriction.ncols],
             coarse_b: vec![0.0; restriction.nrows],
@@ -218,7 +235,7 @@ impl Workspace {
         additive_finest: Option<&AdditiveFinest>,
         levels: &[Level],
         coarsest: &Coarsest,
-        coarsest_operator: &Csr,
+        coarsest_operator: &CompactCsr,
     ) -> Self {
         Self {
             additive_finest: additive_finest.map(|finest| CoarseWork::new(&finest.restriction)),
@@ -309,9 +326,13 @@ impl Amg {
             let restriction = prolongator::transpose(&prolongator);
             let coarse = prolongator::multiply(&restriction, &product);
             drop(product);
+            let (prolongator, restriction) = (
+                CompactCsr::new(&prolongator)?,
+                CompactCsr::new(&restriction)?,
+            );
             match (kept_operator, smoother, block_jacobi) {
                 (Some(operator), Some(smoother), _) => levels.push(Level {
-                    operator,
+                    operator: CompactCsr::new(&operator)?,
                     smoother,
                     prolongator,
                     restriction,
@@ -335,6 +356,7 @@ impl Amg {
         } else {
             Coarsest::Smoother(Chebyshev::new(&operator, &groups)?)
         };
+        let operator = CompactCsr::new(&operator)?;
         let workspace = RefCell::new(Workspace::new(
             additive_finest.as_ref(),
             &levels,
@@ -442,7 +464,7 @@ impl Amg {
     fn add_coarse_correction(
         &self,
         next: usize,
-        prolongator: &Csr,
+        prolongator: &CompactCsr,
         x: &mut [f64],
         transfer: &mut CoarseWork,
         coarser: &mut [LevelWork],

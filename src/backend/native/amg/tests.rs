@@ -245,9 +245,10 @@ fn the_planned_memory_is_close_to_what_the_hierarchy_holds() {
     let (matrix, groups, free) = operator(&lattice, |x| x[0] == 0.0);
     let operator_bytes = matrix.memory_bytes() as f64;
     let modes = rigid_body_modes(&lattice.position, &free);
-    let amg = Amg::new(matrix, &groups, &modes, 6, Cycle::VCycle).unwrap();
+    // The additive form the solvers use keeps no finest operator.
+    let amg = Amg::new(matrix, &groups, &modes, 6, Cycle::Additive).unwrap();
     assert!(amg.levels() >= 2, "{}", amg.describe());
-    let hierarchy_bytes = amg.memory_bytes() as f64 - operator_bytes;
+    let hierarchy_bytes = amg.memory_bytes() as f64;
     let planned = super::multigrid_memory_estimate(
         lattice.position.len() as u64,
         lattice.bonds.neighbor.len() as u64,
