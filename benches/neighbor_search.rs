@@ -6,7 +6,10 @@
 //! the search structure and the CSR with reference lengths. Prints numbers only; no assertions.
 //! Environment: `NEIGHBOR_BENCH_N` lattice edge (default 100), `NEIGHBOR_BENCH_BACKEND`
 //! (`grid`/`kd`), `NEIGHBOR_BENCH_THREADS` (e.g. `1,2`), `NEIGHBOR_BENCH_SKIP_RANDOM`,
-//! `NEIGHBOR_BENCH_VERBOSE` (print every run, not only the best of three).
+//! `NEIGHBOR_BENCH_VERBOSE` (print every run, not only the best of three),
+//! `NEIGHBOR_BENCH_DIRECT` (raise the first point's horizon by one ulp: the search is then no
+//! longer symmetric and takes the direct assembly instead of the mirrored one, for comparing
+//! the two on otherwise the same work).
 
 use std::time::Instant;
 
@@ -72,7 +75,10 @@ fn env_list(name: &str) -> Option<String> {
 }
 
 fn run(label: &str, positions: &[[f64; 3]], horizon: f64) {
-    let horizons = vec![horizon; positions.len()];
+    let mut horizons = vec![horizon; positions.len()];
+    if env_list("NEIGHBOR_BENCH_DIRECT").is_some() {
+        horizons[0] = f64::from_bits(horizon.to_bits() + 1);
+    }
     let blocks = vec![0u32; positions.len()];
     let search = FamilySearch {
         positions,

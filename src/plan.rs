@@ -29,6 +29,10 @@ pub struct RunPlan {
     pub memory: Vec<MemoryPlan>,
     /// Total estimated memory, bytes.
     pub memory_total: u64,
+    /// `memory_total` divided by the directed bonds (per-point data included), bytes; `None`
+    /// without bonds. An explicit PMB run's resident memory is close to this
+    /// (`peridyn bench` prints both).
+    pub bytes_per_bond: Option<f64>,
     /// Explicit time-step estimate (Peridigm's formula), when an explicit solver is present.
     pub time_step: Option<TimeStepPlan>,
     /// Solvers in the order they run.
@@ -384,7 +388,11 @@ impl RunPlan {
             "  {:<28} {:>10}",
             "total",
             format_bytes(self.memory_total)
-        )
+        )?;
+        match self.bytes_per_bond {
+            Some(bytes) => writeln!(f, "  {:<28} {:>8.1} B", "per directed bond", bytes),
+            None => Ok(()),
+        }
     }
 
     /// The `explicit time step`, `solvers` and `outputs` sections.

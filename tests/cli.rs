@@ -173,6 +173,52 @@ fn the_parallel_plan_follows_the_material() {
 }
 
 #[test]
+fn check_prints_the_planned_memory_per_directed_bond() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = BASE
+        .replace("\"Elastic\"", "\"Elastic Bond Based\"")
+        .replace("      Shear Modulus: 78.0e9\n", "");
+    write_deck(dir.path(), &text);
+    let output = peridyn(&["check", "deck.yaml", "--json"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let plan: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    // The 208 directed bonds and 16 points of `check_reports_exact_sizes_as_json`. PMB's
+    // pair plan: a 4-byte pair slot per directed bond, an 8-byte scale per pair (104 pairs)
+    // and three 8-byte row starts per point plus one: 4·208 + 8·104 + 24·17 = 2072 bytes.
+    assert_eq!(plan["bonds"], 208);
+    let parts = plan["memory"].as_array().unwrap();
+    let pair_plan = parts
+        .iter()
+        .find(|p| p["part"] == "PMB pair plan")
+        .expect("a PMB pair plan part");
+    assert_eq!(pair_plan["bytes"], 2072);
+    let total = plan["memory_total"].as_u64().unwrap();
+    let sum: u64 = parts.iter().map(|p| p["bytes"].as_u64().unwrap()).sum();
+    assert_eq!(total, sum);
+    assert_eq!(
+        plan["bytes_per_bond"].as_f64().unwrap(),
+        total as f64 / 208.0
+    );
+    // The text form prints it under the memory estimate, one decimal.
+    let output = peridyn(&["check", "deck.yaml"], dir.path());
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    let line = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("per directed bond"))
+        .unwrap_or_else(|| panic!("no bytes per bond in\n{stdout}"));
+    assert!(
+        line.ends_with(&format!("{:.1} B", total as f64 / 208.0)),
+        "{line}"
+    );
+    // LPS has no pair plan.
+    write_deck(dir.path(), BASE);
+    let output = peridyn(&["check", "deck.yaml", "--json"], dir.path());
+    let plan: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let parts = plan["memory"].as_array().unwrap();
+    assert!(parts.iter().all(|p| p["part"] != "PMB pair plan"));
+}
+
+#[test]
 fn run_writes_exodus_and_history_and_the_peridigm_style_alias_works() {
     let dir = tempfile::tempdir().unwrap();
     write_deck(dir.path(), BASE);

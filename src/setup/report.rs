@@ -404,6 +404,7 @@ pub(super) fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
         physics,
         fields,
         memory_total: memory.iter().map(|m| m.bytes).sum(),
+        bytes_per_bond: bytes_per_bond(memory.iter().map(|m| m.bytes).sum(), model),
         memory,
         solvers: deck
             .solvers
@@ -580,6 +581,10 @@ fn memory_plans(
         ("points and state", total("point")),
         ("bonds", total("bond")),
     ];
+    let pair_once = pair_plan_bytes(deck, model);
+    if pair_once > 0 {
+        memory.push(("PMB pair plan", pair_once));
+    }
     let assembled = deck.solvers.iter().any(|s| {
         s.integrator.is_implicit()
             && crate::backend::factory::matrix_free_preconditioner(s).is_none()
@@ -635,12 +640,44 @@ fn memory_plans(
         .collect()
 }
 
+/// What the pair-once plans of the `Elastic Bond Based` blocks hold (`material::bond_based`):
+/// the pair slot of every bond (4 B) and the per-pair scale buffer of the force pass (8 B per
+/// pair, i.e. 4 B per directed bond), plus three 8-byte row starts per point. Estimated for
+/// every such block, as if its families were closed and symmetric (the usual case; a block
+/// whose families are not gathers without a plan and holds less).
+fn pair_plan_bytes(deck: &Deck, model: &Model) -> u64 {
+    model
+        .blocks
+        .iter()
+        .filter(|block| {
+            deck.material(&deck.blocks[block.deck_block].material)
+                .is_some_and(|m| {
+                    m.model.deck_name() == crate::material::BondBased::DECLARATION.deck_name
+                })
+        })
+        .map(|block| {
+            let bonds: u64 = block
+                .points
+                .iter()
+                .map(|&p| model.bonds.family_size(p as usize) as u64)
+                .sum();
+            (4 + 4) * bonds + 3 * 8 * (block.points.len() as u64 + 1)
+        })
+        .sum()
+}
+
 /// Vectors of `unknowns` entries the GMRES basis of `solver` holds at most: the restart
 /// length + 1, or the iteration limit + 1 when that is smaller.
 fn gmres_basis_vectors(solver: &Solver, unknowns: u64) -> u64 {
     let restart = crate::backend::native::KrylovSettings::default().restart as u64;
     let limit = solver.linear_solve.maximum_iterations.unwrap_or(unknowns);
     restart.min(limit) + 1
+}
+
+/// The planned memory per directed bond (`None` without bonds).
+fn bytes_per_bond(total: u64, model: &Model) -> Option<f64> {
+    let bonds = model.bonds.num_bonds();
+    (bonds > 0).then(|| total as f64 / bonds as f64)
 }
 
 /// The time step of the first `Verlet` solver: the stable estimate, the safety factor and the

@@ -33,6 +33,16 @@ pub struct Measurement {
     pub run_wall_seconds: f64,
     /// Bonds broken during the run.
     pub broken_bonds: usize,
+    /// Peak resident memory of the process from the deck text to the end of the run, bytes
+    /// (`VmHWM` of `/proc/self/status`, reset before the run through `/proc/self/clear_refs`);
+    /// `None` where Linux does not report it or the reset is refused.
+    pub peak_rss_bytes: Option<u64>,
+    /// Resident memory just before the deck text was read (the binary, the pool, the bench's
+    /// own arrays), bytes.
+    pub rss_before_bytes: Option<u64>,
+    /// The memory `peridyn check` plans for the run ([`peridyn::plan::RunPlan::memory_total`]),
+    /// bytes.
+    pub planned_bytes: u64,
 }
 
 impl Measurement {
@@ -60,6 +70,51 @@ impl Measurement {
         self.run_cpu_seconds
             .map(|cpu| cpu / self.run_wall_seconds / self.threads as f64)
     }
+
+    /// Planned bytes per directed bond: everything `peridyn check` plans (per point and per
+    /// bond) divided by the directed bonds.
+    pub fn planned_bytes_per_bond(&self) -> f64 {
+        self.planned_bytes as f64 / self.bonds as f64
+    }
+
+    /// Measured bytes per directed bond: the run's peak resident memory above the resident
+    /// memory before it started, divided by the directed bonds.
+    pub fn measured_bytes_per_bond(&self) -> Option<f64> {
+        let grown = self.peak_rss_bytes?.saturating_sub(self.rss_before_bytes?);
+        Some(grown as f64 / self.bonds as f64)
+    }
+}
+
+/// A `kB` field of `/proc/self/status` (`VmRSS`, `VmHWM`) in bytes; `None` off Linux.
+fn status_bytes(field: &str) -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = text.lines().find(|l| l.starts_with(field))?;
+    let kib: u64 = line[field.len()..]
+        .trim_start_matches(':')
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()?;
+    Some(kib * 1024)
+}
+
+/// Gives the heap memory that earlier runs freed back to the system (glibc keeps freed chunks
+/// of its arenas resident), so that the next run's growth above the resident memory before it
+/// counts what that run holds, not what it reuses.
+fn release_freed_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: malloc_trim only returns free heap pages to the system; it touches no live
+    // allocation.
+    unsafe {
+        libc::malloc_trim(0);
+    }
+}
+
+/// Resets the peak resident memory (`VmHWM`) to the current one: writing 5 to
+/// `/proc/self/clear_refs` does that (Linux ≥ 4.0). False when refused.
+fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 
 /// Process CPU time (user + system, all threads) in seconds, from `/proc/self/stat` (Linux;
@@ -93,6 +148,9 @@ pub fn measure(
             message: e.to_string(),
         })?;
     pool.install(|| {
+        release_freed_memory();
+        let rss_before_bytes = status_bytes("VmRSS");
+        let peak_reset = reset_peak_rss();
         let start = Instant::now();
         let text = deck_yaml(model, points_per_edge, steps, contact);
         let deck = deck::parse_str(&text, DeckFormat::Yaml, Path::new("<bench deck>"))
@@ -103,6 +161,10 @@ pub fn measure(
         }
         let built = setup::build(&deck).map_err(|e| BenchError::Deck(e.to_string()))?;
         let build_seconds = start.elapsed().as_secs_f64();
+        // Planned outside the timed set-up (`peridyn run` does not plan).
+        let planned_bytes = setup::plan(&deck, &built)
+            .map_err(|e| BenchError::Deck(e.to_string()))?
+            .memory_total;
         let cpu_before = process_cpu_seconds();
         let run_start = Instant::now();
         let summary = simulation::run(&deck, &built, &std::env::temp_dir())?;
@@ -121,6 +183,9 @@ pub fn measure(
             run_cpu_seconds,
             run_wall_seconds,
             broken_bonds: summary.broken_bonds,
+            peak_rss_bytes: status_bytes("VmHWM").filter(|_| peak_reset),
+            rss_before_bytes,
+            planned_bytes,
         })
     })
 }

@@ -16,6 +16,13 @@
 //! Throughput is quoted as LAMMPS's README does: directed bond evaluations per second per core,
 //! `bonds × steps / loop seconds / threads`. Nothing here asserts on time.
 //!
+//! Before the runs the bench measures the machine's stream bandwidth (a triad, one thread and
+//! all threads; [`bandwidth`]) and prints PMB's rate as a fraction of the bound it puts on
+//! PMB, `bandwidth / 28 B per directed bond` (the bytes are counted in [`bandwidth`]). Each run
+//! also reports its memory per directed bond: planned (`peridyn check`'s estimate over the
+//! bonds) and measured (peak resident memory above the resident memory before the run, over
+//! the bonds; freed heap is handed back to the system first).
+//!
 //! # Differences from the LAMMPS input that remain
 //! * LAMMPS's `peri/*` styles add a short-range contact force over a half neighbour list in the
 //!   same loop; the "+ contact" rows add a Peridigm `Contact` section ([`problem::CONTACT_SECTION`]).
@@ -25,6 +32,7 @@
 //! * LAMMPS's PMB breaks a bond at `s00 − α·min(stretch)`; Peridigm's `Critical Stretch` at
 //!   `s00`. LAMMPS's LPS uses ω = 1/ζ; Peridigm's default influence function is ω = 1.
 
+mod bandwidth;
 mod lammps;
 mod measure;
 mod problem;
@@ -34,6 +42,7 @@ use std::path::PathBuf;
 
 use peridyn::simulation;
 
+use bandwidth::{measure_bandwidth, Bandwidth, PMB_BYTES_PER_BOND};
 use lammps::{default_lammps_input, find_on_path, run_lammps, LammpsRun};
 use measure::{measure, Measurement};
 use problem::{contact_supported, BenchModel};
@@ -136,16 +145,39 @@ pub fn main(args: &BenchArgs) -> Result<(), BenchError> {
         "peridyn bench: {n}³ simple-cubic block, spacing 1 mm, δ = 3.015 mm, {} steps of Δt = 5e-8 s, {} repeats, threads {:?}, rayon pools built per run",
         args.steps, args.repeat, thread_counts
     );
+    let bandwidth = measured_bandwidth(args.threads)?;
     let mut series = configurations(args.model, n, &thread_counts);
     // Alternate: every repeat visits every configuration once, LAMMPS right after peridyn's
     // one-thread run of the same model, so slow phases of the shared machine hit both.
     for repeat in 1..=args.repeat {
         for entry in &mut series {
-            run_configuration_once(args, repeat, entry, lammps.as_ref())?;
+            run_configuration_once(args, repeat, entry, lammps.as_ref(), &bandwidth)?;
         }
     }
-    print!("{}", table(&series));
+    print!("{}", table(&series, &bandwidth));
     Ok(())
+}
+
+/// The stream bandwidth on one thread and on `threads`, printed.
+fn measured_bandwidth(threads: usize) -> Result<Bandwidth, BenchError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| BenchError::Pool {
+            threads,
+            message: e.to_string(),
+        })?;
+    let bandwidth = pool.install(measure_bandwidth);
+    println!(
+        "memory bandwidth (triad over 3 × {} MiB, best of 5): {:.1} GB/s on 1 thread, {:.1} GB/s on {}; PMB bound at {PMB_BYTES_PER_BOND} B per directed bond: {} / {} evals/s",
+        bandwidth.array_bytes >> 20,
+        bandwidth.one_thread * 1e-9,
+        bandwidth.all_threads * 1e-9,
+        bandwidth.threads,
+        format_rate(bandwidth.pmb_bound(1)),
+        format_rate(bandwidth.pmb_bound(bandwidth.threads)),
+    );
+    Ok(bandwidth)
 }
 
 /// Rejects counts the benchmark cannot run with.
@@ -214,12 +246,13 @@ fn run_configuration_once(
     repeat: usize,
     entry: &mut Series,
     lammps: Option<&(PathBuf, PathBuf)>,
+    bandwidth: &Bandwidth,
 ) -> Result<(), BenchError> {
     let n = args.points_per_edge;
     for (threads, runs) in &mut entry.runs {
         let m = measure(entry.model, n, args.steps, entry.contact, *threads)?;
         println!(
-            "  [{repeat}/{}] peridyn {}{} {} thread(s): setup {:.2} s, loop {:.2} ms/step, {} bond evals/s/core, cpu use {}, {} bonds broken",
+            "  [{repeat}/{}] peridyn {}{} {} thread(s): setup {:.2} s, loop {:.2} ms/step, {} bond evals/s/core{}, cpu use {}, {} bonds broken, memory {:.1} B/bond planned, {} measured",
             args.repeat,
             entry.model.lammps_name(),
             if entry.contact { " + contact" } else { "" },
@@ -227,8 +260,18 @@ fn run_configuration_once(
             m.setup_seconds,
             m.ms_per_step(),
             format_rate(m.rate_per_core()),
+            match entry.model {
+                BenchModel::Pmb => format!(
+                    " ({:.0} % of the bandwidth bound)",
+                    100.0 * m.rate_per_core() * *threads as f64 / bandwidth.pmb_bound(*threads)
+                ),
+                BenchModel::Lps => String::new(),
+            },
             m.cpu_use().map_or("n/a".into(), |u| format!("{:.0} %", u * 100.0)),
-            m.broken_bonds
+            m.broken_bonds,
+            m.planned_bytes_per_bond(),
+            m.measured_bytes_per_bond()
+                .map_or("n/a".into(), |b| format!("{b:.1} B/bond")),
         );
         runs.push(m);
         if *threads == 1 && !entry.contact {

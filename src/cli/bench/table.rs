@@ -2,8 +2,10 @@
 
 use std::fmt::Write as _;
 
+use super::bandwidth::{Bandwidth, PMB_BYTES_PER_BOND};
 use super::lammps::LammpsRun;
 use super::measure::Measurement;
+use super::problem::BenchModel;
 use super::Series;
 
 /// Median of a non-empty list (mean of the middle two for an even count).
@@ -25,11 +27,11 @@ pub fn format_rate(rate: f64) -> String {
 }
 
 /// The summary table (medians over repeats).
-pub fn table(series: &[Series]) -> String {
+pub fn table(series: &[Series], bandwidth: &Bandwidth) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "\n{:<16} {:>7} {:>9} {:>12} {:>18} {:>8} {:>14} {:>10} {:>9} {:>16} {:>10}",
+        "\n{:<16} {:>7} {:>9} {:>12} {:>18} {:>8} {:>14} {:>10} {:>9} {:>16} {:>10} {:>8} {:>13} {:>13}",
         "model",
         "threads",
         "setup s",
@@ -40,7 +42,10 @@ pub fn table(series: &[Series]) -> String {
         "per-core ×",
         "speed-up",
         "evals/CPU-s",
-        "per-CPU-s ×"
+        "per-CPU-s ×",
+        "of bound",
+        "B/bond plan",
+        "B/bond RSS"
     );
     for entry in series {
         let name = format!(
@@ -58,13 +63,20 @@ pub fn table(series: &[Series]) -> String {
             )
         });
         for (threads, runs) in &entry.runs {
-            out.push_str(&row(&name, *threads, runs, single, lammps));
+            // The bandwidth bound is PMB's: its bytes per bond are counted in `bandwidth`.
+            let bound = (entry.model == BenchModel::Pmb).then(|| bandwidth.pmb_bound(*threads));
+            out.push_str(&row(&name, *threads, runs, single, lammps, bound));
         }
     }
     let _ = writeln!(
         out,
         "bond evals/s/core = directed bonds × steps / loop wall time / threads; per-core × = peridyn per core / LAMMPS (1 proc);\n\
-         evals/CPU-s = the same per CPU-second (run CPU time scaled to the loop; LAMMPS: loop × its `% CPU use`); medians of the repeats"
+         evals/CPU-s = the same per CPU-second (run CPU time scaled to the loop; LAMMPS: loop × its `% CPU use`); medians of the repeats;\n\
+         of bound = directed bonds × steps / loop wall time (all threads) over the PMB bandwidth bound, triad bandwidth ({:.1} GB/s on 1 thread, {:.1} GB/s on {}) / {PMB_BYTES_PER_BOND} B per directed bond;\n\
+         B/bond plan = `peridyn check`'s memory estimate / directed bonds; B/bond RSS = peak resident memory of the run above the resident memory before it / directed bonds",
+        bandwidth.one_thread * 1e-9,
+        bandwidth.all_threads * 1e-9,
+        bandwidth.threads
     );
     out
 }
@@ -103,6 +115,7 @@ fn row(
     runs: &[Measurement],
     single: Option<f64>,
     lammps: Option<LammpsMedians>,
+    bound: Option<f64>,
 ) -> String {
     let pick = |f: fn(&Measurement) -> f64| median(&runs.iter().map(f).collect::<Vec<_>>());
     let ms = pick(Measurement::ms_per_step);
@@ -145,8 +158,21 @@ fn row(
         Some(one) if threads > 1 => format!("{:.2}", one / ms),
         _ => "-".into(),
     };
+    let of_bound = bound.map_or("-".into(), |bound| {
+        format!("{:.0} %", 100.0 * rate * threads as f64 / bound)
+    });
+    let planned = pick(Measurement::planned_bytes_per_bond);
+    let measured: Vec<f64> = runs
+        .iter()
+        .filter_map(Measurement::measured_bytes_per_bond)
+        .collect();
+    let measured = if measured.is_empty() {
+        "n/a".to_string()
+    } else {
+        format!("{:.1}", median(&measured))
+    };
     format!(
-        "{name:<16} {threads:>7} {setup:>9.2} {ms:>12.2} {:>18} {cpu:>8} {lammps_ms:>14} {ratio:>10} {speedup:>9} {cpu_rate:>16} {cpu_ratio:>10}\n",
+        "{name:<16} {threads:>7} {setup:>9.2} {ms:>12.2} {:>18} {cpu:>8} {lammps_ms:>14} {ratio:>10} {speedup:>9} {cpu_rate:>16} {cpu_ratio:>10} {of_bound:>8} {planned:>13.1} {measured:>13}\n",
         format_rate(rate)
     )
 }
