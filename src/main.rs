@@ -61,6 +61,10 @@ enum Command {
         /// Print the plan as one JSON object.
         #[arg(long)]
         json: bool,
+        /// The backend `run --backend` would give the implicit solver lists that do not name
+        /// one, so the plan shows the solver that run would resolve.
+        #[arg(long, value_enum)]
+        backend: Option<BackendChoice>,
         /// The folder `run` would write to, whose free space the plan compares with what the
         /// run will write (default: the current folder).
         #[arg(long, default_value = ".")]
@@ -161,10 +165,17 @@ fn load_with_backend(
             BackendChoice::Trilinos => deck::LinearBackend::TRILINOS_DEFAULT,
             BackendChoice::Petsc => deck::LinearBackend::PETSC_DEFAULT,
         };
+        let mut warnings = Vec::new();
         for solver in &mut deck.solvers {
-            solver
+            let warning = solver
                 .choose_backend(backend)
                 .map_err(|e| invalid(format!("{}: --backend: {e}", path.display())))?;
+            if let Some(warning) = warning {
+                warnings.push((solver.name.clone(), warning));
+            }
+        }
+        for (list, warning) in warnings {
+            deck.warn_at(&[&list, "Linear Solver Preconditioner"], &warning);
         }
     }
     Ok(deck)
@@ -182,8 +193,14 @@ fn build(deck: &deck::Deck) -> Result<peridyn::model::Model> {
     setup::build(deck).map_err(|e: SetupError| invalid(e))
 }
 
-fn check(path: &Path, set: &[String], json: bool, output_dir: &Path) -> Result<()> {
-    let deck = load(path, set)?;
+fn check(
+    path: &Path,
+    set: &[String],
+    json: bool,
+    output_dir: &Path,
+    backend: Option<BackendChoice>,
+) -> Result<()> {
+    let deck = load_with_backend(path, set, backend)?;
     let model = build(&deck)?;
     let plan = setup::plan(&deck, &model).map_err(invalid)?;
     let disk = setup::disk::disk_plan(&deck, &model, &plan.fields, output_dir).map_err(invalid)?;
@@ -489,7 +506,8 @@ fn main() -> ExitCode {
             set,
             json,
             output_dir,
-        } => check(deck, set, *json, output_dir),
+            backend,
+        } => check(deck, set, *json, output_dir, *backend),
         Command::Diff {
             a,
             b,

@@ -314,6 +314,7 @@ fn snes_settings(linear: &PetscSettings, jacobian: SnesJacobian) -> SnesSettings
         tolerance: 1e-12,
         max_iterations: 30,
         line_search: true,
+        ncg: None,
         print_iterations: false,
         warn_unused: true,
     }
@@ -575,7 +576,7 @@ fn check_shows_how_the_petsc_solver_runs_on_several_ranks() {
         (
             "    Backend: \"PETSc\"\n    Peridigm Preconditioner: \"AMG\"\n    Linear Solver: \"GMRES\"",
             nox_quasi_static("            Jacobian Operator: \"Matrix-Free\""),
-            "KSP gmres + PC gamg, -snes_mf_operator, PC built on the one-hop operator with the rigid-body near-null space on MPI_COMM_WORLD (a MATMPIAIJ of each rank's rows): the preconditioner works across the ranks; the one-hop operator keeps the couplings inside each rank only;",
+            "KSP gmres + PC gamg, -snes_mf_operator, PC built on the one-hop operator with the rigid-body near-null space on MPI_COMM_WORLD (a MATMPIAIJ of each rank's rows): the preconditioner works across the ranks; the one-hop operator holds the couplings between ranks too;",
         ),
     ] {
         std::fs::write(&path, bar(keys, &integrator)).unwrap();
@@ -608,6 +609,72 @@ fn backend_petsc_on_the_command_line_runs_implicit_lists_on_petsc() {
     ]);
     assert_eq!(code, Some(0), "{log}");
     assert!(log.contains("PETSc KSP gmres + PC bjacobi"), "{log}");
+}
+
+#[test]
+fn backend_petsc_carries_each_native_preconditioner_choice_over() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bar.yaml");
+    // Each native `Linear Solver Preconditioner` (and `Peridigm Preconditioner: "AMG"`) on a
+    // list without `Backend`, checked as `peridyn run --backend petsc` would resolve it: the
+    // PETSc PC a list naming `Backend: "PETSc"` gets from the same choice.
+    for (keys, integrator, expected) in [
+        ("", quasi_static(), "PETSc KSP cg + PC bjacobi"),
+        (
+            "    Linear Solver Preconditioner: \"Jacobi\"",
+            quasi_static(),
+            "PETSc KSP cg + PC jacobi",
+        ),
+        (
+            "    Linear Solver Preconditioner: \"None\"",
+            quasi_static(),
+            "PETSc KSP cg + PC none",
+        ),
+        (
+            "    Linear Solver Preconditioner: \"AMG\"",
+            quasi_static(),
+            "PETSc KSP cg + PC gamg",
+        ),
+        (
+            "    Peridigm Preconditioner: \"AMG\"",
+            nox_quasi_static("            Jacobian Operator: \"Matrix-Free\""),
+            "PC gamg, -snes_mf_operator, PC built on the one-hop operator",
+        ),
+    ] {
+        let keys = format!("    Linear Solver: \"CG\"\n{keys}");
+        std::fs::write(&path, bar(keys.trim_end(), &integrator)).unwrap();
+        let (code, log) = run_cli(&["check", path.to_str().unwrap(), "--backend", "petsc"]);
+        assert_eq!(code, Some(0), "{keys}: {log}");
+        assert!(log.contains(expected), "{keys}: {log}");
+        assert!(!log.contains("warning"), "{keys}: {log}");
+    }
+    // `Block 3x3` has no PETSc counterpart: PETSc's default, and a warning naming the key.
+    let keys = "    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"Block 3x3\"";
+    std::fs::write(&path, bar(keys, &quasi_static())).unwrap();
+    let (code, log) = run_cli(&["check", path.to_str().unwrap(), "--backend", "petsc"]);
+    assert_eq!(code, Some(0), "{log}");
+    assert!(log.contains("PETSc KSP cg + PC bjacobi"), "{log}");
+    assert!(
+        log.contains(
+            "Solver → Linear Solver Preconditioner: \"Block 3x3\" has no PETSc counterpart"
+        ),
+        "{log}"
+    );
+    // `run` warns alike.
+    let out = dir.path().to_str().unwrap();
+    let (code, log) = run_cli(&[
+        "run",
+        path.to_str().unwrap(),
+        "--output-dir",
+        out,
+        "--backend",
+        "petsc",
+    ]);
+    assert_eq!(code, Some(0), "{log}");
+    assert!(
+        log.contains("\"Block 3x3\" has no PETSc counterpart"),
+        "{log}"
+    );
 }
 
 // ---- Newmark through KSP ----

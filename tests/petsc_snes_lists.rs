@@ -150,3 +150,101 @@ fn snes_on_another_backend_is_an_error_naming_the_key() {
     assert_eq!(code, Some(0), "{log}");
     assert!(log.contains("PETSc SNES newtonls"), "{log}");
 }
+
+/// The bar in two `NOXQuasiStatic` load steps solved by NOX's nonlinear CG keys
+/// (`Direction → Method: "NonlinearCG"`), with `nonlinear_cg` the `Nonlinear CG` sublist. The
+/// tolerance, ‖F‖₂ ≤ 1e-2 N, is the one the MPI tests give SNES: the round-off of bond forces
+/// near 1e10 N leaves ‖F‖₂ near 2e-3 N at best here.
+fn nonlinear_cg(nonlinear_cg: &str) -> String {
+    let solver = format!(
+        "    Final Time: 1.0\n    Backend: \"PETSc\"\n    NOXQuasiStatic:\n      Number of Load Steps: {{steps}}\n      Absolute Tolerance: 1.0e-2\n      Max Solver Iterations: 100\n      Line Search:\n        Method: \"NonlinearCG\"\n      Direction:\n        Method: \"NonlinearCG\"\n        Nonlinear CG:\n{nonlinear_cg}"
+    );
+    quasi_static_bar::bar_deck(&solver, 0.012, 0.004, 2)
+}
+
+/// Peridigm's `Compression_NLCGQS_3x2x2` settings: Fletcher–Reeves, restarted every 15
+/// iterations, each direction preconditioned by 15 Jacobi-preconditioned GMRES iterations.
+const NLCGQS_KEYS: &str = "          Restart Frequency: 15\n          Precondition: \"On\"\n          Orthogonalize: \"Fletcher-Reeves\"\n          Linear Solver:\n            Aztec Solver: \"GMRES\"\n            Preconditioner: \"AztecOO\"\n            Aztec Preconditioner: \"Jacobi\"\n            AztecOO Preconditioner Iterations: 15";
+
+#[test]
+fn snes_nonlinear_cg_reaches_the_native_direct_answer() {
+    let native = tempfile::tempdir().unwrap();
+    run(
+        native.path(),
+        &quasi_static("    Linear Solver: \"Direct\""),
+    );
+    let reference = final_displacement(native.path());
+    let scale = reference.iter().fold(0.0f64, |m, u| m.max(u.abs()));
+    // The bar's largest displacement is the 0.012 m pull.
+    assert!((scale - 0.012).abs() < 1e-9, "{scale}");
+    for (name, keys) in [
+        ("Fletcher-Reeves, preconditioned", NLCGQS_KEYS.to_string()),
+        (
+            "Polak-Ribiere, preconditioned",
+            NLCGQS_KEYS.replace("Fletcher-Reeves", "Polak-Ribiere"),
+        ),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let log = run(dir.path(), &nonlinear_cg(&keys));
+        assert!(log.contains("PETSc SNES ncg"), "{name}: {log}");
+        let difference = largest_difference(&reference, &final_displacement(dir.path()));
+        // The native run stops at ‖r‖₂ + 20‖r‖∞ ≤ 1 N, the NCG one at ‖F‖₂ ≤ 1e-2 N, on a
+        // stiffness of order 1e11 N/m: both within ~1e-11 m of equilibrium, so 1e-8 of the
+        // motion is looser than either and far tighter than a wrong answer.
+        assert!(
+            difference <= 1e-8 * scale,
+            "{name}: SNES NCG differs from the native direct solve by {difference:e}"
+        );
+    }
+}
+
+#[test]
+fn check_shows_the_nonlinear_cg_petsc_makes_of_the_nox_keys() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bar.yaml");
+    std::fs::write(&path, nonlinear_cg(NLCGQS_KEYS)).unwrap();
+    let (code, log) = run_cli(&["check", path.to_str().unwrap()]);
+    assert_eq!(code, Some(0), "{log}");
+    // Orthogonalize → fr, Restart Frequency → 15, AztecOO GMRES + Jacobi, 15 iterations.
+    assert!(
+        log.contains("PETSc SNES ncg fr (line search cp), restarted every 15 iterations, preconditioned by one newtonls step: KSP gmres + PC jacobi, 15 iterations"),
+        "{log}"
+    );
+    // Without `Precondition: "On"` the directions are F itself (NOX's default is "Off").
+    std::fs::write(
+        &path,
+        nonlinear_cg("          Orthogonalize: \"Polak-Ribiere\""),
+    )
+    .unwrap();
+    let (code, log) = run_cli(&["check", path.to_str().unwrap()]);
+    assert_eq!(code, Some(0), "{log}");
+    // NOX's Restart Frequency default is 10.
+    assert!(
+        log.contains(
+            "PETSc SNES ncg prp (line search cp), restarted every 10 iterations, unpreconditioned"
+        ),
+        "{log}"
+    );
+}
+
+#[test]
+fn a_nonlinear_cg_key_petsc_cannot_map_is_an_error_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bar.yaml");
+    for (keys, expected) in [
+        (
+            NLCGQS_KEYS.replace("Fletcher-Reeves", "Hestenes-Stiefel"),
+            "Orthogonalize: \"Hestenes-Stiefel\": use \"Fletcher-Reeves\" or \"Polak-Ribiere\"",
+        ),
+        (
+            NLCGQS_KEYS.replace("\"Jacobi\"", "\"Neumann\""),
+            "Aztec Preconditioner: \"Neumann\" on the PETSc backend",
+        ),
+    ] {
+        std::fs::write(&path, nonlinear_cg(&keys)).unwrap();
+        let (code, log) = run_cli(&["check", path.to_str().unwrap()]);
+        assert_eq!(code, Some(2), "{log}");
+        assert!(log.contains(expected), "{log}");
+        assert!(log.contains("bar.yaml"), "{log}");
+    }
+}

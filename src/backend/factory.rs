@@ -140,21 +140,18 @@ pub fn nox_direction(solver: &Solver, method: &str) -> Result<&'static str, Unsu
 }
 
 /// What of `solver` the native backend cannot run, for `peridyn check` (a `NOXQuasiStatic`
-/// direction other than Newton needs NOX itself).
+/// direction other than Newton needs NOX itself or PETSc's SNESNCG).
 pub fn native_limitation(solver: &Solver) -> Option<String> {
     let Integrator::NoxQuasiStatic(nox) = &solver.integrator else {
         return None;
     };
-    (nox.direction_method != "Newton" && !on_trilinos(&solver.linear_solve.backend)).then(|| {
-        format!(
-            "NOXQuasiStatic Direction Method \"{}\" on the {} backend (it needs Trilinos NOX: a build with feature `trilinos`, Backend \"Trilinos\")",
-            nox.direction_method,
-            match solver.linear_solve.backend {
-                LinearBackend::Petsc { .. } => "PETSc",
-                _ => "native",
-            }
-        )
-    })
+    (nox.direction_method != "Newton" && solver.linear_solve.backend == LinearBackend::Native)
+        .then(|| {
+            format!(
+                "NOXQuasiStatic Direction Method \"{}\" on the native backend (it needs Trilinos NOX or PETSc's SNESNCG: Backend \"Trilinos\" or \"PETSc\" in a build with that feature)",
+                nox.direction_method
+            )
+        })
 }
 
 /// The preconditioner of a Jacobian-free Newton–Krylov solve when `solver` asks for one
@@ -202,11 +199,22 @@ pub fn uses_multigrid(solver: &Solver, points: usize) -> bool {
 
 /// A string parameter at `path` in a NOX parameter tree.
 fn nox_string<'a>(tree: &'a [(String, ParameterValue)], path: &[&str]) -> Option<&'a str> {
+    match nox_value(tree, path)? {
+        ParameterValue::String(s) => Some(s),
+        _ => None,
+    }
+}
+
+/// The parameter (or sublist) at `path` in a NOX parameter tree.
+pub fn nox_value<'a>(
+    tree: &'a [(String, ParameterValue)],
+    path: &[&str],
+) -> Option<&'a ParameterValue> {
     let (first, rest) = path.split_first()?;
     let (_, value) = tree.iter().find(|(k, _)| k == first)?;
     match (value, rest.is_empty()) {
-        (ParameterValue::String(s), true) => Some(s),
-        (ParameterValue::List(children), false) => nox_string(children, rest),
+        (value, true) => Some(value),
+        (ParameterValue::List(children), false) => nox_value(children, rest),
         _ => None,
     }
 }

@@ -110,7 +110,10 @@ pub trait NonlinearProblem {
 
     /// A sparse symmetric positive (semi-)definite operator spectrally close to J over this
     /// rank's unknowns, with its near-null space, for algebraic multigrid (see
-    /// [`PreconditioningOperator`]); `None` when the problem offers none (the default).
+    /// [`PreconditioningOperator`]); `None` when the problem offers none (the default). As
+    /// for [`NonlinearProblem::jacobian`], one row per unknown of this rank and columns
+    /// numbered as the unknowns: 0..len on one rank, global ids on several (the couplings
+    /// to other ranks' unknowns included).
     fn preconditioning_operator(&mut self) -> Result<Option<PreconditioningOperator>, SolveError> {
         Ok(None)
     }
@@ -135,7 +138,8 @@ pub trait NonlinearProblem {
 /// stiffness of [`crate::backend::native::one_hop_operator`], and its near-null space.
 #[derive(Debug, Clone)]
 pub struct PreconditioningOperator {
-    /// The operator, rows and columns numbered as the unknowns.
+    /// The operator: rows this rank's unknowns, columns numbered as the unknowns (global ids
+    /// on several ranks).
     pub matrix: Csr,
     /// Row-major, unknowns × `modes` (the rigid-body modes for elasticity, m or m/m).
     pub null_space: Vec<f64>,

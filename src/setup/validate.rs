@@ -22,6 +22,15 @@ pub fn validate(deck: &Deck, model: &Model) -> Result<(), DeckError> {
 #[cfg(feature = "petsc")]
 fn validate_petsc_options(deck: &Deck, model: &Model) -> Result<(), DeckError> {
     for solver in &deck.solvers {
+        let on_petsc = matches!(
+            solver.linear_solve.backend,
+            crate::io::deck::LinearBackend::Petsc { .. }
+        );
+        if let (true, Err(e)) = (on_petsc, crate::backend::petsc::deck::ncg(solver)) {
+            let mut path = vec![solver.name.as_str()];
+            path.extend(e.path.iter().copied());
+            return Err(deck.error_at(&path, e.message));
+        }
         if let Some(Err(message)) =
             crate::backend::petsc::deck::resolve(solver, 3 * model.points.len())
         {

@@ -856,13 +856,13 @@ fn quasi_static_settings(
             q.adaptive_load_stepping.clone(),
         ),
         Integrator::NoxQuasiStatic(n) => {
-            let on_nox = matches!(
-                solver.linear_solve.backend,
-                crate::io::deck::LinearBackend::Trilinos { .. }
-            );
-            if n.direction_method != "Newton" && !on_nox {
+            // NOX (Trilinos) and SNESNCG (PETSc) have nonlinear CG; peridyn's own solver is
+            // Newton.
+            if n.direction_method != "Newton"
+                && solver.linear_solve.backend == crate::io::deck::LinearBackend::Native
+            {
                 return Err(RunError::Unsupported(format!(
-                        "solver \"{}\": NOXQuasiStatic Direction → Method \"{}\" needs Trilinos NOX (a build with feature `trilinos` and Backend \"Trilinos\"); the native backend has Newton only",
+                        "solver \"{}\": NOXQuasiStatic Direction → Method \"{}\" needs Trilinos NOX or PETSc's SNESNCG (Backend \"Trilinos\" or \"PETSc\" in a build with that feature); the native backend has Newton only",
                         solver.name, n.direction_method
                     )));
             }

@@ -364,13 +364,32 @@ impl NonlinearProblem for PhysicsProblem<'_> {
 
     /// The one-hop PMB-like operator of [`crate::backend::native::one_hop_operator`] with each
     /// block's bulk modulus and horizon, the current bond damage and, for Newmark, the mass
-    /// term; the six rigid-body modes as its near-null space.
+    /// term; the six rigid-body modes as its near-null space. On several ranks it is
+    /// assembled, as the tangent is ([`ColumnMap`]), over the free dofs of the owned and ghost
+    /// points, and the owned rows are kept with global columns: each owned point's row holds
+    /// its bonds to the other ranks' points too, so the operator is the one-rank operator's
+    /// rows whatever the partition.
     fn preconditioning_operator(&mut self) -> Result<Option<PreconditioningOperator>, SolveError> {
+        if self.parts.collective.ranks() > 1 && self.columns.is_none() {
+            let Physical {
+                model,
+                collective,
+                constrained,
+                ..
+            } = &self.parts;
+            self.columns = Some(ColumnMap::new(
+                model,
+                constrained,
+                &self.held,
+                &**collective,
+            ));
+        }
         let Physical {
             system,
             model,
             physics,
             state,
+            collective,
             ..
         } = &self.parts;
         let micromodulus: Vec<f64> = model
@@ -390,6 +409,11 @@ impl NonlinearProblem for PhysicsProblem<'_> {
                 .map(|(rho, v)| rho * v * inertia.factor)
                 .collect()
         });
+        // One rank: the unknowns themselves; several: owned and ghost free dofs.
+        let dofs = match &self.columns {
+            Some(columns) if collective.ranks() > 1 => &columns.dofs,
+            _ => &system.dofs,
+        };
         let matrix = one_hop_operator(&OneHopInput {
             position: &model.points.position,
             volume: &model.points.volume,
@@ -397,10 +421,16 @@ impl NonlinearProblem for PhysicsProblem<'_> {
             micromodulus: &micromodulus,
             bond_damage: state.bond_damage(),
             diagonal_shift: mass.as_deref(),
-            dof_index: &system.dofs.index,
-            unknowns: system.dofs.len(),
+            dof_index: &dofs.index,
+            unknowns: dofs.len(),
             stencil: Stencil::Nearest,
         });
+        let matrix = match &self.columns {
+            Some(columns) if collective.ranks() > 1 => {
+                columns.owned_rows(&matrix, 3 * collective.global_points())
+            }
+            _ => matrix,
+        };
         Ok(Some(PreconditioningOperator {
             matrix,
             null_space: rigid_body_modes(&model.points.position, &system.dofs.free),

@@ -2,7 +2,8 @@
 //! PETSc backend, and of `QuasiStatic` and `Implicit` (Newmark-β) lists that ask for it with
 //! `Nonlinear Solver: "SNES"`: each load step or time step is solved by SNES Newton with a
 //! line search (or Jacobian-free, `-snes_mf_operator`, for `NOXQuasiStatic` with
-//! `Jacobian Operator: "Matrix-Free"`) on the same residual the native and NOX solvers use (the
+//! `Jacobian Operator: "Matrix-Free"`; by SNES's nonlinear CG for `Direction → Method:
+//! "NonlinearCG"`) on the same residual the native and NOX solvers use (the
 //! one-residual rule, DESIGN §5), the Newmark inertia included; see
 //! [`crate::backend::petsc::snes`] for what SNES sees. On several ranks the SNES runs on
 //! `MPI_COMM_WORLD` over the owned unknowns, the ghosts refreshed inside every residual.
@@ -14,7 +15,7 @@
 //! measure against the load step's tolerance.
 
 use crate::backend::petsc::deck;
-use crate::backend::petsc::snes::{self, SnesJacobian, SnesSettings};
+use crate::backend::petsc::snes::{self, NcgSettings, SnesJacobian, SnesSettings};
 use crate::backend::petsc::PetscSettings;
 use crate::backend::problem::NonlinearProblem;
 use crate::backend::{SolveError, Unsupported};
@@ -27,6 +28,8 @@ use std::time::Instant;
 pub struct SnesNewton {
     linear: PetscSettings,
     jacobian: SnesJacobian,
+    /// Nonlinear CG (`Direction → Method: "NonlinearCG"`) instead of Newton.
+    ncg: Option<NcgSettings>,
     /// The method PETSc resolved at the first solve.
     method: Option<String>,
 }
@@ -47,9 +50,18 @@ impl SnesNewton {
                 solver.name
             ))
         })?;
+        let ncg = deck::ncg(solver).map_err(|e| {
+            Unsupported(format!(
+                "solver \"{}\": {}: {}",
+                solver.name,
+                e.path.join(" → "),
+                e.message
+            ))
+        })?;
         Ok(Self {
             linear,
             jacobian: deck::snes_jacobian(solver),
+            ncg,
             method: None,
         })
     }
@@ -68,6 +80,7 @@ impl NonlinearSolver for SnesNewton {
     fn describe(&self) -> String {
         match &self.method {
             Some(method) => method.clone(),
+            None if self.ncg.is_some() => "PETSc SNES ncg (assembled tangent)".to_string(),
             None => format!(
                 "PETSc SNES newtonls ({})",
                 match self.jacobian {
@@ -95,6 +108,7 @@ impl NonlinearSolver for SnesNewton {
             tolerance: settings.tolerance,
             max_iterations: settings.max_iterations,
             line_search: settings.line_search,
+            ncg: self.ncg.as_ref(),
             print_iterations: settings.print_iterations,
             warn_unused: self.method.is_none(),
         };

@@ -7,6 +7,10 @@
 //!   deck's `PETSc Options` (`-snes_*`, `-ksp_*`, `-pc_*`) override everything;
 //! * convergence is peridyn's: the test calls [`NonlinearProblem::convergence_measure`] on F
 //!   and stops at the deck's tolerance or iteration limit (PETSc's own tests are replaced);
+//! * with [`NcgSettings`] (NOX's `NonlinearCG` direction) SNES `ncg` replaces Newton: the `cp`
+//!   line search, a restart every `Restart Frequency` iterations (successive SNESSolve calls,
+//!   the convergence test counting across them), and when preconditioned a nonlinear
+//!   preconditioner of one `newtonls` step on the assembled tangent ([`NcgPreconditioner`]);
 //! * [`SnesJacobian::Assembled`]: the tangent's values are refilled into a `MATSEQAIJ` over
 //!   peridyn's arrays at each Jacobian request;
 //! * [`SnesJacobian::MatrixFree`]: `-snes_mf_operator`: the operator is PETSc's finite
@@ -25,11 +29,11 @@
 //!
 //! On several MPI ranks ([`NonlinearProblem::ranks`] > 1) the SNES, its vectors and matrix live
 //! on `MPI_COMM_WORLD` over this rank's unknowns ([`super::layout`]): the assembled tangent
-//! arrives with global column ids and becomes a `MATMPIAIJ` (values copied in at each Jacobian
-//! request, `MatSetValues`); the 3×3 block diagonal and the one-hop operator are built over the
-//! rank's own unknowns, so on N ranks the one-hop operator drops the couplings between ranks (a
-//! weaker preconditioner of the same Newton operator). Every callback is collective: PETSc calls
-//! it on all ranks together, and the residual refreshes the ghosts first.
+//! and the one-hop operator arrive with global column ids (the one-hop operator's rows hold
+//! the bonds to other ranks' points, so GAMG sees the one-rank operator whatever the
+//! partition) and become `MATMPIAIJ`s (values copied in at each refill, `MatSetValues`); the
+//! 3×3 block diagonal is built over the rank's own unknowns. Every callback is collective:
+//! PETSc calls it on all ranks together, and the residual refreshes the ghosts first.
 //!
 //! The prescribed dofs are not unknowns of the problem (eliminated as on the other backends),
 //! so the near-null space is not built with `MatNullSpaceCreateRigidBody` (which needs a
@@ -40,13 +44,14 @@
 //! non-finite residual, say) is kept in the context and the callback returns `PETSC_ERR_USER`,
 //! PETSc unwinds its own stack with error codes, and [`solve`] returns the kept error itself.
 
-use std::ffi::c_void;
+use std::ffi::{c_void, CString};
 
 use mpi::topology::{Communicator as _, SimpleCommunicator};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use super::layout::{sum_over_ranks, Columns, DistributedMatrix, Layout};
-use super::linear::{resolved_types, set_near_null_space, PetscSettings};
+use super::linear::{resolved_types, set_near_null_space, PetscSettings, PETSC_DEFAULT_REAL};
+use super::options::DeckOptions;
 use super::runtime::{check, owned_string, PetscError, Turn};
 use super::sys;
 use crate::backend::problem::{Evaluation, NonlinearProblem};
@@ -64,6 +69,57 @@ pub enum SnesJacobian {
     MatrixFreeMultigrid,
 }
 
+/// The β formula of SNES's nonlinear conjugate gradient (`-snes_ncg_type`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NcgBeta {
+    /// `fr`, Fletcher–Reeves: β = ‖d_k‖² / ‖d_{k−1}‖² (NOX's `Orthogonalize` default).
+    FletcherReeves,
+    /// `prp`, Polak–Ribière–Polyak: β = max(0, d_k·(d_k − d_{k−1}) / ‖d_{k−1}‖²).
+    PolakRibiere,
+}
+
+impl NcgBeta {
+    /// PETSc's name (`-snes_ncg_type`).
+    pub fn name(self) -> &'static str {
+        match self {
+            NcgBeta::FletcherReeves => "fr",
+            NcgBeta::PolakRibiere => "prp",
+        }
+    }
+}
+
+/// The linear preconditioner M of a preconditioned nonlinear CG: each direction is built
+/// from M⁻¹F instead of F. PETSc applies it as a nonlinear preconditioner (`SNESGetNPC`): one
+/// `newtonls` step with a full step (line search `basic`) on the assembled tangent, whose KSP
+/// runs exactly `iterations` iterations from zero (relative tolerance 0), so x − NPC(x) =
+/// M⁻¹F(x) with M⁻¹ that fixed-iteration Krylov solve, as NOX's `AztecOO Preconditioner
+/// Iterations` runs its AztecOO solver.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NcgPreconditioner {
+    /// KSP type of M⁻¹ (`gmres`, `cg`, `preonly`).
+    pub ksp: String,
+    /// PC type inside it (`jacobi`, `bjacobi`, `none`).
+    pub pc: String,
+    /// Krylov iterations of one application (≥ 1).
+    pub iterations: u64,
+    /// The tangent is rebuilt every this many applications (1: every one), kept across load
+    /// steps (`-npc_snes_lag_jacobian` with `-npc_snes_lag_jacobian_persists`).
+    pub jacobian_lag: u64,
+}
+
+/// SNES's nonlinear conjugate gradient (`SNESNCG`) in place of Newton.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NcgSettings {
+    /// The β formula.
+    pub beta: NcgBeta,
+    /// A steepest-descent restart (β = 0) every this many iterations: SNESNCG has no periodic
+    /// restart, so the solve runs as successive SNESSolve calls of at most this many
+    /// iterations, each starting from the (preconditioned) residual direction.
+    pub restart_every: u64,
+    /// `None` for plain NCG (directions from F itself).
+    pub preconditioner: Option<NcgPreconditioner>,
+}
+
 /// One SNES solve's configuration.
 #[derive(Debug, Clone, Copy)]
 pub struct SnesSettings<'a> {
@@ -75,8 +131,10 @@ pub struct SnesSettings<'a> {
     pub tolerance: f64,
     /// Newton iterations allowed.
     pub max_iterations: u64,
-    /// `bt` line search (otherwise `basic`).
+    /// `bt` line search (otherwise `basic`); nonlinear CG always uses `cp`.
     pub line_search: bool,
+    /// Nonlinear CG instead of Newton (the Jacobian must be [`SnesJacobian::Assembled`]).
+    pub ncg: Option<&'a NcgSettings>,
     /// Print `  iteration i: residual = …` after every iteration.
     pub print_iterations: bool,
     /// Warn about `PETSc Options` PETSc did not use, after the solve (the first solve of a
@@ -119,6 +177,8 @@ struct Context<'a> {
     distributed: Option<DistributedMatrix>,
     tolerance: f64,
     max_iterations: u64,
+    /// Iterations done by the earlier SNESSolve calls of a restarted nonlinear CG.
+    iteration_offset: u64,
     history: Vec<f64>,
     print_iterations: bool,
     /// The first error a callback met.
@@ -403,15 +463,21 @@ unsafe extern "C" fn converged(
     if code != 0 {
         return code;
     }
-    context.history.push(measure);
-    if context.print_iterations && iteration > 0 {
-        eprintln!("  iteration {iteration}: residual = {measure:e}");
+    // A restarted nonlinear CG's later SNESSolve calls begin at the iterate the previous one
+    // ended on, whose measure is already in the history.
+    let restart = iteration == 0 && context.iteration_offset > 0;
+    let iteration = context.iteration_offset + u64::try_from(iteration).unwrap_or(0);
+    if !restart {
+        context.history.push(measure);
+        if context.print_iterations && iteration > 0 {
+            eprintln!("  iteration {iteration}: residual = {measure:e}");
+        }
     }
     *reason = if !measure.is_finite() {
         sys::SNESConvergedReason_SNES_DIVERGED_FNORM_NAN
     } else if measure <= context.tolerance {
         sys::SNESConvergedReason_SNES_CONVERGED_FNORM_ABS
-    } else if u64::try_from(iteration).unwrap_or(0) >= context.max_iterations {
+    } else if iteration >= context.max_iterations {
         sys::SNESConvergedReason_SNES_DIVERGED_MAX_IT
     } else {
         sys::SNESConvergedReason_SNES_CONVERGED_ITERATING
@@ -440,6 +506,8 @@ struct Objects {
     matrix: sys::Mat,
     solution: sys::PetscVec,
     residual: sys::PetscVec,
+    /// F of nonlinear CG's preconditioner (null without one).
+    npc_residual: sys::PetscVec,
 }
 
 impl Drop for Objects {
@@ -451,6 +519,7 @@ impl Drop for Objects {
             sys::MatDestroy(&mut self.matrix);
             sys::VecDestroy(&mut self.solution);
             sys::VecDestroy(&mut self.residual);
+            sys::VecDestroy(&mut self.npc_residual);
         }
     }
 }
@@ -530,6 +599,7 @@ pub fn solve(
         distributed: None,
         tolerance: settings.tolerance,
         max_iterations: settings.max_iterations,
+        iteration_offset: 0,
         history: Vec::new(),
         print_iterations: settings.print_iterations,
         error: None,
@@ -540,15 +610,18 @@ pub fn solve(
         matrix: std::ptr::null_mut(),
         solution: std::ptr::null_mut(),
         residual: std::ptr::null_mut(),
+        npc_residual: std::ptr::null_mut(),
     };
     let options = &settings.linear.options;
-    // On several ranks: the assembled tangent's columns are global ids, the block diagonal's
-    // and the one-hop operator's this rank's own unknowns.
+    // On several ranks: the assembled tangent's and the one-hop operator's columns are global
+    // ids, the block diagonal's this rank's own unknowns.
     let layout = match distributed {
         true => {
             let ids = match settings.jacobian {
-                SnesJacobian::Assembled => global_ids.as_deref(),
-                _ => None,
+                SnesJacobian::Assembled | SnesJacobian::MatrixFreeMultigrid => {
+                    global_ids.as_deref()
+                }
+                SnesJacobian::MatrixFree => None,
             };
             Some(Layout::new(&turn, n, ids).map_err(|e| failure("laying out the unknowns", e))?)
         }
@@ -576,8 +649,10 @@ pub fn solve(
                         values: context.values.clone(),
                     };
                     let numbering = match settings.jacobian {
-                        SnesJacobian::Assembled => Columns::Global,
-                        _ => Columns::Local,
+                        SnesJacobian::Assembled | SnesJacobian::MatrixFreeMultigrid => {
+                            Columns::Global
+                        }
+                        SnesJacobian::MatrixFree => Columns::Local,
                     };
                     let matrix = DistributedMatrix::new(&turn, layout, &sorted, numbering)?;
                     objects.matrix = matrix.matrix;
@@ -609,15 +684,7 @@ pub fn solve(
             let snes = objects.snes;
             let prefix = options.c_prefix();
             check(sys::SNESSetOptionsPrefix(snes, prefix.as_ptr()))?;
-            check(sys::SNESSetType(snes, c"newtonls".as_ptr()))?;
-            let mut line_search: sys::SNESLineSearch = std::ptr::null_mut();
-            check(sys::SNESGetLineSearch(snes, &mut line_search))?;
-            let kind = if settings.line_search {
-                c"bt"
-            } else {
-                c"basic"
-            };
-            check(sys::SNESLineSearchSetType(line_search, kind.as_ptr()))?;
+            let npc = set_method(snes, settings.ncg, settings.line_search)?;
             check(sys::SNESSetFunction(
                 snes,
                 objects.residual,
@@ -631,14 +698,34 @@ pub fn solve(
                 Some(form_jacobian),
                 context_pointer,
             ))?;
+            if let Some(npc) = npc {
+                // The preconditioner's Newton step needs F and the tangent: the same
+                // callbacks on the same matrix, F into a vector of its own.
+                check(sys::VecDuplicate(
+                    objects.residual,
+                    &mut objects.npc_residual,
+                ))?;
+                check(sys::SNESSetFunction(
+                    npc,
+                    objects.npc_residual,
+                    Some(form_function),
+                    context_pointer,
+                ))?;
+                check(sys::SNESSetJacobian(
+                    npc,
+                    objects.matrix,
+                    objects.matrix,
+                    Some(form_jacobian),
+                    context_pointer,
+                ))?;
+            }
             check(sys::SNESSetConvergenceTest(
                 snes,
                 Some(converged),
                 context_pointer,
                 None,
             ))?;
-            let limit =
-                sys::PetscInt::try_from(settings.max_iterations).unwrap_or(sys::PetscInt::MAX);
+            let limit = sys::PetscInt::try_from(chunk(settings, 0)).unwrap_or(sys::PetscInt::MAX);
             check(sys::SNESSetTolerances(
                 snes,
                 0.0,
@@ -662,7 +749,13 @@ pub fn solve(
             let unknowns = layout.as_ref().map_or(n, Layout::global);
             settings.linear.configure(&turn, ksp, unknowns, false)?;
             check(sys::SNESSetFromOptions(snes))?;
-            check(sys::SNESSetUp(snes))?;
+            match npc {
+                // SNESNCG's setup needs the solution vector, which only SNESSolve hands over;
+                // the preconditioner reads its options there too, and here for `describe`.
+                Some(npc) => check(sys::SNESSetFromOptions(npc))?,
+                None if settings.ncg.is_some() => {}
+                None => check(sys::SNESSetUp(snes))?,
+            }
             if settings.jacobian != SnesJacobian::Assembled {
                 let mut operator: sys::Mat = std::ptr::null_mut();
                 check(sys::SNESGetJacobian(
@@ -680,7 +773,7 @@ pub fn solve(
                     ))?;
                 }
             }
-            describe(snes)
+            describe(snes, settings.ncg, options)
         })()
     };
     let method = match setup {
@@ -694,28 +787,62 @@ pub fn solve(
     let mut iterations: sys::PetscInt = 0;
     let mut linear_iterations: sys::PetscInt = 0;
     let mut reason: sys::SNESConvergedReason = 0;
-    // SAFETY: the vectors are live; `x` is copied in and out through the vector's array.
+    // SAFETY: the vectors are live; `x` is copied in and out through the vector's array;
+    // `context` is reached only through the callbacks while SNESSolve runs.
     let solved = unsafe {
         (|| -> Result<(), PetscError> {
             let mut data: *mut f64 = std::ptr::null_mut();
             check(sys::VecGetArray(objects.solution, &mut data))?;
             std::slice::from_raw_parts_mut(data, n).copy_from_slice(&x);
             check(sys::VecRestoreArray(objects.solution, &mut data))?;
-            let result = check(sys::SNESSolve(
-                objects.snes,
-                std::ptr::null_mut(),
-                objects.solution,
-            ));
+            // Newton solves in one call; a restarted nonlinear CG in calls of at most
+            // `restart_every` iterations, each restarting from the residual direction.
+            let mut done: u64 = 0;
+            let result = loop {
+                let result = check(sys::SNESSolve(
+                    objects.snes,
+                    std::ptr::null_mut(),
+                    objects.solution,
+                ));
+                if result.is_err() {
+                    break result;
+                }
+                let mut chunk_iterations: sys::PetscInt = 0;
+                let mut chunk_linear: sys::PetscInt = 0;
+                check(sys::SNESGetIterationNumber(
+                    objects.snes,
+                    &mut chunk_iterations,
+                ))?;
+                check(sys::SNESGetLinearSolveIterations(
+                    objects.snes,
+                    &mut chunk_linear,
+                ))?;
+                check(sys::SNESGetConvergedReason(objects.snes, &mut reason))?;
+                done += u64::try_from(chunk_iterations).unwrap_or(0);
+                linear_iterations += chunk_linear;
+                let restart = settings.ncg.is_some()
+                    && reason == sys::SNESConvergedReason_SNES_DIVERGED_MAX_IT
+                    && done < settings.max_iterations;
+                if !restart {
+                    break Ok(());
+                }
+                (*(context_pointer as *mut Context)).iteration_offset = done;
+                let limit =
+                    sys::PetscInt::try_from(chunk(settings, done)).unwrap_or(sys::PetscInt::MAX);
+                check(sys::SNESSetTolerances(
+                    objects.snes,
+                    0.0,
+                    0.0,
+                    0.0,
+                    limit,
+                    sys::PetscInt::MAX,
+                ))?;
+            };
+            iterations = sys::PetscInt::try_from(done).unwrap_or(sys::PetscInt::MAX);
             check(sys::VecGetArray(objects.solution, &mut data))?;
             x.copy_from_slice(std::slice::from_raw_parts(data, n));
             check(sys::VecRestoreArray(objects.solution, &mut data))?;
-            result?;
-            check(sys::SNESGetIterationNumber(objects.snes, &mut iterations))?;
-            check(sys::SNESGetLinearSolveIterations(
-                objects.snes,
-                &mut linear_iterations,
-            ))?;
-            check(sys::SNESGetConvergedReason(objects.snes, &mut reason))
+            result
         })()
     };
     if settings.warn_unused && !(distributed && SimpleCommunicator::world().rank() != 0) {
@@ -742,8 +869,155 @@ pub fn solve(
     })
 }
 
+/// The iteration limit of the SNESSolve call that starts after `done` iterations: the rest of
+/// the deck's limit, at most one restart period for nonlinear CG.
+fn chunk(settings: &SnesSettings, done: u64) -> u64 {
+    let rest = settings.max_iterations.saturating_sub(done);
+    match settings.ncg {
+        Some(ncg) => rest.min(ncg.restart_every.max(1)),
+        None => rest,
+    }
+}
+
+/// Sets `snes`'s method: `newtonls` with the `bt` line search (`basic` without
+/// `line_search`), or SNESNCG with the `cp` line search (the step where F·d = 0 along the
+/// direction d, by secant steps: for F the gradient of an energy, the exact step of linear
+/// CG, which is what NOX's `NonlinearCG` line search computes from one directional
+/// derivative) and, when preconditioned, its nonlinear preconditioner (see
+/// [`NcgPreconditioner`]), whose SNES is returned for the caller to give it F and the
+/// tangent. The options database, read later, overrides all of it.
+unsafe fn set_method(
+    snes: sys::SNES,
+    ncg: Option<&NcgSettings>,
+    line_search: bool,
+) -> Result<Option<sys::SNES>, PetscError> {
+    let mut search: sys::SNESLineSearch = std::ptr::null_mut();
+    let Some(ncg) = ncg else {
+        check(sys::SNESSetType(snes, c"newtonls".as_ptr()))?;
+        check(sys::SNESGetLineSearch(snes, &mut search))?;
+        let kind = if line_search { c"bt" } else { c"basic" };
+        check(sys::SNESLineSearchSetType(search, kind.as_ptr()))?;
+        return Ok(None);
+    };
+    check(sys::SNESSetType(snes, c"ncg".as_ptr()))?;
+    check(sys::SNESNCGSetType(
+        snes,
+        match ncg.beta {
+            NcgBeta::FletcherReeves => sys::SNESNCGType_SNES_NCG_FR,
+            NcgBeta::PolakRibiere => sys::SNESNCGType_SNES_NCG_PRP,
+        },
+    ))?;
+    check(sys::SNESGetLineSearch(snes, &mut search))?;
+    check(sys::SNESLineSearchSetType(search, c"cp".as_ptr()))?;
+    let Some(preconditioner) = &ncg.preconditioner else {
+        return Ok(None);
+    };
+    let mut npc: sys::SNES = std::ptr::null_mut();
+    check(sys::SNESGetNPC(snes, &mut npc))?;
+    check(sys::SNESSetType(npc, c"newtonls".as_ptr()))?;
+    let mut npc_search: sys::SNESLineSearch = std::ptr::null_mut();
+    check(sys::SNESGetLineSearch(npc, &mut npc_search))?;
+    check(sys::SNESLineSearchSetType(npc_search, c"basic".as_ptr()))?;
+    // The Krylov solve stops at its iteration count, which PETSc calls a failure.
+    check(sys::SNESSetMaxLinearSolveFailures(npc, sys::PetscInt::MAX))?;
+    let lag =
+        sys::PetscInt::try_from(preconditioner.jacobian_lag.max(1)).unwrap_or(sys::PetscInt::MAX);
+    check(sys::SNESSetLagJacobian(npc, lag))?;
+    check(sys::SNESSetLagJacobianPersists(
+        npc,
+        sys::PetscBool_PETSC_TRUE,
+    ))?;
+    let mut ksp: sys::KSP = std::ptr::null_mut();
+    let mut pc: sys::PC = std::ptr::null_mut();
+    let name = |text: &str| {
+        CString::new(text).map_err(|_| PetscError {
+            code: -1,
+            message: format!("the type name {text:?} contains a NUL character"),
+        })
+    };
+    let ksp_type = name(&preconditioner.ksp)?;
+    let pc_type = name(&preconditioner.pc)?;
+    check(sys::SNESGetKSP(npc, &mut ksp))?;
+    check(sys::KSPSetType(ksp, ksp_type.as_ptr()))?;
+    check(sys::KSPGetPC(ksp, &mut pc))?;
+    check(sys::PCSetType(pc, pc_type.as_ptr()))?;
+    check(sys::KSPSetTolerances(
+        ksp,
+        0.0,
+        PETSC_DEFAULT_REAL,
+        PETSC_DEFAULT_REAL,
+        sys::PetscInt::try_from(preconditioner.iterations.max(1)).unwrap_or(sys::PetscInt::MAX),
+    ))?;
+    Ok(Some(npc))
+}
+
+/// `PETSc SNES <type> (line search <type>), KSP <type> + PC <type>` of a configured SNES;
+/// for nonlinear CG `PETSc SNES ncg <β> (line search <type>), restarted every <n>
+/// iterations, preconditioned by one newtonls step: KSP <type> + PC <type>, <k> iterations`.
+fn describe(
+    snes: sys::SNES,
+    ncg: Option<&NcgSettings>,
+    options: &DeckOptions,
+) -> Result<String, PetscError> {
+    let Some(ncg) = ncg else {
+        return describe_newton(snes);
+    };
+    let mut snes_type: sys::SNESType = std::ptr::null();
+    let mut line_search: sys::SNESLineSearch = std::ptr::null_mut();
+    let mut line_search_type: sys::SNESLineSearchType = std::ptr::null();
+    // SAFETY: `snes` is live; the names belong to it.
+    unsafe {
+        check(sys::SNESGetType(snes, &mut snes_type))?;
+        check(sys::SNESGetLineSearch(snes, &mut line_search))?;
+        check(sys::SNESLineSearchGetType(
+            line_search,
+            &mut line_search_type,
+        ))?;
+    }
+    let snes_type = owned_string(snes_type);
+    if snes_type != "ncg" {
+        return describe_newton(snes);
+    }
+    // PETSc 3.18 has no getter of the β formula: the deck's option, else the deck's key.
+    let beta = options
+        .options
+        .iter()
+        .find(|(name, _)| name == "snes_ncg_type")
+        .and_then(|(_, value)| value.clone())
+        .unwrap_or_else(|| ncg.beta.name().to_string());
+    let mut text = format!(
+        "PETSc SNES ncg {beta} (line search {}), restarted every {} iterations",
+        owned_string(line_search_type),
+        ncg.restart_every
+    );
+    match &ncg.preconditioner {
+        None => text.push_str(", unpreconditioned"),
+        Some(preconditioner) => {
+            let mut npc: sys::SNES = std::ptr::null_mut();
+            let mut ksp: sys::KSP = std::ptr::null_mut();
+            // SAFETY: `snes` is live and has its preconditioner (set by `set_method`).
+            unsafe {
+                check(sys::SNESGetNPC(snes, &mut npc))?;
+                check(sys::SNESGetKSP(npc, &mut ksp))?;
+            }
+            text.push_str(&format!(
+                ", preconditioned by one newtonls step: {}, {} iterations",
+                resolved_types(ksp)?.trim_start_matches("PETSc "),
+                preconditioner.iterations
+            ));
+            if preconditioner.jacobian_lag > 1 {
+                text.push_str(&format!(
+                    ", tangent rebuilt every {} applications",
+                    preconditioner.jacobian_lag
+                ));
+            }
+        }
+    }
+    Ok(text)
+}
+
 /// `PETSc SNES <type> (line search <type>), KSP <type> + PC <type>` of a configured SNES.
-fn describe(snes: sys::SNES) -> Result<String, PetscError> {
+fn describe_newton(snes: sys::SNES) -> Result<String, PetscError> {
     let mut snes_type: sys::SNESType = std::ptr::null();
     let mut line_search: sys::SNESLineSearch = std::ptr::null_mut();
     let mut line_search_type: sys::SNESLineSearchType = std::ptr::null();
@@ -773,6 +1047,7 @@ pub fn resolve(
     linear: &PetscSettings,
     jacobian: SnesJacobian,
     line_search: bool,
+    ncg: Option<&NcgSettings>,
 ) -> Result<String, PetscError> {
     let turn = Turn::take()?;
     let mut snes: sys::SNES = std::ptr::null_mut();
@@ -782,11 +1057,7 @@ pub fn resolve(
             check(sys::SNESCreate(turn.comm_self(), &mut snes))?;
             let prefix = linear.options.c_prefix();
             check(sys::SNESSetOptionsPrefix(snes, prefix.as_ptr()))?;
-            check(sys::SNESSetType(snes, c"newtonls".as_ptr()))?;
-            let mut line: sys::SNESLineSearch = std::ptr::null_mut();
-            check(sys::SNESGetLineSearch(snes, &mut line))?;
-            let kind = if line_search { c"bt" } else { c"basic" };
-            check(sys::SNESLineSearchSetType(line, kind.as_ptr()))?;
+            let npc = set_method(snes, ncg, line_search)?;
             if jacobian != SnesJacobian::Assembled {
                 check(sys::SNESSetUseMatrixFree(
                     snes,
@@ -798,7 +1069,11 @@ pub fn resolve(
             check(sys::SNESGetKSP(snes, &mut ksp))?;
             linear.configure(&turn, ksp, 1, false)?;
             check(sys::SNESSetFromOptions(snes))?;
-            describe(snes)
+            if let Some(npc) = npc {
+                // SNESSetUp would read the preconditioner's options; there is no setup here.
+                check(sys::SNESSetFromOptions(npc))?;
+            }
+            describe(snes, ncg, &linear.options)
         })()
     };
     // SAFETY: created above (or null).

@@ -184,6 +184,19 @@ impl Deck {
         self.lines.get(&key).copied()
     }
 
+    /// Adds a warning about the key at `path`, in the style of the load-time warnings
+    /// (`file:line: key → path: message`), for what is found after loading.
+    pub fn warn_at(&mut self, path: &[&str], message: &str) {
+        let line = self
+            .line_of(path)
+            .map_or(String::new(), |line| format!("{line}:"));
+        self.warnings.push(format!(
+            "{}:{line} {}: {message}",
+            self.path.display(),
+            KeyPath(path.iter().map(|s| s.to_string()).collect())
+        ));
+    }
+
     /// An error about the key at `path`, in the same style as load-time errors (for problems
     /// found later, such as a node id beyond the number of points or a missing mesh file).
     pub fn error_at(&self, path: &[&str], message: impl Into<String>) -> DeckError {

@@ -70,6 +70,9 @@ pub struct LinearSolve {
     /// `Linear Solver Preconditioner` of the native Krylov methods (with `Backend:
     /// "Trilinos"` the choice is in [`LinearBackend::Trilinos`] and this stays `Block 3x3`).
     pub preconditioner: LinearPreconditioner,
+    /// The deck gave `Linear Solver Preconditioner` (so `peridyn run --backend petsc` carries
+    /// a native choice over instead of taking PETSc's default).
+    pub preconditioner_given: bool,
     /// `Linear Solver Tolerance`.
     pub relative_tolerance: f64,
     /// `Linear Solver Maximum Iterations` (`None`: the number of unknowns).
@@ -157,11 +160,25 @@ impl LinearBackend {
 impl Solver {
     /// Chooses the backend of an implicit solver list whose deck did not (`peridyn run
     /// --backend`). Direct methods exist on the native backend only, so a list asking for one
-    /// cannot move to Trilinos.
-    pub fn choose_backend(&mut self, backend: LinearBackend) -> Result<(), String> {
+    /// cannot move to Trilinos. On PETSc the list's native preconditioner choice carries over
+    /// ([`Solver::petsc_preconditioner`]); returns a warning about the `Linear Solver
+    /// Preconditioner` key when the choice has no PETSc counterpart.
+    pub fn choose_backend(&mut self, backend: LinearBackend) -> Result<Option<String>, String> {
         if self.linear_solve.backend_given || matches!(self.integrator, Integrator::Verlet(_)) {
-            return Ok(());
+            return Ok(None);
         }
+        let mut warning = None;
+        let backend = match backend {
+            LinearBackend::Petsc { ilu_fill_level, .. } => {
+                let (preconditioner, refused) = self.petsc_preconditioner();
+                warning = refused;
+                LinearBackend::Petsc {
+                    preconditioner,
+                    ilu_fill_level,
+                }
+            }
+            other => other,
+        };
         if matches!(backend, LinearBackend::Petsc { .. }) && !cfg!(feature = "petsc") {
             return Err(PETSC_NOT_BUILT.to_string());
         }
@@ -180,7 +197,41 @@ impl Solver {
             }
         }
         self.linear_solve.backend = backend;
-        Ok(())
+        Ok(warning)
+    }
+
+    /// The PETSc preconditioner of a native list moved to PETSc by `peridyn run --backend
+    /// petsc`, the same a list naming `Backend: "PETSc"` gets from the same keys:
+    ///
+    /// | native `Linear Solver Preconditioner` | PETSc |
+    /// |---|---|
+    /// | not given | `ILU` (block Jacobi with ILU(0) blocks); `GAMG` with `Peridigm Preconditioner: "AMG"` |
+    /// | `Jacobi` | `jacobi` |
+    /// | `None` | `none` |
+    /// | `AMG` | `gamg` with the rigid-body near-null space |
+    /// | `Block 3x3` | `ILU`, and the returned warning: PETSc's point-block Jacobi needs every point to keep three unknowns, which prescribed dofs break |
+    pub fn petsc_preconditioner(&self) -> (PetscPreconditioner, Option<String>) {
+        let linear = &self.linear_solve;
+        if !linear.preconditioner_given {
+            let preconditioner = match self.peridigm_preconditioner {
+                PeridigmPreconditioner::Amg => PetscPreconditioner::Gamg,
+                _ => PetscPreconditioner::Ilu,
+            };
+            return (preconditioner, None);
+        }
+        match linear.preconditioner {
+            LinearPreconditioner::Jacobi => (PetscPreconditioner::Jacobi, None),
+            LinearPreconditioner::None => (PetscPreconditioner::None, None),
+            LinearPreconditioner::Amg => (PetscPreconditioner::Gamg, None),
+            LinearPreconditioner::Block3x3 => (
+                PetscPreconditioner::Ilu,
+                Some(
+                    "\"Block 3x3\" has no PETSc counterpart (PETSc's point-block Jacobi needs every point to keep three unknowns, which prescribed dofs break): \
+                     `--backend petsc` preconditions with block Jacobi and ILU(0) blocks instead; to choose, give Backend: \"PETSc\" with Linear Solver Preconditioner \"ILU\", \"Jacobi\", \"GAMG\", \"Hypre\" or \"None\""
+                        .to_string(),
+                ),
+            ),
+        }
     }
 }
 
@@ -568,6 +619,7 @@ fn read_linear_solve(
         },
     };
     let backend_given = list.peek("Backend").is_some();
+    let preconditioner_given = list.peek("Linear Solver Preconditioner").is_some();
     let chosen = match list.get("Backend") {
         None => Chosen::Native,
         Some(f) => match f.choice(ctx, &["Native", "Trilinos", "PETSc"])? {
@@ -655,6 +707,7 @@ fn read_linear_solve(
         backend_given,
         method,
         preconditioner,
+        preconditioner_given,
         relative_tolerance,
         maximum_iterations,
         belos_parameters,

@@ -373,7 +373,7 @@ impl PetscLinearSolver {
 }
 
 /// `PETSC_DEFAULT` as a real argument.
-const PETSC_DEFAULT_REAL: f64 = -2.0;
+pub(super) const PETSC_DEFAULT_REAL: f64 = -2.0;
 
 /// `PETSc KSP <type> + PC <type>` of a configured KSP.
 pub(super) fn resolved_types(ksp: sys::KSP) -> Result<String, PetscError> {
