@@ -31,6 +31,7 @@ fn main() {
         bonds: &bonds,
         position: &x,
         volume: &volume,
+        bond_volume: None,
     };
     let num_bonds = bonds.num_bonds();
     let points: Vec<u32> = (0..x.len() as u32).collect();

@@ -81,6 +81,7 @@ fn main() {
         bonds: &bonds,
         position: &x,
         volume: &volume,
+        bond_volume: None,
     };
     let y = displaced(&x, 1e-3);
     let num_bonds = bonds.num_bonds();

@@ -97,6 +97,8 @@ enum Command {
     /// Run a deck over a grid of variations; report cost and error per variant (table, CSV,
     /// PNG plots of error against wall time).
     Study(cli::study::StudyArgs),
+    /// The horizon-volume error of every quadrature rule against m = δ/Δx (Markdown table).
+    Quadrature(cli::quadrature::QuadratureArgs),
 }
 
 /// `peridyn run --backend`.
@@ -522,6 +524,9 @@ fn main() -> ExitCode {
         Command::Dogbone(args) => cli::dogbone::main(args)
             .map_err(invalid)
             .and_then(|summary| emit(&summary)),
+        Command::Quadrature(args) => cli::quadrature::main(args)
+            .map_err(invalid)
+            .and_then(|table| emit(&table)),
         Command::Study(args) => cli::study::main(args)
             .map_err(|e| match e {
                 cli::study::StudyError::Input(message) => invalid(message),

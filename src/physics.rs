@@ -28,6 +28,10 @@ pub struct Physics {
     /// Short-range contact, only when the deck has a `Contact` section (its settings; the
     /// last search and force are the state's, [`crate::state::State::contact`]).
     pub contact: Option<crate::contact::Contact>,
+    /// The quadrature volume w_ij of every directed bond (global bond index), `None` when
+    /// every block uses the full cell volume ([`crate::model::quadrature`]). Every view of
+    /// the reference configuration this type builds carries it.
+    bond_volume: Option<Vec<f64>>,
     /// Both directions (i→j, j→i) of every bond that joins two blocks when damage is active.
     /// Each block's damage model only updates its own rows, so without this a bond between a
     /// breakable and an unbreakable block would break from one end only: half a spring that
@@ -62,6 +66,18 @@ impl Physics {
     /// state ([`crate::state::State::bond_damage`]), allocated when
     /// [`Physics::has_bond_damage`].
     pub fn new(blocks: Vec<BlockPhysics>, points: &PointCloud, bonds: &BondList) -> Self {
+        Self::with_bond_volume(blocks, points, bonds, None)
+    }
+
+    /// [`Physics::new`] with the per-bond quadrature volumes `bond_volume` (global bond index
+    /// of `bonds`; `None`: full cell volumes), which the blocks' materials must have been set
+    /// up with.
+    pub fn with_bond_volume(
+        blocks: Vec<BlockPhysics>,
+        points: &PointCloud,
+        bonds: &BondList,
+        bond_volume: Option<Vec<f64>>,
+    ) -> Self {
         let density = points
             .block
             .iter()
@@ -78,8 +94,10 @@ impl Physics {
             interface_bonds,
             density,
             contact: None,
+            bond_volume,
         };
-        let reference = ReferenceView::of(bonds, points);
+        let reference =
+            ReferenceView::of(bonds, points).with_bond_volume(physics.bond_volume.as_deref());
         let current = CurrentView {
             position: &points.position,
             bond_damage: None,
@@ -95,6 +113,35 @@ impl Physics {
             }
         }
         physics
+    }
+
+    /// The reference configuration of `points` with families `bonds`, carrying the bond
+    /// quadrature volumes.
+    pub fn reference<'a>(
+        &'a self,
+        bonds: &'a BondList,
+        points: &'a PointCloud,
+    ) -> ReferenceView<'a> {
+        ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref())
+    }
+
+    /// The quadrature-volume accessor of every bond (cell volumes of `points` under the
+    /// full-volume rule).
+    pub fn bond_volumes<'a>(&'a self, points: &'a PointCloud) -> crate::model::BondVolumes<'a> {
+        crate::model::BondVolumes::new(&points.volume, self.bond_volume.as_deref())
+    }
+
+    /// Peridigm's `Neighborhood_Volume` of every point: Σ_j w_ij over its family (length³).
+    pub fn neighborhood_volume(&self, bonds: &BondList, points: &PointCloud) -> Vec<f64> {
+        let volumes = self.bond_volumes(points);
+        (0..bonds.num_points())
+            .map(|i| {
+                bonds
+                    .range(i)
+                    .map(|b| volumes.of(b, bonds.neighbor[b] as usize))
+                    .sum()
+            })
+            .collect()
     }
 
     /// Sets the time of the next force evaluation for time-dependent damage parameters.
@@ -117,7 +164,8 @@ impl Physics {
         points: &PointCloud,
         bond_damage: &mut [f32],
     ) {
-        let reference = ReferenceView::of(bonds, points);
+        let reference =
+            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
         for block in &self.blocks {
             if let Some(damage) = &block.damage {
                 damage.initialize(&reference, block.material.points(), bond_damage);
@@ -165,7 +213,8 @@ impl Physics {
         history: &mut History,
         force_density: &mut [[f64; 3]],
     ) -> usize {
-        let reference = ReferenceView::of(bonds, points);
+        let reference =
+            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
         let mut broken = 0;
         self.publish_thermal_strain(history);
         let Some(bond_damage) = bond_damage else {
@@ -285,7 +334,8 @@ impl Physics {
         history: &mut History,
         force_density: &mut [[f64; 3]],
     ) {
-        let reference = ReferenceView::of(bonds, points);
+        let reference =
+            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
         self.publish_thermal_strain(history);
         self.update_history(&reference, current, bond_damage, history);
         let view = CurrentView {
@@ -361,7 +411,8 @@ impl Physics {
         history: &History,
         energy_density: &mut [f64],
     ) {
-        let reference = ReferenceView::of(bonds, points);
+        let reference =
+            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
         let view = CurrentView {
             position: current,
             bond_damage,
@@ -389,7 +440,8 @@ impl Physics {
         history: &History,
         out: &mut [[f64; 9]],
     ) {
-        let reference = ReferenceView::of(bonds, points);
+        let reference =
+            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
         let view = CurrentView {
             position: current,
             bond_damage,
@@ -413,7 +465,8 @@ impl Physics {
         history: &History,
         out: &mut [[f64; 3]],
     ) {
-        let reference = ReferenceView::of(bonds, points);
+        let reference =
+            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
         let view = CurrentView {
             position: current,
             bond_damage,
@@ -439,7 +492,8 @@ impl Physics {
 
     /// Peridigm's critical time step over all blocks (`None` if no point has a neighbour).
     pub fn critical_time_step(&self, bonds: &BondList, points: &PointCloud) -> Option<f64> {
-        let reference = ReferenceView::of(bonds, points);
+        let reference =
+            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
         self.blocks
             .iter()
             .filter_map(|b| b.material.critical_time_step(&reference))
@@ -529,7 +583,8 @@ impl Physics {
         method: Option<TangentMethod>,
         tangent: &mut BlockTangent,
     ) -> Result<(), TangentError> {
-        let reference = ReferenceView::of(bonds, points);
+        let reference =
+            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
         let view = CurrentView {
             position: configuration.position,
             bond_damage: configuration.bond_damage,

@@ -90,6 +90,9 @@ pub struct BlockPlan {
     pub horizon_min: f64,
     /// Largest horizon of the block's points.
     pub horizon_max: f64,
+    /// The block's quadrature rule and what it gives, when not the full volume (the
+    /// `Blocks → … → Quadrature` line of `peridyn check`).
+    pub quadrature: Option<String>,
 }
 
 /// One node set.
@@ -344,6 +347,9 @@ impl RunPlan {
                     .map(|d| format!(", damage \"{d}\""))
                     .unwrap_or_default()
             )?;
+            if let Some(quadrature) = &b.quadrature {
+                writeln!(f, "  {:<12} quadrature {quadrature}", "")?;
+            }
         }
         Ok(())
     }

@@ -3,4 +3,5 @@
 pub mod bench;
 pub mod dogbone;
 pub mod modulus;
+pub mod quadrature;
 pub mod study;

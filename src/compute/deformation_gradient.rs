@@ -1,6 +1,6 @@
 //! The deformation gradient of every point, as correspondence models define it.
 
-use crate::model::BondList;
+use crate::model::{BondList, BondVolumes};
 use rayon::prelude::*;
 
 type Mat3 = [[f64; 3]; 3];
@@ -28,7 +28,8 @@ fn inverse(k: &Mat3) -> Option<Mat3> {
 }
 
 /// Peridigm's `Deformation_Gradient` compute class for any material: with the shape tensor
-/// `K = Σ_j (1−d) V_j ξ⊗ξ` and `N = Σ_j (1−d) V_j (Y_j − Y_i)⊗ξ` over the family (ω = 1),
+/// `K = Σ_j (1−d) w_ij ξ⊗ξ` and `N = Σ_j (1−d) w_ij (Y_j − Y_i)⊗ξ` over the family (ω = 1,
+/// w_ij the bond's quadrature volume, V_j under the default full-volume rule),
 /// `F = N K⁻¹`, row-major. F is exact for every homogeneous deformation Y = F₀X + c whatever
 /// the weights. A point whose intact bonds do not span three dimensions has no F: its entries
 /// are NaN (Peridigm aborts the run instead).
@@ -36,7 +37,7 @@ pub fn deformation_gradient(
     bonds: &BondList,
     reference: &[[f64; 3]],
     current: &[[f64; 3]],
-    volume: &[f64],
+    volume: BondVolumes<'_>,
     bond_damage: Option<&[f32]>,
 ) -> Vec<[f64; 9]> {
     (0..reference.len())
@@ -80,7 +81,7 @@ pub fn deformation_gradient(
 pub fn shape_tensor_inverse(
     bonds: &BondList,
     reference: &[[f64; 3]],
-    volume: &[f64],
+    volume: BondVolumes<'_>,
     bond_damage: Option<&[f32]>,
 ) -> Vec<[f64; 9]> {
     let family = Family {
@@ -98,19 +99,19 @@ pub fn shape_tensor_inverse(
         .collect()
 }
 
-/// The reference families and the weights (1−d) V_j of both outputs.
+/// The reference families and the weights (1−d) w_ij of both outputs.
 struct Family<'a> {
     bonds: &'a BondList,
     reference: &'a [[f64; 3]],
-    volume: &'a [f64],
+    volume: BondVolumes<'a>,
     bond_damage: Option<&'a [f32]>,
 }
 
 impl Family<'_> {
-    /// (1−d) V_j of bond `b`.
+    /// (1−d) w_ij of bond `b`.
     fn weight(&self, b: usize) -> f64 {
         let j = self.bonds.neighbor[b] as usize;
-        self.volume[j] * (1.0 - self.bond_damage.map_or(0.0, |d| f64::from(d[b])))
+        self.volume.of(b, j) * (1.0 - self.bond_damage.map_or(0.0, |d| f64::from(d[b])))
     }
 
     /// K = Σ_j (1−d) V_j ξ⊗ξ of point `i`.
@@ -178,7 +179,7 @@ mod tests {
             .iter()
             .map(|p| [0, 1, 2].map(|i| (0..3).map(|j| f0[i][j] * p[j]).sum::<f64>() + 7.0))
             .collect();
-        let f = deformation_gradient(&bonds, &x, &y, &volume, None);
+        let f = deformation_gradient(&bonds, &x, &y, BondVolumes::new(&volume, None), None);
         for point in &f {
             for i in 0..3 {
                 for j in 0..3 {
@@ -192,7 +193,7 @@ mod tests {
     fn the_shape_tensor_inverse_inverts_the_weighted_second_moment_of_the_bonds() {
         let (x, bonds) = lattice();
         let volume = vec![2.0; x.len()];
-        let inverses = shape_tensor_inverse(&bonds, &x, &volume, None);
+        let inverses = shape_tensor_inverse(&bonds, &x, BondVolumes::new(&volume, None), None);
         // The centre of the 3×3×3 lattice (index 13) has every neighbour within 2 spacings
         // (all 26 others): its K = Σ V ξ⊗ξ is diagonal with Σ_ξ ξ_x² = 18 lattice units per
         // axis (9 neighbours at ξ_x = ±1 each, so 2·9·1), times V = 2: K = 36 I, K⁻¹ = I/36.
@@ -232,9 +233,9 @@ mod tests {
             neighbor: vec![1, 0],
             reference_length: vec![1.0, 1.0],
         };
-        let f = deformation_gradient(&bonds, &x, &x, &[1.0, 1.0], None);
+        let f = deformation_gradient(&bonds, &x, &x, BondVolumes::new(&[1.0, 1.0], None), None);
         assert!(f[0].iter().all(|v| v.is_nan()));
-        let k_inv = shape_tensor_inverse(&bonds, &x, &[1.0, 1.0], None);
+        let k_inv = shape_tensor_inverse(&bonds, &x, BondVolumes::new(&[1.0, 1.0], None), None);
         assert!(k_inv[0].iter().all(|v| v.is_nan()));
     }
 }

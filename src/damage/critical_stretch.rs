@@ -183,6 +183,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let model = CriticalStretch::new(0.25).unwrap();
         let mut d = vec![0.0f32; bonds.num_bonds()];
@@ -215,6 +216,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let mut model = CriticalStretch::new(0.02).unwrap();
         model.set_thermal_expansion(1e-4).unwrap();
@@ -260,6 +262,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let mut d = vec![0.0f32; 2];
         let squeezed = vec![[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]];
@@ -278,6 +281,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let y: Vec<[f64; 3]> = x
             .iter()

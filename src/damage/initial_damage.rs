@@ -98,6 +98,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &[1.0; 4],
+            bond_volume: None,
         };
         let plane =
             RectangularPlane::new([1.0, 0.0, 0.0], [1.5, -1.0, 1.0], [0.0, 1.0, 0.0], 2.0, 2.0)
@@ -130,6 +131,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &[1.0; 4],
+            bond_volume: None,
         };
         let plane =
             RectangularPlane::new([1.0, 0.0, 0.0], [1.5, -1.0, 1.0], [0.0, 1.0, 0.0], 2.0, 2.0)

@@ -259,6 +259,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &[1.0; 8],
+            bond_volume: None,
         };
         let a: Vec<u32> = (0..4).collect();
         let b: Vec<u32> = (4..8).collect();
@@ -292,6 +293,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &[1.0; 3],
+            bond_volume: None,
         };
         let block: Vec<u32> = vec![0, 1];
         let field = InterfaceAware::field(3, [(&block[..], 0.1)]);
@@ -322,6 +324,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &[1.0; 2],
+            bond_volume: None,
         };
         let all: Vec<u32> = vec![0, 1];
         let model =

@@ -716,6 +716,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let mut rng = Rng::new(5);
         let class: Vec<u8> = (0..x.len()).map(|_| (rng.uniform() * 3.0) as u8).collect();
@@ -773,6 +774,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         assert!(PairPlan::new(&reference, &points).is_none(), "j = {j}");
         // A stored length shorter than the positions say (a longer one would be harmless:
@@ -783,6 +785,7 @@ mod tests {
             bonds: &bent,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         assert!(PairPlan::new(&bent_reference, &points).is_none());
         // Unsorted points.
@@ -791,6 +794,7 @@ mod tests {
             bonds: &good,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         assert!(PairPlan::new(&good_reference, &[3, 2]).is_none());
         // A plan for other points is not used: the result is still the plain rule's.
@@ -824,6 +828,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let points: Vec<u32> = (0..x.len() as u32).collect();
         let plan = PairPlan::new(&reference, &points).unwrap();

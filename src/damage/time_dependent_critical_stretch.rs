@@ -134,6 +134,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &[1.0, 1.0],
+            bond_volume: None,
         };
         let mut damage = vec![0.0f32; 2];
         assert_eq!(model.update(&reference, &y, &[0, 1], &mut damage), 0);

@@ -67,7 +67,7 @@ use super::{
 use super::{BreakingForcePass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{ModelDeclaration, Reach};
+use crate::model::{BondVolumes, ModelDeclaration, Reach};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -267,14 +267,14 @@ struct BondRow<'a> {
     lengths: &'a [f64],
 }
 
-/// `F_i = Σ_j c_ij (1−d) V_j (|Y| − ζ)/(ζ|Y|) (Y_j − Y_i)` over the bond-list `row` of the
-/// point at `yi`.
+/// `F_i = Σ_j c_ij (1−d) w_ij (|Y| − ζ)/(ζ|Y|) (Y_j − Y_i)` over the bond-list `row` of the
+/// point at `yi` (w_ij the bond's quadrature volume, V_j under the full-volume rule).
 #[inline(always)]
 fn row_force<D: Integrity, K: PairStiffness>(
     yi: [f64; 3],
     row: BondRow<'_>,
     y: &[[f64; 3]],
-    volume: &[f64],
+    volume: BondVolumes<'_>,
     damage: D,
     stiffness: K,
 ) -> [f64; 3] {
@@ -296,7 +296,8 @@ fn row_force<D: Integrity, K: PairStiffness>(
             for k in 0..3 {
                 d[k][lane] = yj[k] - yi[k];
             }
-            pair[lane] = stiffness.of(j) * damage.intact(first_bond + n) * volume[j];
+            pair[lane] =
+                stiffness.of(j) * damage.intact(first_bond + n) * volume.of(first_bond + n, j);
             zeta[lane] = lengths[n];
         }
         for lane in 0..LANES {
@@ -311,7 +312,7 @@ fn row_force<D: Integrity, K: PairStiffness>(
         let j = neighbors[n] as usize;
         let yj = y[j];
         let d = [yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]];
-        let pair = stiffness.of(j) * damage.intact(first_bond + n) * volume[j];
+        let pair = stiffness.of(j) * damage.intact(first_bond + n) * volume.of(first_bond + n, j);
         let scale = bond_scale(pair, lengths[n], d[0], d[1], d[2]);
         for k in 0..3 {
             sum[k][lane] += scale * d[k];
@@ -356,7 +357,8 @@ impl Rows<'_> {
                 neighbors: &bonds.neighbor[range.clone()],
                 lengths: &bonds.reference_length[range],
             };
-            let f = row_force(y[i], row, y, self.reference.volume, damage, stiffness);
+            let volume = self.reference.bond_volumes();
+            let f = row_force(y[i], row, y, volume, damage, stiffness);
             let out = &mut out[i - base];
             for k in 0..3 {
                 out[k] += f[k];
@@ -403,7 +405,7 @@ impl Rows<'_> {
         self.add_force(chunk, base, out, damage, stiffness);
     }
 
-    /// `W_i = Σ_j ¼ c_ij s² ζ (1−d) V_j = Σ_j ¼ (a_i + a_j)(1−d) e²/ζ V_j`.
+    /// `W_i = Σ_j ¼ c_ij s² ζ (1−d) w_ij = Σ_j ¼ (a_i + a_j)(1−d) e²/ζ w_ij`.
     fn energy<D: Integrity>(&self, chunk: &[u32], base: usize, out: &mut [f64], damage: D) {
         let bonds = self.reference.bonds;
         let y = self.current.position;
@@ -419,7 +421,7 @@ impl Rows<'_> {
                 let extension = (dx * dx + dy * dy + dz * dz).sqrt() - zeta;
                 let c_pair = self.own_half + self.coefficients[j].isotropic;
                 w += 0.25 * c_pair * damage.intact(b) * extension * extension / zeta
-                    * self.reference.volume[j];
+                    * self.reference.neighbor_volume(b, j);
             }
             out[i - base] = w;
         }
@@ -616,6 +618,7 @@ impl PairPlan {
                 let i = i as usize;
                 let f = gathered_row(
                     rows.y[i],
+                    rows.bonds.offsets[i],
                     rows.bonds.family(i),
                     &self.pair_of_bond[self.row_start[k]..self.row_start[k + 1]],
                     scale,
@@ -634,41 +637,45 @@ impl PairPlan {
     }
 }
 
-/// `F_i = Σ_n s_n V_j (Y_j − Y_i)` over the row of point i in row order (`pairs[n]` is the
-/// scale slot of its n-th bond), in `LANES` partial sums added `(0 + 1) + (2 + 3)` as
-/// [`row_force`] does (independent sums keep the adds from waiting on each other).
+/// `F_i = Σ_n s_n w_ij (Y_j − Y_i)` over the row of point i in row order (`pairs[n]` is the
+/// scale slot of its n-th bond, `first_bond` the global index of its first), in `LANES`
+/// partial sums added `(0 + 1) + (2 + 3)` as [`row_force`] does (independent sums keep the
+/// adds from waiting on each other). The pair's scale s does not involve the volume, so
+/// quadrature weights (symmetric or not) enter here alone, exactly as in [`row_force`].
 #[inline(always)]
 fn gathered_row(
     yi: [f64; 3],
+    first_bond: usize,
     neighbors: &[u32],
     pairs: &[u32],
     scale: &[f64],
     y: &[[f64; 3]],
-    volume: &[f64],
+    volume: BondVolumes<'_>,
 ) -> [f64; 3] {
     let mut sum = [[0.0; LANES]; 3];
-    let term = |j: u32, p: u32| {
+    let term = |n: usize, j: u32, p: u32| {
         let j = j as usize;
-        let w = scale[p as usize] * volume[j];
+        let w = scale[p as usize] * volume.of(first_bond + n, j);
         let yj = y[j];
         [0, 1, 2].map(|k| w * (yj[k] - yi[k]))
     };
     let mut neighbor_blocks = neighbors.chunks_exact(LANES);
     let mut pair_blocks = pairs.chunks_exact(LANES);
-    for (js, ps) in (&mut neighbor_blocks).zip(&mut pair_blocks) {
+    for (block, (js, ps)) in (&mut neighbor_blocks).zip(&mut pair_blocks).enumerate() {
         for lane in 0..LANES {
-            let t = term(js[lane], ps[lane]);
+            let t = term(block * LANES + lane, js[lane], ps[lane]);
             for k in 0..3 {
                 sum[k][lane] += t[k];
             }
         }
     }
+    let full = neighbors.len() - neighbors.len() % LANES;
     let rest = neighbor_blocks
         .remainder()
         .iter()
         .zip(pair_blocks.remainder());
     for (lane, (&j, &p)) in rest.enumerate() {
-        let t = term(j, p);
+        let t = term(full + lane, j, p);
         for k in 0..3 {
             sum[k][lane] += t[k];
         }
@@ -688,7 +695,7 @@ struct PassPoints<'a> {
 #[derive(Clone, Copy)]
 struct PairRows<'a> {
     bonds: &'a crate::model::BondList,
-    volume: &'a [f64],
+    volume: BondVolumes<'a>,
     y: &'a [[f64; 3]],
     /// c (the block is closed, so c_ij = c).
     micromodulus: f64,
@@ -1063,7 +1070,7 @@ impl Material for BondBased {
         if let Some(plan) = &self.pairs {
             let pairs = PairRows {
                 bonds: reference.bonds,
-                volume: reference.volume,
+                volume: reference.bond_volumes(),
                 y: current.position,
                 micromodulus: uniform.0,
                 wide,
@@ -1208,7 +1215,7 @@ impl BreakingForcePass for BondBased {
         assert_eq!(bond_damage.len(), reference.bonds.num_bonds());
         let pairs = PairRows {
             bonds: reference.bonds,
-            volume: reference.volume,
+            volume: reference.bond_volumes(),
             y: position,
             // As `add_force_density` (c/2 doubled: exactly c).
             micromodulus: 2.0 * self.half(),
@@ -1265,6 +1272,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let all: Vec<u32> = (0..x.len() as u32).collect();
         let mut m = material();
@@ -1331,6 +1339,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let mut damage = vec![0.0f32; bonds.num_bonds()];
         let all: Vec<u32> = (0..x.len() as u32).collect();
@@ -1375,6 +1384,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let mut whole = material();
         whole
@@ -1410,6 +1420,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let mut m = material();
         m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
@@ -1493,6 +1504,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let mut m = material();
         m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
@@ -1564,11 +1576,13 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let sub_reference = ReferenceView {
             bonds: &sub_bonds,
             position: &sub_x,
             volume: &sub_v,
+            bond_volume: None,
         };
         let mut whole = material();
         whole
@@ -1686,6 +1700,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let mut m = material();
         m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
@@ -1736,6 +1751,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let left: Vec<u32> = (0..x.len() as u32)
             .filter(|&i| x[i as usize][0] < 3.5)

@@ -40,7 +40,7 @@ pub(crate) fn add_force_density_from_states<K: ForceState>(
                 for b in bonds.range(i) {
                     let j = bonds.neighbor[b] as usize;
                     let back = reverse_bond(bonds, i, j);
-                    let v = reference.volume[j];
+                    let v = reference.neighbor_volume(b, j);
                     for k in 0..3 {
                         total[k] += (states[b][k] - states[back][k]) * v;
                     }

@@ -43,7 +43,7 @@ use super::{
 use super::{BreakingCoefficientPass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
+use crate::model::{BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -253,7 +253,7 @@ impl Rows<'_> {
         breaker: B,
     ) -> usize {
         let bonds = self.reference.bonds;
-        let volume = self.reference.volume;
+        let volume = self.reference.bond_volumes();
         let y = self.current.position;
         let k0 = self.first_local(chunk);
         let mut broken = 0;
@@ -281,7 +281,7 @@ impl Rows<'_> {
                         // q = dx*dx + dy*dy + dz*dz, the number the damage models test.
                         squared[lane] = dx * dx + dy * dy + dz * dz;
                         zeta[lane] = lengths[start + lane];
-                        neighbor_volume[lane] = volume[j];
+                        neighbor_volume[lane] = volume.of(range.start + start + lane, j);
                     }
                     if let Some(limit) = breaker.limit() {
                         for lane in 0..width {
@@ -423,7 +423,7 @@ impl Rows<'_> {
         damage: D,
     ) {
         let bonds = self.reference.bonds;
-        let volume = self.reference.volume;
+        let volume = self.reference.bond_volumes();
         let y = self.current.position;
         let k0 = self.first_local(chunk);
         for (n, &i) in chunk.iter().enumerate() {
@@ -462,7 +462,7 @@ impl Rows<'_> {
                             d[c][lane] = yj[c] - yi[c];
                         }
                         zeta[lane] = lengths[start + lane];
-                        neighbor_volume[lane] = volume[j];
+                        neighbor_volume[lane] = volume.of(range.start + start + lane, j);
                         let other = coefficients[j];
                         other_isotropic[lane] = other.isotropic;
                         other_deviatoric[lane] = other.deviatoric;
@@ -583,7 +583,7 @@ impl Rows<'_> {
                     * weights.weight(local + n)
                     * deviatoric
                     * deviatoric
-                    * self.reference.volume[j];
+                    * self.reference.neighbor_volume(b, j);
             }
             out[i - base] = 0.5 * self.bulk * theta * theta + 0.5 * alpha * sum;
         }
@@ -618,7 +618,7 @@ impl Rows<'_> {
                     * damage.intact(b)
                     * zeta
                     * extension
-                    * self.reference.volume[j];
+                    * self.reference.neighbor_volume(b, j);
             }
             let m = self.weighted_volume[k];
             out[i - base] = if m > 0.0 {
@@ -670,7 +670,7 @@ impl Rows<'_> {
                         + intact
                             * (own.deviatoric * (extension - strain[i] * zeta)
                                 + other.deviatoric * (extension - strain[j] * zeta)));
-                let scale = t * self.reference.volume[j] / length;
+                let scale = t * self.reference.neighbor_volume(b, j) / length;
                 for c in 0..3 {
                     total[c] += scale * (y[j][c] - y[i][c]);
                 }
@@ -776,7 +776,7 @@ impl RowBreaker for FusedCriticalStretch {
 /// `A = (3K − 5μ) θ/m`, `B = 15μ/m`, and `T_n = t_n M_n` (the module docs' formulas).
 struct LpsForceState<'a, W, D> {
     bonds: &'a crate::model::BondList,
-    volume: &'a [f64],
+    volume: BondVolumes<'a>,
     local_offsets: &'a [usize],
     weighted_volume: &'a [f64],
     weights: W,
@@ -851,7 +851,10 @@ impl<W: BondWeights, D: Integrity> ForceState for LpsForceState<'_, W, D> {
             let extension = self.extension(point, length, zeta);
             let j = self.bonds.neighbor[b] as usize;
             sum += extension
-                * (self.weights.weight(local + n) * self.damage.intact(b) * zeta * self.volume[j]);
+                * (self.weights.weight(local + n)
+                    * self.damage.intact(b)
+                    * zeta
+                    * self.volume.of(b, j));
             t[n] = [length, extension, zero];
         }
         let theta = sum * (3.0 / m);
@@ -888,8 +891,10 @@ impl<W: BondWeights, D: Integrity> ForceState for LpsForceState<'_, W, D> {
             let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
             let extension = self.extension(point, length, zeta);
             let j = self.bonds.neighbor[b] as usize;
-            let factor =
-                self.weights.weight(local + n) * self.damage.intact(b) * zeta * self.volume[j];
+            let factor = self.weights.weight(local + n)
+                * self.damage.intact(b)
+                * zeta
+                * self.volume.of(b, j);
             sum += factor * extension;
             *bond = OrdinaryBond {
                 direction: if length > 0.0 {
@@ -993,7 +998,10 @@ impl Material for LinearPeridynamicSolid {
                     .map(|(n, b)| {
                         let omega = weights.as_ref().map_or(1.0, |w| w[local + n]);
                         let zeta = bonds.reference_length[b];
-                        omega * zeta * zeta * reference.volume[bonds.neighbor[b] as usize]
+                        omega
+                            * zeta
+                            * zeta
+                            * reference.neighbor_volume(b, bonds.neighbor[b] as usize)
                     })
                     .sum()
             })
@@ -1134,7 +1142,7 @@ impl Material for LinearPeridynamicSolid {
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             let kernel = LpsForceState {
                 bonds: reference.bonds,
-                volume: reference.volume,
+                volume: reference.bond_volumes(),
                 local_offsets: &self.local_offsets,
                 weighted_volume: &self.weighted_volume,
                 weights: w,
@@ -1167,7 +1175,7 @@ impl Material for LinearPeridynamicSolid {
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             let kernel = LpsForceState {
                 bonds,
-                volume: reference.volume,
+                volume: reference.bond_volumes(),
                 local_offsets: &self.local_offsets,
                 weighted_volume: &self.weighted_volume,
                 weights: w,
@@ -1200,7 +1208,7 @@ impl Material for LinearPeridynamicSolid {
                         let mut stress = [0.0; 9];
                         for (force, b) in t.iter().zip(bonds.range(p)) {
                             let j = bonds.neighbor[b] as usize;
-                            let v = reference.volume[j];
+                            let v = reference.neighbor_volume(b, j);
                             for r in 0..3 {
                                 for c in 0..3 {
                                     stress[3 * r + c] += force[r] * (x[j][c] - x[p][c]) * v;
@@ -1309,6 +1317,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let current = CurrentView {
             position: &y,
@@ -1343,7 +1352,7 @@ mod tests {
                 with_bond_data!(m.weights.as_deref(), current.bond_damage, |w, d| {
                     let kernel = LpsForceState {
                         bonds: &bonds,
-                        volume: &v,
+                        volume: BondVolumes::new(&v, None),
                         local_offsets: &m.local_offsets,
                         weighted_volume: &m.weighted_volume,
                         weights: w,
@@ -1385,6 +1394,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let all: Vec<u32> = (0..x.len() as u32).collect();
         // The shear correction changes μ per point in both the coefficients and the force
@@ -1484,6 +1494,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let mut m = small_material(InfluenceFunction::ParabolicDecay);
         let block: Vec<u32> = (0..x.len() as u32).filter(|p| p % 5 != 0).collect();
@@ -1530,6 +1541,7 @@ mod tests {
             bonds: &bonds,
             position: &x,
             volume: &v,
+            bond_volume: None,
         };
         let mut m = small_material(InfluenceFunction::One);
         m.setup(&reference, (0..x.len() as u32).collect()).unwrap();

@@ -207,7 +207,10 @@ impl MicroplasticBondBased {
                         if length == 0.0 {
                             continue;
                         }
-                        let scale = c * damage.intact(b) * (s - permanent[b]) * reference.volume[j]
+                        let scale = c
+                            * damage.intact(b)
+                            * (s - permanent[b])
+                            * reference.neighbor_volume(b, j)
                             / length;
                         for k in 0..3 {
                             total[k] += scale * (y[j][k] - y[i][k]);
@@ -437,7 +440,7 @@ impl Material for MicroplasticBondBased {
                 let (s, _) = stretch_of(y[i], y[j], zeta);
                 let intact = current.bond_damage.map_or(1.0, |d| 1.0 - f64::from(d[b]));
                 let elastic = s - permanent[b];
-                w += 0.25 * c * intact * elastic * elastic * zeta * reference.volume[j];
+                w += 0.25 * c * intact * elastic * elastic * zeta * reference.neighbor_volume(b, j);
             }
             energy_density[i] = w;
         }

@@ -33,6 +33,8 @@ mod influence;
 mod linear_peridynamic_solid;
 mod microplastic;
 mod pals;
+#[cfg(test)]
+mod quadrature_tests;
 mod registry;
 mod shear_correction;
 mod viscoelastic;
@@ -584,7 +586,7 @@ pub fn critical_time_step(
             }
             let stiffness: f64 = range
                 .map(|b| {
-                    reference.volume[bonds.neighbor[b] as usize] * micromodulus
+                    reference.neighbor_volume(b, bonds.neighbor[b] as usize) * micromodulus
                         / bonds.reference_length[b]
                 })
                 .sum();

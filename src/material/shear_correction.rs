@@ -74,14 +74,18 @@ pub fn factors(
                     let mut theta = 0.0;
                     for (n, bond) in bonds.range(i).enumerate() {
                         let (e, j) = extension(bond);
-                        theta += omega(n) * bonds.reference_length[bond] * e * reference.volume[j];
+                        theta += omega(n)
+                            * bonds.reference_length[bond]
+                            * e
+                            * reference.neighbor_volume(bond, j);
                     }
                     let theta = 3.0 * theta / m;
                     let mut norm = 0.0;
                     for (n, bond) in bonds.range(i).enumerate() {
                         let (e, j) = extension(bond);
                         let deviatoric = e - theta * bonds.reference_length[bond] / 3.0;
-                        norm += omega(n) * deviatoric * deviatoric * reference.volume[j];
+                        norm +=
+                            omega(n) * deviatoric * deviatoric * reference.neighbor_volume(bond, j);
                     }
                     norm
                 })

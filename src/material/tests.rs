@@ -57,6 +57,7 @@ impl Body {
             bonds: &self.bonds,
             position: &self.x,
             volume: &self.v,
+            bond_volume: None,
         }
     }
 

@@ -11,6 +11,7 @@ mod declaration;
 mod node_sets;
 pub(crate) mod point_chunks;
 mod points;
+pub mod quadrature;
 #[cfg(test)]
 pub(crate) mod test_support;
 mod views;
@@ -19,7 +20,7 @@ pub use bonds::BondList;
 pub use declaration::{FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
 pub use node_sets::{normalize_name, NodeSets};
 pub use points::{BlockInfo, PointCloud};
-pub use views::{CurrentView, ReferenceView};
+pub use views::{BondVolumes, CurrentView, ReferenceView};
 
 use crate::boundary::BoundaryConditions;
 

@@ -13,6 +13,43 @@ pub struct ReferenceView<'a> {
     pub position: &'a [[f64; 3]],
     /// Cell volumes V (length³).
     pub volume: &'a [f64],
+    /// The quadrature volume w_ij of every directed bond (length³, global bond index) when
+    /// some block's quadrature rule is not the full cell volume; `None` means w_ij = V_j for
+    /// every bond, the default (no per-bond array exists then). Read it through
+    /// [`ReferenceView::neighbor_volume`] or [`ReferenceView::bond_volumes`], never directly.
+    pub bond_volume: Option<&'a [f64]>,
+}
+
+/// The quadrature volume of each bond i→j, the one accessor every family sum reads instead of
+/// the neighbour's cell volume V_j (see [`crate::model::quadrature`]).
+#[derive(Debug, Clone, Copy)]
+pub struct BondVolumes<'a> {
+    cell: &'a [f64],
+    bond: Option<&'a [f64]>,
+}
+
+impl<'a> BondVolumes<'a> {
+    /// The accessor over cell volumes `cell` (per point) and, unless the rule is the full
+    /// volume, the per-bond quadrature volumes `bond` (global bond index).
+    pub fn new(cell: &'a [f64], bond: Option<&'a [f64]>) -> Self {
+        Self { cell, bond }
+    }
+
+    /// w_ij of bond `b` (global index) whose neighbour is `j` (length³): V_j under the
+    /// full-volume rule (the same load as before quadrature rules existed), the per-bond
+    /// quadrature volume otherwise.
+    #[inline(always)]
+    pub fn of(&self, b: usize, j: usize) -> f64 {
+        match self.bond {
+            None => self.cell[j],
+            Some(weights) => weights[b],
+        }
+    }
+
+    /// True when every bond reads its neighbour's full cell volume.
+    pub fn is_full_volume(&self) -> bool {
+        self.bond.is_none()
+    }
 }
 
 impl<'a> ReferenceView<'a> {
@@ -22,6 +59,31 @@ impl<'a> ReferenceView<'a> {
             bonds,
             position: &points.position,
             volume: &points.volume,
+            bond_volume: None,
+        }
+    }
+
+    /// This view with the per-bond quadrature volumes `bond_volume` (`None`: full volume).
+    pub fn with_bond_volume(self, bond_volume: Option<&'a [f64]>) -> Self {
+        Self {
+            bond_volume,
+            ..self
+        }
+    }
+
+    /// The quadrature volume w_ij of bond `b` (global index) whose neighbour is `j`
+    /// (length³); see [`BondVolumes::of`].
+    #[inline(always)]
+    pub fn neighbor_volume(&self, b: usize, j: usize) -> f64 {
+        self.bond_volumes().of(b, j)
+    }
+
+    /// The bond-volume accessor, for kernels that keep it apart from the view.
+    #[inline(always)]
+    pub fn bond_volumes(&self) -> BondVolumes<'a> {
+        BondVolumes {
+            cell: self.volume,
+            bond: self.bond_volume,
         }
     }
 }

@@ -8,6 +8,7 @@ pub mod disk;
 mod families;
 mod node_sets;
 mod physics;
+pub mod quadrature;
 pub mod report;
 mod validate;
 
@@ -496,11 +497,13 @@ pub fn build_families(deck: &Deck, model: &mut Model, rule: &FamilyRule) -> Resu
     for (old, &new) in model.run_index.iter().enumerate() {
         order[new as usize] = old as u32;
     }
+    // Partial-volume rules that reach cells beyond the horizon search a wider family.
+    let widened = quadrature::search_horizons(deck, model)?;
     model.bonds = families::build(
         deck,
         rule,
         &model.points,
-        &model.horizon,
+        widened.as_deref().unwrap_or(&model.horizon),
         &order,
         &model.run_index,
     )?;

@@ -40,7 +40,9 @@ fn influence(deck: &Deck) -> Result<InfluenceFunction, SetupError> {
 /// Builds and sets up the material (and damage model) of every block, each by its registry
 /// entry ([`crate::material::MATERIALS`], [`crate::damage::DAMAGE_MODELS`]).
 pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> {
-    let reference = ReferenceView::of(&model.bonds, &model.points);
+    let bond_volume = super::quadrature::bond_volumes(deck, model)?.map(|(weights, _)| weights);
+    let reference =
+        ReferenceView::of(&model.bonds, &model.points).with_bond_volume(bond_volume.as_deref());
     let influence = influence(deck)?;
     let point_critical_stretch = point_critical_stretch(deck, model);
     let mut blocks = Vec::with_capacity(model.blocks.len());
@@ -67,7 +69,8 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
         }
         blocks.push(BlockPhysics { material, damage });
     }
-    let mut physics = Physics::new(blocks, &model.points, &model.bonds);
+    let mut physics =
+        Physics::with_bond_volume(blocks, &model.points, &model.bonds, bond_volume.clone());
     physics.contact = crate::contact::Contact::from_deck(deck, model)?;
     Ok(physics)
 }

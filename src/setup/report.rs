@@ -225,13 +225,6 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
     {
         note("Construct Interfaces".into());
     }
-    if let PointSource::Exodus {
-        element_horizon_intersections: Some(_),
-        ..
-    } = deck.discretization.source
-    {
-        note("Compute Element-Horizon Intersections (partial volumes)".into());
-    }
     if deck.multiphysics {
         note("Multiphysics".into());
     }
@@ -265,7 +258,9 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
 /// Peridigm's critical time step over all blocks ([`crate::material::critical_time_step`] with
 /// each block's density, bulk modulus and horizon); `None` if no point has a neighbour.
 pub fn critical_time_step(deck: &Deck, model: &Model) -> Option<f64> {
-    let reference = crate::material::ReferenceView::of(&model.bonds, &model.points);
+    let volumes = super::quadrature::bond_volumes(deck, model).ok().flatten();
+    let reference = crate::material::ReferenceView::of(&model.bonds, &model.points)
+        .with_bond_volume(volumes.as_ref().map(|(weights, _)| &weights[..]));
     model
         .blocks
         .iter()
@@ -439,8 +434,12 @@ fn petsc_resolution(_solver: &crate::io::deck::Solver, _model: &Model) -> Option
 /// Points, bonds, family sizes and horizons of every block.
 fn block_plans(deck: &Deck, model: &Model) -> Vec<BlockPlan> {
     let mut plans = Vec::new();
+    let volumes = super::quadrature::bond_volumes(deck, model).ok().flatten();
     for block in &model.blocks {
         let entry = &deck.blocks[block.deck_block];
+        let quadrature = volumes
+            .as_ref()
+            .and_then(|(weights, summary)| quadrature_plan(deck, model, block, weights, summary));
         let sizes: Vec<usize> = block
             .points
             .iter()
@@ -468,9 +467,53 @@ fn block_plans(deck: &Deck, model: &Model) -> Vec<BlockPlan> {
             },
             horizon_min: horizons.clone().fold(f64::INFINITY, f64::min),
             horizon_max: horizons.fold(0.0, f64::max),
+            quadrature,
         });
     }
     plans
+}
+
+/// The `quadrature` line of a block whose rule is not the full volume: the rule, how many
+/// bonds carry a partial volume, the horizon-volume error of its fullest point
+/// `(V_i + Σ_j w_ij)/(4/3 π δ³) − 1` (an interior point on a uniform grid), and for the
+/// adaptive rule the largest error estimate relative to a cell (over all blocks).
+fn quadrature_plan(
+    deck: &Deck,
+    model: &Model,
+    block: &crate::model::ModelBlock,
+    weights: &[f64],
+    summary: &crate::model::quadrature::QuadratureSummary,
+) -> Option<String> {
+    let rule = super::quadrature::block_rule(deck, &deck.blocks[block.deck_block]).ok()?;
+    if rule.is_full_volume() {
+        return None;
+    }
+    let bonds = &model.bonds;
+    let mut partial = 0;
+    let mut fullest = 0.0f64;
+    for &p in &block.points {
+        let p = p as usize;
+        let mut sum = model.points.volume[p];
+        for b in bonds.range(p) {
+            let j = bonds.neighbor[b] as usize;
+            partial += usize::from(weights[b] != model.points.volume[j]);
+            sum += weights[b];
+        }
+        let sphere = 4.0 / 3.0 * std::f64::consts::PI * model.horizon[p].powi(3);
+        fullest = fullest.max(sum / sphere);
+    }
+    let mut line = format!(
+        "\"{}\": {partial} bonds with a partial volume, horizon volume error {:+.3e} (fullest point)",
+        rule.name(),
+        fullest - 1.0
+    );
+    if let crate::model::quadrature::QuadratureRule::Adaptive { tolerance } = rule {
+        line.push_str(&format!(
+            ", adaptive tolerance {tolerance:e}: largest error estimate {:.2e} of a cell, {} bonds unconverged",
+            summary.largest_relative_error, summary.unconverged_bonds
+        ));
+    }
+    Some(line)
 }
 
 /// Every node set, with whether the mesh or the deck defines it.

@@ -111,6 +111,16 @@ pub fn run_distributed(
     comm: &dyn Communicator,
 ) -> Result<RunSummary, RunError> {
     check_distributable(deck, comm.size()).map_err(|e| collective(comm, e.into()))?;
+    if let Some((block, rule)) = setup::quadrature::widening_blocks(deck).first() {
+        return Err(collective(
+            comm,
+            RunError::Unsupported(format!(
+                "Blocks → {block} → Quadrature \"{}\" on {} ranks is not available: the rule widens the families past the horizon, beyond the ghost layer a rank holds; use \"Full Volume\" or \"PDLAMMPS\", or run on one rank",
+                rule.name(),
+                comm.size()
+            )),
+        ));
+    }
     let compute_classes = prepare_compute_classes(&deck.compute_classes, global)
         .map_err(|e| collective(comm, RunError::Unsupported(e)))?;
     let rank = comm.rank();

@@ -404,7 +404,7 @@ impl Run<'_> {
     /// (`None` when no point has a neighbour). Collective.
     fn critical_time_step(&mut self, physics: &Physics) -> Option<f64> {
         let model = self.model;
-        let reference = crate::material::ReferenceView::of(&model.bonds, &model.points);
+        let reference = physics.reference(&model.bonds, &model.points);
         let ranks = &*self.ranks;
         let local = physics
             .blocks

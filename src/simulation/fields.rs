@@ -167,13 +167,11 @@ impl FieldSource for Fields<'_> {
             "Number_Of_Neighbors" => (0..n)
                 .map(|i| self.model.bonds.family_size(i) as f64)
                 .collect(),
-            // Σ_j V_j over the family (Peridigm's partial-volume build writes the same sum).
-            "Neighborhood_Volume" => (0..n)
-                .map(|i| {
-                    let family = self.model.bonds.family(i).iter();
-                    family.map(|&j| points.volume[j as usize]).sum()
-                })
-                .collect(),
+            // Σ_j w_ij over the family with the block's quadrature volumes (Σ_j V_j under the
+            // full-volume rule), as Peridigm's partial-volume build writes it.
+            "Neighborhood_Volume" => self
+                .physics
+                .neighborhood_volume(&self.model.bonds, &self.model.points),
             "Equivalent_Plastic_Strain" => {
                 match self
                     .state
@@ -275,7 +273,7 @@ impl FieldSource for Fields<'_> {
                 &self.model.bonds,
                 &self.model.points.position,
                 &self.state.current_position,
-                &self.model.points.volume,
+                self.physics.bond_volumes(&self.model.points),
                 self.state.bond_damage(),
             ))),
             "Partial_Stress" => {
@@ -293,7 +291,7 @@ impl FieldSource for Fields<'_> {
             "Shape_Tensor_Inverse" => Some(Cow::Owned(crate::compute::shape_tensor_inverse(
                 &self.model.bonds,
                 &self.model.points.position,
-                &self.model.points.volume,
+                self.physics.bond_volumes(&self.model.points),
                 self.state.bond_damage(),
             ))),
             "Cauchy_Stress" => Some(Cow::Owned(

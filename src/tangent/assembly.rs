@@ -38,7 +38,7 @@ use rayon::prelude::*;
 
 use super::{Block, BlockTangent, TangentError, TangentMethod};
 use crate::model::point_chunks::WriteColouring;
-use crate::model::BondList;
+use crate::model::{BondList, BondVolumes};
 use crate::model::{CurrentView, ReferenceView};
 
 /// The scalar type the force states are written over: `f64` for the force and finite
@@ -372,7 +372,8 @@ impl<K: ForceState> Context<'_, K> {
         place.closed.extend_from_slice(family);
         s.y.clear();
         s.y.extend(place.closed.iter().map(|&j| y[j as usize]));
-        let volume = self.reference.volume;
+        let (volume, bond_volume) = (self.reference.volume, self.reference.bond_volumes());
+        let first_bond = bonds.offsets[i];
         let nf = family.len();
         s.own_row.clear();
         s.own_row.resize(nf + 1, [[0.0; 3]; 3]);
@@ -384,7 +385,9 @@ impl<K: ForceState> Context<'_, K> {
             s.grad.clear();
             s.grad.resize(layout.len(), [[0.0; 3]; 3]);
             self.derivatives(point, layout, s);
-            let weight = |n: usize| volume[i] * volume[family[n] as usize];
+            // V_i w_ij for both rows: the force pass gives j the reverse bond's w_ji, the
+            // same number when V_i w_ij = V_j w_ji (every rule on cells of equal size).
+            let weight = |n: usize| volume[i] * bond_volume.of(first_bond + n, family[n] as usize);
             // Own row: Σ_n s_n ∂T_n/∂y_a for every column a (bond-local: a = 0 sums all
             // bonds, a = n + 1 has bond n only). Row j_n: −s_n ∂T_n/∂y_a.
             for n in 0..nf {
@@ -637,6 +640,7 @@ fn gather_ordinary<K: ForceState>(
     let derivatives = OrdinaryDerivatives {
         bonds,
         volume: reference.volume,
+        bond_volume: reference.bond_volumes(),
         data: &data,
         sums: &sums,
         member: &member,
@@ -715,7 +719,7 @@ fn point_sums(
     use crate::model::point_chunks::for_each_chunk;
 
     let bonds = reference.bonds;
-    let volume = reference.volume;
+    let (volume, bond_volume) = (reference.volume, reference.bond_volumes());
     let mut sums = vec![[[0.0; 3]; 2]; bonds.num_points()];
     for_each_chunk(
         points,
@@ -727,7 +731,8 @@ fn point_sums(
                 let (mut g, mut q) = ([0.0; 3], [0.0; 3]);
                 for b in bonds.range(i) {
                     let bond = &data[b];
-                    let w = volume[i] * volume[bonds.neighbor[b] as usize] * bond.coupling;
+                    let w =
+                        volume[i] * bond_volume.of(b, bonds.neighbor[b] as usize) * bond.coupling;
                     let qb = weighted(bond);
                     for k in 0..3 {
                         g[k] += w * bond.direction[k];
@@ -746,6 +751,8 @@ struct OrdinaryDerivatives<'a> {
     bonds: &'a BondList,
     /// Volume of every point (length³).
     volume: &'a [f64],
+    /// The quadrature volume of every bond.
+    bond_volume: BondVolumes<'a>,
     /// The derivatives of every bond of the block's points (global bond index).
     data: &'a [OrdinaryBond],
     /// `[G_i, Q_i]` of every point (zero outside the block).
@@ -834,6 +841,7 @@ impl OrdinaryDerivatives<'_> {
     #[inline]
     fn add_row(&self, r: usize, row: &mut [Block], slot: &[u32]) -> Option<usize> {
         let (bonds, volume, data, sums) = (self.bonds, self.volume, self.data, self.sums);
+        let bond_volume = self.bond_volume;
         let mut lost = None;
         let mut add = |row: &mut [Block], c: usize, block: &Block| match slot[c] {
             u32::MAX => lost = Some(c),
@@ -845,7 +853,7 @@ impl OrdinaryDerivatives<'_> {
             for b in bonds.range(r) {
                 let bond = &data[b];
                 let j = bonds.neighbor[b] as usize;
-                let d = bond.stiffness(volume[r] * volume[j]);
+                let d = bond.stiffness(volume[r] * bond_volume.of(b, j));
                 let mut block = outer(g, weighted(bond));
                 add_scaled(&mut block, 1.0, &d);
                 add(row, j, &block);
@@ -860,7 +868,7 @@ impl OrdinaryDerivatives<'_> {
             }
             let m = self.reverse(i, r);
             let bond = &data[m];
-            let s = volume[i] * volume[r];
+            let s = volume[i] * bond_volume.of(m, r);
             let d = bond.stiffness(s);
             let p = bond.direction.map(|c| -s * bond.coupling * c);
             let mut to_i = d;
@@ -881,6 +889,7 @@ impl OrdinaryDerivatives<'_> {
     /// in the same order, so the block diagonal is bitwise the diagonal of the full tangent.
     fn add_diagonal_block(&self, target: &mut Block, r: usize) {
         let (bonds, volume, data) = (self.bonds, self.volume, self.data);
+        let bond_volume = self.bond_volume;
         if self.member[r] {
             let [g, q_total] = self.sums[r];
             let mut diagonal = outer(g, q_total).map(|l| l.map(|v| -v));
@@ -889,7 +898,7 @@ impl OrdinaryDerivatives<'_> {
                 add_scaled(
                     &mut diagonal,
                     -1.0,
-                    &data[b].stiffness(volume[r] * volume[j]),
+                    &data[b].stiffness(volume[r] * bond_volume.of(b, j)),
                 );
             }
             add_scaled(target, 1.0, &diagonal);
@@ -899,8 +908,9 @@ impl OrdinaryDerivatives<'_> {
             if !self.member[i] {
                 continue;
             }
-            let bond = &data[self.reverse(i, r)];
-            let s = volume[i] * volume[r];
+            let m = self.reverse(i, r);
+            let bond = &data[m];
+            let s = volume[i] * bond_volume.of(m, r);
             let d = bond.stiffness(s);
             add_scaled(target, 1.0, &d.map(|l| l.map(|v| -v)));
             if bond.coupling != 0.0 {

@@ -18,7 +18,18 @@ pub struct Block {
     pub damage_model: Option<String>,
     /// `Horizon` (required) — a positive number, or an expression in `x y z`.
     pub horizon: Horizon,
+    /// `Quadrature` (ours) — how the block's family sums weigh each bond: `Full Volume`,
+    /// `PDLAMMPS`, `HHB`, `Exact` or `Adaptive` (see [`crate::model::quadrature`]). `None`
+    /// when absent: Peridigm's `Discretization → Element-Horizon Intersection Partial Volume
+    /// Scheme` decides, else `Full Volume`.
+    pub quadrature: Option<String>,
+    /// `Quadrature Tolerance` (ours) — the relative accuracy EPS of `Quadrature: Adaptive`
+    /// (a positive number; default 1e-4).
+    pub quadrature_tolerance: Option<f64>,
 }
+
+/// The values of `Blocks → … → Quadrature`.
+pub const QUADRATURE_NAMES: [&str; 5] = ["Full Volume", "PDLAMMPS", "HHB", "Exact", "Adaptive"];
 
 impl Block {
     /// True when `Block Names` is `Default`/`default`: the group takes every block not named
@@ -85,6 +96,14 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Block, DeckError> {
         }
         _ => Horizon::Constant(horizon_field.positive(ctx)?),
     };
+    let quadrature = list
+        .get("Quadrature")
+        .map(|f| f.choice(ctx, &QUADRATURE_NAMES).map(str::to_string))
+        .transpose()?;
+    let quadrature_tolerance = list
+        .get("Quadrature Tolerance")
+        .map(|f| f.positive(ctx))
+        .transpose()?;
     list.finish(ctx, &[])?;
     Ok(Block {
         name: field.key().to_string(),
@@ -92,5 +111,7 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Block, DeckError> {
         material,
         damage_model,
         horizon,
+        quadrature,
+        quadrature_tolerance,
     })
 }

@@ -67,7 +67,9 @@ use crate::material::{
     PERIDIGM_PI,
 };
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{BondList, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
+use crate::model::{
+    BondList, BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach,
+};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -217,7 +219,7 @@ struct Family<'a> {
     bonds: &'a BondList,
     /// Reference positions X.
     position: &'a [[f64; 3]],
-    volume: &'a [f64],
+    volume: BondVolumes<'a>,
     damage: Option<&'a [f32]>,
     /// Committed [`DISPLACEMENT`] (3 per point).
     start_displacement: &'a [f64],
@@ -315,7 +317,7 @@ impl<S: HypoelasticStress> Hypoelastic<S> {
         Family {
             bonds: reference.bonds,
             position: reference.position,
-            volume: reference.volume,
+            volume: reference.bond_volumes(),
             damage: current.bond_damage,
             start_displacement: history
                 .field(DISPLACEMENT)
@@ -346,7 +348,7 @@ impl<S: HypoelasticStress> Hypoelastic<S> {
             let Some(omega) = self.weight(&dy) else {
                 continue;
             };
-            let w = omega * (intact * family.volume[family.bonds.neighbor[b] as usize]);
+            let w = omega * (intact * family.volume.of(b, family.bonds.neighbor[b] as usize));
             let dy_start = family.start_bond(point, b);
             let midpoint: [T; 3] = std::array::from_fn(|r| (dy[r] + dy_start[r]) * 0.5);
             for r in 0..3 {
@@ -483,7 +485,7 @@ impl<S: HypoelasticStress> Hypoelastic<S> {
                             zeta,
                             intact,
                         );
-                        let v = reference.volume[j];
+                        let v = reference.neighbor_volume(b, j);
                         for r in 0..3 {
                             total[r] += (from_i[r] - from_j[r]) * v;
                         }
@@ -542,7 +544,7 @@ impl<S: HypoelasticStress> Material for Hypoelastic<S> {
                 let Some(omega) = self.weight(&xi) else {
                     continue;
                 };
-                let w = omega * reference.volume[j];
+                let w = omega * reference.neighbor_volume(b, j);
                 if w > 0.0 {
                     inside += 1;
                 }

@@ -80,7 +80,7 @@ use super::{
 };
 use crate::history::History;
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{BondList, FieldCarrier, FieldDeclaration, ModelDeclaration};
+use crate::model::{BondList, BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -264,7 +264,7 @@ impl<S: StressModel> Correspondence<S> {
         Family {
             bonds: reference.bonds,
             position: reference.position,
-            volume: reference.volume,
+            volume: reference.bond_volumes(),
             local_offsets: &self.local_offsets,
             weights: &self.weights,
             damage: current.bond_damage,
@@ -413,7 +413,7 @@ impl<S: StressModel> Correspondence<S> {
                         };
                         let from_i = self.bond_force_state(&here, &bond);
                         let from_j = self.bond_force_state(&tensors_of(j), &bond.reversed());
-                        let v = family.volume[j];
+                        let v = family.volume.of(b, j);
                         for r in 0..3 {
                             total[r] += (from_i[r] - from_j[r]) * v;
                         }
@@ -538,7 +538,7 @@ impl<'a> CommittedHistory<'a> {
 struct Family<'a> {
     bonds: &'a BondList,
     position: &'a [[f64; 3]],
-    volume: &'a [f64],
+    volume: BondVolumes<'a>,
     local_offsets: &'a [usize],
     weights: &'a [f64],
     damage: Option<&'a [f32]>,
@@ -557,7 +557,7 @@ impl Family<'_> {
     /// ω (1−d) V_j of the n-th bond `b` of `point`.
     fn weight(&self, point: PointIndex, n: usize, b: usize) -> f64 {
         let omega = self.weights[self.local_offsets[point.local] + n];
-        omega * self.intact(b) * self.volume[self.bonds.neighbor[b] as usize]
+        omega * self.intact(b) * self.volume.of(b, self.bonds.neighbor[b] as usize)
     }
 
     /// K⁻¹ of `point`, `None` when K is singular.

@@ -56,7 +56,9 @@ use super::{
 };
 use crate::history::History;
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{BondList, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
+use crate::model::{
+    BondList, BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach,
+};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -257,7 +259,7 @@ impl ElasticPlastic {
     ) -> Kernel<'a> {
         Kernel {
             bonds: reference.bonds,
-            volume: reference.volume,
+            volume: reference.bond_volumes(),
             damage,
             weighted_volume: &self.weighted_volume,
             bulk_modulus: self.bulk_modulus,
@@ -282,7 +284,7 @@ impl ElasticPlastic {
 #[derive(Clone, Copy)]
 struct Kernel<'a> {
     bonds: &'a BondList,
-    volume: &'a [f64],
+    volume: BondVolumes<'a>,
     damage: Option<&'a [f32]>,
     weighted_volume: &'a [f64],
     bulk_modulus: f64,
@@ -371,7 +373,7 @@ impl Kernel<'_> {
         for (n, b) in self.bonds.range(point.global).enumerate() {
             let zeta = self.bonds.reference_length[b];
             let j = self.bonds.neighbor[b] as usize;
-            sum += self.stretch(y, n, b).extension * (self.intact(b) * zeta * self.volume[j]);
+            sum += self.stretch(y, n, b).extension * (self.intact(b) * zeta * self.volume.of(b, j));
         }
         sum * (3.0 / self.weighted_volume[point.local])
     }
@@ -412,7 +414,7 @@ impl Kernel<'_> {
             let trial =
                 Self::trial_deviatoric(alpha, &self.stretch(y, n, b), theta, zeta, plastic[n])
                     * self.intact(b);
-            squared += trial * trial * self.volume[j];
+            squared += trial * trial * self.volume.of(b, j);
         }
         if squared.re() * 0.5 <= psi {
             return elastic;
@@ -663,7 +665,7 @@ impl Material for ElasticPlastic {
                         };
                         let t = scalar(&coefficients[i], zeta, extension, intact, plastic[b])
                             + scalar(&coefficients[j], zeta, extension, intact, plastic_back);
-                        let scale = t * reference.volume[j] / length;
+                        let scale = t * reference.neighbor_volume(b, j) / length;
                         for k in 0..3 {
                             total[k] += scale * d[k];
                         }
@@ -704,7 +706,7 @@ impl Material for ElasticPlastic {
                 let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
                 let zeta = bonds.reference_length[b];
                 let elastic = length - zeta - c.dilatation * zeta / 3.0 - plastic[b];
-                sum += kernel.intact(b) * elastic * elastic * reference.volume[j];
+                sum += kernel.intact(b) * elastic * elastic * reference.neighbor_volume(b, j);
             }
             energy_density[i] =
                 0.5 * self.bulk_modulus * c.dilatation * c.dilatation + 0.5 * c.deviatoric * sum;
@@ -764,7 +766,7 @@ pub(super) fn unit_weighted_volumes(reference: &ReferenceView<'_>, points: &[u32
                 .range(i as usize)
                 .map(|b| {
                     let zeta = bonds.reference_length[b];
-                    zeta * zeta * reference.volume[bonds.neighbor[b] as usize]
+                    zeta * zeta * reference.neighbor_volume(b, bonds.neighbor[b] as usize)
                 })
                 .sum()
         })

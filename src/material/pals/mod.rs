@@ -65,7 +65,9 @@ use super::{
     ReferenceView,
 };
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{BondList, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
+use crate::model::{
+    BondList, BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach,
+};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -258,7 +260,7 @@ impl Pals {
     ) -> Kernel<'a> {
         Kernel {
             bonds: reference.bonds,
-            volume: reference.volume,
+            volume: reference.bond_volumes(),
             damage,
             local_offsets: &self.local_offsets,
             omega: &self.omega,
@@ -373,7 +375,7 @@ fn point_multipliers(
     for b in order {
         let j = bonds.neighbor[b] as usize;
         let xi = [0, 1, 2].map(|k| reference.position[j][k] - x[k]);
-        let v = reference.volume[j];
+        let v = reference.neighbor_volume(b, j);
         let zeta = bonds.reference_length[b];
         let g = dilatation_modes(xi);
         let s = deviatoric_extensions(xi);
@@ -416,7 +418,7 @@ fn point_multipliers(
 #[derive(Clone, Copy)]
 struct Kernel<'a> {
     bonds: &'a BondList,
-    volume: &'a [f64],
+    volume: BondVolumes<'a>,
     damage: Option<&'a [f32]>,
     local_offsets: &'a [usize],
     omega: &'a [f64],
@@ -458,7 +460,7 @@ impl Kernel<'_> {
         for (n, b) in self.bonds.range(point.global).enumerate() {
             let zeta = self.bonds.reference_length[b];
             let j = self.bonds.neighbor[b] as usize;
-            let weight = self.intact(b) * zeta * self.volume[j];
+            let weight = self.intact(b) * zeta * self.volume.of(b, j);
             let extension = Self::length(y, n) - zeta;
             theta += extension * (weight * self.omega[base + n]);
             deviatoric_sum += extension * (weight * self.sigma[base + n]);
@@ -591,7 +593,7 @@ impl Material for Pals {
                 let s = self.influence.deviatoric.evaluate(zeta, self.horizon)
                     + dot(&m.deviatoric, &deviatoric_modes(xi));
                 sigma.push(s);
-                sum += s * zeta * zeta * reference.volume[j];
+                sum += s * zeta * zeta * reference.neighbor_volume(b, j);
                 // Rows are sorted, so the reverse bond is found by binary search; j is a block
                 // point (checked above).
                 let local_j = points.partition_point(|&p| (p as usize) < j);
@@ -710,7 +712,7 @@ impl Material for Pals {
                             extension,
                             intact,
                         );
-                        let scale = t * reference.volume[j] / length;
+                        let scale = t * reference.neighbor_volume(b, j) / length;
                         for k in 0..3 {
                             total[k] += scale * d[k];
                         }
@@ -749,7 +751,7 @@ impl Material for Pals {
                     * self.sigma[base + n]
                     * deviatoric
                     * deviatoric
-                    * reference.volume[j];
+                    * reference.neighbor_volume(b, j);
             }
             energy_density[i] = 0.5 * self.bulk_modulus * theta * theta + self.shear_modulus * sum;
         }

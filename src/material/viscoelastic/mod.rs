@@ -49,7 +49,9 @@ use super::{
 };
 use crate::history::History;
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{BondList, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
+use crate::model::{
+    BondList, BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach,
+};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -206,7 +208,7 @@ impl Viscoelastic {
     ) -> Kernel<'a> {
         Kernel {
             bonds: reference.bonds,
-            volume: reference.volume,
+            volume: reference.bond_volumes(),
             damage,
             weighted_volume: &self.weighted_volume,
         }
@@ -229,7 +231,7 @@ impl Viscoelastic {
 #[derive(Clone, Copy)]
 struct Kernel<'a> {
     bonds: &'a BondList,
-    volume: &'a [f64],
+    volume: BondVolumes<'a>,
     damage: Option<&'a [f32]>,
     weighted_volume: &'a [f64],
 }
@@ -257,7 +259,7 @@ impl Kernel<'_> {
         for (n, b) in self.bonds.range(point.global).enumerate() {
             let zeta = self.bonds.reference_length[b];
             let j = self.bonds.neighbor[b] as usize;
-            sum += (Self::length(y, n) - zeta) * (self.intact(b) * zeta * self.volume[j]);
+            sum += (Self::length(y, n) - zeta) * (self.intact(b) * zeta * self.volume.of(b, j));
         }
         sum * (3.0 / self.weighted_volume[point.local])
     }
@@ -474,7 +476,7 @@ impl Material for Viscoelastic {
                             intact,
                             self.lambda_i * back[b],
                         ) + scalar(&coefficients[j], zeta, extension, intact, relaxed_back);
-                        let scale = t * reference.volume[j] / length;
+                        let scale = t * reference.neighbor_volume(b, j) / length;
                         for k in 0..3 {
                             total[k] += scale * d[k];
                         }
@@ -514,7 +516,7 @@ impl Material for Viscoelastic {
                 let maxwell = deviatoric - back[b];
                 sum += ((1.0 - self.lambda_i) * deviatoric * deviatoric
                     + self.lambda_i * maxwell * maxwell)
-                    * reference.volume[j];
+                    * reference.neighbor_volume(b, j);
             }
             energy_density[i] =
                 0.5 * self.bulk_modulus * c.dilatation * c.dilatation + 0.5 * c.deviatoric * sum;
