@@ -275,8 +275,8 @@ pub enum LinearPreconditioner {
     /// `"None"`.
     None,
     /// `"AMG"`: peridyn's smoothed-aggregation multigrid (additive two-level form) built on the one-hop
-    /// PMB-like operator of the model ([`crate::tangent::one_hop_operator`]), rebuilt once per
-    /// load step and whenever bonds break.
+    /// PMB-like operator of the model ([`crate::tangent::one_hop_operator`]), built once and
+    /// rebuilt only when bonds break or points are held.
     Amg,
 }
 
