@@ -51,16 +51,7 @@ impl Csr {
 
     /// Panics unless x has a value per column and y one per row (a bug of the caller).
     fn check_product_lengths(&self, x: &[f64], y: &[f64]) {
-        assert_eq!(
-            x.len(),
-            self.ncols,
-            "x has the wrong length for this matrix"
-        );
-        assert_eq!(
-            y.len(),
-            self.nrows,
-            "y has the wrong length for this matrix"
-        );
+        check_product_shape(self.nrows, self.ncols, x, y);
     }
 
     /// y = A x.
@@ -340,6 +331,13 @@ impl CsrFill<'_> {
             }
         }
     }
+}
+
+/// Panics unless x has a value per column and y one per row of an `nrows` × `ncols` matrix
+/// (a bug of the caller of a product y = A x).
+pub(crate) fn check_product_shape(nrows: usize, ncols: usize, x: &[f64], y: &[f64]) {
+    assert_eq!(x.len(), ncols, "x has the wrong length for this matrix");
+    assert_eq!(y.len(), nrows, "y has the wrong length for this matrix");
 }
 
 #[cfg(test)]

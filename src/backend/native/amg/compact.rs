@@ -10,6 +10,7 @@
 
 use rayon::prelude::*;
 
+use super::super::super::csr::check_product_shape;
 use super::super::super::{Csr, SolveError};
 
 /// A CSR matrix with `u32` columns and `f32` values (see the module docs).
@@ -60,16 +61,7 @@ impl CompactCsr {
     /// y = A x, each row summed in double precision in its column order by one thread, so
     /// the result does not depend on the thread count.
     pub fn multiply_parallel(&self, x: &[f64], y: &mut [f64]) {
-        assert_eq!(
-            x.len(),
-            self.ncols,
-            "x has the wrong length for this matrix"
-        );
-        assert_eq!(
-            y.len(),
-            self.nrows,
-            "y has the wrong length for this matrix"
-        );
+        check_product_shape(self.nrows, self.ncols, x, y);
         let row_times = |r: usize| -> f64 {
             let range = self.offsets[r]..self.offsets[r + 1];
             self.columns[range.clone()]
