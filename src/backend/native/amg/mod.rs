@@ -160,6 +160,18 @@ struct AdditiveLevel {
     operator_entries: usize,
 }
 
+/// What a level keeps besides its transfers, decided by the [`Cycle`] that will apply it.
+enum Kept {
+    VCycle {
+        operator: CompactCsr,
+        smoother: Chebyshev,
+    },
+    Additive {
+        block_jacobi: PreconditionerOperator,
+        operator_entries: usize,
+    },
+}
+
 /// One level above the coarsest.
 #[derive(Debug, Clone)]
 struct Level {
@@ -282,7 +294,8 @@ impl Amg {
     /// applications by `cycle`.
     ///
     /// Each level's products are formed in the order that holds the fewest at once: P, then
-    /// A P, then (the additive finest operator dropped) R = Pᵀ and R (A P).
+    /// A P, then (the level's double-precision operator dropped, a V-cycle level keeping its
+    /// single-precision copy) R = Pᵀ and R (A P).
     ///
     /// Errors (`Breakdown`): a non-positive or non-finite diagonal entry (not positive
     /// definite), a singular coarsest operator (e.g. nothing prescribed), or `groups` /
@@ -304,7 +317,7 @@ impl Amg {
         let mut operator = operator;
         let mut groups = groups.to_vec();
         let mut null_space = null_space.to_vec();
-        while operator.nrows > COARSE_UNKNOWNS && levels.len() + 1 < MAX_LEVELS {
+        while operator.nrows > COARSE_UNKNOWNS && additive.len() + levels.len() + 1 < MAX_LEVELS {
             let strong = aggregation::strong_neighbours(&operator, &groups, STRENGTH_THRESHOLD);
             let aggregates = aggregation::aggregate(&strong);
             drop(strong);
@@ -320,20 +333,20 @@ impl Amg {
                     .for_each(|((z, r), d)| *z = r / d)
             });
             let prolongator = prolongator::smooth(&operator, &tentative.prolongator, rho);
-            let level_is_additive = additive.len() < additive_levels;
-            let smoother = if level_is_additive {
-                None
-            } else {
-                Some(Chebyshev::new(&operator, &groups)?)
-            };
-            let block_jacobi = if level_is_additive {
-                Some(block_jacobi(&operator, &groups)?)
-            } else {
-                None
-            };
             let product = prolongator::multiply(&operator, &prolongator);
-            let operator_entries = operator.nnz();
-            let kept_operator = smoother.is_some().then_some(operator);
+            let kept = if additive.len() < additive_levels {
+                Kept::Additive {
+                    block_jacobi: block_jacobi(&operator, &groups)?,
+                    operator_entries: operator.nnz(),
+                }
+            } else {
+                Kept::VCycle {
+                    smoother: Chebyshev::new(&operator, &groups)?,
+                    operator: CompactCsr::new(&operator)?,
+                }
+            };
+            // The level's double-precision operator is not needed past A P.
+            drop(std::mem::take(&mut operator));
             let restriction = prolongator::transpose(&prolongator);
             let coarse = prolongator::multiply(&restriction, &product);
             drop(product);
@@ -341,20 +354,22 @@ impl Amg {
                 CompactCsr::new(&prolongator)?,
                 CompactCsr::new(&restriction)?,
             );
-            match (kept_operator, smoother, block_jacobi) {
-                (Some(operator), Some(smoother), _) => levels.push(Level {
-                    operator: CompactCsr::new(&operator)?,
+            match kept {
+                Kept::VCycle { operator, smoother } => levels.push(Level {
+                    operator,
                     smoother,
                     prolongator,
                     restriction,
                 }),
-                (_, _, Some(block_jacobi)) => additive.push(AdditiveLevel {
+                Kept::Additive {
+                    block_jacobi,
+                    operator_entries,
+                } => additive.push(AdditiveLevel {
                     block_jacobi,
                     prolongator,
                     restriction,
                     operator_entries,
                 }),
-                _ => unreachable!("a level keeps its operator and smoother, or is additive"),
             }
             operator = coarse;
             groups = tentative.coarse_groups;
