@@ -332,8 +332,8 @@ impl Amg {
                     .zip(&diagonal)
                     .for_each(|((z, r), d)| *z = r / d)
             });
-            let prolongator = prolongator::smooth(&operator, &tentative.prolongator, rho);
-            let product = prolongator::multiply(&operator, &prolongator);
+            let prolongator = prolongator::smooth(&operator, &groups, &tentative.prolongator, rho);
+            let product = prolongator::multiply(&operator, &groups, &prolongator, &groups);
             let kept = if additive.len() < additive_levels {
                 Kept::Additive {
                     block_jacobi: block_jacobi(&operator, &groups)?,
@@ -348,7 +348,8 @@ impl Amg {
             // The level's double-precision operator is not needed past A P.
             drop(std::mem::take(&mut operator));
             let restriction = prolongator::transpose(&prolongator);
-            let coarse = prolongator::multiply(&restriction, &product);
+            let coarse =
+                prolongator::multiply(&restriction, &tentative.coarse_groups, &product, &groups);
             drop(product);
             let (prolongator, restriction) = (
                 CompactCsr::new(&prolongator)?,

@@ -115,10 +115,10 @@ fn orthonormalise(
 }
 
 /// P = T − ω D⁻¹ (A T) with D = diag(A) and ω = 4/(3ρ), ρ ≈ ρ(D⁻¹A).
-pub(super) fn smooth(a: &Csr, tentative: &Csr, spectral_radius: f64) -> Csr {
+pub(super) fn smooth(a: &Csr, groups: &[usize], tentative: &Csr, spectral_radius: f64) -> Csr {
     let omega = 4.0 / (3.0 * spectral_radius);
     let diagonal = a.diagonal();
-    let at = multiply(a, tentative);
+    let at = multiply(a, groups, tentative, groups);
     from_rows(a.nrows, tentative.ncols, |rows| {
         rows.into_par_iter()
             .map(|r| merge_rows(tentative.row(r), at.row(r), -omega / diagonal[r]))
@@ -178,39 +178,189 @@ fn from_rows(
     matrix
 }
 
+/// Rows of a group multiplied together by [`multiply`] at most (a larger group's rows are
+/// multiplied one at a time): point groups hold 1–3 unknowns, aggregates at most the six
+/// rigid-body modes.
+const MAX_GROUP_ROWS: usize = 8;
+
 /// A B, rows shared among rayon's threads (each with its own dense accumulator).
-pub(super) fn multiply(a: &Csr, b: &Csr) -> Csr {
+///
+/// `row_groups` groups A's rows and `inner_groups` B's rows (= A's columns), as offsets. The
+/// rows of a point (or an aggregate) share one column pattern in these operators, so a group's
+/// rows are multiplied together and so are the consecutive columns of A that fall in one
+/// group of B's rows: the index work of a 3×3 block of A against a row of B is done once, not
+/// nine times. For every entry the products a_rk b_kc are added in increasing k, as a
+/// row-by-row product adds them, so the result is the same to the bit; a group whose rows
+/// differ in pattern is multiplied a row at a time.
+pub(super) fn multiply(a: &Csr, row_groups: &[usize], b: &Csr, inner_groups: &[usize]) -> Csr {
     assert_eq!(a.ncols, b.nrows, "inner dimensions differ");
-    from_rows(a.nrows, b.ncols, |rows| {
-        rows.into_par_iter()
-            .map_init(
-                || (vec![0.0; b.ncols], vec![false; b.ncols]),
-                |(accumulator, used), r| {
-                    let mut columns = Vec::new();
-                    let (a_columns, a_values) = a.row(r);
-                    for (&k, &a_rk) in a_columns.iter().zip(a_values) {
-                        let (b_columns, b_values) = b.row(k);
-                        for (&c, &b_kc) in b_columns.iter().zip(b_values) {
-                            if !used[c] {
-                                used[c] = true;
-                                columns.push(c);
-                            }
-                            accumulator[c] += a_rk * b_kc;
-                        }
-                    }
-                    columns.sort_unstable();
-                    let values = columns
-                        .iter()
-                        .map(|&c| {
-                            used[c] = false;
-                            std::mem::take(&mut accumulator[c])
-                        })
-                        .collect();
-                    (columns, values)
-                },
-            )
-            .collect()
+    assert_eq!(
+        row_groups.last(),
+        Some(&a.nrows),
+        "row groups cover A's rows"
+    );
+    assert_eq!(
+        inner_groups.last(),
+        Some(&b.nrows),
+        "inner groups cover B's rows"
+    );
+    let b_pattern = GroupPattern::of(b, inner_groups);
+    let a_pattern = GroupPattern::of(a, row_groups);
+    let b_pattern = &b_pattern;
+    from_groups(b.ncols, &a_pattern.row_sets, || {
+        let mut product = GroupProduct::new(b.ncols);
+        move |rows: std::ops::Range<usize>| product.rows(a, rows, b, b_pattern)
     })
+}
+
+/// Where a matrix's rows share a column pattern.
+struct GroupPattern {
+    /// Offsets of row sets multiplied together: a group of rows with one pattern (of at most
+    /// [`MAX_GROUP_ROWS`]), or one row of a group whose rows differ.
+    row_sets: Vec<usize>,
+    /// For each row, the first row of its set.
+    set_start: Vec<usize>,
+    /// For each row, one past the last row of its set.
+    set_end: Vec<usize>,
+}
+
+impl GroupPattern {
+    fn of(m: &Csr, groups: &[usize]) -> Self {
+        let mut row_sets = vec![0];
+        let mut set_start = vec![0; m.nrows];
+        let mut set_end = vec![0; m.nrows];
+        for group in groups.windows(2) {
+            let (first, end) = (group[0], group[1]);
+            let shared = end - first <= MAX_GROUP_ROWS
+                && (first + 1..end).all(|r| m.row(r).0 == m.row(first).0);
+            let sets: Vec<(usize, usize)> = if shared {
+                vec![(first, end)]
+            } else {
+                (first..end).map(|r| (r, r + 1)).collect()
+            };
+            for (start, stop) in sets {
+                set_start[start..stop].fill(start);
+                set_end[start..stop].fill(stop);
+                row_sets.push(stop);
+            }
+        }
+        Self {
+            row_sets,
+            set_start,
+            set_end,
+        }
+    }
+}
+
+/// One thread's dense accumulator of a row set's product: entry (row i of the set, column c)
+/// at `sums[c * MAX_GROUP_ROWS + i]`, so a set's sums of one column share a cache line.
+struct GroupProduct {
+    sums: Vec<f64>,
+    used: Vec<bool>,
+    columns: Vec<usize>,
+}
+
+impl GroupProduct {
+    fn new(ncols: usize) -> Self {
+        Self {
+            sums: vec![0.0; ncols * MAX_GROUP_ROWS],
+            used: vec![false; ncols],
+            columns: Vec::new(),
+        }
+    }
+
+    /// Rows `rows` (one row set, sharing A's pattern) of A B.
+    fn rows(
+        &mut self,
+        a: &Csr,
+        rows: std::ops::Range<usize>,
+        b: &Csr,
+        b_pattern: &GroupPattern,
+    ) -> Vec<(Vec<usize>, Vec<f64>)> {
+        let set_rows = rows.len();
+        let (a_columns, _) = a.row(rows.start);
+        let a_values: Vec<&[f64]> = rows.clone().map(|r| a.row(r).1).collect();
+        let mut p = 0;
+        while p < a_columns.len() {
+            // The run of A's columns p..p + run whose rows of B share one pattern.
+            let k = a_columns[p];
+            let set_end = b_pattern.set_end[k];
+            let run = a_columns[p..]
+                .iter()
+                .take_while(|&&column| {
+                    column < set_end && b_pattern.set_start[column] == b_pattern.set_start[k]
+                })
+                .count();
+            let b_columns = b.row(k).0;
+            let b_rows: Vec<&[f64]> = a_columns[p..p + run]
+                .iter()
+                .map(|&kk| b.row(kk).1)
+                .collect();
+            for (position, &c) in b_columns.iter().enumerate() {
+                if !self.used[c] {
+                    self.used[c] = true;
+                    self.columns.push(c);
+                }
+                let sums = &mut self.sums[c * MAX_GROUP_ROWS..c * MAX_GROUP_ROWS + set_rows];
+                for (j, b_row) in b_rows.iter().enumerate() {
+                    let b_kc = b_row[position];
+                    for (sum, a_row) in sums.iter_mut().zip(&a_values) {
+                        *sum += a_row[p + j] * b_kc;
+                    }
+                }
+            }
+            p += run;
+        }
+        self.columns.sort_unstable();
+        let mut out: Vec<(Vec<usize>, Vec<f64>)> = (0..set_rows)
+            .map(|_| (self.columns.clone(), Vec::with_capacity(self.columns.len())))
+            .collect();
+        for &c in &self.columns {
+            self.used[c] = false;
+            for (i, (_, values)) in out.iter_mut().enumerate() {
+                values.push(std::mem::take(&mut self.sums[c * MAX_GROUP_ROWS + i]));
+            }
+        }
+        self.columns.clear();
+        out
+    }
+}
+
+/// A CSR matrix of `ncols` columns whose rows come in sets (`row_sets`: offsets), each set's
+/// rows computed together by a function `new_worker` makes for each rayon worker; a chunk of
+/// about [`ROW_CHUNK`] rows at a time (at least one set).
+fn from_groups<W>(ncols: usize, row_sets: &[usize], new_worker: impl Fn() -> W + Sync + Send) -> Csr
+where
+    W: FnMut(std::ops::Range<usize>) -> Vec<(Vec<usize>, Vec<f64>)>,
+{
+    let nrows = *row_sets.last().expect("sets start at 0");
+    let sets = row_sets.len() - 1;
+    let mut matrix = Csr {
+        nrows,
+        ncols,
+        offsets: Vec::with_capacity(nrows + 1),
+        columns: Vec::new(),
+        values: Vec::new(),
+    };
+    matrix.offsets.push(0);
+    let mut first = 0;
+    while first < sets {
+        let limit = row_sets[first] + ROW_CHUNK;
+        let last = first + row_sets[first..sets].partition_point(|&start| start < limit);
+        let chunk: Vec<Vec<(Vec<usize>, Vec<f64>)>> = (first..last)
+            .into_par_iter()
+            .map_init(&new_worker, |worker, set| {
+                worker(row_sets[set]..row_sets[set + 1])
+            })
+            .collect();
+        for (columns, values) in chunk.into_iter().flatten() {
+            matrix.columns.extend(columns);
+            matrix.values.extend(values);
+            matrix.offsets.push(matrix.columns.len());
+        }
+        first = last;
+    }
+    matrix
 }
 
 /// Aᵀ.
@@ -265,7 +415,7 @@ mod tests {
             columns: vec![0, 1, 2],
             values: vec![1.0, 2.0, 3.0],
         };
-        let product = multiply(&transpose(&a), &a);
+        let product = multiply(&transpose(&a), &[0, 1, 3], &a, &[0, 2]);
         product.assert_valid();
         assert_eq!(
             dense(&product),
@@ -275,6 +425,73 @@ mod tests {
                 vec![0.0, 0.0, 9.0]
             ]
         );
+    }
+
+    /// A deterministic sparse matrix: entry (r, c) is present when a hash of (r, c, seed)
+    /// falls below `density`; a row listed in `shared` takes the pattern of the row above it
+    /// (as the rows of a point share theirs), with values of its own.
+    fn scattered(nrows: usize, ncols: usize, density: f64, seed: u64, shared: &[usize]) -> Csr {
+        let value = |r: usize, c: usize| {
+            let h = (r as u64 * 1_000_003 + c as u64 * 7_919 + seed)
+                .wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            ((h >> 11) as f64) / ((1u64 << 53) as f64)
+        };
+        let mut m = Csr {
+            nrows,
+            ncols,
+            offsets: vec![0],
+            ..Csr::default()
+        };
+        for r in 0..nrows {
+            let mut pattern_row = r;
+            while shared.contains(&pattern_row) {
+                pattern_row -= 1;
+            }
+            for c in 0..ncols {
+                if value(pattern_row, c + ncols) < density {
+                    m.columns.push(c);
+                    m.values.push(value(r, c) - 0.5);
+                }
+            }
+            m.offsets.push(m.columns.len());
+        }
+        m
+    }
+
+    #[test]
+    fn grouped_products_equal_the_row_by_row_sum_to_the_bit() {
+        // Groups of 3 rows sharing a pattern, one group whose rows differ, one of 9 rows (more
+        // than MAX_GROUP_ROWS, multiplied a row at a time) and single rows. Every entry must be
+        // the sum of a_rk b_kc in increasing k, computed densely here: the same additions in
+        // the same order, so the comparison is exact.
+        let row_groups = [0, 3, 6, 7, 16, 18];
+        let inner_groups = [0, 3, 6, 8, 9, 12, 20];
+        let a = scattered(18, 20, 0.45, 1, &[1, 2, 5, 10, 11, 12, 13, 14, 15, 16, 17]);
+        let b = scattered(
+            20,
+            15,
+            0.4,
+            2,
+            &[1, 2, 4, 5, 7, 10, 11, 14, 15, 16, 17, 18, 19],
+        );
+        // A: 1 + 3 (rows 3 and 4 differ) + 1 + 9 + 1 row sets; B: 1 + 1 + 1 + 1 + 1 + 8 (rows
+        // 12 and 13 differ).
+        assert_eq!(GroupPattern::of(&a, &row_groups).row_sets.len() - 1, 15);
+        assert_eq!(GroupPattern::of(&b, &inner_groups).row_sets.len() - 1, 13);
+        let product = multiply(&a, &row_groups, &b, &inner_groups);
+        product.assert_valid();
+        let (a_dense, b_dense) = (dense(&a), dense(&b));
+        let mut expected = vec![vec![0.0; 15]; 18];
+        for (r, row) in expected.iter_mut().enumerate() {
+            for (k, &a_rk) in a_dense[r].iter().enumerate() {
+                if a_rk != 0.0 {
+                    for (c, entry) in row.iter_mut().enumerate() {
+                        *entry += a_rk * b_dense[k][c];
+                    }
+                }
+            }
+        }
+        assert_eq!(dense(&product), expected);
     }
 
     #[test]
