@@ -19,6 +19,7 @@ mod aggregation;
 mod compact;
 mod cycle;
 mod one_hop;
+mod pattern;
 mod prolongator;
 
 use super::super::{Csr, SolveError};
@@ -51,6 +52,12 @@ const STALLED_COARSENING: f64 = 0.8;
 /// with δ = 3.015 Δx (Peridigm's usual horizon). With the whole family (`Stencil::Family`) it
 /// is about 0.5: more bonds a row, the same aggregates.
 const TRANSFER_AND_COARSE_FRACTION: f64 = 1.0;
+
+/// Bytes of a stored entry of the hierarchy's matrices ([`compact`]): a single-precision
+/// value (4) and a 32-bit column index shared by the rows of a set, the 3 unknowns of a point
+/// in the finest prolongator (4/3) and up to the 6 of an aggregate in the restrictions and
+/// coarse operators (4/6): 4.7–5.3, planned at 5.
+const HIERARCHY_ENTRY_BYTES: f64 = 5.0;
 
 /// (nnz(P₀) + nnz(A₀P₀)) / nnz(A₀), the finest level's products held with the operator during
 /// setup: 1.31 measured on the 20,000-point tension block with [`Stencil::Nearest`] (1.60 M +
@@ -94,8 +101,8 @@ pub struct MultigridMemory {
 ///   nnz₀ = 9(min(B, 26N) + N) entries of 16 bytes (an 8-byte value and an 8-byte column)
 ///   plus 8(n₀ + 1) bytes of row offsets;
 /// * hierarchy ([`Cycle::Additive`], the form the solvers use): [`TRANSFER_AND_COARSE_FRACTION`]
-///   × nnz₀ entries of 8 bytes (single-precision values and 32-bit columns, see
-///   [`compact`]) for the prolongators, restrictions and coarse operators; 88 bytes a point
+///   × nnz₀ entries of [`HIERARCHY_ENTRY_BYTES`] (see [`compact`]) for the prolongators,
+///   restrictions and coarse operators; 88 bytes a point
 ///   for the finest level's inverted diagonal blocks; the dense LU of the coarsest level,
 ///   8n² + 8n bytes, where n is n₀ divided by 16 ([`POINTS_PER_AGGREGATE`]) until it is at
 ///   most [`COARSE_UNKNOWNS`]; an application's workspace, the finest level's prolongated
@@ -112,7 +119,7 @@ pub fn multigrid_memory_estimate(points: u64, bonds: u64) -> MultigridMemory {
     while coarsest > COARSE_UNKNOWNS as u64 {
         coarsest = coarsest * 6 / (3 * POINTS_PER_AGGREGATE);
     }
-    let hierarchy = (TRANSFER_AND_COARSE_FRACTION * 8.0 * entries as f64) as u64
+    let hierarchy = (TRANSFER_AND_COARSE_FRACTION * HIERARCHY_ENTRY_BYTES * entries as f64) as u64
         + 88 * points
         + 8 * coarsest * coarsest
         + 8 * coarsest
@@ -342,7 +349,7 @@ impl Amg {
             } else {
                 Kept::VCycle {
                     smoother: Chebyshev::new(&operator, &groups)?,
-                    operator: CompactCsr::new(&operator)?,
+                    operator: CompactCsr::new(&operator, &groups)?,
                 }
             };
             // The level's double-precision operator is not needed past A P.
@@ -352,8 +359,8 @@ impl Amg {
                 prolongator::multiply(&restriction, &tentative.coarse_groups, &product, &groups);
             drop(product);
             let (prolongator, restriction) = (
-                CompactCsr::new(&prolongator)?,
-                CompactCsr::new(&restriction)?,
+                CompactCsr::new(&prolongator, &groups)?,
+                CompactCsr::new(&restriction, &tentative.coarse_groups)?,
             );
             match kept {
                 Kept::VCycle { operator, smoother } => levels.push(Level {
@@ -381,7 +388,7 @@ impl Amg {
         } else {
             Coarsest::Smoother(Chebyshev::new(&operator, &groups)?)
         };
-        let operator = CompactCsr::new(&operator)?;
+        let operator = CompactCsr::new(&operator, &groups)?;
         let workspace = RefCell::new(Workspace::new(&additive, &levels, &coarsest, &operator));
         Ok(Self {
             additive,

@@ -12,6 +12,7 @@ use rayon::prelude::*;
 
 use super::super::super::Csr;
 use super::aggregation::Aggregates;
+use super::pattern::{GroupPattern, MAX_GROUP_ROWS};
 
 /// A mode whose remainder after orthogonalisation is below this fraction of its own norm on
 /// the aggregate is dropped there.
@@ -178,11 +179,6 @@ fn from_rows(
     matrix
 }
 
-/// Rows of a group multiplied together by [`multiply`] at most (a larger group's rows are
-/// multiplied one at a time): point groups hold 1–3 unknowns, aggregates at most the six
-/// rigid-body modes.
-const MAX_GROUP_ROWS: usize = 8;
-
 /// A B, rows shared among rayon's threads (each with its own dense accumulator).
 ///
 /// `row_groups` groups A's rows and `inner_groups` B's rows (= A's columns), as offsets. The
@@ -211,45 +207,6 @@ pub(super) fn multiply(a: &Csr, row_groups: &[usize], b: &Csr, inner_groups: &[u
         let mut product = GroupProduct::new(b.ncols);
         move |rows: std::ops::Range<usize>| product.rows(a, rows, b, b_pattern)
     })
-}
-
-/// Where a matrix's rows share a column pattern.
-struct GroupPattern {
-    /// Offsets of row sets multiplied together: a group of rows with one pattern (of at most
-    /// [`MAX_GROUP_ROWS`]), or one row of a group whose rows differ.
-    row_sets: Vec<usize>,
-    /// For each row, the first row of its set.
-    set_start: Vec<usize>,
-    /// For each row, one past the last row of its set.
-    set_end: Vec<usize>,
-}
-
-impl GroupPattern {
-    fn of(m: &Csr, groups: &[usize]) -> Self {
-        let mut row_sets = vec![0];
-        let mut set_start = vec![0; m.nrows];
-        let mut set_end = vec![0; m.nrows];
-        for group in groups.windows(2) {
-            let (first, end) = (group[0], group[1]);
-            let shared = end - first <= MAX_GROUP_ROWS
-                && (first + 1..end).all(|r| m.row(r).0 == m.row(first).0);
-            let sets: Vec<(usize, usize)> = if shared {
-                vec![(first, end)]
-            } else {
-                (first..end).map(|r| (r, r + 1)).collect()
-            };
-            for (start, stop) in sets {
-                set_start[start..stop].fill(start);
-                set_end[start..stop].fill(stop);
-                row_sets.push(stop);
-            }
-        }
-        Self {
-            row_sets,
-            set_start,
-            set_end,
-        }
-    }
 }
 
 /// One thread's dense accumulator of a row set's product: entry (row i of the set, column c)
