@@ -8,6 +8,8 @@
 //! the strongest bond, θ = ½ keeps the neighbours within about twice the nearest spacing for
 //! a PMB-like operator (bond stiffness ∝ 1/|ξ|).
 
+use rayon::prelude::*;
+
 use super::super::super::Csr;
 
 /// Nodes per aggregate: `of_node[i]` is the aggregate of node i, aggregates numbered
@@ -38,6 +40,7 @@ pub(super) fn strong_neighbours(a: &Csr, groups: &[usize], threshold: f64) -> Ve
         node_of[window[0]..window[1]].fill(node);
     }
     let norms: Vec<Vec<(usize, f64)>> = (0..nodes)
+        .into_par_iter()
         .map(|node| block_row_norms(a, groups, &node_of, node))
         .collect();
     let diagonal: Vec<f64> = norms
@@ -50,7 +53,7 @@ pub(super) fn strong_neighbours(a: &Csr, groups: &[usize], threshold: f64) -> Ve
         })
         .collect();
     norms
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, row)| {
             let strength = |&(j, n): &(usize, f64)| {
