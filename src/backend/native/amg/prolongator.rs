@@ -120,10 +120,11 @@ pub(super) fn smooth(a: &Csr, groups: &[usize], tentative: &Csr, spectral_radius
     let omega = 4.0 / (3.0 * spectral_radius);
     let diagonal = a.diagonal();
     let at = multiply(a, groups, tentative, groups);
-    from_rows(a.nrows, tentative.ncols, |rows| {
-        rows.into_par_iter()
-            .map(|r| merge_rows(tentative.row(r), at.row(r), -omega / diagonal[r]))
-            .collect()
+    from_groups(tentative.ncols, groups, || {
+        |rows: std::ops::Range<usize>| {
+            rows.map(|r| merge_rows(tentative.row(r), at.row(r), -omega / diagonal[r]))
+                .collect()
+        }
     })
 }
 
@@ -153,31 +154,6 @@ fn merge_rows(x: (&[usize], &[f64]), y: (&[usize], &[f64]), scale: f64) -> (Vec<
 /// Rows computed in parallel before they are appended to the matrix: the rows in flight stay
 /// a small fraction of a product, so no product is held twice while it is formed.
 const ROW_CHUNK: usize = 32768;
-
-/// A CSR matrix of `nrows` × `ncols` whose rows (each sorted) `rows_of` computes, a chunk of
-/// row indices at a time.
-fn from_rows(
-    nrows: usize,
-    ncols: usize,
-    rows_of: impl Fn(std::ops::Range<usize>) -> Vec<(Vec<usize>, Vec<f64>)>,
-) -> Csr {
-    let mut matrix = Csr {
-        nrows,
-        ncols,
-        offsets: Vec::with_capacity(nrows + 1),
-        columns: Vec::new(),
-        values: Vec::new(),
-    };
-    matrix.offsets.push(0);
-    for first in (0..nrows).step_by(ROW_CHUNK) {
-        for (columns, values) in rows_of(first..nrows.min(first + ROW_CHUNK)) {
-            matrix.columns.extend(columns);
-            matrix.values.extend(values);
-            matrix.offsets.push(matrix.columns.len());
-        }
-    }
-    matrix
-}
 
 /// A B, rows shared among rayon's threads (each with its own dense accumulator).
 ///
@@ -283,9 +259,9 @@ impl GroupProduct {
     }
 }
 
-/// A CSR matrix of `ncols` columns whose rows come in sets (`row_sets`: offsets), each set's
-/// rows computed together by a function `new_worker` makes for each rayon worker; a chunk of
-/// about [`ROW_CHUNK`] rows at a time (at least one set).
+/// A CSR matrix of `ncols` columns whose rows (each sorted) come in sets (`row_sets`:
+/// offsets), each set's rows computed together by a function `new_worker` makes for each
+/// rayon worker; a chunk of about [`ROW_CHUNK`] rows at a time (at least one set).
 fn from_groups<W>(ncols: usize, row_sets: &[usize], new_worker: impl Fn() -> W + Sync + Send) -> Csr
 where
     W: FnMut(std::ops::Range<usize>) -> Vec<(Vec<usize>, Vec<f64>)>,
