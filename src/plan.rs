@@ -93,6 +93,10 @@ pub struct BlockPlan {
     /// The block's quadrature rule and what it gives, when not the full volume (the
     /// `Blocks → … → Quadrature` line of `peridyn check`).
     pub quadrature: Option<String>,
+    /// The block's surface correction and the factors it gave, when the block has one (the
+    /// `Blocks → … → Surface Correction` line of `peridyn check`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surface_correction: Option<String>,
 }
 
 /// One node set.
@@ -349,6 +353,9 @@ impl RunPlan {
             )?;
             if let Some(quadrature) = &b.quadrature {
                 writeln!(f, "  {:<12} quadrature {quadrature}", "")?;
+            }
+            if let Some(correction) = &b.surface_correction {
+                writeln!(f, "  {:<12} surface correction {correction}", "")?;
             }
         }
         Ok(())

@@ -595,3 +595,61 @@ fn hardening_and_viscoelastic_keys_are_checked() {
         }
     }
 }
+
+#[test]
+fn check_prints_the_surface_correction_and_refuses_it_on_a_planar_material() {
+    // Every point of the 4×2×2 bar lies within δ of a surface.
+    let dir = tempfile::tempdir().unwrap();
+    let spherical = BASE.replacen(
+        "Type: \"PdQuickGrid\"\n",
+        "Type: \"PdQuickGrid\"\n    NeighborhoodType: \"Spherical\"\n",
+        1,
+    );
+    let text = spherical.replacen(
+        "Horizon: 1.5\n",
+        "Horizon: 1.5\n      Surface Correction: \"Force Normalization\"\n",
+        1,
+    );
+    write_deck(dir.path(), &text);
+    let output = peridyn(&["check", "deck.yaml"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let plan = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        plan.contains("surface correction \"Force Normalization\": ")
+            && plan.contains(" of 16 points corrected, factors "),
+        "{plan}"
+    );
+
+    let planar = "Material Model: \"Elastic Bond Based\"\n      Density: 7800.0\n      Bulk Modulus: 130.0e9\n      Plane Strain: true\n      Height: 1.0\n";
+    let text = spherical
+        .replacen(
+            "Material Model: \"Elastic\"\n      Density: 7800.0\n      Bulk Modulus: 130.0e9\n      Shear Modulus: 78.0e9\n",
+            planar,
+            1,
+        )
+        .replacen(
+            "Horizon: 1.5\n",
+            "Horizon: 1.5\n      Surface Correction: \"Force Normalization\"\n",
+            1,
+        );
+    write_deck(dir.path(), &text);
+    let output = peridyn(&["check", "deck.yaml"], dir.path());
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(2), "{message}");
+    assert!(
+        message.contains(&format!(
+            "deck.yaml:{}: Blocks → All → Surface Correction",
+            line_of(&text, "Surface Correction")
+        )),
+        "{message}"
+    );
+    assert!(message.contains("planar"), "{message}");
+
+    // QuickGrid's default box-shaped families have no spherical bulk to compare with.
+    let (code, message) = check_with(
+        "Horizon: 1.5\n",
+        "Horizon: 1.5\n      Surface Correction: \"Force Normalization\"\n",
+    );
+    assert_eq!(code, 2, "{message}");
+    assert!(message.contains("NeighborhoodType"), "{message}");
+}

@@ -653,3 +653,42 @@ fn microplastic_needs_a_positive_yield_stretch_and_refuses_thermal_expansion() {
         &["Microplastic Bond Based", "no thermal strain"],
     );
 }
+
+#[test]
+fn surface_correction_names_its_choices_and_elastic_partial_volume_loads_as_elastic() {
+    let text = base_with(
+        "Horizon: 2\n",
+        "Horizon: 2\n      Surface Correction: \"Force Normalization\"\n",
+    );
+    let deck = yaml(&text).expect("a block with a surface correction loads");
+    assert_eq!(
+        deck.blocks[0].surface_correction.as_deref(),
+        Some("Force Normalization")
+    );
+
+    let text = base_with(
+        "Horizon: 2\n",
+        "Horizon: 2\n      Surface Correction: \"Normalize\"\n",
+    );
+    let line = line_containing(&text, "Surface Correction");
+    let message = error_message(yaml(&text));
+    assert_error(
+        &message,
+        YAML_NAME,
+        line,
+        "Blocks → Everything → Surface Correction",
+        &["Force Normalization"],
+    );
+
+    // Peridigm's `Elastic Partial Volume` is the LPS of `Elastic` (its partial volumes are
+    // the block's quadrature rule), with the same keys.
+    let text = base_with(
+        "Material Model: \"Elastic\"",
+        "Material Model: \"Elastic Partial Volume\"",
+    );
+    let deck = yaml(&text).expect("Elastic Partial Volume loads");
+    assert!(matches!(
+        deck.materials[0].model,
+        deck::MaterialModel::Elastic { .. }
+    ));
+}

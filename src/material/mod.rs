@@ -37,6 +37,8 @@ mod pals;
 mod quadrature_tests;
 mod registry;
 mod shear_correction;
+#[cfg(test)]
+mod surface_correction_tests;
 mod viscoelastic;
 
 pub use bond_based::{BondBased, BondBasedParameters};

@@ -12,6 +12,7 @@ mod node_sets;
 pub(crate) mod point_chunks;
 mod points;
 pub mod quadrature;
+pub mod surface_correction;
 #[cfg(test)]
 pub(crate) mod test_support;
 mod views;

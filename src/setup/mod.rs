@@ -10,6 +10,7 @@ mod node_sets;
 mod physics;
 pub mod quadrature;
 pub mod report;
+pub mod surface_correction;
 mod validate;
 
 pub use physics::build_physics;

@@ -40,7 +40,7 @@ fn influence(deck: &Deck) -> Result<InfluenceFunction, SetupError> {
 /// Builds and sets up the material (and damage model) of every block, each by its registry
 /// entry ([`crate::material::MATERIALS`], [`crate::damage::DAMAGE_MODELS`]).
 pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> {
-    let bond_volume = super::quadrature::bond_volumes(deck, model)?.map(|(weights, _)| weights);
+    let bond_volume = super::surface_correction::bond_weights(deck, model)?;
     let reference =
         ReferenceView::of(&model.bonds, &model.points).with_bond_volume(bond_volume.as_deref());
     let influence = influence(deck)?;

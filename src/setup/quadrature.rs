@@ -61,7 +61,7 @@ pub fn widening_blocks(deck: &Deck) -> Vec<(&str, QuadratureRule)> {
 }
 
 /// The rule of every point of `model` (by its block).
-fn point_rules(deck: &Deck, model: &Model) -> Result<Vec<QuadratureRule>, SetupError> {
+pub(super) fn point_rules(deck: &Deck, model: &Model) -> Result<Vec<QuadratureRule>, SetupError> {
     let rules = model
         .blocks
         .iter()

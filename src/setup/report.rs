@@ -258,9 +258,11 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
 /// Peridigm's critical time step over all blocks ([`crate::material::critical_time_step`] with
 /// each block's density, bulk modulus and horizon); `None` if no point has a neighbour.
 pub fn critical_time_step(deck: &Deck, model: &Model) -> Option<f64> {
-    let volumes = super::quadrature::bond_volumes(deck, model).ok().flatten();
+    let volumes = super::surface_correction::bond_weights(deck, model)
+        .ok()
+        .flatten();
     let reference = crate::material::ReferenceView::of(&model.bonds, &model.points)
-        .with_bond_volume(volumes.as_ref().map(|(weights, _)| &weights[..]));
+        .with_bond_volume(volumes.as_deref());
     model
         .blocks
         .iter()
@@ -435,6 +437,13 @@ fn petsc_resolution(_solver: &crate::io::deck::Solver, _model: &Model) -> Option
 fn block_plans(deck: &Deck, model: &Model) -> Vec<BlockPlan> {
     let mut plans = Vec::new();
     let volumes = super::quadrature::bond_volumes(deck, model).ok().flatten();
+    let factors = super::surface_correction::point_factors(
+        deck,
+        model,
+        volumes.as_ref().map(|(weights, _)| &weights[..]),
+    )
+    .ok()
+    .flatten();
     for block in &model.blocks {
         let entry = &deck.blocks[block.deck_block];
         let quadrature = volumes
@@ -468,6 +477,9 @@ fn block_plans(deck: &Deck, model: &Model) -> Vec<BlockPlan> {
             horizon_min: horizons.clone().fold(f64::INFINITY, f64::min),
             horizon_max: horizons.fold(0.0, f64::max),
             quadrature,
+            surface_correction: factors
+                .as_ref()
+                .and_then(|(factors, corrections)| correction_plan(block, factors, corrections)),
         });
     }
     plans
@@ -514,6 +526,32 @@ fn quadrature_plan(
         ));
     }
     Some(line)
+}
+
+/// The `surface correction` line of a corrected block: the correction, how many points it
+/// changes and the range of their factors g_i.
+fn correction_plan(
+    block: &crate::model::ModelBlock,
+    factors: &[f64],
+    corrections: &[crate::model::surface_correction::SurfaceCorrection],
+) -> Option<String> {
+    let first = *block.points.first()? as usize;
+    if !corrections[first].is_active() {
+        return None;
+    }
+    let of_block: Vec<f64> = block.points.iter().map(|&p| factors[p as usize]).collect();
+    let summary = crate::model::surface_correction::summarize(
+        &of_block,
+        &vec![corrections[first]; of_block.len()],
+    );
+    Some(format!(
+        "\"{}\": {} of {} points corrected, factors {:.4}–{:.4}",
+        corrections[first].name(),
+        summary.corrected_points,
+        of_block.len(),
+        summary.factor_range[0],
+        summary.factor_range[1]
+    ))
 }
 
 /// Every node set, with whether the mesh or the deck defines it.

@@ -52,6 +52,9 @@ fn validate_petsc_options(_deck: &Deck, _model: &Model) -> Result<(), DeckError>
 /// families; its driver makes the time-step checks on the families it finds).
 pub fn validate_points(deck: &Deck, model: &Model) -> Result<(), DeckError> {
     validate_restart(deck)?;
+    for entry in &deck.blocks {
+        super::surface_correction::block_correction(deck, entry)?;
+    }
     for output in &deck.outputs {
         requested_variables(deck, output)?;
     }

@@ -121,6 +121,16 @@ pub fn run_distributed(
             )),
         ));
     }
+    if let Some((block, correction)) = setup::surface_correction::corrected_blocks(deck).first() {
+        return Err(collective(
+            comm,
+            RunError::Unsupported(format!(
+                "Blocks → {block} → Surface Correction \"{}\" on {} ranks is not available: a bond's factor needs the whole families of both its ends, which a rank's ghost points do not have; remove the key or run on one rank",
+                correction.name(),
+                comm.size()
+            )),
+        ));
+    }
     let compute_classes = prepare_compute_classes(&deck.compute_classes, global)
         .map_err(|e| collective(comm, RunError::Unsupported(e)))?;
     let rank = comm.rank();

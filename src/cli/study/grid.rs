@@ -20,10 +20,7 @@ impl Variant {
         variations
             .iter()
             .zip(&self.values)
-            .map(|(v, value)| Override {
-                path: v.path.clone(),
-                value: value.clone(),
-            })
+            .flat_map(|(v, value)| v.assignments(value))
             .collect()
     }
 
@@ -74,11 +71,7 @@ fn origin(variation: &Variation) -> String {
 pub fn check(deck_path: &Path, variations: &[Variation]) -> Result<(), String> {
     for variation in variations {
         for value in &variation.values {
-            let change = Override {
-                path: variation.path.clone(),
-                value: value.clone(),
-            };
-            deck::load_with(deck_path, &[change]).map_err(|e| {
+            deck::load_with(deck_path, &variation.assignments(value)).map_err(|e| {
                 format!(
                     "{} \"{}={value}\": {e}",
                     origin(variation),
@@ -97,6 +90,7 @@ mod tests {
     fn variation(path: &str, values: &[&str]) -> Variation {
         Variation {
             path: path.split('.').map(String::from).collect(),
+            linked: Vec::new(),
             values: values.iter().map(|v| v.to_string()).collect(),
             line: None,
         }

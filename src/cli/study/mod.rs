@@ -42,7 +42,8 @@ pub struct StudyArgs {
     /// The deck (YAML or XML). Its `Study` section, if any, gives variations and measures too.
     pub deck: PathBuf,
     /// A variation, `KEY PATH=V1,V2,…` (e.g. `Blocks.My Block.Horizon=0.2,0.3`); may be
-    /// repeated: the study runs every combination.
+    /// repeated: the study runs every combination. Keys that change together: `KEY PATH &
+    /// KEY PATH=A1 & B1,A2 & B2`.
     #[arg(long = "vary", value_name = "KEY PATH=V1,V2,…")]
     pub vary: Vec<String>,
     /// A measured quantity at the final frame: `global:NAME` (a global variable),

@@ -70,6 +70,7 @@ pub fn search(setup: &Setup, path: &[String], tolerance: f64) -> Result<Vec<Tria
     let mut run = |safety_factor: f64| -> Result<bool, StudyError> {
         let variations = [Variation {
             path: path.to_vec(),
+            linked: Vec::new(),
             values: vec![format!("{safety_factor}")],
             line: None,
         }];

@@ -26,10 +26,17 @@ pub struct Block {
     /// `Quadrature Tolerance` (ours) — the relative accuracy EPS of `Quadrature: Adaptive`
     /// (a positive number; default 1e-4).
     pub quadrature_tolerance: Option<f64>,
+    /// `Surface Correction` (ours) — how the stiffness of points near free surfaces is
+    /// restored: `None` (default) or `Force Normalization` (Macek & Silling 2007; see
+    /// [`crate::model::surface_correction`]). `None` when absent.
+    pub surface_correction: Option<String>,
 }
 
 /// The values of `Blocks → … → Quadrature`.
 pub const QUADRATURE_NAMES: [&str; 5] = ["Full Volume", "PDLAMMPS", "HHB", "Exact", "Adaptive"];
+
+/// The values of `Blocks → … → Surface Correction`.
+pub const SURFACE_CORRECTION_NAMES: [&str; 2] = ["None", "Force Normalization"];
 
 impl Block {
     /// True when `Block Names` is `Default`/`default`: the group takes every block not named
@@ -104,6 +111,10 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Block, DeckError> {
         .get("Quadrature Tolerance")
         .map(|f| f.positive(ctx))
         .transpose()?;
+    let surface_correction = list
+        .get("Surface Correction")
+        .map(|f| f.choice(ctx, &SURFACE_CORRECTION_NAMES).map(str::to_string))
+        .transpose()?;
     list.finish(ctx, &[])?;
     Ok(Block {
         name: field.key().to_string(),
@@ -113,5 +124,6 @@ pub(crate) fn read(ctx: &mut Ctx, field: &Field) -> Result<Block, DeckError> {
         horizon,
         quadrature,
         quadrature_tolerance,
+        surface_correction,
     })
 }

@@ -87,7 +87,9 @@ impl ElasticConstants {
 /// `Material Model` and the model-specific parameters (Peridigm 1.5 material factory).
 #[derive(Debug, Clone, PartialEq)]
 pub enum MaterialModel {
-    /// `"Elastic"` — linear peridynamic solid (LPS), ordinary state-based.
+    /// `"Elastic"` — linear peridynamic solid (LPS), ordinary state-based. Peridigm's
+    /// `"Elastic Partial Volume"` reads as this model too (its partial volumes are the block's
+    /// quadrature rule).
     Elastic {
         /// `Apply Automatic Differentiation Jacobian` — AD tangent; default true.
         automatic_differentiation: bool,
@@ -348,6 +350,7 @@ pub enum BondAssociatedPlasticity {
 /// Every `Material Model` string we accept.
 const MODELS: &[&str] = &[
     "Elastic",
+    "Elastic Partial Volume",
     "Elastic Plastic",
     "Elastic Plastic Hardening",
     "Viscoelastic",
@@ -372,10 +375,6 @@ const MODELS: &[&str] = &[
 
 /// Models Peridigm knows only in special builds (or not at all in the public repository).
 const UNAVAILABLE: &[(&str, &str)] = &[
-    (
-        "Elastic Partial Volume",
-        "exists only in Peridigm builds with -DUSE_PV",
-    ),
     (
         "LCM",
         "exists only in Peridigm builds coupled to Albany (USE_LCM)",
@@ -576,7 +575,12 @@ fn read_model(
     ignored: &mut Vec<(&'static str, &'static str)>,
 ) -> Result<MaterialModel, DeckError> {
     Ok(match model_name {
-        "Elastic" => {
+        // Peridigm's `Elastic Partial Volume` (a -DUSE_PV build) is the LPS of `Elastic` whose
+        // bond volumes are the element–horizon intersections when the discretization computes
+        // them, else the cells: the block's quadrature rule (`Full Volume` unless the block or
+        // the discretization's `Element-Horizon Intersection Partial Volume Scheme` says
+        // otherwise) does exactly that for every material.
+        "Elastic" | "Elastic Partial Volume" => {
             ignored.push((
                 "Hourglass Coefficient",
                 "only correspondence models have hourglass control",
