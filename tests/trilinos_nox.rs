@@ -339,12 +339,16 @@ fn solver_report(dir: &std::path::Path) -> Vec<std::collections::HashMap<String,
 
 #[test]
 fn nox_jfnk_with_ml_on_the_one_hop_operator_agrees_with_the_native_jfnk_and_amg() {
+    // Absolute Tolerance 1 N: a Jacobian-free solve's finite-difference directional
+    // derivatives carry ~1e-8 relative noise, so on residuals that start near 4e9 N it cannot
+    // reach the 1e-3 N of the assembled strategies above (it stalls just above it).
     let jfnk_amg = |backend: &str| {
         bar(
             &format!("    Backend: \"{backend}\"\n    Peridigm Preconditioner: \"AMG\""),
             &nox_quasi_static(
                 "            Jacobian Operator: \"Matrix-Free\"\n            Tolerance: 1.0e-8",
-            ),
+            )
+            .replace("Absolute Tolerance: 1.0e-3", "Absolute Tolerance: 1.0"),
         )
     };
     let mut answers = Vec::new();
@@ -363,9 +367,9 @@ fn nox_jfnk_with_ml_on_the_one_hop_operator_agrees_with_the_native_jfnk_and_amg(
         .iter()
         .zip(&answers[1])
         .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-    // Both stop at ‖F‖ ≤ 1e-3 N on a stiffness of order 1e11 N/m (see the test above): each
-    // answer is within ~1e-14 m of equilibrium, so 1e-8 of the pull is the solver tolerance
-    // with a wide margin and far tighter than any wrong answer.
+    // Both stop at ‖F‖ ≤ 1 N on a stiffness of order 1e11 N/m (see the test above): each
+    // answer is within ~1e-11 m of equilibrium, so 1e-8 of the 0.012 m pull (1.2e-10 m) is the
+    // solver tolerance with a margin and far tighter than any wrong answer.
     assert!(
         difference <= 1e-8 * scale,
         "NOX JFNK + ML differs from native JFNK + AMG by {difference:e}"
@@ -382,6 +386,9 @@ fn nox_jfnk_with_ml_on_the_one_hop_operator_agrees_with_the_native_jfnk_and_amg(
     assert_eq!(nox[1]["Preconditioner_Setups"], 0.0, "{nox:?}");
     assert_eq!(nox[1]["Preconditioner_Setup_Seconds"], 0.0, "{nox:?}");
     for row in nox {
+        // Converged well before Max Solver Iterations (30).
+        assert!(row["Final_Residual"] <= 1.0, "{row:?}");
+        assert!(row["Newton_Iterations"] < 30.0, "{row:?}");
         // 99 free points × 3 = 297 unknowns, above ML's coarse size of 128 (SetDefaults
         // "SA"): at least one coarsening, and coarse operators add to the complexity.
         assert!(row["AMG_Levels"] >= 2.0, "{row:?}");
