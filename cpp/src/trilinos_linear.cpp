@@ -6,13 +6,16 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <climits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <BelosBlockCGSolMgr.hpp>
 #include <BelosBlockGmresSolMgr.hpp>
 #include <BelosEpetraAdapter.hpp>
 #include <BelosLinearProblem.hpp>
+#include <Epetra_CrsGraph.h>
 #include <Epetra_FECrsMatrix.h>
 #include <Epetra_Map.h>
 #include <Epetra_MpiComm.h>
@@ -22,6 +25,7 @@
 #include <Teuchos_ParameterList.hpp>
 #include <Teuchos_RCP.hpp>
 #include <ml_MultiLevelPreconditioner.h>
+#include <ml_struct.h>
 
 namespace peridyn {
 namespace trilinos {
@@ -89,30 +93,102 @@ MPI_Comm communicator_from_handle(std::int32_t handle) {
 LinearSystem::LinearSystem() = default;
 LinearSystem::~LinearSystem() = default;
 
+namespace {
+
+int narrow(std::size_t value, const char *what) {
+  if (value > static_cast<std::size_t>(INT_MAX)) {
+    throw std::runtime_error(std::string(what) + " exceed Epetra's 32-bit indices (2^31 - 1)");
+  }
+  return static_cast<int>(value);
+}
+
+// The column ids of CSR row r as Epetra's ints, in `columns`.
+void row_columns(rust::Slice<const std::size_t> row_offsets,
+                 rust::Slice<const std::size_t> column_gids, std::size_t r,
+                 std::vector<int> &columns) {
+  columns.clear();
+  for (std::size_t k = row_offsets[r]; k < row_offsets[r + 1]; ++k) {
+    columns.push_back(narrow(column_gids[k], "the column ids"));
+  }
+}
+
+// Writes the CSR values into the matrix built on the CSR's graph (entries that share a column
+// are summed, as InsertGlobalValues sums them).
+void fill_values(LinearSystem &system, rust::Slice<const std::int32_t> row_gids,
+                 rust::Slice<const std::size_t> row_offsets,
+                 rust::Slice<const std::size_t> column_gids, rust::Slice<const double> values) {
+  check(system.matrix->PutScalar(0.0), "Epetra_CrsMatrix::PutScalar");
+  std::vector<int> columns;
+  for (std::size_t r = 0; r < row_gids.size(); ++r) {
+    row_columns(row_offsets, column_gids, r, columns);
+    check(system.matrix->SumIntoGlobalValues(row_gids[r], static_cast<int>(columns.size()),
+                                             values.data() + row_offsets[r], columns.data()),
+          "Epetra_CrsMatrix::SumIntoGlobalValues");
+  }
+}
+
+} // namespace
+
 std::unique_ptr<LinearSystem>
 new_linear_system(std::int32_t communicator, rust::Slice<const std::int32_t> owned_rows,
                   rust::Slice<const std::int32_t> row_gids,
-                  rust::Slice<const std::int32_t> row_offsets,
-                  rust::Slice<const std::int32_t> column_gids,
+                  rust::Slice<const std::size_t> row_offsets,
+                  rust::Slice<const std::size_t> column_gids,
                   rust::Slice<const double> values) {
+  narrow(row_offsets[row_gids.size()], "the stored entries");
   auto system = std::make_unique<LinearSystem>();
   system->comm = std::make_unique<Epetra_MpiComm>(communicator_from_handle(communicator));
   system->map = std::make_unique<Epetra_Map>(-1, static_cast<int>(owned_rows.size()),
                                              owned_rows.data(), 0, *system->comm);
+  std::vector<int> columns;
+  const bool owned = row_gids.size() == owned_rows.size() &&
+                     std::equal(row_gids.begin(), row_gids.end(), owned_rows.begin());
+  if (owned) {
+    // Every row is this rank's: the graph is built first with each row's exact length (one
+    // allocation, nothing copied when it is completed), then the matrix on it, so that the
+    // values sit in one array the refills write into.
+    std::vector<int> lengths(row_gids.size());
+    for (std::size_t r = 0; r < row_gids.size(); ++r) {
+      lengths[r] = static_cast<int>(row_offsets[r + 1] - row_offsets[r]);
+    }
+    Epetra_CrsGraph graph(Copy, *system->map, lengths.data(), true);
+    for (std::size_t r = 0; r < row_gids.size(); ++r) {
+      row_columns(row_offsets, column_gids, r, columns);
+      check(graph.InsertGlobalIndices(row_gids[r], static_cast<int>(columns.size()),
+                                      columns.data()),
+            "Epetra_CrsGraph::InsertGlobalIndices");
+    }
+    check(graph.FillComplete(), "Epetra_CrsGraph::FillComplete");
+    system->matrix = std::make_unique<Epetra_FECrsMatrix>(Copy, graph);
+    fill_values(*system, row_gids, row_offsets, column_gids, values);
+    check(system->matrix->GlobalAssemble(), "Epetra_FECrsMatrix::GlobalAssemble");
+    return system;
+  }
+  // Rows owned by other ranks are sent to them when the matrix is assembled.
   int longest_row = 0;
   for (std::size_t r = 0; r < row_gids.size(); ++r) {
-    longest_row = std::max(longest_row, row_offsets[r + 1] - row_offsets[r]);
+    longest_row = std::max(longest_row, static_cast<int>(row_offsets[r + 1] - row_offsets[r]));
   }
   system->matrix = std::make_unique<Epetra_FECrsMatrix>(Copy, *system->map, longest_row);
   for (std::size_t r = 0; r < row_gids.size(); ++r) {
-    const int start = row_offsets[r];
-    check(system->matrix->InsertGlobalValues(row_gids[r], row_offsets[r + 1] - start,
-                                             values.data() + start,
-                                             column_gids.data() + start),
+    row_columns(row_offsets, column_gids, r, columns);
+    check(system->matrix->InsertGlobalValues(row_gids[r], static_cast<int>(columns.size()),
+                                             values.data() + row_offsets[r], columns.data()),
           "Epetra_FECrsMatrix::InsertGlobalValues");
   }
   check(system->matrix->GlobalAssemble(), "Epetra_FECrsMatrix::GlobalAssemble");
   return system;
+}
+
+void refill_linear_system(LinearSystem &system, rust::Slice<const std::int32_t> row_gids,
+                          rust::Slice<const std::size_t> row_offsets,
+                          rust::Slice<const std::size_t> column_gids,
+                          rust::Slice<const double> values) {
+  if (!system.matrix->StaticGraph()) {
+    throw std::runtime_error("the Epetra matrix was not built on a fixed graph; it cannot be refilled");
+  }
+  system.preconditioner.reset();
+  fill_values(system, row_gids, row_offsets, column_gids, values);
 }
 
 void multiply(const LinearSystem &system, rust::Slice<const double> x, rust::Slice<double> y) {
@@ -134,16 +210,41 @@ void set_ilu_preconditioner(LinearSystem &system, std::int32_t fill_level) {
   set_ifpack(system, "ILU", params);
 }
 
-void set_ml_preconditioner(LinearSystem &system, std::int32_t pde_equations) {
+std::unique_ptr<Epetra_Operator> build_ml(const Epetra_RowMatrix &matrix,
+                                          std::int32_t pde_equations,
+                                          std::vector<double> &null_space, std::int32_t modes,
+                                          MultigridShape *shape) {
+  int agreed = pde_equations;
+  check(matrix.Comm().MinAll(&pde_equations, &agreed, 1), "Epetra_Comm::MinAll");
   Teuchos::ParameterList params;
   ML_Epetra::SetDefaults("SA", params);
   params.set("ML output", 0);
-  params.set("PDE equations", static_cast<int>(pde_equations));
-  auto ml = std::make_unique<ML_Epetra::MultiLevelPreconditioner>(*system.matrix, params, true);
+  params.set("PDE equations", agreed);
+  if (!null_space.empty()) {
+    params.set("null space: type", std::string("pre-computed"));
+    params.set("null space: dimension", static_cast<int>(modes));
+    params.set("null space: vectors", null_space.data());
+  }
+  auto ml = std::make_unique<ML_Epetra::MultiLevelPreconditioner>(matrix, params, true);
   if (!ml->IsPreconditionerComputed()) {
     throw std::runtime_error("ML could not build the multigrid hierarchy");
   }
-  system.preconditioner = std::move(ml);
+  if (shape != nullptr) {
+    double complexity = 0.0;
+    double fine_entries = 0.0;
+    ml->Complexities(complexity, fine_entries);
+    shape->levels = ml->GetML()->ML_num_actual_levels;
+    shape->operator_complexity = complexity;
+  }
+  return ml;
+}
+
+void set_ml_preconditioner(LinearSystem &system, std::int32_t pde_equations,
+                           rust::Slice<const double> null_space, std::int32_t modes) {
+  system.preconditioner.reset();
+  system.null_space.assign(null_space.begin(), null_space.end());
+  system.preconditioner =
+      build_ml(*system.matrix, pde_equations, system.null_space, modes, nullptr);
 }
 
 BelosOutcome belos_solve(const LinearSystem &system, bool gmres, rust::Slice<const double> rhs,

@@ -7,9 +7,11 @@
 
 #include <mpi.h>
 
+#include <chrono>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <Epetra_CrsMatrix.h>
 #include <Epetra_Map.h>
@@ -28,6 +30,13 @@
 
 namespace peridyn {
 namespace trilinos {
+
+// The kept matrix and ML (a Multigrid, held through its base type so that this struct does not
+// name a type of the anonymous namespace).
+struct NoxMultigrid::State {
+  Teuchos::RCP<Epetra_CrsMatrix> matrix;
+  Teuchos::RCP<Epetra_Operator> multigrid;
+};
 
 namespace {
 
@@ -99,6 +108,57 @@ private:
   RCP<Epetra_CrsMatrix> inverse_;
 };
 
+// ML smoothed aggregation on the preconditioner matrix, with the near-null space the layout
+// carries, applied as AztecOO's "User Defined" preconditioner. The hierarchy is rebuilt only
+// when the matrix was refilled (Rust decides when, see nox_problem.rs), and kept otherwise.
+class Multigrid : public Epetra_Operator {
+public:
+  Multigrid(RCP<Epetra_CrsMatrix> matrix, const NoxLayout &layout)
+      : matrix_(std::move(matrix)), null_space_(layout.null_space.begin(), layout.null_space.end()),
+        pde_equations_(layout.pde_equations), modes_(layout.null_space_modes) {}
+
+  // Builds the hierarchy on the matrix's current values (the old one is released first).
+  void rebuild() {
+    ml_.reset();
+    const auto start = std::chrono::steady_clock::now();
+    ml_ = build_ml(*matrix_, pde_equations_, null_space_, modes_, &shape_);
+    seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ++setups_;
+  }
+
+  int setups() const { return setups_; }
+  double seconds() const { return seconds_; }
+  const MultigridShape &shape() const { return shape_; }
+
+  int SetUseTranspose(bool) override { return -1; }
+  int Apply(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
+  // AztecOO preconditions in place (x and y view the same array): the input is copied first.
+  int ApplyInverse(const Epetra_MultiVector &x, Epetra_MultiVector &y) const override {
+    if (!ml_) {
+      return -1;
+    }
+    const Epetra_MultiVector input(x);
+    return ml_->ApplyInverse(input, y);
+  }
+  double NormInf() const override { return 0.0; }
+  const char *Label() const override { return "peridyn ML on the one-hop operator"; }
+  bool UseTranspose() const override { return false; }
+  bool HasNormInf() const override { return false; }
+  const Epetra_Comm &Comm() const override { return matrix_->Comm(); }
+  const Epetra_Map &OperatorDomainMap() const override { return matrix_->OperatorDomainMap(); }
+  const Epetra_Map &OperatorRangeMap() const override { return matrix_->OperatorRangeMap(); }
+
+private:
+  RCP<Epetra_CrsMatrix> matrix_;
+  std::vector<double> null_space_;
+  std::int32_t pde_equations_;
+  std::int32_t modes_;
+  std::unique_ptr<Epetra_Operator> ml_;
+  MultigridShape shape_;
+  int setups_ = 0;
+  double seconds_ = 0.0;
+};
+
 // The NOX interfaces, each forwarding to the Rust problem.
 class Callbacks : public NOX::Epetra::Interface::Required,
                   public NOX::Epetra::Interface::Jacobian,
@@ -109,6 +169,8 @@ public:
 
   RCP<Epetra_CrsMatrix> jacobian;
   RCP<Epetra_CrsMatrix> preconditioner;
+  // Set when ML is built on the preconditioner matrix (rebuilt after each refill).
+  RCP<Multigrid> multigrid;
 
   bool computeF(const Epetra_Vector &x, Epetra_Vector &f, FillType fill) override {
     try {
@@ -142,6 +204,9 @@ private:
                                            : problem_.jacobian(view(x), out);
       if (fresh) {
         replace_values(matrix, rows_, offsets, columns, values_);
+        if (is_preconditioner && !multigrid.is_null()) {
+          multigrid->rebuild();
+        }
       }
       return true;
     } catch (const rust::Error &) {
@@ -171,7 +236,7 @@ RCP<NOX::Epetra::LinearSystemAztecOO>
 linear_system(const RCP<Callbacks> &callbacks, const Epetra_Map &map,
               rust::Slice<const std::int32_t> rows, const NoxLayout &layout,
               Teuchos::ParameterList &printing, Teuchos::ParameterList &linear_solver,
-              const NOX::Epetra::Vector &clone) {
+              const NOX::Epetra::Vector &clone, NoxMultigrid &kept) {
   // Typed handles: the LinearSystemAztecOO constructors overload on the interface type.
   RCP<NOX::Epetra::Interface::Required> required = callbacks;
   if (!layout.matrix_free) {
@@ -189,11 +254,24 @@ linear_system(const RCP<Callbacks> &callbacks, const Epetra_Map &map,
     return rcp(new NOX::Epetra::LinearSystemAztecOO(printing, linear_solver, required,
                                                     directional, jacobian, clone));
   }
-  callbacks->preconditioner =
-      pattern_matrix(map, rows, layout.preconditioner_offsets, layout.preconditioner_columns);
+  if (layout.multigrid && layout.reuse_multigrid && kept.state) {
+    callbacks->preconditioner = kept.state->matrix;
+    callbacks->multigrid = Teuchos::rcp_dynamic_cast<Multigrid>(kept.state->multigrid, true);
+  } else {
+    callbacks->preconditioner =
+        pattern_matrix(map, rows, layout.preconditioner_offsets, layout.preconditioner_columns);
+  }
   RCP<NOX::Epetra::Interface::Preconditioner> preconditioner_fill = callbacks;
   RCP<Epetra_Operator> preconditioner = callbacks->preconditioner;
-  if (layout.preconditioner_is_inverse) {
+  if (layout.multigrid) {
+    if (callbacks->multigrid.is_null()) {
+      callbacks->multigrid = rcp(new Multigrid(callbacks->preconditioner, layout));
+      kept.state = std::make_unique<NoxMultigrid::State>();
+      kept.state->matrix = callbacks->preconditioner;
+      kept.state->multigrid = callbacks->multigrid;
+    }
+    preconditioner = callbacks->multigrid;
+  } else if (layout.preconditioner_is_inverse) {
     preconditioner = rcp(new InverseByProduct(callbacks->preconditioner));
   }
   return rcp(new NOX::Epetra::LinearSystemAztecOO(printing, linear_solver, directional, jacobian,
@@ -212,7 +290,7 @@ RCP<NOX::StatusTest::Combo> status_tests(const NoxLayout &layout) {
 
 NoxOutcome solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows,
                  const NoxLayout &layout, rust::Slice<const Parameter> parameters,
-                 rust::Slice<double> x) {
+                 rust::Slice<double> x, NoxMultigrid &kept) {
   Epetra_MpiComm comm(communicator_from_handle(layout.communicator));
   Epetra_Map map(-1, static_cast<int>(owned_rows.size()), owned_rows.data(), 0, comm);
   auto params = rcp(new Teuchos::ParameterList("NOX"));
@@ -222,7 +300,12 @@ NoxOutcome solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows
   auto callbacks = rcp(new Callbacks(problem, owned_rows, layout));
   auto guess = rcp(new Epetra_Vector(Copy, map, x.data()));
   NOX::Epetra::Vector clone(guess, NOX::Epetra::Vector::CreateView);
-  auto linear = linear_system(callbacks, map, owned_rows, layout, printing, linear_solver, clone);
+  auto linear =
+      linear_system(callbacks, map, owned_rows, layout, printing, linear_solver, clone, kept);
+  // ML's setups before this solve (a kept hierarchy counts those of earlier solves).
+  const int setups_before = callbacks->multigrid.is_null() ? 0 : callbacks->multigrid->setups();
+  const double seconds_before =
+      callbacks->multigrid.is_null() ? 0.0 : callbacks->multigrid->seconds();
   RCP<NOX::Epetra::Interface::Required> required = callbacks;
   auto group = rcp(new NOX::Epetra::Group(printing, required, clone, linear));
   RCP<NOX::Solver::Generic> solver = NOX::Solver::buildSolver(group, status_tests(layout), params);
@@ -237,18 +320,30 @@ NoxOutcome solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows
   const auto &solution =
       dynamic_cast<const NOX::Epetra::Vector &>(solver->getSolutionGroup().getX()).getEpetraVector();
   std::copy(solution.Values(), solution.Values() + solution.MyLength(), x.data());
-  return NoxOutcome{status == NOX::StatusTest::Converged, iterations,
-                    total_linear_iterations(linear_solver),
-                    solver->getSolutionGroup().getF().norm()};
+  NoxOutcome outcome{status == NOX::StatusTest::Converged, iterations,
+                     total_linear_iterations(linear_solver),
+                     solver->getSolutionGroup().getF().norm(), 0, 0.0, 0, 0.0};
+  if (!callbacks->multigrid.is_null()) {
+    outcome.preconditioner_setups = callbacks->multigrid->setups() - setups_before;
+    outcome.preconditioner_seconds = callbacks->multigrid->seconds() - seconds_before;
+    outcome.multigrid_levels = callbacks->multigrid->shape().levels;
+    outcome.operator_complexity = callbacks->multigrid->shape().operator_complexity;
+  }
+  return outcome;
 }
 
 } // namespace
 
+NoxMultigrid::NoxMultigrid() = default;
+NoxMultigrid::~NoxMultigrid() = default;
+
+std::unique_ptr<NoxMultigrid> new_nox_multigrid() { return std::make_unique<NoxMultigrid>(); }
+
 NoxOutcome nox_solve(NoxProblem &problem, rust::Slice<const std::int32_t> owned_rows,
                      const NoxLayout &layout, rust::Slice<const Parameter> parameters,
-                     rust::Slice<double> x) {
+                     rust::Slice<double> x, NoxMultigrid &kept) {
   try {
-    return solve(problem, owned_rows, layout, parameters, x);
+    return solve(problem, owned_rows, layout, parameters, x, kept);
   } catch (const std::exception &e) {
     throw std::runtime_error(e.what());
   } catch (const char *message) {

@@ -94,6 +94,14 @@ pub trait LinearSolver {
         let _ = (modes, count);
     }
 
+    /// Offers how the unknowns of the matrices to come group into points (offsets: group g
+    /// holds unknowns `groups[g]..groups[g + 1]`, one to three each, as
+    /// [`problem::NonlinearProblem::groups`]), for algebraic multigrid preconditioners that
+    /// aggregate whole points; the default ignores it.
+    fn set_point_groups(&mut self, groups: &[usize]) {
+        let _ = groups;
+    }
+
     /// Solves a system distributed over the MPI ranks (collective): this rank holds the rows
     /// with global ids `rows` (`matrix` has one row per id, its columns are global ids) and
     /// the matching entries of `rhs` and `x`. Solvers that run on one process only say so.

@@ -187,8 +187,9 @@ pub fn strategy(
 }
 
 /// Belos through the Trilinos bridge: `CG` and `Automatic` are `BlockCG` (the stiffness is
-/// symmetric), `GMRES` is `BlockGMRES`. ML aggregates single unknowns (`PDE equations` 1):
-/// the reduced system drops prescribed components, so points carry one to three unknowns.
+/// symmetric), `GMRES` is `BlockGMRES`. ML gets the rigid-body modes and the point groups
+/// from Newton at each solve; `PDE equations` 1 here is only its fallback without groups (the
+/// reduced system drops prescribed components, so points carry one to three unknowns).
 #[cfg(feature = "trilinos")]
 fn trilinos_strategy(
     solver: &Solver,

@@ -361,6 +361,7 @@ fn correct(
             if let Some((modes, count)) = problem.near_null_space() {
                 solver.set_near_null_space(&modes, count);
             }
+            solver.set_point_groups(problem.groups());
             let result = match problem.global_ids() {
                 Some(rows) => solver.solve_distributed(rows, &matrix, &rhs, correction),
                 None => solver.solve(&matrix, &rhs, correction),

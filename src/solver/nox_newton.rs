@@ -28,24 +28,37 @@
 //!   cases, which for `User Defined` preconditions with the blocks themselves instead of their
 //!   inverses — its `NOX_QS_MatrixFree_3x3Prec` regression needs 12 Newton iterations where the
 //!   block-Jacobi preconditioner needs 3. The blocks are refreshed after `Max Age Of Prec`
-//!   reuses.
+//!   reuses;
+//! * `Peridigm Preconditioner: "AMG"` (peridyn's, with `Jacobian Operator: "Matrix-Free"`; the
+//!   linear solver's `Preconditioner` absent or `ML`): NOX's matrix-free Jacobian
+//!   preconditioned by ML smoothed aggregation built on the one-hop operator
+//!   ([`crate::backend::problem::NonlinearProblem::preconditioning_operator`]) with the six
+//!   rigid-body modes as its near-null space and `PDE equations` 3 when every point keeps its
+//!   three unknowns, applied as NOX's `User Defined` preconditioner, kept across load steps and
+//!   rebuilt only when bonds broke or points were held, so a run without damage builds it once (see
+//!   [`crate::backend::trilinos::nox_problem`]). The solver CSV reports ML's setups,
+//!   their time (operator assembly included), levels, operator complexity and AztecOO's GMRES
+//!   restart.
 
 use crate::backend::factory;
 use crate::backend::problem::NonlinearProblem;
-use crate::backend::trilinos::nox_problem::{self, NoxSettings};
+use crate::backend::trilinos::nox_problem::{self, KeptMultigrid, NoxSettings};
 pub use crate::backend::trilinos::nox_problem::{MatrixFreePreconditioner, NoxJacobian};
 use crate::backend::{SolveError, Unsupported};
 use crate::io::deck::{Integrator, ParameterValue, PeridigmPreconditioner, Solver};
+use crate::solver::multigrid::PreconditionerReport;
 use crate::solver::newton::{NewtonReport, NewtonSettings, NonlinearSolver};
 use crate::solver::problem::{Origin, Physical, PhysicsProblem};
 use std::time::Instant;
 
 /// `NOXQuasiStatic` on the Trilinos backend.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug)]
 pub struct NoxNewton {
     parameters: Vec<(String, ParameterValue)>,
     linear_solver_path: Vec<String>,
     jacobian: NoxJacobian,
+    /// The ML hierarchy of `Peridigm Preconditioner: "AMG"`, kept across load steps.
+    multigrid: KeptMultigrid,
 }
 
 impl NoxNewton {
@@ -71,16 +84,32 @@ impl NoxNewton {
             Some(ParameterValue::String(s)) => Some(s),
             _ => None,
         };
-        if solver.peridigm_preconditioner == PeridigmPreconditioner::Amg {
+        let matrix_free = text(linear_key("Jacobian Operator")).as_deref() == Some("Matrix-Free")
+            && solver.peridigm_preconditioner != PeridigmPreconditioner::FullTangent;
+        if solver.peridigm_preconditioner == PeridigmPreconditioner::Amg && !matrix_free {
             return Err(Unsupported(format!(
-                "solver \"{}\": Peridigm Preconditioner \"AMG\" is the native backend's multigrid: add Backend: \"Native\" to this solver list, or choose \"Full Tangent\", \"Block 3x3\" or \"None\"",
+                "solver \"{}\": Peridigm Preconditioner \"AMG\" on NOX preconditions the Jacobian-free Newton–Krylov solve: \
+                 add Jacobian Operator: \"Matrix-Free\" to NOXQuasiStatic → Direction → {direction} → Linear Solver, \
+                 or choose \"Full Tangent\", \"Block 3x3\" or \"None\"",
                 solver.name
             )));
         }
-        let matrix_free = text(linear_key("Jacobian Operator")).as_deref() == Some("Matrix-Free")
-            && solver.peridigm_preconditioner != PeridigmPreconditioner::FullTangent;
         let jacobian = if matrix_free {
             let preconditioner = match text(linear_key("Preconditioner")).as_deref() {
+                // peridyn's multigrid on NOX: ML on the one-hop operator, whatever NOX's own
+                // preconditioner key would have been (only ML, or nothing, is consistent).
+                None | Some("ML" | "User Defined")
+                    if solver.peridigm_preconditioner == PeridigmPreconditioner::Amg =>
+                {
+                    MatrixFreePreconditioner::Multigrid
+                }
+                Some(other) if solver.peridigm_preconditioner == PeridigmPreconditioner::Amg => {
+                    return Err(Unsupported(format!(
+                        "solver \"{}\": Peridigm Preconditioner \"AMG\" is ML on the one-hop operator, but NOXQuasiStatic → Direction → {direction} → Linear Solver → Preconditioner is \"{other}\": \
+                         remove that key (or set it to \"ML\"), or choose another Peridigm Preconditioner",
+                        solver.name
+                    )))
+                }
                 // Without the key NOX would run unpreconditioned, which stalls on anything
                 // real (ffi.md gotcha 9); `Block 3x3` then means what it says, as on the
                 // native backend.
@@ -114,7 +143,8 @@ impl NoxNewton {
         };
         let mut parameters = deck.nox.clone();
         if let NoxJacobian::MatrixFree {
-            preconditioner: MatrixFreePreconditioner::InvertedBlocks,
+            preconditioner:
+                MatrixFreePreconditioner::InvertedBlocks | MatrixFreePreconditioner::Multigrid,
             ..
         } = jacobian
         {
@@ -134,6 +164,7 @@ impl NoxNewton {
             parameters,
             linear_solver_path,
             jacobian,
+            multigrid: KeptMultigrid::default(),
         })
     }
 
@@ -141,7 +172,30 @@ impl NoxNewton {
     pub fn jacobian(&self) -> NoxJacobian {
         self.jacobian
     }
+
+    /// AztecOO's GMRES restart: the linear solver's `Size of Krylov Subspace`, NOX's default
+    /// 300 without it; 0 when its `Aztec Solver` is not GMRES (the default).
+    fn gmres_restart(&self) -> usize {
+        let path: Vec<&str> = self.linear_solver_path.iter().map(String::as_str).collect();
+        let key = |name: &str| {
+            let mut full = path.clone();
+            full.push(name);
+            lookup(&self.parameters, &full)
+        };
+        match key("Aztec Solver") {
+            None => {}
+            Some(ParameterValue::String(s)) if s == "GMRES" => {}
+            Some(_) => return 0,
+        }
+        match key("Size of Krylov Subspace") {
+            Some(ParameterValue::Int(n)) if *n > 0 => *n as usize,
+            _ => NOX_KRYLOV_SUBSPACE,
+        }
+    }
 }
+
+/// NOX's default `Size of Krylov Subspace` of AztecOO's GMRES.
+const NOX_KRYLOV_SUBSPACE: usize = 300;
 
 /// Sets `name = value` in the sublist at `path`, creating the sublists that are missing.
 fn set_at(
@@ -212,6 +266,8 @@ impl NonlinearSolver for NoxNewton {
                     MatrixFreePreconditioner::None => "none",
                     MatrixFreePreconditioner::InvertedBlocks => "inverted 3x3 blocks",
                     MatrixFreePreconditioner::Blocks => "3x3 blocks factored by the library",
+                    MatrixFreePreconditioner::Multigrid =>
+                        "ML smoothed aggregation on the one-hop operator",
                 }
             ),
         }
@@ -235,7 +291,25 @@ impl NonlinearSolver for NoxNewton {
             max_iterations: settings.max_iterations,
             print_iterations: settings.print_iterations,
         };
-        let solved = nox_problem::solve(&mut problem, &nox)?;
+        let solved = nox_problem::solve(&mut problem, &nox, &mut self.multigrid)?;
+        let multigrid = matches!(
+            self.jacobian,
+            NoxJacobian::MatrixFree {
+                preconditioner: MatrixFreePreconditioner::Multigrid,
+                ..
+            }
+        );
+        let preconditioner = if multigrid {
+            PreconditionerReport {
+                setup_seconds: solved.operator_seconds + solved.report.multigrid_seconds,
+                setups: solved.report.multigrid_setups,
+                levels: solved.report.multigrid_levels,
+                operator_complexity: solved.report.operator_complexity,
+                gmres_restart: self.gmres_restart(),
+            }
+        } else {
+            PreconditionerReport::default()
+        };
         Ok(NewtonReport {
             converged: solved.report.converged,
             iterations: solved.report.iterations,
@@ -247,7 +321,7 @@ impl NonlinearSolver for NoxNewton {
             tangent_bytes: problem.jacobian_bytes(),
             linear_method: "AztecOO (NOX)".to_string(),
             seconds: start.elapsed().as_secs_f64(),
-            preconditioner: Default::default(),
+            preconditioner,
         })
     }
 }
@@ -292,17 +366,39 @@ Solver:
     }
 
     #[test]
-    fn amg_is_refused_with_the_native_backend_as_the_way_out() {
-        let Err(error) = nox_result(
+    fn amg_is_ml_on_the_one_hop_operator_and_needs_the_matrix_free_operator() {
+        let solver = nox_of(
             "  Peridigm Preconditioner: \"AMG\"",
             "          Jacobian Operator: \"Matrix-Free\"",
-        ) else {
-            panic!("NOX accepted the native AMG");
-        };
-        assert!(
-            error.0.contains("\"AMG\"") && error.0.contains("Backend: \"Native\""),
-            "{error}"
         );
+        assert!(matches!(
+            solver.jacobian(),
+            NoxJacobian::MatrixFree {
+                preconditioner: MatrixFreePreconditioner::Multigrid,
+                ..
+            }
+        ));
+        // ML is applied as NOX's user-defined preconditioner, restarting at NOX's 300.
+        let path = ["Direction", "Newton", "Linear Solver", "Preconditioner"];
+        assert_eq!(
+            lookup(&solver.parameters, &path),
+            Some(&ParameterValue::String("User Defined".into()))
+        );
+        assert_eq!(solver.gmres_restart(), 300);
+        let Err(error) = nox_result(
+            "  Peridigm Preconditioner: \"AMG\"",
+            "          Jacobian Operator: \"Have Jacobian\"",
+        ) else {
+            panic!("NOX accepted AMG with an assembled Jacobian");
+        };
+        assert!(error.0.contains("Matrix-Free"), "{error}");
+        let Err(error) = nox_result(
+            "  Peridigm Preconditioner: \"AMG\"",
+            "          Jacobian Operator: \"Matrix-Free\"\n          Preconditioner: \"Ifpack\"",
+        ) else {
+            panic!("NOX accepted AMG with Ifpack");
+        };
+        assert!(error.0.contains("\"Ifpack\""), "{error}");
     }
 
     #[test]

@@ -54,15 +54,25 @@ pub(crate) mod bridge {
 
         /// Row map over `owned_rows` on the communicator with the Fortran handle
         /// `communicator` (`MPI_Comm_c2f`), and an `Epetra_FECrsMatrix` filled from the CSR
-        /// rows `row_gids`.
+        /// rows `row_gids` (on a fixed graph when every row is owned).
         fn new_linear_system(
             communicator: i32,
             owned_rows: &[i32],
             row_gids: &[i32],
-            row_offsets: &[i32],
-            column_gids: &[i32],
+            row_offsets: &[usize],
+            column_gids: &[usize],
             values: &[f64],
         ) -> Result<UniquePtr<LinearSystem>>;
+
+        /// New values for the matrix, in the order of the CSR it was built from (same
+        /// pattern); the storage is reused and the preconditioner dropped.
+        fn refill_linear_system(
+            system: Pin<&mut LinearSystem>,
+            row_gids: &[i32],
+            row_offsets: &[usize],
+            column_gids: &[usize],
+            values: &[f64],
+        ) -> Result<()>;
 
         /// y = A x over the owned rows.
         fn multiply(system: &LinearSystem, x: &[f64], y: &mut [f64]) -> Result<()>;
@@ -71,8 +81,14 @@ pub(crate) mod bridge {
         fn set_jacobi_preconditioner(system: Pin<&mut LinearSystem>, sweeps: i32) -> Result<()>;
         /// Ifpack ILU(k).
         fn set_ilu_preconditioner(system: Pin<&mut LinearSystem>, fill_level: i32) -> Result<()>;
-        /// ML smoothed aggregation.
-        fn set_ml_preconditioner(system: Pin<&mut LinearSystem>, pde_equations: i32) -> Result<()>;
+        /// ML smoothed aggregation with `pde_equations` unknowns per node and, unless
+        /// `null_space` is empty, the near-null space of `modes` column-major vectors.
+        fn set_ml_preconditioner(
+            system: Pin<&mut LinearSystem>,
+            pde_equations: i32,
+            null_space: &[f64],
+            modes: i32,
+        ) -> Result<()>;
 
         /// Belos BlockCG (`gmres` false) or BlockGMRES with the parameter list built from
         /// `parameters` (every setting comes from Rust).

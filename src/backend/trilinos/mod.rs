@@ -2,10 +2,20 @@
 //! matrices, preconditioned by Ifpack or ML, through the `cxx` bridge in [`ffi`] and the shim
 //! in `cpp/src/trilinos_linear.cpp` (DESIGN §7–8).
 //!
-//! Each [`TrilinosLinearSolver::solve`] builds an Epetra row map, an `Epetra_FECrsMatrix`
-//! from the CSR, the chosen preconditioner and a Belos solver manager, and drops them all on
-//! return. Everything that is decided (validation, method names, the achieved residual, which
-//! failure is which [`SolveError`]) happens here; the C++ side only adapts types.
+//! The first [`TrilinosLinearSolver::solve`] builds an Epetra row map, the graph of the CSR
+//! with each row's exact length and an `Epetra_FECrsMatrix` on it; the solver keeps them, and
+//! the following solves of a matrix with the same pattern (Newton's iterations, the load steps
+//! after) write the new values into that matrix instead of building another one. A matrix of
+//! another pattern replaces it. The preconditioner (rebuilt on the new values) and a Belos
+//! solver manager are made for each solve. Everything that is decided (validation, method
+//! names, the achieved residual, which failure is which [`SolveError`]) happens here; the C++
+//! side only adapts types.
+//!
+//! ML gets the near-null space the caller offers ([`LinearSolver::set_near_null_space`]: the
+//! six rigid-body modes for elasticity, over the unknowns that remain once prescribed dofs are
+//! eliminated) as `null space: type` = `pre-computed`, and aggregates whole points (`PDE
+//! equations` 3) when every point keeps its three unknowns on every rank
+//! ([`LinearSolver::set_point_groups`]), single unknowns otherwise.
 //!
 //! The Epetra objects live on an `Epetra_MpiComm` built from the communicator Rust hands over
 //! as a Fortran handle ([`crate::mpi_session::fortran_handle`]). MPI is started and finalised on
@@ -79,8 +89,9 @@ pub struct TrilinosSettings {
     pub preconditioner: TrilinosPreconditioner,
     /// Tolerance (relative to ‖b‖), iteration limit and GMRES restart (Belos `Num Blocks`).
     pub krylov: KrylovSettings,
-    /// Unknowns per node for ML's aggregation (`PDE equations`): 3 for displacement
-    /// problems whose unknowns come in x, y, z triples, 1 otherwise. Default 1.
+    /// Unknowns per node for ML's aggregation (`PDE equations`) when the caller offers no
+    /// point groups ([`LinearSolver::set_point_groups`]): 3 for displacement problems whose
+    /// unknowns come in x, y, z triples, 1 otherwise. Default 1.
     pub pde_equations: u32,
     /// Communicator.
     pub communicator: Communicator,
@@ -103,9 +114,57 @@ impl Default for TrilinosSettings {
 }
 
 /// A [`LinearSolver`] that hands each system to Belos (see the module docs).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug)]
 pub struct TrilinosLinearSolver {
     settings: TrilinosSettings,
+    /// The near-null space for ML, column-major (one mode after the other), and its modes.
+    null_space: Option<(Vec<f64>, usize)>,
+    /// Every point group of the coming matrices holds three unknowns (`None`: not offered).
+    whole_points: Option<bool>,
+    /// The Epetra matrix of the last solve, refilled when the next matrix has its pattern.
+    kept: Option<KeptSystem>,
+    /// Epetra matrices built so far (refills not counted).
+    builds: usize,
+}
+
+/// An Epetra system kept between solves, with the fingerprint of the CSR pattern it was
+/// built from.
+struct KeptSystem {
+    system: cxx::UniquePtr<bridge::LinearSystem>,
+    pattern: u64,
+}
+
+impl std::fmt::Debug for KeptSystem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "KeptSystem {{ pattern: {:#x} }}", self.pattern)
+    }
+}
+
+impl Drop for TrilinosLinearSolver {
+    /// The kept Epetra objects are released while this thread has MPI to itself (inside a
+    /// solve, which holds the turn already, they are replaced without taking it again).
+    fn drop(&mut self) {
+        if self.kept.is_some() {
+            let _turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
+            self.kept = None;
+        }
+    }
+}
+
+/// A 64-bit multiply–rotate hash (the FxHash step) of the rows, offsets and columns of a CSR
+/// pattern: tells a refill of the same pattern from a new one (a collision would need two
+/// different patterns of the same system to hash alike, which only adversarial input makes
+/// likely).
+fn pattern_fingerprint(matrix: &IndexedCsr) -> u64 {
+    const K: u64 = 0x51_7c_c1_b7_27_22_0a_95;
+    let mut hash = 0u64;
+    let mut add = |word: u64| hash = (hash.rotate_left(5) ^ word).wrapping_mul(K);
+    add(u64::from(matrix.distributed));
+    add(matrix.rows.len() as u64);
+    matrix.rows.iter().for_each(|&r| add(r as u64));
+    matrix.offsets.iter().for_each(|&o| add(o as u64));
+    matrix.columns.iter().for_each(|&c| add(c as u64));
+    hash
 }
 
 /// MPI runs with `MPI_THREAD_SERIALIZED` ([`crate::mpi_session::MpiSession`]): solves from
@@ -115,7 +174,19 @@ pub(crate) use crate::mpi_session::MPI_TURN;
 impl TrilinosLinearSolver {
     /// A solver with these settings; nothing is allocated until the first solve.
     pub fn new(settings: TrilinosSettings) -> Self {
-        Self { settings }
+        Self {
+            settings,
+            null_space: None,
+            whole_points: None,
+            kept: None,
+            builds: 0,
+        }
+    }
+
+    /// Epetra matrices built so far: one per sparsity pattern met in a row, since a matrix of
+    /// the kept pattern is refilled in place.
+    pub fn matrices_built(&self) -> usize {
+        self.builds
     }
 
     /// The settings.
@@ -185,10 +256,10 @@ impl TrilinosLinearSolver {
         }
     }
 
-    /// Builds the Epetra system, the preconditioner and runs Belos; `x` holds the guess on
-    /// entry and Belos' answer on return.
+    /// Builds the Epetra system (or refills the kept one), the preconditioner and runs Belos;
+    /// `x` holds the guess on entry and Belos' answer on return.
     fn run_belos(
-        &self,
+        &mut self,
         matrix: &IndexedCsr,
         rhs: &[f64],
         x: &mut [f64],
@@ -211,30 +282,72 @@ impl TrilinosLinearSolver {
                 )));
             }
         }
-        let mut system = bridge::new_linear_system(
-            communicator.handle,
-            &matrix.rows,
-            &matrix.rows,
-            &matrix.offsets,
-            &matrix.columns,
-            matrix.values,
-        )
-        .map_err(|e| self.cxx_failure("building the Epetra matrix", e))?;
-        let pinned = system.pin_mut();
-        match self.settings.preconditioner {
+        let pattern = pattern_fingerprint(matrix);
+        let refilled = match &mut self.kept {
+            Some(kept) if kept.pattern == pattern => Some(bridge::refill_linear_system(
+                kept.system.pin_mut(),
+                &matrix.rows,
+                matrix.offsets,
+                matrix.columns,
+                matrix.values,
+            )),
+            _ => None,
+        };
+        match refilled {
+            Some(result) => {
+                if let Err(e) = result {
+                    self.kept = None;
+                    return Err(self.cxx_failure("refilling the Epetra matrix", e));
+                }
+            }
+            None => {
+                // The old matrix goes before the new one is built: never two at once.
+                self.kept = None;
+                let system = bridge::new_linear_system(
+                    communicator.handle,
+                    &matrix.rows,
+                    &matrix.rows,
+                    matrix.offsets,
+                    matrix.columns,
+                    matrix.values,
+                )
+                .map_err(|e| self.cxx_failure("building the Epetra matrix", e))?;
+                self.kept = Some(KeptSystem { system, pattern });
+                self.builds += 1;
+            }
+        }
+        let pde_equations = match self.whole_points {
+            Some(true) => 3,
+            Some(false) => 1,
+            None => self.settings.pde_equations,
+        };
+        let (null_space, modes) = match &self.null_space {
+            Some((vectors, modes)) if vectors.len() == modes * matrix.rows.len() => {
+                (&vectors[..], *modes)
+            }
+            _ => (&[][..], 0),
+        };
+        let preconditioner = self.settings.preconditioner;
+        let kept = self.kept.as_mut().expect("built or refilled above");
+        let pinned = kept.system.pin_mut();
+        let built = match preconditioner {
             TrilinosPreconditioner::None => Ok(()),
             TrilinosPreconditioner::Jacobi => bridge::set_jacobi_preconditioner(pinned, 1),
             TrilinosPreconditioner::Ilu { fill_level } => {
                 bridge::set_ilu_preconditioner(pinned, to_i32(fill_level as usize))
             }
-            TrilinosPreconditioner::Ml => {
-                bridge::set_ml_preconditioner(pinned, to_i32(self.settings.pde_equations as usize))
-            }
-        }
-        .map_err(|e| self.cxx_failure("building the preconditioner", e))?;
+            TrilinosPreconditioner::Ml => bridge::set_ml_preconditioner(
+                pinned,
+                to_i32(pde_equations as usize),
+                null_space,
+                to_i32(modes),
+            ),
+        };
+        built.map_err(|e| self.cxx_failure("building the preconditioner", e))?;
         let parameters = parameters::flatten(&self.belos_parameters(matrix.unknowns));
+        let system = &self.kept.as_ref().expect("built or refilled above").system;
         bridge::belos_solve(
-            &system,
+            system,
             self.settings.method == BelosMethod::BlockGmres,
             rhs,
             x,
@@ -291,30 +404,28 @@ impl TrilinosLinearSolver {
 /// `Belos::Errors`, the `Verbosity` that prints errors only.
 const BELOS_ERRORS: i64 = 0;
 
-/// A [`Csr`] with the 32-bit global ids Epetra's `int` maps take.
+/// A [`Csr`] with the 32-bit row ids Epetra's `int` maps take (offsets and columns are
+/// checked against Epetra's range on the C++ side, without a narrowed copy).
 struct IndexedCsr<'a> {
     /// The rows are this rank's share of a system over `MPI_COMM_WORLD`.
     distributed: bool,
     /// Unknowns of the whole system (the default Krylov iteration limit).
     unknowns: usize,
     rows: Vec<i32>,
-    offsets: Vec<i32>,
-    columns: Vec<i32>,
+    offsets: &'a [usize],
+    columns: &'a [usize],
     values: &'a [f64],
 }
 
 impl<'a> IndexedCsr<'a> {
-    /// `None` when a row count or an offset does not fit in an `i32`.
+    /// `None` when the row count does not fit in an `i32`.
     fn new(matrix: &'a Csr) -> Option<Self> {
-        let narrow = |v: &[usize]| -> Option<Vec<i32>> {
-            v.iter().map(|&i| i32::try_from(i).ok()).collect()
-        };
         Some(Self {
             distributed: false,
             unknowns: matrix.nrows,
             rows: (0..i32::try_from(matrix.nrows).ok()?).collect(),
-            offsets: narrow(&matrix.offsets)?,
-            columns: narrow(&matrix.columns)?,
+            offsets: &matrix.offsets,
+            columns: &matrix.columns,
             values: &matrix.values,
         })
     }
@@ -332,6 +443,25 @@ fn norm(v: &[f64]) -> f64 {
 impl LinearSolver for TrilinosLinearSolver {
     fn describe(&self) -> String {
         self.method_name().to_string()
+    }
+
+    /// Kept (column-major, as ML reads it) for ML; other preconditioners ignore it.
+    fn set_near_null_space(&mut self, modes: &[f64], count: usize) {
+        if self.settings.preconditioner != TrilinosPreconditioner::Ml || count == 0 {
+            return;
+        }
+        let rows = modes.len() / count;
+        let mut columns = vec![0.0; rows * count];
+        for (row, values) in modes.chunks_exact(count).enumerate() {
+            for (mode, value) in values.iter().enumerate() {
+                columns[mode * rows + row] = *value;
+            }
+        }
+        self.null_space = Some((columns, count));
+    }
+
+    fn set_point_groups(&mut self, groups: &[usize]) {
+        self.whole_points = Some(groups.windows(2).all(|g| g[1] - g[0] == 3));
     }
 
     /// Belos on `MPI_COMM_WORLD` with this rank's rows. The relative residual reported is
@@ -352,20 +482,16 @@ impl LinearSolver for TrilinosLinearSolver {
                 x.len()
             )));
         }
-        let narrow = |v: &[usize]| -> Option<Vec<i32>> {
-            v.iter().map(|&i| i32::try_from(i).ok()).collect()
+        let rows: Option<Vec<i32>> = rows.iter().map(|&i| i32::try_from(i).ok()).collect();
+        let indexed = IndexedCsr {
+            distributed: true,
+            unknowns: matrix.ncols,
+            rows: rows
+                .ok_or_else(|| self.breakdown("the global ids exceed Epetra's 32-bit indices"))?,
+            offsets: &matrix.offsets,
+            columns: &matrix.columns,
+            values: &matrix.values,
         };
-        let indexed = (|| {
-            Some(IndexedCsr {
-                distributed: true,
-                unknowns: matrix.ncols,
-                rows: narrow(rows)?,
-                offsets: narrow(&matrix.offsets)?,
-                columns: narrow(&matrix.columns)?,
-                values: &matrix.values,
-            })
-        })()
-        .ok_or_else(|| self.breakdown("the global ids exceed Epetra's 32-bit indices"))?;
         let outcome = self.run_belos_or_gmres(&indexed, rhs, x)?;
         let iterations = usize::try_from(outcome.iterations).unwrap_or(0);
         if !outcome.converged {
@@ -422,9 +548,8 @@ impl LinearSolver for TrilinosLinearSolver {
         }
         let indexed = IndexedCsr::new(matrix).ok_or_else(|| {
             self.breakdown(format!(
-                "{} rows and {} stored entries exceed Epetra's 32-bit indices (2³¹ − 1)",
-                matrix.nrows,
-                matrix.nnz()
+                "{} rows exceed Epetra's 32-bit indices (2³¹ − 1)",
+                matrix.nrows
             ))
         })?;
         let outcome = self.run_belos_or_gmres(&indexed, rhs, x)?;
@@ -481,8 +606,8 @@ pub fn epetra_multiply(matrix: &Csr, x: &[f64], y: &mut [f64]) -> Result<(), Sol
         communicator.handle,
         &indexed.rows,
         &indexed.rows,
-        &indexed.offsets,
-        &indexed.columns,
+        indexed.offsets,
+        indexed.columns,
         indexed.values,
     )
     .map_err(|e| fail(e.what().to_string()))?;

@@ -26,7 +26,7 @@ pub struct Pattern {
 }
 
 /// How the preconditioner matrix of a matrix-free solve is used.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct PreconditionerMatrix {
     /// Its pattern.
     pub pattern: Pattern,
@@ -34,6 +34,62 @@ pub struct PreconditionerMatrix {
     /// `Preconditioner: "User Defined"`); otherwise the NOX linear-solver `Preconditioner`
     /// (`AztecOO`, `Ifpack`, `New Ifpack`, `ML`) factors it.
     pub is_inverse: bool,
+    /// `Some`: ML smoothed aggregation is built on the matrix with this near-null space and
+    /// applied as NOX's `User Defined` preconditioner (the parameter list must say so),
+    /// rebuilt each time the preconditioner callback refills the values and kept when it
+    /// does not; `is_inverse` is then ignored.
+    pub multigrid: Option<NearNullSpace>,
+}
+
+/// What ML is told about the unknowns of the preconditioner matrix.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NearNullSpace {
+    /// Row-major, unknowns × `modes` (the rigid-body modes for elasticity).
+    pub vectors: Vec<f64>,
+    /// Number of vectors.
+    pub modes: usize,
+    /// Every point of this rank keeps its three unknowns, consecutive (ML's `PDE equations`
+    /// 3 when this holds on every rank, 1 otherwise).
+    pub whole_points: bool,
+    /// Use the matrix and ML hierarchy the [`MultigridKeep`] given to [`solve_keeping`] holds
+    /// from an earlier solve (the caller vouches that the unknowns and the operator are the
+    /// same), when it holds one; otherwise they are built and kept there.
+    pub reuse_kept: bool,
+}
+
+/// The preconditioner matrix and ML hierarchy of a multigrid-preconditioned solve, kept for
+/// the next solve ([`solve_keeping`]).
+pub struct MultigridKeep {
+    kept: cxx::UniquePtr<bridge::NoxMultigrid>,
+}
+
+impl MultigridKeep {
+    /// Nothing kept yet.
+    pub fn new() -> Self {
+        Self {
+            kept: bridge::new_nox_multigrid(),
+        }
+    }
+}
+
+impl Default for MultigridKeep {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl std::fmt::Debug for MultigridKeep {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("MultigridKeep")
+    }
+}
+
+impl Drop for MultigridKeep {
+    /// ML and the Epetra matrix are released while this thread has MPI to itself.
+    fn drop(&mut self) {
+        let _turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
+        drop(std::mem::replace(&mut self.kept, cxx::UniquePtr::null()));
+    }
 }
 
 /// The Newton system NOX builds.
@@ -69,6 +125,15 @@ pub struct NoxReport {
     pub linear_iterations: usize,
     /// ‖F‖₂ at the returned x.
     pub residual_norm: f64,
+    /// ML hierarchies built on the preconditioner matrix (0 without
+    /// [`PreconditionerMatrix::multigrid`]).
+    pub multigrid_setups: usize,
+    /// Wall-clock seconds ML's setups took.
+    pub multigrid_seconds: f64,
+    /// Levels of the last ML hierarchy (0 without one).
+    pub multigrid_levels: usize,
+    /// ML's operator complexity of the last hierarchy (0 without one).
+    pub operator_complexity: f64,
 }
 
 fn failure(reason: impl Into<String>) -> SolveError {
@@ -95,6 +160,18 @@ pub fn solve(
     layout: &NoxLayout,
     parameters: &[(String, ParameterValue)],
     x: &mut [f64],
+) -> Result<NoxReport, SolveError> {
+    solve_keeping(callbacks, layout, parameters, x, &mut MultigridKeep::new())
+}
+
+/// [`solve`], a multigrid preconditioner ([`PreconditionerMatrix::multigrid`]) living in
+/// `kept`: taken from it with [`NearNullSpace::reuse_kept`], built and left there otherwise.
+pub fn solve_keeping(
+    callbacks: &mut dyn NonlinearCallbacks,
+    layout: &NoxLayout,
+    parameters: &[(String, ParameterValue)],
+    x: &mut [f64],
+    kept: &mut MultigridKeep,
 ) -> Result<NoxReport, SolveError> {
     let n = x.len();
     let rows: Vec<i32> = match &layout.global_rows {
@@ -143,6 +220,29 @@ pub fn solve(
     // MPI is started with MPI_THREAD_SERIALIZED: calls into it, this one included, take turns.
     let turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
     let communicator = fortran_handle(scope).map_err(|e| failure(format!("MPI: {e}")))?;
+    let multigrid = layout
+        .preconditioner
+        .as_ref()
+        .and_then(|p| p.multigrid.as_ref());
+    let null_space = match multigrid {
+        Some(space) if space.modes > 0 && space.vectors.len() == n * space.modes => {
+            let mut columns = vec![0.0; space.vectors.len()];
+            for (row, values) in space.vectors.chunks_exact(space.modes).enumerate() {
+                for (mode, value) in values.iter().enumerate() {
+                    columns[mode * n + row] = *value;
+                }
+            }
+            columns
+        }
+        Some(space) => {
+            return Err(failure(format!(
+                "a near-null space of {} values for {n} unknowns and {} modes",
+                space.vectors.len(),
+                space.modes
+            )))
+        }
+        None => Vec::new(),
+    };
     let bridge_layout = bridge::NoxLayout {
         communicator: communicator.handle,
         linear_solver_path: layout.linear_solver_path.clone(),
@@ -152,12 +252,28 @@ pub fn solve(
         preconditioner_offsets,
         preconditioner_columns,
         preconditioner_is_inverse: layout.preconditioner.as_ref().is_some_and(|p| p.is_inverse),
+        multigrid: multigrid.is_some(),
+        reuse_multigrid: multigrid.is_some_and(|m| m.reuse_kept),
+        null_space_modes: multigrid.map_or(0, |m| i32::try_from(m.modes).unwrap_or(i32::MAX)),
+        pde_equations: if multigrid.is_some_and(|m| m.whole_points) {
+            3
+        } else {
+            1
+        },
+        null_space,
         tolerance: layout.tolerance,
         max_iterations: i32::try_from(layout.max_iterations).unwrap_or(i32::MAX),
     };
     let parameters = flatten(parameters);
     let mut problem = NoxProblem::new(callbacks);
-    let outcome = bridge::nox_solve(&mut problem, &rows, &bridge_layout, &parameters, x);
+    let outcome = bridge::nox_solve(
+        &mut problem,
+        &rows,
+        &bridge_layout,
+        &parameters,
+        x,
+        kept.kept.pin_mut(),
+    );
     drop(turn);
     if let Some(error) = problem.into_error() {
         return Err(error);
@@ -168,5 +284,9 @@ pub fn solve(
         iterations: usize::try_from(outcome.iterations).unwrap_or(0),
         linear_iterations: usize::try_from(outcome.linear_iterations).unwrap_or(0),
         residual_norm: outcome.residual_norm,
+        multigrid_setups: usize::try_from(outcome.preconditioner_setups).unwrap_or(0),
+        multigrid_seconds: outcome.preconditioner_seconds,
+        multigrid_levels: usize::try_from(outcome.multigrid_levels).unwrap_or(0),
+        operator_complexity: outcome.operator_complexity,
     })
 }

@@ -99,6 +99,20 @@ pub(crate) mod bridge {
         /// The preconditioner matrix holds the inverse itself and is applied by a product
         /// (NOX `User Defined`); otherwise NOX's AztecOO/Ifpack/ML factor it.
         preconditioner_is_inverse: bool,
+        /// ML smoothed aggregation is built on the preconditioner matrix (applied as NOX's
+        /// `User Defined` preconditioner) and rebuilt each time its values are refilled.
+        multigrid: bool,
+        /// With `multigrid`: use the matrix and ML the `NoxMultigrid` passed to `nox_solve`
+        /// kept from an earlier solve (same unknowns, same operator), when it holds them.
+        reuse_multigrid: bool,
+        /// ML's near-null space, column-major (`null_space_modes` vectors over this rank's
+        /// unknowns); empty: ML's default.
+        null_space: Vec<f64>,
+        /// See `null_space`.
+        null_space_modes: i32,
+        /// ML's `PDE equations` on this rank (3: every point keeps three unknowns); the
+        /// smallest over the ranks is used.
+        pde_equations: i32,
         /// NOX status test `NormF` (two-norm, absolute, unscaled).
         tolerance: f64,
         /// NOX status test `MaxIters`.
@@ -115,6 +129,14 @@ pub(crate) mod bridge {
         linear_iterations: i32,
         /// ‖F‖₂ at the returned solution.
         residual_norm: f64,
+        /// ML hierarchies built during the solve (0 without `multigrid`).
+        preconditioner_setups: i32,
+        /// Wall-clock seconds spent building them.
+        preconditioner_seconds: f64,
+        /// Levels of the last hierarchy.
+        multigrid_levels: i32,
+        /// ML's operator complexity of the last hierarchy.
+        operator_complexity: f64,
     }
 
     extern "Rust" {
@@ -142,15 +164,23 @@ pub(crate) mod bridge {
         /// One NOX parameter (the type is the linear bridge's).
         type Parameter = crate::backend::trilinos::ffi::bridge::Parameter;
 
+        /// The preconditioner matrix and ML hierarchy kept between solves.
+        type NoxMultigrid;
+
+        /// An empty `NoxMultigrid`.
+        fn new_nox_multigrid() -> UniquePtr<NoxMultigrid>;
+
         /// Runs NOX from `x` (the initial guess; the solution on return) over the rows
         /// `owned_rows` of an `Epetra_MpiComm` on the layout's communicator, with the NOX
-        /// parameter list built from `parameters`.
+        /// parameter list built from `parameters`; a multigrid preconditioner lives in
+        /// `kept` (reused from it with the layout's `reuse_multigrid`).
         fn nox_solve(
             problem: &mut NoxProblem<'_>,
             owned_rows: &[i32],
             layout: &NoxLayout,
             parameters: &[Parameter],
             x: &mut [f64],
+            kept: Pin<&mut NoxMultigrid>,
         ) -> Result<NoxOutcome>;
     }
 }

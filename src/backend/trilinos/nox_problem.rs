@@ -2,10 +2,24 @@
 //! global rows) read from the problem, and the callbacks NOX makes answered by it — the
 //! Jacobian refreshed every `update_every`-th request, the preconditioner blocks after
 //! `max_age` reuses, inverted here when NOX applies them by a product.
+//!
+//! With [`MatrixFreePreconditioner::Multigrid`] the preconditioner matrix is the problem's
+//! one-hop operator ([`NonlinearProblem::preconditioning_operator`]) and ML is built on it
+//! with the rigid-body near-null space; the operator is refilled, and ML rebuilt, only when
+//! [`NonlinearProblem::preconditioning_version`] changed since the last build (bonds broke,
+//! points were held): the rule of the native multigrid ([`crate::solver::multigrid`]). The
+//! matrix and ML outlive the NOX solve in a [`KeptMultigrid`], so the next load step over the
+//! same unknowns and operator reuses the hierarchy instead of building it again.
 
-use super::nox::{self, NonlinearCallbacks, NoxLayout, NoxReport, Pattern, PreconditionerMatrix};
+use std::time::Instant;
+
+use super::nox::{
+    self, MultigridKeep, NearNullSpace, NonlinearCallbacks, NoxLayout, NoxReport, Pattern,
+    PreconditionerMatrix,
+};
 use crate::backend::native::invert_dense;
 use crate::backend::problem::{agree_over, Evaluation, NonlinearProblem};
+use crate::backend::Csr;
 use crate::backend::{block_diagonal_csr, SolveError};
 use crate::io::deck::ParameterValue;
 
@@ -18,6 +32,9 @@ pub enum MatrixFreePreconditioner {
     InvertedBlocks,
     /// `AztecOO`, `Ifpack`, `New Ifpack`, `ML`: the diagonal blocks, factored by the library.
     Blocks,
+    /// `Peridigm Preconditioner: "AMG"`: ML smoothed aggregation on the one-hop operator with
+    /// the rigid-body modes, applied as NOX's `User Defined` preconditioner.
+    Multigrid,
 }
 
 /// How the Newton system is formed.
@@ -61,40 +78,165 @@ pub struct NoxSolve {
     pub report: NoxReport,
     /// ‖F‖₂ of the first residual, then after each iteration.
     pub history: Vec<f64>,
+    /// Seconds spent assembling the one-hop operator for ML (0 without
+    /// [`MatrixFreePreconditioner::Multigrid`]); ML's own setup is in the report.
+    pub operator_seconds: f64,
+}
+
+/// The ML hierarchy of [`MatrixFreePreconditioner::Multigrid`] solves, kept from one NOX
+/// solve (load step) to the next, with what it was built for.
+#[derive(Debug, Default)]
+pub struct KeptMultigrid {
+    keep: MultigridKeep,
+    built: Option<BuiltFor>,
+}
+
+/// What the kept hierarchy was built on.
+#[derive(Debug)]
+struct BuiltFor {
+    /// The unknowns (their count, and their global ids on several ranks).
+    unknowns: usize,
+    global_rows: Option<Vec<usize>>,
+    /// [`NonlinearProblem::preconditioning_version`] of the operator ML was built on.
+    version: usize,
+    /// The preconditioner matrix's pattern (for refills after bonds break).
+    pattern: Pattern,
+    null_space: NearNullSpace,
 }
 
 /// Solves `problem` with NOX from its current unknowns; on return the problem has been
-/// evaluated (as an iterate) at NOX's solution, whatever NOX evaluated last.
+/// evaluated (as an iterate) at NOX's solution, whatever NOX evaluated last. A multigrid
+/// preconditioner is taken from `kept` when it was built for the same unknowns and operator,
+/// and left there for the next solve.
 pub fn solve(
     problem: &mut dyn NonlinearProblem,
     settings: &NoxSettings,
+    kept: &mut KeptMultigrid,
 ) -> Result<NoxSolve, SolveError> {
     let n = problem.len();
     let mut x = vec![0.0; n];
     problem.unknowns(&mut x);
-    let layout = layout(problem, settings, &x)?;
+    let (layout, operator) = layout(problem, settings, &x, kept.built.take())?;
     let mut callbacks = ProblemCallbacks {
         problem: &mut *problem,
         jacobian: settings.jacobian,
         jacobian_requests: 0,
         preconditioner_age: None,
+        operator,
         history: Vec::new(),
         print_iterations: settings.print_iterations,
     };
-    let report = nox::solve(&mut callbacks, &layout, settings.parameters, &mut x)?;
+    let report = nox::solve_keeping(
+        &mut callbacks,
+        &layout,
+        settings.parameters,
+        &mut x,
+        &mut kept.keep,
+    )?;
     let history = callbacks.history;
+    let operator_seconds = callbacks.operator.as_ref().map_or(0.0, |o| o.seconds);
+    // Kept only once ML was built on the operator (a solve that needed no linear solve
+    // built none).
+    kept.built = match (callbacks.operator, layout.preconditioner) {
+        (
+            Some(OneHop {
+                version: Some(version),
+                pattern,
+                ..
+            }),
+            Some(PreconditionerMatrix {
+                multigrid: Some(null_space),
+                ..
+            }),
+        ) => Some(BuiltFor {
+            unknowns: n,
+            global_rows: layout.global_rows,
+            version,
+            pattern,
+            null_space,
+        }),
+        _ => None,
+    };
     let mut residual = vec![0.0; n];
     problem.residual(&x, &mut residual, Evaluation::Iterate)?;
-    Ok(NoxSolve { report, history })
+    Ok(NoxSolve {
+        report,
+        history,
+        operator_seconds,
+    })
 }
 
-/// The Newton system NOX builds for `problem` at `x`.
+/// The one-hop operator of a [`MatrixFreePreconditioner::Multigrid`] solve.
+struct OneHop {
+    /// The pattern NOX's matrix was built with (the first operator's).
+    pattern: Pattern,
+    /// Values waiting for the first preconditioner request (the first operator, assembled
+    /// for the layout).
+    first_values: Option<Vec<f64>>,
+    /// [`NonlinearProblem::preconditioning_version`] of the values in NOX's matrix (`None`:
+    /// not filled yet).
+    version: Option<usize>,
+    /// The version of the first operator.
+    first_version: usize,
+    /// Seconds spent assembling operators.
+    seconds: f64,
+}
+
+fn no_operator() -> SolveError {
+    SolveError::Breakdown {
+        method: "NOX + ML",
+        reason: "Peridigm Preconditioner \"AMG\" needs the one-hop preconditioning operator, which this problem does not offer".into(),
+    }
+}
+
+/// The values of `operator` in the order of `pattern` (the first operator's): bonds that broke
+/// since only remove entries, which stay as zeros. An entry outside the pattern is an error.
+fn values_in_pattern(operator: &Csr, pattern: &Pattern) -> Result<Vec<f64>, SolveError> {
+    if operator.offsets == pattern.offsets && operator.columns == pattern.columns {
+        return Ok(operator.values.clone());
+    }
+    let rows = pattern.offsets.len() - 1;
+    if operator.nrows != rows {
+        return Err(SolveError::Breakdown {
+            method: "NOX + ML",
+            reason: format!(
+                "a preconditioning operator of {} rows for {rows} unknowns",
+                operator.nrows
+            ),
+        });
+    }
+    let mut values = vec![0.0; pattern.columns.len()];
+    for r in 0..rows {
+        let slots = pattern.offsets[r]..pattern.offsets[r + 1];
+        for k in operator.offsets[r]..operator.offsets[r + 1] {
+            let column = operator.columns[k];
+            let slot = slots
+                .clone()
+                .find(|&s| pattern.columns[s] == column)
+                .ok_or_else(|| SolveError::Breakdown {
+                    method: "NOX + ML",
+                    reason: format!(
+                        "the preconditioning operator gained the entry ({r}, {column}) outside its first pattern"
+                    ),
+                })?;
+            values[slot] += operator.values[k];
+        }
+    }
+    Ok(values)
+}
+
+/// The Newton system NOX builds for `problem` at `x`, and with
+/// [`MatrixFreePreconditioner::Multigrid`] the one-hop operator it starts from.
+/// `built` is what a kept ML hierarchy was built for: reused when the unknowns and the
+/// operator's version are still those.
 fn layout(
     problem: &mut dyn NonlinearProblem,
     settings: &NoxSettings,
     x: &[f64],
-) -> Result<NoxLayout, SolveError> {
+    built: Option<BuiltFor>,
+) -> Result<(NoxLayout, Option<OneHop>), SolveError> {
     let global_rows = problem.global_ids().map(<[usize]>::to_vec);
+    let mut one_hop = None;
     let jacobian = match settings.jacobian {
         NoxJacobian::Assembled { .. } => {
             let matrix = problem.jacobian(x)?;
@@ -123,18 +265,86 @@ fn layout(
                     columns,
                 },
                 is_inverse: kind == MatrixFreePreconditioner::InvertedBlocks,
+                multigrid: None,
+            })
+        }
+        NoxJacobian::MatrixFree {
+            preconditioner: MatrixFreePreconditioner::Multigrid,
+            ..
+        } => {
+            let start = Instant::now();
+            let first_version = problem.preconditioning_version();
+            let reusable = built.filter(|b| {
+                b.unknowns == problem.len()
+                    && b.global_rows == global_rows
+                    && b.version == first_version
+            });
+            if let Some(b) = reusable {
+                one_hop = Some(OneHop {
+                    pattern: b.pattern.clone(),
+                    first_values: None,
+                    version: Some(b.version),
+                    first_version,
+                    seconds: 0.0,
+                });
+                return Ok((
+                    NoxLayout {
+                        linear_solver_path: settings.linear_solver_path.to_vec(),
+                        jacobian: None,
+                        preconditioner: Some(PreconditionerMatrix {
+                            pattern: b.pattern,
+                            is_inverse: false,
+                            multigrid: Some(NearNullSpace {
+                                reuse_kept: true,
+                                ..b.null_space
+                            }),
+                        }),
+                        tolerance: settings.tolerance,
+                        max_iterations: settings.max_iterations,
+                        global_rows,
+                    },
+                    one_hop,
+                ));
+            }
+            let operator = problem.preconditioning_operator();
+            let operator = agree_over(&mut *problem, operator)?;
+            let operator = agree_over(&mut *problem, operator.ok_or_else(no_operator))?;
+            let whole_points = problem.groups().windows(2).all(|g| g[1] - g[0] == 3);
+            let pattern = Pattern {
+                offsets: operator.matrix.offsets,
+                columns: operator.matrix.columns,
+            };
+            one_hop = Some(OneHop {
+                pattern: pattern.clone(),
+                first_values: Some(operator.matrix.values),
+                version: None,
+                first_version,
+                seconds: start.elapsed().as_secs_f64(),
+            });
+            Some(PreconditionerMatrix {
+                pattern,
+                is_inverse: false,
+                multigrid: Some(NearNullSpace {
+                    vectors: operator.null_space,
+                    modes: operator.modes,
+                    whole_points,
+                    reuse_kept: false,
+                }),
             })
         }
         _ => None,
     };
-    Ok(NoxLayout {
-        linear_solver_path: settings.linear_solver_path.to_vec(),
-        jacobian,
-        preconditioner,
-        tolerance: settings.tolerance,
-        max_iterations: settings.max_iterations,
-        global_rows,
-    })
+    Ok((
+        NoxLayout {
+            linear_solver_path: settings.linear_solver_path.to_vec(),
+            jacobian,
+            preconditioner,
+            tolerance: settings.tolerance,
+            max_iterations: settings.max_iterations,
+            global_rows,
+        },
+        one_hop,
+    ))
 }
 
 /// Entries of the dense diagonal blocks of `groups`.
@@ -149,6 +359,8 @@ struct ProblemCallbacks<'a> {
     jacobian_requests: u64,
     /// Reuses of the current preconditioner (`None`: not computed yet).
     preconditioner_age: Option<u64>,
+    /// The one-hop operator of a multigrid-preconditioned solve.
+    operator: Option<OneHop>,
     /// ‖F‖₂ of the first residual, then after each iteration.
     history: Vec<f64>,
     print_iterations: bool,
@@ -181,6 +393,34 @@ impl ProblemCallbacks<'_> {
             at += size * size;
         }
         Ok(())
+    }
+}
+
+impl ProblemCallbacks<'_> {
+    /// The one-hop operator's values into `values` when its version changed since NOX's
+    /// matrix was filled (true: ML is to be rebuilt), nothing otherwise (false: ML is kept).
+    fn one_hop_values(&mut self, values: &mut [f64]) -> Result<bool, SolveError> {
+        let version = self.problem.preconditioning_version();
+        let operator = self.operator.as_mut().ok_or_else(no_operator)?;
+        if operator.version == Some(version) {
+            return Ok(false);
+        }
+        let start = Instant::now();
+        let fresh = match operator.first_values.take() {
+            Some(first) if version == operator.first_version => first,
+            _ => {
+                let matrix = self
+                    .problem
+                    .preconditioning_operator()?
+                    .ok_or_else(no_operator)?
+                    .matrix;
+                values_in_pattern(&matrix, &operator.pattern)?
+            }
+        };
+        copy_values(&fresh, values)?;
+        operator.version = Some(version);
+        operator.seconds += start.elapsed().as_secs_f64();
+        Ok(true)
     }
 }
 
@@ -235,6 +475,10 @@ impl NonlinearCallbacks for ProblemCallbacks<'_> {
         else {
             return Ok(false);
         };
+        if preconditioner == MatrixFreePreconditioner::Multigrid {
+            let result = self.one_hop_values(values);
+            return agree_over(&mut *self.problem, result);
+        }
         match self.preconditioner_age {
             Some(age) if age < max_age => {
                 self.preconditioner_age = Some(age + 1);

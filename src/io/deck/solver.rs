@@ -303,7 +303,9 @@ pub enum PeridigmPreconditioner {
     /// `"None"`.
     None,
     /// `"AMG"` (peridyn): with `Jacobian Operator: "Matrix-Free"`, JFNK preconditioned by
-    /// peridyn's multigrid on the one-hop operator, so no tangent is ever assembled.
+    /// multigrid on the one-hop operator, so no tangent is ever assembled: peridyn's own on
+    /// the native backend (the default for such a list), ML with the rigid-body modes through
+    /// NOX with `Backend: "Trilinos"`, GAMG with `Backend: "PETSc"`.
     Amg,
 }
 
