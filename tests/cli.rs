@@ -183,16 +183,15 @@ fn check_prints_the_planned_memory_per_directed_bond() {
     assert!(output.status.success(), "{}", stderr(&output));
     let plan: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     // The 208 directed bonds and 16 points of `check_reports_exact_sizes_as_json`. PMB's
-    // pair plan: a 4-byte pair slot per lower bond and an 8-byte scale per pair (104 pairs),
-    // three 8-byte row starts per point plus one and a 4-byte reach per point:
-    // 4·104 + 8·104 + 24·17 + 4·16 = 1720 bytes.
+    // pair plan: a 4-byte pair slot per directed bond, an 8-byte scale per pair (104 pairs)
+    // and three 8-byte row starts per point plus one: 4·208 + 8·104 + 24·17 = 2072 bytes.
     assert_eq!(plan["bonds"], 208);
     let parts = plan["memory"].as_array().unwrap();
     let pair_plan = parts
         .iter()
         .find(|p| p["part"] == "PMB pair plan")
         .expect("a PMB pair plan part");
-    assert_eq!(pair_plan["bytes"], 1720);
+    assert_eq!(pair_plan["bytes"], 2072);
     let total = plan["memory_total"].as_u64().unwrap();
     let sum: u64 = parts.iter().map(|p| p["bytes"].as_u64().unwrap()).sum();
     assert_eq!(total, sum);

@@ -237,9 +237,8 @@ fn pmb_bar_breaks_the_same_on_one_two_and_three_ranks() {
     same_answer_on_any_rank_count("Elastic Bond Based");
 }
 
-/// 30 × 4 × 3.5 m, 60 × 8 × 7 = 3,360 points (the ranks' local models cut their rows into
-/// PMB's pair-pass segments elsewhere than the one-rank model, so a row whose pairs one model
-/// computes ahead, the other computes in its segment's pass), pulled
+/// 30 × 4 × 3.5 m, 60 × 8 × 7 = 3,360 points (13 chunks of PMB's 256-point pair pass, so the
+/// ranks' local models cut their points into chunks elsewhere than the one-rank model), pulled
 /// at 5 m/s so that the bonds next to the slabs reach s_c = 0.002 within the short run (the
 /// slab moves 5 m/s × t against points still at rest: s ≈ 5t/ζ with ζ ≥ 0.5 m exceeds 0.002
 /// after about 2e-4 s).

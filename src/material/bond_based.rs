@@ -12,8 +12,8 @@
 //!
 //! # Two force loops
 //! * A block whose families stay inside it (every single-block model) with symmetric families
-//!   evaluates each pair once ([`PairPlan`]: half the square roots and divisions), and every
-//!   point gathers its row as soon as the pairs of its row are known, in the same pass.
+//!   evaluates each pair once ([`PairPlan`]: half the square roots and divisions), then lets
+//!   every point gather its row.
 //! * Otherwise each point gathers its own row (`for_each_chunk`), reading c_j/2 per neighbour.
 //!
 //! # Why a point's force depends only on its row
@@ -25,7 +25,7 @@
 //! the states of the two ends of each bond. Both loops are built so:
 //! * the gather adds the bonds of the row in row order, in four interleaved partial sums
 //!   combined `(0 + 1) + (2 + 3)`; each term reads only the bond and its two ends;
-//! * the pair-once plan stores, for every pair, before either end gathers its row, the scale
+//! * the pair-once plan first stores, for every pair, the scale
 //!   `s = c (1−d) (|Y| − ζ)/(ζ|Y|)` computed from the lower end i (the lower point of a pair
 //!   is the same in every model, since local numbering follows the global one) with
 //!   `d = Y_j − Y_i`, the bond i→j's ζ and damage — nothing else. Then every point gathers its
@@ -33,28 +33,24 @@
 //!   `−(Y_j − Y_i)` (IEEE subtraction is antisymmetric) and q = |d|² is the same number, so
 //!   both ends use bitwise the same s and each end's force is a function of its row alone.
 //!
-//! Neither a pair's scale nor a row's sum depends on how the rows are cut into tasks, on the
-//! thread count or on which other points the model holds. The earlier plan added `−f` into
-//! F_j while visiting i, in an order set by chunks of the block's points, which differ between
-//! the global and a rank's model (about 2e-7 relative on a 2,560-point bar). A ghost's row may
-//! lack the bonds to points outside the rank (so its force is wrong and is never used), but
-//! every pair the local model holds has both bonds there (rows are cut to local points on both
-//! ends), so the plan is built as on one rank.
+//! Neither pass depends on how the points are cut into tasks, on the thread count or on
+//! which other points the model holds. The earlier plan added `−f` into F_j while visiting i,
+//! in an order set by chunks of the block's points, which differ between the global and a
+//! rank's model (about 2e-7 relative on a 2,560-point bar). A ghost's row may lack the bonds
+//! to points outside the rank (so its force is wrong and is never used), but every pair the
+//! local model holds has both bonds there (rows are cut to local points on both ends), so the
+//! plan is built as on one rank.
 //!
 //! The square roots and divisions are vectorized (built for AVX2 when the CPU has it, with
 //! bitwise the same result as the baseline build). On the LAMMPS comparison lattice (30³,
 //! m = 3.015) the one-pass pair loop (which scattered −f into F_j) measured 3.4–4.2e8 directed
 //! bond evaluations per second on one core of the 2-vCPU EPYC test machine, against 2.4e8 for
-//! the earlier one-bond-at-a-time gather (`benches/material_kernels.rs`). Row order first took
-//! a separate gather pass, about a quarter slower than that one-pass loop (`peridyn bench`, PMB
-//! on one thread: 13.3 against 10.8 ms/step, run back to back), since it read every bond's
-//! neighbour, pair slot and scale again. Summing each row right after its own pairs (its upper
-//! half is then still in the first-level cache) and keeping pair slots for lower bonds only
-//! cut the simulated last-level cache misses of a whole PMB step on the bench deck from 0.403
-//! to 0.288 per directed bond (−29 %), for 50.5 instructions per directed bond instead of 44.8
-//! (`valgrind --tool=cachegrind`, one thread, 32 MiB 16-way last-level cache). Per-bond weights
-//! with the reverse weight scattered into the other row measured slower (27 ms/step; the
-//! scatter spans a megabyte of rows).
+//! the earlier one-bond-at-a-time gather (`benches/material_kernels.rs`). The two passes cost
+//! about a quarter more per step than that one-pass loop (`peridyn bench`, PMB on one thread:
+//! 13.3 against 10.8 ms/step, run back to back): the gather pass reads every bond's scale and
+//! neighbour again. Two alternatives measured slower: per-bond weights with the reverse weight
+//! scattered into the other row (27 ms/step; the scatter spans a megabyte of rows), and
+//! gathering each point inside the pair pass as soon as its pairs are known (17–23 ms/step).
 //!
 //! # Stored energy
 //! The PMB pair potential (energy per V_i·V_j) is `w = ½·c·s²·ζ`, since `∂w/∂|Y| = c·s` is the
@@ -71,7 +67,7 @@ use super::{
 use super::{BreakingForcePass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{BondVolumes, ModelDeclaration, Reach, VolumeRule, VolumeRules};
+use crate::model::{BondVolumes, ModelDeclaration, Reach};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -182,49 +178,6 @@ impl BondBased {
             block: &self.points,
             gather: self.force_points.as_deref(),
         }
-    }
-
-    /// Runs the pair `plan` (see [`PairPlan::run`]) at positions `y`, compiled for the
-    /// block's volume rule (no branch on the rule per bond); returns the directed bonds broken.
-    fn run_plan<D: Integrity, B: Breaker>(
-        &self,
-        plan: &PairPlan,
-        reference: &ReferenceView<'_>,
-        y: &[[f64; 3]],
-        force_density: &mut [[f64; 3]],
-        damage: D,
-        breaker: B,
-    ) -> usize {
-        let scale = &mut self.pair_scratch.take();
-        let points = self.pass_points();
-        // c/2 doubled: exactly c, the pair stiffness of a closed block.
-        let micromodulus = 2.0 * self.half();
-        let wide = wide_vectors_available();
-        let bonds = reference.bonds;
-        let broken = match reference.bond_volumes().rule() {
-            VolumeRules::Full(volume) => {
-                let rows = PairRows {
-                    bonds,
-                    volume,
-                    y,
-                    micromodulus,
-                    wide,
-                };
-                plan.run(points, scale, force_density, rows, damage, breaker)
-            }
-            VolumeRules::PerBond(volume) => {
-                let rows = PairRows {
-                    bonds,
-                    volume,
-                    y,
-                    micromodulus,
-                    wide,
-                };
-                plan.run(points, scale, force_density, rows, damage, breaker)
-            }
-        };
-        self.pair_scratch.keep(std::mem::take(scale));
-        broken
     }
 }
 
@@ -509,30 +462,23 @@ impl std::fmt::Debug for PairScratch {
     }
 }
 
-/// Pair-once ("half list") evaluation of a closed block with symmetric families, in one pass
-/// over the rows that makes every point's force a function of its own row (see the module
-/// docs). At the row of point i, in block order:
+/// Points per task of the pair pass: fixes only how the work is shared among threads, never a
+/// result (every pair's scale is written by exactly one task, into its own slot).
+const PAIR_CHUNK: usize = 256;
+
+/// Pair-once ("half list") evaluation of a closed block with symmetric families, in two
+/// passes that make every point's force a function of its own row (see the module docs):
 ///
-/// 1. *its pairs*: every upper pair i < j: the critical-stretch decision (when fused), then
-///    the scale `s_ij = c (1−d_ij) (|Y| − ζ)/(ζ|Y|)` into the pair's slot of a per-pair
-///    buffer. Each square root and division serves two directed bonds.
-/// 2. *its force*: the sum over its row, in row order, of `s_ij V_j (Y_j − Y_i)`, reading the
-///    slot of the pair each bond belongs to: the upper pairs were written just before (still
-///    in the first-level cache, with the row's neighbours), the lower pairs at the rows of the
-///    lower neighbours, earlier in the pass.
+/// 1. *pair pass*: every pair i < j is evaluated once, from the row of its lower point i: the
+///    critical-stretch decision (when fused), then the scale
+///    `s_ij = c (1−d_ij) (|Y| − ζ)/(ζ|Y|)` into the pair's slot of a per-pair buffer. Each
+///    square root and division serves two directed bonds.
+/// 2. *gather pass*: every point i sums its row, in row order, `s_ij V_j (Y_j − Y_i)`, reading
+///    the slot of the pair each bond belongs to.
 ///
-/// Threads take segments of consecutive rows ([`PairPlan::segments`]). A row with an upper
-/// neighbour beyond its own segment is *early*: its pairs are computed before the segments
-/// start (phase 1, one task per segment for its early rows), so that the later segment finds
-/// them written; the other rows' pairs are computed in their segment's pass (phase 2). Which
-/// rows are early depends on the thread count, but a pair's scale reads only the pair's data
-/// and a force only its row's scales in row order, so no result does.
-///
-/// No task writes an entry that another task reads or writes meanwhile, so no colouring is
-/// needed: phase 1 writes the slots (and damage) of the early rows' upper pairs; in phase 2 a
-/// segment writes the slots (and damage) of its other rows' upper pairs, both ends of which
-/// lie in the segment (so only the segment reads them), and the force of its own points, and
-/// reads the slots of its rows' pairs, written in phase 1 or before in its own pass.
+/// Neither pass writes an entry that another task reads or writes, so no colouring is
+/// needed: pass 1 writes the slots of its own points' upper pairs (and the damage of those
+/// pairs), pass 2 writes the force of its own points.
 #[derive(Debug, Clone)]
 struct PairPlan {
     /// For the k-th block point i: the first bond of i's row whose neighbour is > i (rows are
@@ -542,15 +488,11 @@ struct PairPlan {
     /// Pairs are numbered by lower point (in block order), then by row position: the k-th
     /// block point's upper pairs are `pair_start[k]..pair_start[k + 1]`.
     pair_start: Vec<usize>,
-    /// Where the k-th block point's lower bonds (neighbours j < i) start in `lower_pair`.
-    lower_start: Vec<usize>,
-    /// The pair of every lower bond i→j (j < i) of the block's rows, in row order: the pair
-    /// of j→i, in j's upper part. (An upper bond's pair needs no entry: the k-th point's
-    /// upper bonds are its pairs `pair_start[k]..`, in row order.)
-    lower_pair: Vec<u32>,
-    /// For the k-th block point: the block position of its last (largest) upper neighbour, k
-    /// when it has none: the row is early in a segment that ends at or before it.
-    reach: Vec<u32>,
+    /// Where the k-th block point's row starts in `pair_of_bond` (block-local bond offsets).
+    row_start: Vec<usize>,
+    /// The pair of every bond of the block's rows (block-local bond numbering): i→j and j→i
+    /// name the same pair.
+    pair_of_bond: Vec<u32>,
 }
 
 impl PairPlan {
@@ -578,17 +520,9 @@ impl PairPlan {
         for (k, &i) in points.iter().enumerate() {
             position[i as usize] = k as u32;
         }
-        let reach = points
-            .iter()
-            .enumerate()
-            .map(|(k, &i)| match bonds.family(i as usize).last() {
-                Some(&j) if j > i => position[j as usize],
-                _ => k as u32,
-            })
-            .collect();
-        let mut lower_pair = Vec::with_capacity(pairs);
-        let mut lower_start = Vec::with_capacity(points.len() + 1);
-        lower_start.push(0);
+        let row_start = super::local_offsets(bonds, points);
+        let mut pair_of_bond = Vec::with_capacity(row_start[points.len()]);
+        let mut lower_bonds = 0;
         for (k, &i) in points.iter().enumerate() {
             let row = bonds.range(i as usize);
             // Lower bonds j < i: the pair sits in j's upper part, at i's place in j's row.
@@ -604,33 +538,22 @@ impl PairPlan {
                 if at < upper {
                     return None;
                 }
-                lower_pair.push((pair_start[kj] + at - upper) as u32);
+                pair_of_bond.push((pair_start[kj] + at - upper) as u32);
+                lower_bonds += 1;
             }
-            lower_start.push(lower_pair.len());
+            pair_of_bond.extend((pair_start[k]..pair_start[k + 1]).map(|p| p as u32));
         }
         // Each lower bond found a distinct upper bond (its reverse); as many lower as upper
         // bonds means every upper bond has its reverse too.
-        if lower_pair.len() != pairs {
+        if lower_bonds != pairs {
             return None;
         }
         Some(Self {
             upper_start,
             pair_start,
-            lower_start,
-            lower_pair,
-            reach,
+            row_start,
+            pair_of_bond,
         })
-    }
-
-    /// The slot of the pair of the n-th bond of the k-th block point's row.
-    #[cfg(test)]
-    fn pair_of(&self, k: usize, n: usize) -> usize {
-        let lower = self.lower_start[k + 1] - self.lower_start[k];
-        if n < lower {
-            self.lower_pair[self.lower_start[k] + n] as usize
-        } else {
-            self.pair_start[k] + (n - lower)
-        }
     }
 
     /// Number of pairs (slots of the scale buffer).
@@ -638,70 +561,15 @@ impl PairPlan {
         self.pair_start[self.pair_start.len() - 1]
     }
 
-    /// The block positions cut into at most `count` segments of consecutive rows with about
-    /// as many bonds each (fewer segments when the block has fewer rows; none when empty).
-    fn segments(&self, count: usize) -> Vec<std::ops::Range<usize>> {
-        let rows = self.upper_start.len();
-        // Directed bonds of the rows before block position k.
-        let before = |k: usize| self.pair_start[k] + self.lower_start[k];
-        let bonds = before(rows);
-        let mut cuts = vec![0];
-        for s in 1..count.max(1) {
-            let target = bonds / count * s + bonds % count * s / count;
-            let (mut cut, mut above) = (0, rows);
-            while cut < above {
-                let middle = (cut + above) / 2;
-                if before(middle) < target {
-                    cut = middle + 1;
-                } else {
-                    above = middle;
-                }
-            }
-            if cut > cuts[cuts.len() - 1] {
-                cuts.push(cut);
-            }
-        }
-        if rows > cuts[cuts.len() - 1] {
-            cuts.push(rows);
-        }
-        cuts.windows(2).map(|w| w[0]..w[1]).collect()
-    }
-
     /// Adds the force density of every point of the block (of the points to gather alone,
     /// when a subset) to `force_density`, breaking first the bonds `breaker` breaks in every
-    /// pair; returns the directed bonds broken. `scale` is scratch space (resized here). The
-    /// rows are cut into one segment per thread of the pool.
-    fn run<D: Integrity, B: Breaker, V: VolumeRule>(
+    /// pair; returns the directed bonds broken. `scale` is scratch space (resized here).
+    fn run<D: Integrity, B: Breaker>(
         &self,
         points: PassPoints<'_>,
         scale: &mut Vec<f64>,
         force_density: &mut [[f64; 3]],
-        rows: PairRows<'_, V>,
-        damage: D,
-        breaker: B,
-    ) -> usize {
-        let segments = self.segments(rayon::current_num_threads());
-        self.run_segments(
-            &segments,
-            points,
-            scale,
-            force_density,
-            rows,
-            damage,
-            breaker,
-        )
-    }
-
-    /// [`PairPlan::run`] over the given segments (consecutive ranges of block positions that
-    /// cover the block).
-    #[allow(clippy::too_many_arguments)]
-    fn run_segments<D: Integrity, B: Breaker, V: VolumeRule>(
-        &self,
-        segments: &[std::ops::Range<usize>],
-        points: PassPoints<'_>,
-        scale: &mut Vec<f64>,
-        force_density: &mut [[f64; 3]],
-        rows: PairRows<'_, V>,
+        rows: PairRows<'_>,
         damage: D,
         breaker: B,
     ) -> usize {
@@ -711,269 +579,106 @@ impl PairPlan {
             gather,
         } = points;
         assert!(force_density.len() >= rows.y.len());
-        assert_eq!(points.len(), self.upper_start.len());
-        assert!(segments.windows(2).all(|w| w[0].end == w[1].start));
-        assert_eq!(segments.first().map_or(0, |s| s.start), 0);
-        assert_eq!(segments.last().map_or(0, |s| s.end), points.len());
         scale.resize(self.num_pairs(), 0.0);
-        let slots = Slots::new(scale);
-        // The early rows of every segment, in order, and where each segment's are.
-        let mut early = Vec::new();
-        let mut early_of = Vec::with_capacity(segments.len());
-        for segment in segments {
-            let first = early.len();
-            early.extend(
-                segment
-                    .clone()
-                    .filter(|&k| self.reach[k] as usize >= segment.end)
-                    .map(|k| k as u32),
-            );
-            early_of.push(first..early.len());
+        // Pass 1: each task owns the scale slots of its points' upper pairs.
+        let mut tasks = Vec::with_capacity(points.len().div_ceil(PAIR_CHUNK));
+        let mut rest = &mut scale[..];
+        for first in (0..points.len()).step_by(PAIR_CHUNK) {
+            let end = (first + PAIR_CHUNK).min(points.len());
+            let (mine, tail) = rest.split_at_mut(self.pair_start[end] - self.pair_start[first]);
+            tasks.push((first..end, mine));
+            rest = tail;
         }
-        // Phase 1: the early rows' pairs, in tasks of `EARLY_CHUNK` rows.
-        let broken_early = early
-            .par_chunks(EARLY_CHUNK)
-            .map(|chunk| {
-                let ks = chunk.iter().map(|&k| k as usize);
-                // SAFETY: the breaker's contract is the caller's; a pair's slot and damage
-                // entries belong to the one task of its lower point's row (`PairPlan`).
-                unsafe { rows.pass_dispatch(self, points, ks, slots, damage, breaker, PairsOnly) }
-            })
-            .sum::<usize>();
-        // Phase 2: each segment's rows in order, each with its force.
-        let mut tasks = Vec::with_capacity(segments.len());
-        let mut rest = &mut force_density[..];
-        let mut base = 0;
-        for (segment, own) in segments.iter().zip(early_of) {
-            let first = points[segment.start] as usize;
-            let end = points[segment.end - 1] as usize + 1;
-            let (_, from_first) = rest.split_at_mut(first - base);
-            let (mine, after) = from_first.split_at_mut(end - first);
-            tasks.push((segment.clone(), &early[own], mine, first));
-            rest = after;
-            base = end;
-        }
-        let broken_late = tasks
+        let broken = tasks
             .into_par_iter()
-            .map(|(segment, early, force, base)| {
-                let sink = Gather {
-                    plan: self,
-                    rows,
-                    slots,
-                    early,
-                    next_early: 0,
-                    kept: gather,
-                    next_kept: gather.map_or(0, |g| g.partition_point(|&p| (p as usize) < base)),
-                    force,
-                    base,
-                };
-                // SAFETY: as phase 1; the segment's non-early pairs have both ends in the
-                // segment, and every slot it reads was written in phase 1 or before in its pass.
-                unsafe { rows.pass_dispatch(self, points, segment, slots, damage, breaker, sink) }
+            .map(|(range, out)| {
+                // SAFETY: the breaker's contract is the caller's; each pair (and its two
+                // damage entries) belongs to the one task of its lower point.
+                unsafe {
+                    rows.chunk_dispatch(
+                        &points[range.clone()],
+                        &self.upper_start[range],
+                        out,
+                        damage,
+                        breaker,
+                    )
+                }
             })
             .sum::<usize>();
-        broken_early + broken_late
-    }
-}
-
-/// Early rows per task of phase 1 of [`PairPlan::run`] (any number gives the same result).
-const EARLY_CHUNK: usize = 256;
-
-/// The per-pair scale buffer as the tasks of one pass share it ([`PairPlan`] says which task
-/// writes and reads which slot when).
-#[derive(Clone, Copy)]
-struct Slots {
-    start: *mut f64,
-    len: usize,
-}
-
-// SAFETY: the tasks of a pass touch disjoint slots while any of them writes (`PairPlan`).
-unsafe impl Send for Slots {}
-unsafe impl Sync for Slots {}
-
-impl Slots {
-    /// The slots of `buffer`, which must outlive every use.
-    fn new(buffer: &mut [f64]) -> Self {
-        Self {
-            start: buffer.as_mut_ptr(),
-            len: buffer.len(),
-        }
-    }
-
-    /// The scale of pair `p`.
-    ///
-    /// # Safety
-    /// `p` is a slot of the buffer (the plan numbers pairs below its length), written before
-    /// and written by no task meanwhile.
-    #[inline(always)]
-    unsafe fn read(self, p: usize) -> f64 {
-        debug_assert!(p < self.len);
-        // SAFETY: as the caller guarantees.
-        unsafe { *self.start.add(p) }
-    }
-
-    /// Slots `first..first + count`, to write.
-    ///
-    /// # Safety
-    /// No other task reads or writes them while the slice lives.
-    #[inline(always)]
-    unsafe fn slice_mut<'a>(self, first: usize, count: usize) -> &'a mut [f64] {
-        assert!(first + count <= self.len);
-        // SAFETY: in the buffer (checked), exclusive as the caller guarantees.
-        unsafe { std::slice::from_raw_parts_mut(self.start.add(first), count) }
-    }
-}
-
-/// What the pair loop does with a row besides computing its pairs.
-trait RowSink {
-    /// Whether the loop computes the pairs of the row at block position `k` (visited in
-    /// increasing order); false when they are known already.
-    fn computes(&mut self, k: usize) -> bool;
-
-    /// Every pair of the row at block position `k` (point `i`) has its scale.
-    ///
-    /// # Safety
-    /// No task writes those pairs' slots meanwhile.
-    unsafe fn row_done(&mut self, k: usize, i: usize);
-}
-
-/// Phase 1 of [`PairPlan::run`]: the pairs alone.
-struct PairsOnly;
-
-impl RowSink for PairsOnly {
-    #[inline(always)]
-    fn computes(&mut self, _k: usize) -> bool {
-        true
-    }
-
-    #[inline(always)]
-    unsafe fn row_done(&mut self, _k: usize, _i: usize) {}
-}
-
-/// Phase 2 of [`PairPlan::run`] for one segment: computes the pairs of its rows but the early
-/// ones, and gathers each row's force as soon as its pairs are known.
-struct Gather<'a, V> {
-    plan: &'a PairPlan,
-    rows: PairRows<'a, V>,
-    slots: Slots,
-    /// The segment's early rows (block positions, increasing), computed in phase 1.
-    early: &'a [u32],
-    next_early: usize,
-    /// The points whose force is gathered, when not all (increasing).
-    kept: Option<&'a [u32]>,
-    next_kept: usize,
-    /// Force density of the points `base..base + force.len()`.
-    force: &'a mut [[f64; 3]],
-    base: usize,
-}
-
-impl<V: VolumeRule> RowSink for Gather<'_, V> {
-    #[inline(always)]
-    fn computes(&mut self, k: usize) -> bool {
-        if self.early.get(self.next_early) == Some(&(k as u32)) {
-            self.next_early += 1;
-            false
-        } else {
-            true
-        }
-    }
-
-    #[inline(always)]
-    unsafe fn row_done(&mut self, k: usize, i: usize) {
-        if let Some(kept) = self.kept {
-            while self.next_kept < kept.len() && (kept[self.next_kept] as usize) < i {
-                self.next_kept += 1;
+        // Pass 2: each point gathers its row.
+        let scale = &scale[..];
+        let gathered = |chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
+            let first = points.partition_point(|&p| p < chunk[0]);
+            for (n, &i) in chunk.iter().enumerate() {
+                // A subset's chunks are not contiguous runs of the block's points.
+                let k = match gather {
+                    Some(_) => points.partition_point(|&p| p < i),
+                    None => first + n,
+                };
+                let i = i as usize;
+                let f = gathered_row(
+                    rows.y[i],
+                    rows.bonds.offsets[i],
+                    rows.bonds.family(i),
+                    &self.pair_of_bond[self.row_start[k]..self.row_start[k + 1]],
+                    scale,
+                    rows.y,
+                    rows.volume,
+                );
+                let out = &mut out[i - base];
+                for k in 0..3 {
+                    out[k] += f[k];
+                }
             }
-            if kept.get(self.next_kept).map(|&p| p as usize) != Some(i) {
-                return;
-            }
-        }
-        let plan = self.plan;
-        let bonds = self.rows.bonds;
-        let y = self.rows.y;
-        // SAFETY: as the caller guarantees; the plan numbers every pair below the buffer's
-        // length.
-        let f = unsafe {
-            gathered_row(
-                y[i],
-                bonds.offsets[i],
-                bonds.family(i),
-                &plan.lower_pair[plan.lower_start[k]..plan.lower_start[k + 1]],
-                plan.pair_start[k],
-                self.slots,
-                y,
-                self.rows.volume,
-            )
         };
-        let out = &mut self.force[i - self.base];
-        for c in 0..3 {
-            out[c] += f[c];
-        }
+        let gather_points = gather.unwrap_or(points);
+        for_each_chunk(gather_points, force_density, &|i| i as usize, &gathered);
+        broken
     }
 }
 
-/// `F_i = Σ_n s_n w_ij (Y_j − Y_i)` over the row of point i in row order (`first_bond` the
-/// global index of its first bond; the slot of the n-th bond's pair is `lower[n]` for its
-/// lower bonds, then `upper_first`, `upper_first + 1`, … for its upper bonds), in `LANES`
-/// partial sums by row position, added `(0 + 1) + (2 + 3)` as [`row_force`] does
-/// (independent sums keep the adds from waiting on each other). The pair's scale s does not
-/// involve the volume, so quadrature weights (symmetric or not) enter here alone, exactly as
-/// in [`row_force`].
-///
-/// # Safety
-/// Every slot of the row's pairs is written and written by no task meanwhile.
+/// `F_i = Σ_n s_n w_ij (Y_j − Y_i)` over the row of point i in row order (`pairs[n]` is the
+/// scale slot of its n-th bond, `first_bond` the global index of its first), in `LANES`
+/// partial sums added `(0 + 1) + (2 + 3)` as [`row_force`] does (independent sums keep the
+/// adds from waiting on each other). The pair's scale s does not involve the volume, so
+/// quadrature weights (symmetric or not) enter here alone, exactly as in [`row_force`].
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-unsafe fn gathered_row<V: VolumeRule>(
+fn gathered_row(
     yi: [f64; 3],
     first_bond: usize,
     neighbors: &[u32],
-    lower: &[u32],
-    upper_first: usize,
-    scale: Slots,
+    pairs: &[u32],
+    scale: &[f64],
     y: &[[f64; 3]],
-    volume: V,
+    volume: BondVolumes<'_>,
 ) -> [f64; 3] {
     let mut sum = [[0.0; LANES]; 3];
-    let len = neighbors.len();
-    let split = lower.len();
-    let slot = |n: usize| {
-        if n < split {
-            lower[n] as usize
-        } else {
-            upper_first + (n - split)
-        }
-    };
-    let mut add = |n: usize, lane: usize, p: usize| {
-        let j = neighbors[n] as usize;
-        // SAFETY: as the caller guarantees.
-        let w = unsafe { scale.read(p) } * volume.of(first_bond + n, j);
+    let term = |n: usize, j: u32, p: u32| {
+        let j = j as usize;
+        let w = scale[p as usize] * volume.of(first_bond + n, j);
         let yj = y[j];
-        for k in 0..3 {
-            sum[k][lane] += w * (yj[k] - yi[k]);
-        }
+        [0, 1, 2].map(|k| w * (yj[k] - yi[k]))
     };
-    // Whole blocks of LANES positions in the lower part, the block the two parts share (if
-    // any), whole blocks in the upper part, the positions after the last whole block.
-    let full = len - len % LANES;
-    let lower_blocks = split - split % LANES;
-    let upper_blocks = split.div_ceil(LANES) * LANES;
-    for start in (0..lower_blocks).step_by(LANES) {
+    let mut neighbor_blocks = neighbors.chunks_exact(LANES);
+    let mut pair_blocks = pairs.chunks_exact(LANES);
+    for (block, (js, ps)) in (&mut neighbor_blocks).zip(&mut pair_blocks).enumerate() {
         for lane in 0..LANES {
-            add(start + lane, lane, lower[start + lane] as usize);
+            let t = term(block * LANES + lane, js[lane], ps[lane]);
+            for k in 0..3 {
+                sum[k][lane] += t[k];
+            }
         }
     }
-    for n in lower_blocks..upper_blocks.min(len) {
-        add(n, n % LANES, slot(n));
-    }
-    for start in (upper_blocks..full).step_by(LANES) {
-        for lane in 0..LANES {
-            let n = start + lane;
-            add(n, lane, upper_first + (n - split));
+    let full = neighbors.len() - neighbors.len() % LANES;
+    let rest = neighbor_blocks
+        .remainder()
+        .iter()
+        .zip(pair_blocks.remainder());
+    for (lane, (&j, &p)) in rest.enumerate() {
+        let t = term(full + lane, j, p);
+        for k in 0..3 {
+            sum[k][lane] += t[k];
         }
-    }
-    for n in full.max(upper_blocks)..len {
-        add(n, n % LANES, slot(n));
     }
     sum.map(|s| (s[0] + s[1]) + (s[2] + s[3]))
 }
@@ -986,11 +691,11 @@ struct PassPoints<'a> {
     gather: Option<&'a [u32]>,
 }
 
-/// What the pair loop reads; `V` is the block's volume rule, compiled in.
+/// What the pair loop reads.
 #[derive(Clone, Copy)]
-struct PairRows<'a, V> {
+struct PairRows<'a> {
     bonds: &'a crate::model::BondList,
-    volume: V,
+    volume: BondVolumes<'a>,
     y: &'a [[f64; 3]],
     /// c (the block is closed, so c_ij = c).
     micromodulus: f64,
@@ -998,76 +703,64 @@ struct PairRows<'a, V> {
     wide: bool,
 }
 
-impl<V: VolumeRule> PairRows<'_, V> {
-    /// [`PairRows::pass`] built for AVX2 when [`PairRows::wide`], else for the baseline
+impl PairRows<'_> {
+    /// [`PairRows::chunk`] built for AVX2 when [`PairRows::wide`], else for the baseline
     /// target (the same result bitwise, as for the gather loop).
     ///
     /// # Safety
-    /// As [`PairRows::pass`].
+    /// As [`PairRows::chunk`].
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    unsafe fn pass_dispatch<D: Integrity, B: Breaker, S: RowSink>(
+    unsafe fn chunk_dispatch<D: Integrity, B: Breaker>(
         self,
-        plan: &PairPlan,
         points: &[u32],
-        ks: impl Iterator<Item = usize>,
-        slots: Slots,
+        upper_start: &[usize],
+        out: &mut [f64],
         damage: D,
         breaker: B,
-        sink: S,
     ) -> usize {
         #[cfg(target_arch = "x86_64")]
         if self.wide {
             // SAFETY: AVX2 was detected at run time; the rest as the caller guarantees.
-            return unsafe { self.pass_avx2(plan, points, ks, slots, damage, breaker, sink) };
+            return unsafe { self.chunk_avx2(points, upper_start, out, damage, breaker) };
         }
         // SAFETY: as the caller guarantees.
-        unsafe { self.pass(plan, points, ks, slots, damage, breaker, sink) }
+        unsafe { self.chunk(points, upper_start, out, damage, breaker) }
     }
 
-    /// [`PairRows::pass`] with AVX2 enabled.
+    /// [`PairRows::chunk`] with AVX2 enabled.
     ///
     /// # Safety
-    /// As [`PairRows::pass`], and the CPU supports AVX2.
+    /// As [`PairRows::chunk`], and the CPU supports AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)]
-    unsafe fn pass_avx2<D: Integrity, B: Breaker, S: RowSink>(
+    unsafe fn chunk_avx2<D: Integrity, B: Breaker>(
         self,
-        plan: &PairPlan,
         points: &[u32],
-        ks: impl Iterator<Item = usize>,
-        slots: Slots,
+        upper_start: &[usize],
+        out: &mut [f64],
         damage: D,
         breaker: B,
-        sink: S,
     ) -> usize {
         // SAFETY: as the caller guarantees.
-        unsafe { self.pass(plan, points, ks, slots, damage, breaker, sink) }
+        unsafe { self.chunk(points, upper_start, out, damage, breaker) }
     }
 
-    /// For every block position k of `ks` (increasing), point i = `points[k]`: when `sink`
-    /// computes its pairs, for every upper neighbour j > i in order, first the critical
-    /// stretch test of `breaker` (if any), then `s = c (1−d) (|Y| − ζ)/(ζ|Y|)` into the pair's
-    /// slot; then `sink.row_done(k, i)`. The inputs of s are those of the pair alone (Y_i,
-    /// Y_j, ζ and d of the bond i→j), so s does not depend on which rows share the task.
-    /// Returns the directed bonds broken.
+    /// For every point i of the chunk and every upper neighbour j > i, in order: first the
+    /// critical stretch test of `breaker` (if any), then `s = c (1−d) (|Y| − ζ)/(ζ|Y|)` into
+    /// `out` (the chunk's pair slots, consecutive). The inputs are those of the pair alone
+    /// (Y_i, Y_j, ζ and d of the bond i→j), so s does not depend on which points share the
+    /// chunk. Returns the directed bonds broken.
     ///
     /// # Safety
-    /// The contract of `breaker` ([`Breaker`]) holds for the pairs computed here, no other
-    /// task reads or writes their slots meanwhile, and the contract of
-    /// [`RowSink::row_done`] holds for every row.
+    /// The contract of `breaker` ([`Breaker`]) must hold.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    unsafe fn pass<D: Integrity, B: Breaker, S: RowSink>(
+    unsafe fn chunk<D: Integrity, B: Breaker>(
         self,
-        plan: &PairPlan,
         points: &[u32],
-        ks: impl Iterator<Item = usize>,
-        slots: Slots,
+        upper_start: &[usize],
+        out: &mut [f64],
         damage: D,
         breaker: B,
-        mut sink: S,
     ) -> usize {
         let bonds = self.bonds;
         let y = self.y;
@@ -1079,74 +772,67 @@ impl<V: VolumeRule> PairRows<'_, V> {
         let mut pair = [0.0; PAIR_BLOCK];
         let mut suspect = [false; PAIR_BLOCK];
         let mut broken = 0;
-        for k in ks {
-            let i = points[k] as usize;
-            if sink.computes(k) {
-                let end = bonds.offsets[i + 1];
-                let yi = y[i];
-                let mut slot = plan.pair_start[k];
-                for block_start in (plan.upper_start[k]..end).step_by(PAIR_BLOCK) {
-                    let block_end = (block_start + PAIR_BLOCK).min(end);
-                    let count = block_end - block_start;
-                    let neighbors = &bonds.neighbor[block_start..block_end];
-                    let lengths = &bonds.reference_length[block_start..block_end];
-                    // q = dx*dx + dy*dy + dz*dz with d = Y_j − Y_i: the very number the
-                    // damage models test and whose square root the force uses.
-                    for (n, &j) in neighbors.iter().enumerate() {
-                        let yj = y[j as usize];
-                        let d = [yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]];
-                        squared[n] = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        let mut slot = 0;
+        for (&i, &first) in points.iter().zip(upper_start) {
+            let i = i as usize;
+            let end = bonds.offsets[i + 1];
+            let yi = y[i];
+            for block_start in (first..end).step_by(PAIR_BLOCK) {
+                let block_end = (block_start + PAIR_BLOCK).min(end);
+                let count = block_end - block_start;
+                let neighbors = &bonds.neighbor[block_start..block_end];
+                let lengths = &bonds.reference_length[block_start..block_end];
+                // q = dx*dx + dy*dy + dz*dz with d = Y_j − Y_i: the very number the damage
+                // models test and whose square root the force uses.
+                for (n, &j) in neighbors.iter().enumerate() {
+                    let yj = y[j as usize];
+                    let d = [yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]];
+                    squared[n] = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                }
+                if let Some(limit) = breaker.limit() {
+                    let mut any = false;
+                    for n in 0..count {
+                        suspect[n] = !limit.certainly_intact(squared[n], lengths[n]);
+                        any |= suspect[n];
                     }
-                    if let Some(limit) = breaker.limit() {
-                        let mut any = false;
-                        for n in 0..count {
-                            suspect[n] = !limit.certainly_intact(squared[n], lengths[n]);
-                            any |= suspect[n];
-                        }
-                        if any {
-                            for n in (0..count).filter(|&n| suspect[n]) {
-                                let b = block_start + n;
-                                // SAFETY: b is an upper pair computed by this task (the
-                                // caller's contract).
-                                if unsafe { breaker.damage(b) } < 1.0
-                                    && limit.exceeded(squared[n], lengths[n])
-                                {
-                                    // SAFETY: as above.
-                                    broken += unsafe {
-                                        breaker.break_pair(bonds, i, neighbors[n] as usize, b)
-                                    };
-                                }
+                    if any {
+                        for n in (0..count).filter(|&n| suspect[n]) {
+                            let b = block_start + n;
+                            // SAFETY: b is an upper pair of a point of this chunk (the
+                            // breaker's contract).
+                            if unsafe { breaker.damage(b) } < 1.0
+                                && limit.exceeded(squared[n], lengths[n])
+                            {
+                                // SAFETY: as above.
+                                broken += unsafe {
+                                    breaker.break_pair(bonds, i, neighbors[n] as usize, b)
+                                };
                             }
                         }
                     }
-                    for (n, pair) in pair[..count].iter_mut().enumerate() {
-                        *pair = self.micromodulus * damage.intact(block_start + n);
-                    }
-                    // SAFETY: the slots of this row's pairs are this task's (the caller's
-                    // contract).
-                    let out = unsafe { slots.slice_mut(slot, count) };
-                    for n in 0..count {
-                        out[n] = bond_scale_squared(pair[n], lengths[n], squared[n]);
-                    }
-                    slot += count;
                 }
-                debug_assert_eq!(slot, plan.pair_start[k + 1]);
+                for (n, pair) in pair[..count].iter_mut().enumerate() {
+                    *pair = self.micromodulus * damage.intact(block_start + n);
+                }
+                let out = &mut out[slot..slot + count];
+                for n in 0..count {
+                    out[n] = bond_scale_squared(pair[n], lengths[n], squared[n]);
+                }
+                slot += count;
             }
-            // SAFETY: as the caller guarantees.
-            unsafe { sink.row_done(k, i) };
         }
+        debug_assert_eq!(slot, out.len());
         broken
     }
 }
 
-/// The bond breaking a pair loop does before its forces (see [`PairRows::pass`]).
+/// The bond breaking a pair loop does before its forces (see [`PairRows::chunk`]).
 ///
 /// # Contract of an implementation that breaks bonds
 /// `damage` and `break_pair` access the bond-damage array of the loop's bond list through a
-/// pointer; the pair loop only calls them for upper bonds i→j (i < j) of the pairs the
-/// running task computes, whose entries (and those of their reverse bonds j→i) no other task
-/// reads or writes meanwhile (each pair is computed by one task, [`PairPlan`]); the damage
-/// reads of the pair loop go through the same pointer.
+/// pointer; the pair loop only calls them for upper bonds i→j (i < j) of the points of the
+/// running chunk, whose entries (and those of their reverse bonds j→i) no other task reads or
+/// writes meanwhile; the damage reads of the force loop go through the same pointer.
 trait Breaker: Copy + Send + Sync {
     /// The critical stretch to test, `None` when the loop breaks nothing.
     fn limit(self) -> Option<StretchLimit>;
@@ -1382,11 +1068,33 @@ impl Material for BondBased {
         };
         let wide = wide_vectors_available();
         if let Some(plan) = &self.pairs {
-            let y = current.position;
-            match current.bond_damage {
-                None => self.run_plan(plan, reference, y, force_density, Undamaged, NoBreaking),
-                Some(d) => self.run_plan(plan, reference, y, force_density, Damaged(d), NoBreaking),
+            let pairs = PairRows {
+                bonds: reference.bonds,
+                volume: reference.bond_volumes(),
+                y: current.position,
+                micromodulus: uniform.0,
+                wide,
             };
+            let scale = &mut self.pair_scratch.take();
+            match current.bond_damage {
+                None => plan.run(
+                    self.pass_points(),
+                    scale,
+                    force_density,
+                    pairs,
+                    Undamaged,
+                    NoBreaking,
+                ),
+                Some(d) => plan.run(
+                    self.pass_points(),
+                    scale,
+                    force_density,
+                    pairs,
+                    Damaged(d),
+                    NoBreaking,
+                ),
+            };
+            self.pair_scratch.keep(std::mem::take(scale));
             return;
         }
         let closed = self.closed;
@@ -1505,16 +1213,33 @@ impl BreakingForcePass for BondBased {
             .as_ref()
             .expect("the fast path is offered only with a pair plan");
         assert_eq!(bond_damage.len(), reference.bonds.num_bonds());
+        let pairs = PairRows {
+            bonds: reference.bonds,
+            volume: reference.bond_volumes(),
+            y: position,
+            // As `add_force_density` (c/2 doubled: exactly c).
+            micromodulus: 2.0 * self.half(),
+            wide: wide_vectors_available(),
+        };
         let fused = FusedCriticalStretch {
             limit: StretchLimit::new(critical_stretch),
             damage: bond_damage.as_mut_ptr(),
         };
         // The `Breaker` contract holds: `bond_damage` is borrowed mutably for this call and
-        // covers every bond; the task computing point i's upper pairs reads and writes only
-        // their entries and those of their reverses, which no other task touches (each pair
-        // has one lower point, and the block is closed with symmetric families: the plan
-        // exists).
-        self.run_plan(plan, reference, position, force_density, fused, fused)
+        // covers every bond; the chunk of point i reads and writes only the entries of i's
+        // upper bonds and of their reverses, which belong to no other chunk (each pair has
+        // one lower point, and the block is closed with symmetric families: the plan exists).
+        let scale = &mut self.pair_scratch.take();
+        let broken = plan.run(
+            self.pass_points(),
+            scale,
+            force_density,
+            pairs,
+            fused,
+            fused,
+        );
+        self.pair_scratch.keep(std::mem::take(scale));
+        broken
     }
 }
 
@@ -1719,7 +1444,7 @@ mod tests {
         let mut bonds_of_pair = vec![Vec::new(); plan.num_pairs()];
         for i in 0..x.len() {
             for (n, b) in bonds.range(i).enumerate() {
-                let p = plan.pair_of(i, n);
+                let p = plan.pair_of_bond[plan.row_start[i] + n] as usize;
                 let j = bonds.neighbor[b] as usize;
                 bonds_of_pair[p].push((i.min(j), i.max(j)));
                 // A point's own pairs are its upper bonds, numbered in row order.
@@ -1844,8 +1569,8 @@ mod tests {
         };
         let sub_x = pick(&x);
         let sub_v: Vec<f64> = points.iter().map(|&g| v[g as usize]).collect();
-        // Fewer points than the whole body, so other segments and early rows.
-        assert!(points.len() < x.len());
+        // More than one pair-pass task locally, and fewer points than the whole body.
+        assert!(points.len() > PAIR_CHUNK && points.len() < x.len());
         assert!(owned.contains(&true) && owned.contains(&false));
         let whole_reference = ReferenceView {
             bonds: &bonds,
@@ -2015,70 +1740,6 @@ mod tests {
             total += broken;
         }
         assert!(total > 0 && total < bonds.num_bonds(), "{total}");
-    }
-
-    #[test]
-    fn any_cut_into_segments_gives_the_same_bits() {
-        // Rows with upper neighbours beyond their segment are computed first, the others in
-        // their segment's pass: which rows are which depends on the cuts, no force, damage or
-        // count of broken bonds may. `body` is numbered at random (most rows are early), `bar`
-        // along its length (few are).
-        for (x, v, bonds, y, _) in [body(), bar()] {
-            let reference = ReferenceView {
-                bonds: &bonds,
-                position: &x,
-                volume: &v,
-                bond_volume: None,
-            };
-            let points: Vec<u32> = (0..x.len() as u32).collect();
-            let plan = PairPlan::new(&bonds, &points).unwrap();
-            let n = points.len();
-            let run = |cuts: &[usize]| {
-                let mut bounds = vec![0];
-                bounds.extend_from_slice(cuts);
-                bounds.push(n);
-                let segments: Vec<_> = bounds.windows(2).map(|w| w[0]..w[1]).collect();
-                let mut damage = vec![0.0f32; bonds.num_bonds()];
-                let mut force = vec![[0.0; 3]; n];
-                let fused = FusedCriticalStretch {
-                    limit: StretchLimit::new(0.02),
-                    damage: damage.as_mut_ptr(),
-                };
-                let VolumeRules::Full(volume) = reference.bond_volumes().rule() else {
-                    unreachable!("no per-bond volumes given")
-                };
-                let rows = PairRows {
-                    bonds: &bonds,
-                    volume,
-                    y: &y,
-                    micromodulus: 2.0 * material().half(),
-                    wide: wide_vectors_available(),
-                };
-                let points = PassPoints {
-                    block: &points,
-                    gather: None,
-                };
-                let broken = plan.run_segments(
-                    &segments,
-                    points,
-                    &mut Vec::new(),
-                    &mut force,
-                    rows,
-                    fused,
-                    fused,
-                );
-                (broken, force, damage)
-            };
-            let one = run(&[]);
-            assert!(one.0 > 0);
-            for cuts in [
-                vec![n / 2],
-                vec![1, n / 3, n - 1],
-                vec![100, 101, 350, 351, 500],
-            ] {
-                assert!(run(&cuts) == one, "cuts {cuts:?}");
-            }
-        }
     }
 
     #[test]

@@ -43,9 +43,7 @@ use super::{
 use super::{BreakingCoefficientPass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{
-    BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach, VolumeRule, VolumeRules,
-};
+use crate::model::{BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -211,23 +209,9 @@ macro_rules! with_bond_data {
     };
 }
 
-/// Runs `$body` with `$v` bound to the volume rule of `$reference` ([`VolumeRules`]), so the
-/// bond loops in it are compiled once per rule, with no branch on the rule per bond.
-macro_rules! with_volume_rule {
-    ($reference:expr, |$v:ident| $body:expr) => {
-        match $reference.bond_volumes().rule() {
-            VolumeRules::Full($v) => $body,
-            VolumeRules::PerBond($v) => $body,
-        }
-    };
-}
-
-/// What the LPS loops read, bundled once per call; `V` is the volume rule the hot loops are
-/// compiled for.
-struct Rows<'a, V> {
+/// What the LPS loops read, bundled once per call.
+struct Rows<'a> {
     reference: &'a ReferenceView<'a>,
-    /// w_ij ([`VolumeRule`]).
-    volume: V,
     current: &'a CurrentView<'a>,
     points: &'a [u32],
     local_offsets: &'a [usize],
@@ -243,7 +227,7 @@ struct Rows<'a, V> {
     wide: bool,
 }
 
-impl<V: VolumeRule> Rows<'_, V> {
+impl Rows<'_> {
     /// Block-local index of the chunk's first point (chunks are contiguous runs of `points`).
     fn first_local(&self, chunk: &[u32]) -> usize {
         self.points.partition_point(|&p| p < chunk[0])
@@ -269,7 +253,7 @@ impl<V: VolumeRule> Rows<'_, V> {
         breaker: B,
     ) -> usize {
         let bonds = self.reference.bonds;
-        let volume = self.volume;
+        let volume = self.reference.bond_volumes();
         let y = self.current.position;
         let k0 = self.first_local(chunk);
         let mut broken = 0;
@@ -439,7 +423,7 @@ impl<V: VolumeRule> Rows<'_, V> {
         damage: D,
     ) {
         let bonds = self.reference.bonds;
-        let volume = self.volume;
+        let volume = self.reference.bond_volumes();
         let y = self.current.position;
         let k0 = self.first_local(chunk);
         for (n, &i) in chunk.iter().enumerate() {
@@ -608,7 +592,7 @@ impl<V: VolumeRule> Rows<'_, V> {
 
 /// The bond loops with thermal strain (module docs): plain loops, used only by blocks with a
 /// `Thermal Expansion Coefficient` in runs with point temperatures.
-impl<V: VolumeRule> Rows<'_, V> {
+impl Rows<'_> {
     /// θ_i = (3/m) Σ_j ω (1−d) ζ (e − ε_i ζ) V_j and the published coefficients, ε = α ΔT.
     fn thermal_dilatation<W: BondWeights, D: Integrity>(
         &self,
@@ -945,16 +929,13 @@ impl<W: BondWeights, D: Integrity> ForceState for LpsForceState<'_, W, D> {
 }
 
 impl LinearPeridynamicSolid {
-    /// The loops' inputs, with the volume rule `volume` compiled in.
-    fn rows<'a, V: VolumeRule>(
+    fn rows<'a>(
         &'a self,
         reference: &'a ReferenceView<'a>,
         current: &'a CurrentView<'a>,
-        volume: V,
-    ) -> Rows<'a, V> {
+    ) -> Rows<'a> {
         Rows {
             reference,
-            volume,
             current,
             points: &self.points,
             local_offsets: &self.local_offsets,
@@ -1064,8 +1045,8 @@ impl Material for LinearPeridynamicSolid {
         current: &CurrentView<'_>,
         coefficients: &mut [PointCoefficients],
     ) {
+        let rows = self.rows(reference, current);
         if let Some(strain) = self.thermal_strain(current) {
-            let rows = self.rows(reference, current, reference.bond_volumes());
             with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
                 for_each_chunk(
                     &self.points,
@@ -1078,19 +1059,16 @@ impl Material for LinearPeridynamicSolid {
             });
             return;
         }
-        with_volume_rule!(reference, |v| {
-            let rows = self.rows(reference, current, v);
-            with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
-                for_each_chunk(
-                    &self.points,
-                    coefficients,
-                    &|i| i as usize,
-                    &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
-                        // SAFETY: `NoBreaking` touches no damage.
-                        unsafe { rows.dilatation_dispatch(chunk, base, out, w, d, NoBreaking) };
-                    },
-                )
-            })
+        with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
+            for_each_chunk(
+                &self.points,
+                coefficients,
+                &|i| i as usize,
+                &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
+                    // SAFETY: `NoBreaking` touches no damage.
+                    unsafe { rows.dilatation_dispatch(chunk, base, out, w, d, NoBreaking) };
+                },
+            )
         })
     }
 
@@ -1117,9 +1095,9 @@ impl Material for LinearPeridynamicSolid {
         coefficients: &[PointCoefficients],
         force_density: &mut [[f64; 3]],
     ) {
+        let rows = self.rows(reference, current);
         let force_points = self.force_points.as_deref().unwrap_or(&self.points);
         if let Some(strain) = self.thermal_strain(current) {
-            let rows = self.rows(reference, current, reference.bond_volumes());
             with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
                 for_each_chunk(
                     force_points,
@@ -1132,18 +1110,15 @@ impl Material for LinearPeridynamicSolid {
             });
             return;
         }
-        with_volume_rule!(reference, |v| {
-            let rows = self.rows(reference, current, v);
-            with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
-                for_each_chunk(
-                    force_points,
-                    force_density,
-                    &|i| i as usize,
-                    &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
-                        rows.add_force_dispatch(coefficients, chunk, base, out, w, d)
-                    },
-                )
-            })
+        with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
+            for_each_chunk(
+                force_points,
+                force_density,
+                &|i| i as usize,
+                &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
+                    rows.add_force_dispatch(coefficients, chunk, base, out, w, d)
+                },
+            )
         })
     }
 
@@ -1257,7 +1232,7 @@ impl Material for LinearPeridynamicSolid {
         coefficients: &[PointCoefficients],
         energy_density: &mut [f64],
     ) {
-        let rows = self.rows(reference, current, reference.bond_volumes());
+        let rows = self.rows(reference, current);
         let strain = self.thermal_strain(current);
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             for_each_chunk(
@@ -1295,17 +1270,15 @@ impl BreakingCoefficientPass for LinearPeridynamicSolid {
             bond_damage: None,
             history: &crate::history::NO_HISTORY,
         };
+        let rows = self.rows(reference, &current);
         let fused = FusedCriticalStretch {
             limit: StretchLimit::new(critical_stretch),
             damage: bond_damage.as_mut_ptr(),
         };
-        with_volume_rule!(reference, |v| {
-            let rows = self.rows(reference, &current, v);
-            match self.weights.as_deref() {
-                None => rows.fused_dilatation(coefficients, UnitWeights, fused),
-                Some(weights) => rows.fused_dilatation(coefficients, StoredWeights(weights), fused),
-            }
-        })
+        match self.weights.as_deref() {
+            None => rows.fused_dilatation(coefficients, UnitWeights, fused),
+            Some(weights) => rows.fused_dilatation(coefficients, StoredWeights(weights), fused),
+        }
     }
 }
 

@@ -21,9 +21,7 @@ pub use bonds::BondList;
 pub use declaration::{FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
 pub use node_sets::{normalize_name, NodeSets};
 pub use points::{BlockInfo, PointCloud};
-pub use views::{
-    BondVolumes, CurrentView, FullVolume, PerBondVolume, ReferenceView, VolumeRule, VolumeRules,
-};
+pub use views::{BondVolumes, CurrentView, ReferenceView};
 
 use crate::boundary::BoundaryConditions;
 

@@ -722,10 +722,8 @@ fn memory_plans(
 }
 
 /// What the pair-once plans of the `Elastic Bond Based` blocks hold (`material::bond_based`):
-/// the pair slot of every lower bond (4 B per pair, i.e. 2 B per directed bond) and the
-/// per-pair scale buffer of the force pass (8 B per pair, i.e. 4 B per directed bond), plus
-/// three 8-byte row starts per point (and one more) and each point's 4-byte reach (its last
-/// upper neighbour). Estimated for
+/// the pair slot of every bond (4 B) and the per-pair scale buffer of the force pass (8 B per
+/// pair, i.e. 4 B per directed bond), plus three 8-byte row starts per point. Estimated for
 /// every such block, as if its families were closed and symmetric (the usual case; a block
 /// whose families are not gathers without a plan and holds less).
 fn pair_plan_bytes(deck: &Deck, model: &Model) -> u64 {
@@ -744,8 +742,7 @@ fn pair_plan_bytes(deck: &Deck, model: &Model) -> u64 {
                 .iter()
                 .map(|&p| model.bonds.family_size(p as usize) as u64)
                 .sum();
-            let points = block.points.len() as u64;
-            (2 + 4) * bonds + 3 * 8 * (points + 1) + 4 * points
+            (4 + 4) * bonds + 3 * 8 * (block.points.len() as u64 + 1)
         })
         .sum()
 }
