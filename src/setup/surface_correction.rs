@@ -80,6 +80,9 @@ fn point_corrections(deck: &Deck, model: &Model) -> Result<Vec<SurfaceCorrection
         .collect())
 }
 
+/// The factor g_i of every point and every point's correction (see [`point_factors`]).
+pub type PointFactors = (Vec<f64>, Vec<SurfaceCorrection>);
+
 /// The factor g_i of every point (1 outside corrected blocks) and every point's correction,
 /// or `None` when no block is corrected. `quadrature` are the bond volumes of
 /// [`super::quadrature::bond_volumes`] (`None`: full cell volumes).
@@ -87,7 +90,7 @@ pub fn point_factors(
     deck: &Deck,
     model: &Model,
     quadrature: Option<&[f64]>,
-) -> Result<Option<(Vec<f64>, Vec<SurfaceCorrection>)>, SetupError> {
+) -> Result<Option<PointFactors>, SetupError> {
     let corrections = point_corrections(deck, model)?;
     if !corrections.iter().any(SurfaceCorrection::is_active) {
         return Ok(None);

@@ -2,13 +2,12 @@ use super::*;
 use crate::model::quadrature;
 use crate::model::test_support::{brute_force_bonds, lattice};
 
+/// Positions, cell volumes, families and quadrature volumes (`None`: full cell volumes).
+type Body = (Vec<[f64; 3]>, Vec<f64>, BondList, Option<Vec<f64>>);
+
 /// The families, cell volumes and quadrature volumes of an `n`³ unit lattice under `rule`
 /// with horizon `horizon`.
-fn body(
-    n: usize,
-    rule: QuadratureRule,
-    horizon: f64,
-) -> (Vec<[f64; 3]>, Vec<f64>, BondList, Option<Vec<f64>>) {
+fn body(n: usize, rule: QuadratureRule, horizon: f64) -> Body {
     let x = lattice(n);
     let v = vec![1.0; x.len()];
     let bonds = brute_force_bonds(&x, rule.family_reach(horizon, 1.0));
