@@ -73,6 +73,18 @@ pub enum QuadratureRule {
 pub const RULE_NAMES: [&str; 5] = ["Full Volume", "PDLAMMPS", "HHB", "Exact", "Adaptive"];
 
 impl QuadratureRule {
+    /// The rule as part of a memo key: a tag per rule and its tolerance (0 for the rules
+    /// without one), so that values computed once per rule and shape can be looked up.
+    pub fn cache_key(self) -> (u8, f64) {
+        match self {
+            QuadratureRule::FullVolume => (0, 0.0),
+            QuadratureRule::PdLammps => (1, 0.0),
+            QuadratureRule::Hhb => (2, 0.0),
+            QuadratureRule::Exact => (3, 0.0),
+            QuadratureRule::Adaptive { tolerance } => (4, tolerance),
+        }
+    }
+
     /// The rule named by `Blocks → … → Quadrature` (one of [`RULE_NAMES`]), the adaptive one
     /// with `tolerance`.
     pub fn from_deck_name(name: &str, tolerance: f64) -> Option<Self> {
@@ -197,17 +209,11 @@ pub fn bond_volumes(
     let mut memo: HashMap<(u8, [u64; 3], [i64; 3]), BondVolume> = HashMap::new();
     for i in 0..bonds.num_points() {
         let rule = rule_of_point[i];
+        let (tag, tolerance) = rule.cache_key();
         for b in bonds.range(i) {
             let j = bonds.neighbor[b] as usize;
             let xi = [0, 1, 2].map(|k| position[j][k] - position[i][k]);
             let spacing = volume[j].cbrt();
-            let (tag, tolerance) = match rule {
-                QuadratureRule::FullVolume => (0, 0.0),
-                QuadratureRule::PdLammps => (1, 0.0),
-                QuadratureRule::Hhb => (2, 0.0),
-                QuadratureRule::Exact => (3, 0.0),
-                QuadratureRule::Adaptive { tolerance } => (4, tolerance),
-            };
             let key = (
                 tag,
                 [horizon_of_point[i], volume[j], tolerance].map(f64::to_bits),

@@ -156,13 +156,7 @@ pub fn point_factors(
                 return 1.0;
             }
             let rule = rule_of_point[i];
-            let (rule_tag, tolerance) = match rule {
-                QuadratureRule::FullVolume => (0, 0.0),
-                QuadratureRule::PdLammps => (1, 0.0),
-                QuadratureRule::Hhb => (2, 0.0),
-                QuadratureRule::Exact => (3, 0.0),
-                QuadratureRule::Adaptive { tolerance } => (4, tolerance),
-            };
+            let (rule_tag, tolerance) = rule.cache_key();
             let key = (
                 correction as u8,
                 rule_tag,
