@@ -191,6 +191,10 @@ struct GroupProduct {
     sums: Vec<f64>,
     used: Vec<bool>,
     columns: Vec<usize>,
+    /// Where the set's rows of A start in A's values.
+    a_starts: Vec<usize>,
+    /// Where the rows of B of the current run start in B's values.
+    b_starts: Vec<usize>,
 }
 
 impl GroupProduct {
@@ -199,6 +203,8 @@ impl GroupProduct {
             sums: vec![0.0; ncols * MAX_GROUP_ROWS],
             used: vec![false; ncols],
             columns: Vec::new(),
+            a_starts: Vec::new(),
+            b_starts: Vec::new(),
         }
     }
 
@@ -212,7 +218,8 @@ impl GroupProduct {
     ) -> Vec<(Vec<usize>, Vec<f64>)> {
         let set_rows = rows.len();
         let (a_columns, _) = a.row(rows.start);
-        let a_values: Vec<&[f64]> = rows.clone().map(|r| a.row(r).1).collect();
+        self.a_starts.clear();
+        self.a_starts.extend(rows.clone().map(|r| a.offsets[r]));
         let mut p = 0;
         while p < a_columns.len() {
             // The run of A's columns p..p + run whose rows of B share one pattern.
@@ -225,20 +232,19 @@ impl GroupProduct {
                 })
                 .count();
             let b_columns = b.row(k).0;
-            let b_rows: Vec<&[f64]> = a_columns[p..p + run]
-                .iter()
-                .map(|&kk| b.row(kk).1)
-                .collect();
+            self.b_starts.clear();
+            self.b_starts
+                .extend(a_columns[p..p + run].iter().map(|&kk| b.offsets[kk]));
             for (position, &c) in b_columns.iter().enumerate() {
                 if !self.used[c] {
                     self.used[c] = true;
                     self.columns.push(c);
                 }
                 let sums = &mut self.sums[c * MAX_GROUP_ROWS..c * MAX_GROUP_ROWS + set_rows];
-                for (j, b_row) in b_rows.iter().enumerate() {
-                    let b_kc = b_row[position];
-                    for (sum, a_row) in sums.iter_mut().zip(&a_values) {
-                        *sum += a_row[p + j] * b_kc;
+                for (j, &b_start) in self.b_starts.iter().enumerate() {
+                    let b_kc = b.values[b_start + position];
+                    for (sum, &a_start) in sums.iter_mut().zip(&self.a_starts) {
+                        *sum += a.values[a_start + p + j] * b_kc;
                     }
                 }
             }
