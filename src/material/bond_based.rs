@@ -67,7 +67,7 @@ use super::{
 use super::{BreakingForcePass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{BondVolumes, ModelDeclaration, Reach};
+use crate::model::{with_volume_rule, ModelDeclaration, Reach, VolumeRule};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -270,11 +270,11 @@ struct BondRow<'a> {
 /// `F_i = Σ_j c_ij (1−d) w_ij (|Y| − ζ)/(ζ|Y|) (Y_j − Y_i)` over the bond-list `row` of the
 /// point at `yi` (w_ij the bond's quadrature volume, V_j under the full-volume rule).
 #[inline(always)]
-fn row_force<D: Integrity, K: PairStiffness>(
+fn row_force<V: VolumeRule, D: Integrity, K: PairStiffness>(
     yi: [f64; 3],
     row: BondRow<'_>,
     y: &[[f64; 3]],
-    volume: BondVolumes<'_>,
+    volume: V,
     damage: D,
     stiffness: K,
 ) -> [f64; 3] {
@@ -337,13 +337,15 @@ fn wide_vectors_available() -> bool {
 }
 
 impl Rows<'_> {
-    /// Adds the force density of the chunk's points (see [`row_force`]).
+    /// Adds the force density of the chunk's points (see [`row_force`]), with w_ij by the
+    /// quadrature rule `volume`.
     #[inline(always)]
-    fn add_force<D: Integrity, K: PairStiffness>(
+    fn add_force<V: VolumeRule, D: Integrity, K: PairStiffness>(
         &self,
         chunk: &[u32],
         base: usize,
         out: &mut [[f64; 3]],
+        volume: V,
         damage: D,
         stiffness: K,
     ) {
@@ -357,7 +359,6 @@ impl Rows<'_> {
                 neighbors: &bonds.neighbor[range.clone()],
                 lengths: &bonds.reference_length[range],
             };
-            let volume = self.reference.bond_volumes();
             let f = row_force(y[i], row, y, volume, damage, stiffness);
             let out = &mut out[i - base];
             for k in 0..3 {
@@ -371,11 +372,13 @@ impl Rows<'_> {
     /// result: the lanes do the same IEEE operations in the same order, and no multiply-add is
     /// fused (FMA is not enabled).
     #[inline(always)]
-    fn add_force_dispatch<D: Integrity, K: PairStiffness>(
+    #[allow(clippy::too_many_arguments)]
+    fn add_force_dispatch<V: VolumeRule, D: Integrity, K: PairStiffness>(
         &self,
         chunk: &[u32],
         base: usize,
         out: &mut [[f64; 3]],
+        volume: V,
         damage: D,
         stiffness: K,
         wide: bool,
@@ -383,26 +386,27 @@ impl Rows<'_> {
         #[cfg(target_arch = "x86_64")]
         if wide {
             // SAFETY: `wide` is true only when the CPU reports AVX2 at run time.
-            unsafe { self.add_force_avx2(chunk, base, out, damage, stiffness) };
+            unsafe { self.add_force_avx2(chunk, base, out, volume, damage, stiffness) };
             return;
         }
         let _ = wide;
-        self.add_force(chunk, base, out, damage, stiffness);
+        self.add_force(chunk, base, out, volume, damage, stiffness);
     }
 
     /// [`Rows::add_force`] with AVX2 enabled, so the `LANES` loop becomes 4-wide square roots and
     /// divisions (twice the width of the x86-64 baseline's SSE2).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn add_force_avx2<D: Integrity, K: PairStiffness>(
+    fn add_force_avx2<V: VolumeRule, D: Integrity, K: PairStiffness>(
         &self,
         chunk: &[u32],
         base: usize,
         out: &mut [[f64; 3]],
+        volume: V,
         damage: D,
         stiffness: K,
     ) {
-        self.add_force(chunk, base, out, damage, stiffness);
+        self.add_force(chunk, base, out, volume, damage, stiffness);
     }
 
     /// `W_i = Σ_j ¼ c_ij s² ζ (1−d) w_ij = Σ_j ¼ (a_i + a_j)(1−d) e²/ζ w_ij`.
@@ -563,13 +567,16 @@ impl PairPlan {
 
     /// Adds the force density of every point of the block (of the points to gather alone,
     /// when a subset) to `force_density`, breaking first the bonds `breaker` breaks in every
-    /// pair; returns the directed bonds broken. `scale` is scratch space (resized here).
-    fn run<D: Integrity, B: Breaker>(
+    /// pair; returns the directed bonds broken. `scale` is scratch space (resized here); the
+    /// gather reads w_ij by the quadrature rule `volume` (the pairs' scales do not involve it).
+    #[allow(clippy::too_many_arguments)]
+    fn run<V: VolumeRule, D: Integrity, B: Breaker>(
         &self,
         points: PassPoints<'_>,
         scale: &mut Vec<f64>,
         force_density: &mut [[f64; 3]],
         rows: PairRows<'_>,
+        volume: V,
         damage: D,
         breaker: B,
     ) -> usize {
@@ -623,7 +630,7 @@ impl PairPlan {
                     &self.pair_of_bond[self.row_start[k]..self.row_start[k + 1]],
                     scale,
                     rows.y,
-                    rows.volume,
+                    volume,
                 );
                 let out = &mut out[i - base];
                 for k in 0..3 {
@@ -643,14 +650,14 @@ impl PairPlan {
 /// adds from waiting on each other). The pair's scale s does not involve the volume, so
 /// quadrature weights (symmetric or not) enter here alone, exactly as in [`row_force`].
 #[inline(always)]
-fn gathered_row(
+fn gathered_row<V: VolumeRule>(
     yi: [f64; 3],
     first_bond: usize,
     neighbors: &[u32],
     pairs: &[u32],
     scale: &[f64],
     y: &[[f64; 3]],
-    volume: BondVolumes<'_>,
+    volume: V,
 ) -> [f64; 3] {
     let mut sum = [[0.0; LANES]; 3];
     let term = |n: usize, j: u32, p: u32| {
@@ -695,7 +702,6 @@ struct PassPoints<'a> {
 #[derive(Clone, Copy)]
 struct PairRows<'a> {
     bonds: &'a crate::model::BondList,
-    volume: BondVolumes<'a>,
     y: &'a [[f64; 3]],
     /// c (the block is closed, so c_ij = c).
     micromodulus: f64,
@@ -1070,18 +1076,18 @@ impl Material for BondBased {
         if let Some(plan) = &self.pairs {
             let pairs = PairRows {
                 bonds: reference.bonds,
-                volume: reference.bond_volumes(),
                 y: current.position,
                 micromodulus: uniform.0,
                 wide,
             };
             let scale = &mut self.pair_scratch.take();
-            match current.bond_damage {
+            with_volume_rule!(reference, |v| match current.bond_damage {
                 None => plan.run(
                     self.pass_points(),
                     scale,
                     force_density,
                     pairs,
+                    v,
                     Undamaged,
                     NoBreaking,
                 ),
@@ -1090,25 +1096,36 @@ impl Material for BondBased {
                     scale,
                     force_density,
                     pairs,
+                    v,
                     Damaged(d),
                     NoBreaking,
                 ),
-            };
+            });
             self.pair_scratch.keep(std::mem::take(scale));
             return;
         }
         let closed = self.closed;
-        let run = |chunk: &[u32], base: usize, out: &mut [[f64; 3]]| match (
-            current.bond_damage,
-            closed,
-        ) {
-            (None, true) => rows.add_force_dispatch(chunk, base, out, Undamaged, uniform, wide),
-            (None, false) => rows.add_force_dispatch(chunk, base, out, Undamaged, mixed, wide),
-            (Some(d), true) => rows.add_force_dispatch(chunk, base, out, Damaged(d), uniform, wide),
-            (Some(d), false) => rows.add_force_dispatch(chunk, base, out, Damaged(d), mixed, wide),
-        };
         let force_points = self.force_points.as_deref().unwrap_or(&self.points);
-        for_each_chunk(force_points, force_density, &|i| i as usize, &run);
+        with_volume_rule!(reference, |v| {
+            let run = |chunk: &[u32], base: usize, out: &mut [[f64; 3]]| match (
+                current.bond_damage,
+                closed,
+            ) {
+                (None, true) => {
+                    rows.add_force_dispatch(chunk, base, out, v, Undamaged, uniform, wide)
+                }
+                (None, false) => {
+                    rows.add_force_dispatch(chunk, base, out, v, Undamaged, mixed, wide)
+                }
+                (Some(d), true) => {
+                    rows.add_force_dispatch(chunk, base, out, v, Damaged(d), uniform, wide)
+                }
+                (Some(d), false) => {
+                    rows.add_force_dispatch(chunk, base, out, v, Damaged(d), mixed, wide)
+                }
+            };
+            for_each_chunk(force_points, force_density, &|i| i as usize, &run)
+        })
     }
 
     /// The pair plan breaks each pair in both directions in the force pass (only when the
@@ -1215,7 +1232,6 @@ impl BreakingForcePass for BondBased {
         assert_eq!(bond_damage.len(), reference.bonds.num_bonds());
         let pairs = PairRows {
             bonds: reference.bonds,
-            volume: reference.bond_volumes(),
             y: position,
             // As `add_force_density` (c/2 doubled: exactly c).
             micromodulus: 2.0 * self.half(),
@@ -1230,14 +1246,15 @@ impl BreakingForcePass for BondBased {
         // upper bonds and of their reverses, which belong to no other chunk (each pair has
         // one lower point, and the block is closed with symmetric families: the plan exists).
         let scale = &mut self.pair_scratch.take();
-        let broken = plan.run(
+        let broken = with_volume_rule!(reference, |v| plan.run(
             self.pass_points(),
             scale,
             force_density,
             pairs,
+            v,
             fused,
             fused,
-        );
+        ));
         self.pair_scratch.keep(std::mem::take(scale));
         broken
     }

@@ -43,7 +43,10 @@ use super::{
 use super::{BreakingCoefficientPass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
+use crate::model::with_volume_rule;
+use crate::model::{
+    BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach, VolumeRule,
+};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -209,9 +212,12 @@ macro_rules! with_bond_data {
     };
 }
 
-/// What the LPS loops read, bundled once per call.
-struct Rows<'a> {
+/// What the LPS loops read, bundled once per call; `V` is the quadrature rule the hot loops
+/// are compiled for.
+struct Rows<'a, V> {
     reference: &'a ReferenceView<'a>,
+    /// w_ij ([`VolumeRule`]).
+    volume: V,
     current: &'a CurrentView<'a>,
     points: &'a [u32],
     local_offsets: &'a [usize],
@@ -227,7 +233,7 @@ struct Rows<'a> {
     wide: bool,
 }
 
-impl Rows<'_> {
+impl<V: VolumeRule> Rows<'_, V> {
     /// Block-local index of the chunk's first point (chunks are contiguous runs of `points`).
     fn first_local(&self, chunk: &[u32]) -> usize {
         self.points.partition_point(|&p| p < chunk[0])
@@ -253,7 +259,7 @@ impl Rows<'_> {
         breaker: B,
     ) -> usize {
         let bonds = self.reference.bonds;
-        let volume = self.reference.bond_volumes();
+        let volume = self.volume;
         let y = self.current.position;
         let k0 = self.first_local(chunk);
         let mut broken = 0;
@@ -423,7 +429,7 @@ impl Rows<'_> {
         damage: D,
     ) {
         let bonds = self.reference.bonds;
-        let volume = self.reference.bond_volumes();
+        let volume = self.volume;
         let y = self.current.position;
         let k0 = self.first_local(chunk);
         for (n, &i) in chunk.iter().enumerate() {
@@ -592,7 +598,7 @@ impl Rows<'_> {
 
 /// The bond loops with thermal strain (module docs): plain loops, used only by blocks with a
 /// `Thermal Expansion Coefficient` in runs with point temperatures.
-impl Rows<'_> {
+impl<V: VolumeRule> Rows<'_, V> {
     /// θ_i = (3/m) Σ_j ω (1−d) ζ (e − ε_i ζ) V_j and the published coefficients, ε = α ΔT.
     fn thermal_dilatation<W: BondWeights, D: Integrity>(
         &self,
@@ -929,13 +935,16 @@ impl<W: BondWeights, D: Integrity> ForceState for LpsForceState<'_, W, D> {
 }
 
 impl LinearPeridynamicSolid {
-    fn rows<'a>(
+    /// The loops' inputs, with the quadrature rule `volume` compiled in.
+    fn rows<'a, V: VolumeRule>(
         &'a self,
         reference: &'a ReferenceView<'a>,
         current: &'a CurrentView<'a>,
-    ) -> Rows<'a> {
+        volume: V,
+    ) -> Rows<'a, V> {
         Rows {
             reference,
+            volume,
             current,
             points: &self.points,
             local_offsets: &self.local_offsets,
@@ -1045,8 +1054,8 @@ impl Material for LinearPeridynamicSolid {
         current: &CurrentView<'_>,
         coefficients: &mut [PointCoefficients],
     ) {
-        let rows = self.rows(reference, current);
         if let Some(strain) = self.thermal_strain(current) {
+            let rows = self.rows(reference, current, reference.bond_volumes());
             with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
                 for_each_chunk(
                     &self.points,
@@ -1059,16 +1068,19 @@ impl Material for LinearPeridynamicSolid {
             });
             return;
         }
-        with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
-            for_each_chunk(
-                &self.points,
-                coefficients,
-                &|i| i as usize,
-                &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
-                    // SAFETY: `NoBreaking` touches no damage.
-                    unsafe { rows.dilatation_dispatch(chunk, base, out, w, d, NoBreaking) };
-                },
-            )
+        with_volume_rule!(reference, |v| {
+            let rows = self.rows(reference, current, v);
+            with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
+                for_each_chunk(
+                    &self.points,
+                    coefficients,
+                    &|i| i as usize,
+                    &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
+                        // SAFETY: `NoBreaking` touches no damage.
+                        unsafe { rows.dilatation_dispatch(chunk, base, out, w, d, NoBreaking) };
+                    },
+                )
+            })
         })
     }
 
@@ -1095,9 +1107,9 @@ impl Material for LinearPeridynamicSolid {
         coefficients: &[PointCoefficients],
         force_density: &mut [[f64; 3]],
     ) {
-        let rows = self.rows(reference, current);
         let force_points = self.force_points.as_deref().unwrap_or(&self.points);
         if let Some(strain) = self.thermal_strain(current) {
+            let rows = self.rows(reference, current, reference.bond_volumes());
             with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
                 for_each_chunk(
                     force_points,
@@ -1110,15 +1122,18 @@ impl Material for LinearPeridynamicSolid {
             });
             return;
         }
-        with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
-            for_each_chunk(
-                force_points,
-                force_density,
-                &|i| i as usize,
-                &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
-                    rows.add_force_dispatch(coefficients, chunk, base, out, w, d)
-                },
-            )
+        with_volume_rule!(reference, |v| {
+            let rows = self.rows(reference, current, v);
+            with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
+                for_each_chunk(
+                    force_points,
+                    force_density,
+                    &|i| i as usize,
+                    &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
+                        rows.add_force_dispatch(coefficients, chunk, base, out, w, d)
+                    },
+                )
+            })
         })
     }
 
@@ -1232,7 +1247,7 @@ impl Material for LinearPeridynamicSolid {
         coefficients: &[PointCoefficients],
         energy_density: &mut [f64],
     ) {
-        let rows = self.rows(reference, current);
+        let rows = self.rows(reference, current, reference.bond_volumes());
         let strain = self.thermal_strain(current);
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             for_each_chunk(
@@ -1270,15 +1285,17 @@ impl BreakingCoefficientPass for LinearPeridynamicSolid {
             bond_damage: None,
             history: &crate::history::NO_HISTORY,
         };
-        let rows = self.rows(reference, &current);
         let fused = FusedCriticalStretch {
             limit: StretchLimit::new(critical_stretch),
             damage: bond_damage.as_mut_ptr(),
         };
-        match self.weights.as_deref() {
-            None => rows.fused_dilatation(coefficients, UnitWeights, fused),
-            Some(weights) => rows.fused_dilatation(coefficients, StoredWeights(weights), fused),
-        }
+        with_volume_rule!(reference, |v| {
+            let rows = self.rows(reference, &current, v);
+            match self.weights.as_deref() {
+                None => rows.fused_dilatation(coefficients, UnitWeights, fused),
+                Some(weights) => rows.fused_dilatation(coefficients, StoredWeights(weights), fused),
+            }
+        })
     }
 }
 

@@ -21,7 +21,10 @@ pub use bonds::BondList;
 pub use declaration::{FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
 pub use node_sets::{normalize_name, NodeSets};
 pub use points::{BlockInfo, PointCloud};
-pub use views::{BondVolumes, CurrentView, ReferenceView};
+pub(crate) use views::with_volume_rule;
+pub use views::{
+    BondVolumes, CurrentView, FullVolume, PerBondVolume, ReferenceView, VolumeRule, VolumeRules,
+};
 
 use crate::boundary::BoundaryConditions;
 

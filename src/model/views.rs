@@ -52,6 +52,79 @@ impl<'a> BondVolumes<'a> {
     }
 }
 
+impl<'a> BondVolumes<'a> {
+    /// The rule this accessor applies, as a type a kernel can be compiled for: one build per
+    /// rule, no branch on the rule per bond. Each variant gives the same w_ij as
+    /// [`BondVolumes::of`].
+    #[inline(always)]
+    pub fn rule(&self) -> VolumeRules<'a> {
+        match self.bond {
+            None => VolumeRules::Full(FullVolume(self.cell)),
+            Some(weights) => VolumeRules::PerBond(PerBondVolume(weights)),
+        }
+    }
+}
+
+/// The quadrature rule of a [`BondVolumes`] ([`BondVolumes::rule`]), for kernels that match it
+/// once per call instead of once per bond.
+#[derive(Debug, Clone, Copy)]
+pub enum VolumeRules<'a> {
+    /// Every bond reads its neighbour's full cell volume.
+    Full(FullVolume<'a>),
+    /// Every bond reads its own quadrature volume.
+    PerBond(PerBondVolume<'a>),
+}
+
+/// w_ij under one quadrature rule, fixed for a whole loop (see [`BondVolumes::rule`]).
+pub trait VolumeRule: Copy + Send + Sync {
+    /// w_ij of bond `b` (global index) whose neighbour is `j` (length³), as
+    /// [`BondVolumes::of`] gives it.
+    fn of(self, b: usize, j: usize) -> f64;
+}
+
+/// Either rule, decided per bond (for loops not worth one build per rule).
+impl VolumeRule for BondVolumes<'_> {
+    #[inline(always)]
+    fn of(self, b: usize, j: usize) -> f64 {
+        BondVolumes::of(&self, b, j)
+    }
+}
+
+/// The full-volume rule: w_ij = V_j, the neighbour's cell volume (length³).
+#[derive(Debug, Clone, Copy)]
+pub struct FullVolume<'a>(&'a [f64]);
+
+impl VolumeRule for FullVolume<'_> {
+    #[inline(always)]
+    fn of(self, _b: usize, j: usize) -> f64 {
+        self.0[j]
+    }
+}
+
+/// Per-bond quadrature volumes: w_ij is bond b's own (length³, global bond index).
+#[derive(Debug, Clone, Copy)]
+pub struct PerBondVolume<'a>(&'a [f64]);
+
+impl VolumeRule for PerBondVolume<'_> {
+    #[inline(always)]
+    fn of(self, b: usize, _j: usize) -> f64 {
+        self.0[b]
+    }
+}
+
+/// Runs `$body` with `$v` bound to the quadrature rule of the [`ReferenceView`] `$reference`
+/// ([`VolumeRules`]), one match per call, so the bond loops in it are compiled once per rule,
+/// with no branch on the rule per bond.
+macro_rules! with_volume_rule {
+    ($reference:expr, |$v:ident| $body:expr) => {
+        match $reference.bond_volumes().rule() {
+            $crate::model::VolumeRules::Full($v) => $body,
+            $crate::model::VolumeRules::PerBond($v) => $body,
+        }
+    };
+}
+pub(crate) use with_volume_rule;
+
 impl<'a> ReferenceView<'a> {
     /// The reference configuration of `points` with their families `bonds`.
     pub fn of(bonds: &'a BondList, points: &'a PointCloud) -> Self {
