@@ -40,6 +40,7 @@ pub mod nox_problem;
 mod parameters;
 
 use self::ffi::bridge;
+use super::fingerprint::Fingerprint;
 use super::native::KrylovSettings;
 use super::{Csr, KrylovReport, LinearSolver, SolveError};
 use crate::io::deck::ParameterValue;
@@ -154,20 +155,17 @@ impl Drop for TrilinosLinearSolver {
     }
 }
 
-/// A 64-bit multiply–rotate hash (the FxHash step) of the rows, offsets and columns of a CSR
-/// pattern: tells a refill of the same pattern from a new one (a collision would need two
-/// different patterns of the same system to hash alike, which only adversarial input makes
-/// likely).
+/// The [`Fingerprint`] of the rows, offsets and columns of a CSR pattern: tells a refill of
+/// the same pattern from a new one (a collision would need two different patterns of the
+/// same system to hash alike, which only adversarial input makes likely).
 fn pattern_fingerprint(matrix: &IndexedCsr) -> u64 {
-    const K: u64 = 0x51_7c_c1_b7_27_22_0a_95;
-    let mut hash = 0u64;
-    let mut add = |word: u64| hash = (hash.rotate_left(5) ^ word).wrapping_mul(K);
-    add(u64::from(matrix.distributed));
-    add(matrix.rows.len() as u64);
-    matrix.rows.iter().for_each(|&r| add(r as u64));
-    matrix.offsets.iter().for_each(|&o| add(o as u64));
-    matrix.columns.iter().for_each(|&c| add(c as u64));
-    hash
+    let mut hash = Fingerprint::default();
+    hash.add(u64::from(matrix.distributed));
+    hash.add(matrix.rows.len() as u64);
+    matrix.rows.iter().for_each(|&r| hash.add(r as u64));
+    matrix.offsets.iter().for_each(|&o| hash.add(o as u64));
+    matrix.columns.iter().for_each(|&c| hash.add(c as u64));
+    hash.value()
 }
 
 /// MPI runs with `MPI_THREAD_SERIALIZED` ([`crate::mpi_session::MpiSession`]): solves from
