@@ -653,3 +653,49 @@ fn check_plans_the_amg_operator_and_hierarchy_only_for_decks_that_ask_for_amg() 
     );
     assert!(direct.iter().all(|(p, _)| !p.contains("AMG")), "{direct:?}");
 }
+
+#[test]
+fn check_plans_the_gmres_basis_with_the_restart_nox_runs() {
+    // The planned GMRES basis of a Jacobian-free NOXQuasiStatic list on the Trilinos backend,
+    // or `None` when nothing is planned for it; `linear_keys` go into NOX's linear solver list.
+    let basis = |linear_keys: &str| -> Option<u64> {
+        let solver = format!(
+            "    Final Time: 1.0
+    Peridigm Preconditioner: \"Block 3x3\"
+    NOXQuasiStatic:
+      Number of Load Steps: 1
+      Direction:
+        Method: \"Newton\"
+        Newton:
+          Linear Solver:
+            Jacobian Operator: \"Matrix-Free\"{linear_keys}"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let text = bar_deck(&solver, 0.012, 0.0, 1);
+        let mut deck = parse_str(&text, DeckFormat::Yaml, &dir.path().join("deck.yaml")).unwrap();
+        // What `Backend: "Trilinos"` reads to, set here so that a build without the feature
+        // plans it too (NOX runs the list).
+        deck.solvers[0].linear_solve.backend = peridyn::io::deck::LinearBackend::TRILINOS_DEFAULT;
+        let model = setup::build(&deck).unwrap();
+        let plan = setup::plan(&deck, &model).unwrap();
+        plan.memory
+            .into_iter()
+            .find(|m| m.part == "GMRES basis (at most)")
+            .map(|m| m.bytes)
+    };
+    // The bar's 108 points have 324 dofs of 8 bytes. NOX's AztecOO GMRES restarts at its
+    // `Size of Krylov Subspace`, 300 by default (NOX::Epetra::LinearSystemAztecOO), and stops
+    // at `Max Iterations`, 400 by default: min(300, 400) + 1 vectors, not the native 500.
+    assert_eq!(basis(""), Some(301 * 324 * 8));
+    assert_eq!(
+        basis("\n            Size of Krylov Subspace: 50"),
+        Some(51 * 324 * 8)
+    );
+    // An iteration limit below the restart bounds the basis.
+    assert_eq!(
+        basis("\n            Size of Krylov Subspace: 50\n            Max Iterations: 20"),
+        Some(21 * 324 * 8)
+    );
+    // AztecOO's CG keeps no GMRES basis.
+    assert_eq!(basis("\n            Aztec Solver: \"CG\""), None);
+}

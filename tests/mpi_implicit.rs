@@ -3,14 +3,19 @@
 //! one-rank answer on 2 and 3 ranks, with the assembled tangent and Jacobian-free, and so does
 //! peridyn's own Newton with distributed Belos solves, quasi-static (`QuasiStatic`) and
 //! Newmark-β (`Implicit`); a load step that fails over to `Switch to Verlet` continues on 2
-//! ranks bitwise as on one.
+//! ranks bitwise as on one. The ML strategies (NOX JFNK preconditioned by ML on the one-hop
+//! operator, and peridyn's Newton with Belos CG + ML on the assembled tangent) reach the
+//! one-rank answer and the native direct answer on 1, 2 and 3 ranks.
 #![cfg(all(feature = "mpi", feature = "trilinos"))]
 
 mod implicit_ranks;
 mod mpi_support;
 mod quasi_static_bar;
 
-use implicit_ranks::{same_answer_on_one_two_and_three_ranks, Backend, NEWMARK, RELATIVE};
+use implicit_ranks::{
+    same_answer_on_one_two_and_three_ranks, same_answer_on_one_two_and_three_ranks_in, Backend,
+    NEWMARK, RELATIVE,
+};
 use mpi_support::{mpirun, run_on_ranks};
 use peridyn::io::exodus::ExodusFile;
 
@@ -83,6 +88,94 @@ fn newmark_with_belos_gives_the_one_rank_answer_on_two_and_three_ranks() {
         "Time step 10,",
         Backend::Trilinos,
     );
+}
+
+/// The bar's pull along x (m), as in [`deck`].
+const PULL: f64 = 0.012;
+
+/// The final displacements of the bar of [`deck`] by the native sparse direct solver on one
+/// process (peridyn's Newton stopped at 1e-3 N): the reference answer.
+fn direct_answer() -> Vec<f64> {
+    let solver = "    Final Time: 1.0\n    Linear Solver: \"Direct\"\n    QuasiStatic:\n      Number of Load Steps: {steps}\n      Absolute Tolerance: 1.0e-3\n      Maximum Solver Iterations: 20";
+    let dir = tempfile::tempdir().unwrap();
+    quasi_static_bar::run_deck(
+        dir.path(),
+        &quasi_static_bar::bar_deck(solver, PULL, 0.004, 2),
+    )
+    .expect("the direct run succeeds");
+    quasi_static_bar::final_displacement(dir.path())
+}
+
+/// Runs `text` on 1, 2 and 3 ranks (the one-rank answer on every rank count, as
+/// [`same_answer_on_one_two_and_three_ranks`]) and checks that each rank count's final
+/// displacements are the native direct answer within 1e-8 relative; returns the directory of
+/// the runs (`ranks<N>/` each).
+fn direct_answer_on_one_two_and_three_ranks(name: &str, text: &str) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    same_answer_on_one_two_and_three_ranks_in(
+        dir.path(),
+        name,
+        text,
+        RELATIVE,
+        "Load step 2,",
+        Backend::Trilinos,
+    );
+    let direct = direct_answer();
+    let scale = direct.iter().fold(0.0f64, |m, u| m.max(u.abs()));
+    // The bar's largest displacement is the pull of its right end.
+    assert!((scale - PULL).abs() < 1e-12, "{scale}");
+    for ranks in 1..=3 {
+        let answer =
+            quasi_static_bar::final_displacement(&dir.path().join(format!("ranks{ranks}")));
+        assert_eq!(answer.len(), direct.len(), "{name}: {ranks} ranks");
+        let difference = answer
+            .iter()
+            .zip(&direct)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        // Every run stops at a residual of at most 5e-2 N on a stiffness of order 1e11 N/m
+        // (bulk modulus 1.3e11 Pa times the 1 m spacing): each answer is within ~1e-12 m of
+        // equilibrium, so 1e-8 of the pull (1.2e-10 m) is the bar with a margin and
+        // far tighter than a wrong ghost, null space or global id would leave.
+        assert!(
+            difference <= 1e-8 * scale,
+            "{name} on {ranks} ranks differs from the direct answer by {difference:e}"
+        );
+        eprintln!(
+            "{name} on {ranks} ranks: largest difference to the direct answer {difference:e} m"
+        );
+    }
+    dir
+}
+
+#[test]
+fn jacobian_free_nox_with_ml_gives_the_direct_answer_on_one_two_and_three_ranks() {
+    let text = deck(
+        "    Peridigm Preconditioner: \"AMG\"",
+        "            Jacobian Operator: \"Matrix-Free\"\n            Tolerance: 1.0e-8",
+    );
+    let dir = direct_answer_on_one_two_and_three_ranks("NOX JFNK + ML", &text);
+    for ranks in 1..=3 {
+        let report =
+            std::fs::read_to_string(dir.path().join(format!("ranks{ranks}/bar_solver.csv")))
+                .unwrap();
+        let header: Vec<&str> = report.lines().next().unwrap().split(',').collect();
+        let levels = header.iter().position(|h| *h == "AMG_Levels").unwrap();
+        let first: Vec<&str> = report.lines().nth(1).unwrap().split(',').collect();
+        // ML was built on the distributed one-hop operator: 99 free points × 3 = 297 global
+        // unknowns, above ML's coarse size of 128 (SetDefaults "SA"), so at least one
+        // coarsening on every rank count.
+        let levels: f64 = first[levels].parse().unwrap();
+        assert!(levels >= 2.0, "{ranks} ranks: {levels} ML levels\n{report}");
+    }
+}
+
+#[test]
+fn newton_with_belos_and_ml_gives_the_direct_answer_on_one_two_and_three_ranks() {
+    // As the Belos + ILU test above, with ML smoothed aggregation on the assembled tangent
+    // (the rigid-body modes of this rank's free unknowns as its near-null space).
+    let solver = "    Final Time: 1.0\n    Backend: \"Trilinos\"\n    Linear Solver: \"CG\"\n    Linear Solver Preconditioner: \"ML\"\n    Linear Solver Tolerance: 1.0e-12\n    QuasiStatic:\n      Number of Load Steps: {steps}\n      Absolute Tolerance: 5.0e-2\n      Maximum Solver Iterations: 20";
+    let text = quasi_static_bar::bar_deck(solver, PULL, 0.004, 2);
+    direct_answer_on_one_two_and_three_ranks("QuasiStatic + Belos CG + ML", &text);
 }
 
 #[test]

@@ -576,7 +576,44 @@ fn a_matrix_of_the_kept_pattern_is_refilled_in_place_and_solved() {
     let (laplacian, b, exact) = laplacian_problem(N);
     let mut u = vec![0.0; N];
     solver.set_point_groups(&(0..=N).collect::<Vec<_>>());
+    // The Laplacian's near-null space: the constant (the block's modes are for other rows).
+    solver.set_near_null_space(&[1.0; N], 1);
     solver.solve(&laplacian, &b, &mut u).expect("new pattern");
     assert_eq!(solver.matrices_built(), 2);
     assert!(max_relative_error(&u, &exact) < 1e-8);
+}
+
+#[test]
+fn a_near_null_space_for_other_rows_is_refused_by_name() {
+    let (matrix, groups, modes) = clamped_pmb_block(4);
+    let rhs = smooth_load(matrix.nrows);
+    let mut solver =
+        TrilinosLinearSolver::new(settings(BelosMethod::BlockCg, TrilinosPreconditioner::Ml));
+    solver.set_point_groups(&groups);
+    // Six modes over one point too few: built for other unknowns than the matrix's.
+    let short = &modes[..modes.len() - 18];
+    solver.set_near_null_space(short, 6);
+    let mut x = vec![0.0; matrix.nrows];
+    let error = solver
+        .solve(&matrix, &rhs, &mut x)
+        .expect_err("a near-null space of the wrong length")
+        .to_string();
+    let (values, needed) = (short.len(), 6 * matrix.nrows);
+    assert!(
+        error.contains("near-null space")
+            && error.contains(&format!("{values} values"))
+            && error.contains(&format!("{} rows need {needed}", matrix.nrows)),
+        "{error}"
+    );
+    assert!(error.contains("Belos BlockCG + ML"), "{error}");
+    assert_eq!(
+        solver.matrices_built(),
+        0,
+        "refused before Epetra was asked"
+    );
+    // Offering no null space (0 modes) takes the wrong one back: ML's default then solves.
+    solver.set_near_null_space(&[], 0);
+    solver
+        .solve(&matrix, &rhs, &mut x)
+        .expect("ML without the modes");
 }

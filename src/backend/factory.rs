@@ -197,6 +197,68 @@ pub fn uses_multigrid(solver: &Solver, points: usize) -> bool {
         }
 }
 
+/// NOX's default `Size of Krylov Subspace`: the restart of AztecOO's GMRES in
+/// `NOX::Epetra::LinearSystemAztecOO` when the linear solver list does not give one.
+pub const NOX_KRYLOV_SUBSPACE: usize = 300;
+
+/// NOX's default linear `Max Iterations` (`NOX::Epetra::LinearSystemAztecOO`).
+pub const NOX_MAX_LINEAR_ITERATIONS: usize = 400;
+
+/// The restart of AztecOO's GMRES under NOX's linear solver list at `linear_solver_path` in
+/// the NOX tree `nox`: its `Size of Krylov Subspace` (a positive integer), else
+/// [`NOX_KRYLOV_SUBSPACE`]; `None` when its `Aztec Solver` is not `GMRES` (NOX's default).
+pub fn nox_gmres_restart(
+    nox: &[(String, ParameterValue)],
+    linear_solver_path: &[&str],
+) -> Option<usize> {
+    let key = |name: &str| {
+        let mut full = linear_solver_path.to_vec();
+        full.push(name);
+        nox_value(nox, &full)
+    };
+    match key("Aztec Solver") {
+        None => {}
+        Some(ParameterValue::String(s)) if s == "GMRES" => {}
+        Some(_) => return None,
+    }
+    match key("Size of Krylov Subspace") {
+        Some(ParameterValue::Int(n)) if *n > 0 => usize::try_from(*n).ok(),
+        _ => Some(NOX_KRYLOV_SUBSPACE),
+    }
+}
+
+/// The GMRES of the Jacobian-free Newton–Krylov solve of `solver` over `unknowns` unknowns,
+/// as (restart, iteration limit), for planning its basis; `None` when `solver` is not
+/// Jacobian-free or its Krylov method is not GMRES. NOX (`NOXQuasiStatic` on Trilinos) runs
+/// AztecOO with its linear solver list's `Size of Krylov Subspace` and `Max Iterations`
+/// (NOX's defaults 300 and 400); peridyn's own JFNK and the other backends restart at
+/// [`super::native::KrylovSettings`]' default with `Linear Solver Maximum Iterations` (default
+/// `unknowns`) as the limit.
+pub fn matrix_free_gmres(solver: &Solver, unknowns: usize) -> Option<(usize, usize)> {
+    matrix_free_preconditioner(solver)?;
+    if runs_on_nox(solver) {
+        let Integrator::NoxQuasiStatic(nox) = &solver.integrator else {
+            return None;
+        };
+        // Jacobian-free solves are Newton's (`matrix_free_preconditioner` reads this path).
+        let path = ["Direction", "Newton", "Linear Solver"];
+        let restart = nox_gmres_restart(&nox.nox, &path)?;
+        let mut full = path.to_vec();
+        full.push("Max Iterations");
+        let limit = match nox_value(&nox.nox, &full) {
+            Some(ParameterValue::Int(n)) if *n > 0 => usize::try_from(*n).unwrap_or(usize::MAX),
+            _ => NOX_MAX_LINEAR_ITERATIONS,
+        };
+        return Some((restart, limit));
+    }
+    let restart = super::native::KrylovSettings::default().restart;
+    let limit = solver
+        .linear_solve
+        .maximum_iterations
+        .map_or(unknowns, |m| usize::try_from(m).unwrap_or(usize::MAX));
+    Some((restart, limit))
+}
+
 /// A string parameter at `path` in a NOX parameter tree.
 fn nox_string<'a>(tree: &'a [(String, ParameterValue)], path: &[&str]) -> Option<&'a str> {
     match nox_value(tree, path)? {

@@ -4,6 +4,7 @@
 
 mod csr;
 pub mod factory;
+pub(crate) mod fingerprint;
 pub mod native;
 #[cfg(feature = "petsc")]
 pub mod petsc;

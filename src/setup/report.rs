@@ -694,8 +694,7 @@ fn memory_plans(
     if let Some(vectors) = deck
         .solvers
         .iter()
-        .filter(|s| crate::backend::factory::matrix_free_preconditioner(s).is_some())
-        .map(|s| gmres_basis_vectors(s, 3 * n))
+        .filter_map(|s| gmres_basis_vectors(s, 3 * n))
         .max()
     {
         // The GMRES basis grows one vector of the unknowns per iteration up to the restart
@@ -747,12 +746,13 @@ fn pair_plan_bytes(deck: &Deck, model: &Model) -> u64 {
         .sum()
 }
 
-/// Vectors of `unknowns` entries the GMRES basis of `solver` holds at most: the restart
-/// length + 1, or the iteration limit + 1 when that is smaller.
-fn gmres_basis_vectors(solver: &Solver, unknowns: u64) -> u64 {
-    let restart = crate::backend::native::KrylovSettings::default().restart as u64;
-    let limit = solver.linear_solve.maximum_iterations.unwrap_or(unknowns);
-    restart.min(limit) + 1
+/// Vectors of `unknowns` entries the GMRES basis of the Jacobian-free solve of `solver` holds
+/// at most: the restart length that solve runs + 1, or its iteration limit + 1 when that is
+/// smaller ([`crate::backend::factory::matrix_free_gmres`]); `None` without such a solve.
+fn gmres_basis_vectors(solver: &Solver, unknowns: u64) -> Option<u64> {
+    let unknowns = usize::try_from(unknowns).unwrap_or(usize::MAX);
+    let (restart, limit) = crate::backend::factory::matrix_free_gmres(solver, unknowns)?;
+    Some(restart.min(limit) as u64 + 1)
 }
 
 /// The planned memory per directed bond (`None` without bonds).

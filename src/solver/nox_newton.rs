@@ -175,27 +175,12 @@ impl NoxNewton {
 
     /// AztecOO's GMRES restart: the linear solver's `Size of Krylov Subspace`, NOX's default
     /// 300 without it; 0 when its `Aztec Solver` is not GMRES (the default).
+    /// `peridyn check` plans the basis with the same rule ([`factory::matrix_free_gmres`]).
     fn gmres_restart(&self) -> usize {
         let path: Vec<&str> = self.linear_solver_path.iter().map(String::as_str).collect();
-        let key = |name: &str| {
-            let mut full = path.clone();
-            full.push(name);
-            lookup(&self.parameters, &full)
-        };
-        match key("Aztec Solver") {
-            None => {}
-            Some(ParameterValue::String(s)) if s == "GMRES" => {}
-            Some(_) => return 0,
-        }
-        match key("Size of Krylov Subspace") {
-            Some(ParameterValue::Int(n)) if *n > 0 => *n as usize,
-            _ => NOX_KRYLOV_SUBSPACE,
-        }
+        factory::nox_gmres_restart(&self.parameters, &path).unwrap_or(0)
     }
 }
-
-/// NOX's default `Size of Krylov Subspace` of AztecOO's GMRES.
-const NOX_KRYLOV_SUBSPACE: usize = 300;
 
 /// Sets `name = value` in the sublist at `path`, creating the sublists that are missing.
 fn set_at(

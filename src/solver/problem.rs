@@ -7,6 +7,7 @@
 //! of [`ImplicitSystem::residual`]; every evaluation first refreshes the ghosts, and failures
 //! and reductions are agreed over the ranks through the [`Collective`].
 
+use crate::backend::fingerprint::Fingerprint;
 use crate::backend::native::{
     one_hop_operator, pmb_micromodulus, rigid_body_modes, OneHopInput, Stencil,
 };
@@ -471,28 +472,18 @@ impl NonlinearProblem for PhysicsProblem<'_> {
         if let Some(inertia) = &system.inertia {
             fingerprint.add(inertia.factor.to_bits());
         }
-        fingerprint.agreed(&mut **collective) as usize
+        agreed(fingerprint, &mut **collective) as usize
     }
 }
 
-/// A 64-bit multiply–rotate hash of words (the FxHash step), enough to notice that the
-/// inputs of an operator changed: not for adversarial input.
-#[derive(Default)]
-struct Fingerprint(u64);
-
-impl Fingerprint {
-    fn add(&mut self, word: u64) {
-        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+/// The sum of every rank's `fingerprint` (collective), in two 32-bit halves so that f64 sums
+/// stay exact.
+fn agreed(fingerprint: Fingerprint, collective: &mut dyn Collective) -> u64 {
+    let hash = fingerprint.value();
+    if collective.ranks() == 1 {
+        return hash;
     }
-
-    /// The sum of every rank's fingerprint (collective), in two 32-bit halves so that f64
-    /// sums stay exact.
-    fn agreed(self, collective: &mut dyn Collective) -> u64 {
-        if collective.ranks() == 1 {
-            return self.0;
-        }
-        let mut halves = [(self.0 >> 32) as f64, (self.0 & 0xffff_ffff) as f64];
-        collective.sum(&mut halves);
-        (halves[0] as u64) << 32 ^ halves[1] as u64
-    }
+    let mut halves = [(hash >> 32) as f64, (hash & 0xffff_ffff) as f64];
+    collective.sum(&mut halves);
+    (halves[0] as u64) << 32 ^ halves[1] as u64
 }

@@ -5,6 +5,7 @@
 #![allow(dead_code)]
 
 use crate::mpi_support::{diff_against_one_rank, run_on_ranks};
+use std::path::Path;
 
 /// The backend a test runs on, for the checks only one of them needs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -60,10 +61,23 @@ pub fn same_answer_on_one_two_and_three_ranks(
     backend: Backend,
 ) -> Vec<(f64, f64)> {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("bar.yaml"), text).unwrap();
-    std::fs::write(dir.path().join("relative.comp"), comp).unwrap();
+    same_answer_on_one_two_and_three_ranks_in(dir.path(), name, text, comp, last_step, backend)
+}
+
+/// [`same_answer_on_one_two_and_three_ranks`] with the runs kept in `dir` (the results of N
+/// ranks in `dir/ranks<N>/bar.e`), for callers that check the answers further.
+pub fn same_answer_on_one_two_and_three_ranks_in(
+    dir: &Path,
+    name: &str,
+    text: &str,
+    comp: &str,
+    last_step: &str,
+    backend: Backend,
+) -> Vec<(f64, f64)> {
+    std::fs::write(dir.join("bar.yaml"), text).unwrap();
+    std::fs::write(dir.join("relative.comp"), comp).unwrap();
     for ranks in 1..=3 {
-        let log = run_on_ranks(dir.path(), ranks, "bar.yaml", name);
+        let log = run_on_ranks(dir, ranks, "bar.yaml", name);
         // Only rank 0 reports.
         assert_eq!(log.matches("done:").count(), 1, "{log}");
         assert_eq!(log.matches(last_step).count(), 1, "{log}");
@@ -74,7 +88,7 @@ pub fn same_answer_on_one_two_and_three_ranks(
         }
     }
     let report = |ranks: usize| -> (Vec<String>, Vec<Vec<f64>>) {
-        let path = dir.path().join(format!("ranks{ranks}/bar_solver.csv"));
+        let path = dir.join(format!("ranks{ranks}/bar_solver.csv"));
         let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path:?}: {e}"));
         let header = text
             .lines()
@@ -125,7 +139,7 @@ pub fn same_answer_on_one_two_and_three_ranks(
             many.iter().map(|r| r[linear]).sum(),
         ));
         if ranks > 1 {
-            let output = diff_against_one_rank(dir.path(), ranks, "bar.e", "relative.comp");
+            let output = diff_against_one_rank(dir, ranks, "bar.e", "relative.comp");
             assert!(
                 output.status.success(),
                 "{name}: {ranks} ranks differ from one:\n{}{}",

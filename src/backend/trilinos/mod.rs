@@ -15,7 +15,9 @@
 //! six rigid-body modes for elasticity, over the unknowns that remain once prescribed dofs are
 //! eliminated) as `null space: type` = `pre-computed`, and aggregates whole points (`PDE
 //! equations` 3) when every point keeps its three unknowns on every rank
-//! ([`LinearSolver::set_point_groups`]), single unknowns otherwise.
+//! ([`LinearSolver::set_point_groups`]), single unknowns otherwise. A near-null space whose
+//! length is not its modes times the matrix's rows (this rank's rows on several ranks) is a
+//! [`SolveError::Breakdown`] naming both lengths, raised before Epetra is asked for anything.
 //!
 //! The Epetra objects live on an `Epetra_MpiComm` built from the communicator Rust hands over
 //! as a Fortran handle ([`crate::mpi_session::fortran_handle`]). MPI is started and finalised on
@@ -38,6 +40,7 @@ pub mod nox_problem;
 mod parameters;
 
 use self::ffi::bridge;
+use super::fingerprint::Fingerprint;
 use super::native::KrylovSettings;
 use super::{Csr, KrylovReport, LinearSolver, SolveError};
 use crate::io::deck::ParameterValue;
@@ -117,7 +120,8 @@ impl Default for TrilinosSettings {
 #[derive(Debug)]
 pub struct TrilinosLinearSolver {
     settings: TrilinosSettings,
-    /// The near-null space for ML, column-major (one mode after the other), and its modes.
+    /// The near-null space for ML as the caller offered it (row-major, unknowns × modes) and
+    /// its modes; checked against each matrix's rows and turned column-major at the solve.
     null_space: Option<(Vec<f64>, usize)>,
     /// Every point group of the coming matrices holds three unknowns (`None`: not offered).
     whole_points: Option<bool>,
@@ -151,20 +155,17 @@ impl Drop for TrilinosLinearSolver {
     }
 }
 
-/// A 64-bit multiply–rotate hash (the FxHash step) of the rows, offsets and columns of a CSR
-/// pattern: tells a refill of the same pattern from a new one (a collision would need two
-/// different patterns of the same system to hash alike, which only adversarial input makes
-/// likely).
+/// The [`Fingerprint`] of the rows, offsets and columns of a CSR pattern: tells a refill of
+/// the same pattern from a new one (a collision would need two different patterns of the
+/// same system to hash alike, which only adversarial input makes likely).
 fn pattern_fingerprint(matrix: &IndexedCsr) -> u64 {
-    const K: u64 = 0x51_7c_c1_b7_27_22_0a_95;
-    let mut hash = 0u64;
-    let mut add = |word: u64| hash = (hash.rotate_left(5) ^ word).wrapping_mul(K);
-    add(u64::from(matrix.distributed));
-    add(matrix.rows.len() as u64);
-    matrix.rows.iter().for_each(|&r| add(r as u64));
-    matrix.offsets.iter().for_each(|&o| add(o as u64));
-    matrix.columns.iter().for_each(|&c| add(c as u64));
-    hash
+    let mut hash = Fingerprint::default();
+    hash.add(u64::from(matrix.distributed));
+    hash.add(matrix.rows.len() as u64);
+    matrix.rows.iter().for_each(|&r| hash.add(r as u64));
+    matrix.offsets.iter().for_each(|&o| hash.add(o as u64));
+    matrix.columns.iter().for_each(|&c| hash.add(c as u64));
+    hash.value()
 }
 
 /// MPI runs with `MPI_THREAD_SERIALIZED` ([`crate::mpi_session::MpiSession`]): solves from
@@ -233,6 +234,8 @@ impl TrilinosLinearSolver {
         rhs: &[f64],
         x: &mut [f64],
     ) -> Result<bridge::BelosOutcome, SolveError> {
+        // Checked first: a wrong near-null space is no breakdown that GMRES could get past.
+        self.check_null_space(matrix.rows.len())?;
         let guess = x.to_vec();
         let _turn = MPI_TURN.lock().unwrap_or_else(|p| p.into_inner());
         match self.run_belos(matrix, rhs, x) {
@@ -322,10 +325,8 @@ impl TrilinosLinearSolver {
             None => self.settings.pde_equations,
         };
         let (null_space, modes) = match &self.null_space {
-            Some((vectors, modes)) if vectors.len() == modes * matrix.rows.len() => {
-                (&vectors[..], *modes)
-            }
-            _ => (&[][..], 0),
+            Some((vectors, modes)) => (column_major(vectors, *modes), *modes),
+            None => (Vec::new(), 0),
         };
         let preconditioner = self.settings.preconditioner;
         let kept = self.kept.as_mut().expect("built or refilled above");
@@ -339,7 +340,7 @@ impl TrilinosLinearSolver {
             TrilinosPreconditioner::Ml => bridge::set_ml_preconditioner(
                 pinned,
                 to_i32(pde_equations as usize),
-                null_space,
+                &null_space,
                 to_i32(modes),
             ),
         };
@@ -354,6 +355,21 @@ impl TrilinosLinearSolver {
             &parameters,
         )
         .map_err(|e| self.cxx_failure("Belos", e))
+    }
+
+    /// A near-null space offered for ML must hold its modes over exactly the `rows` rows of
+    /// the matrix solved (this rank's rows on several ranks): anything else was built for
+    /// other unknowns, and ML would read past its end or aggregate with wrong modes.
+    fn check_null_space(&self, rows: usize) -> Result<(), SolveError> {
+        match &self.null_space {
+            Some((vectors, modes)) if vectors.len() != modes * rows => Err(self.breakdown(format!(
+                "the near-null space has {} values, but {modes} modes over the matrix's {rows} rows need {}: \
+                 it was built for other unknowns than the matrix's",
+                vectors.len(),
+                modes * rows
+            ))),
+            _ => Ok(()),
+        }
     }
 
     /// Belos' parameter list for a system of `unknowns` unknowns: block size 1, the Krylov
@@ -431,6 +447,19 @@ impl<'a> IndexedCsr<'a> {
     }
 }
 
+/// The row-major `vectors` (rows × `modes`) column-major, one mode after the other, as ML
+/// reads a near-null space (the length is checked by the caller).
+fn column_major(vectors: &[f64], modes: usize) -> Vec<f64> {
+    let rows = vectors.len() / modes;
+    let mut columns = vec![0.0; vectors.len()];
+    for (row, values) in vectors.chunks_exact(modes).enumerate() {
+        for (mode, value) in values.iter().enumerate() {
+            columns[mode * rows + row] = *value;
+        }
+    }
+    columns
+}
+
 /// Saturating conversion for Belos' and Ifpack's `int` parameters.
 fn to_i32(v: usize) -> i32 {
     i32::try_from(v).unwrap_or(i32::MAX)
@@ -445,19 +474,14 @@ impl LinearSolver for TrilinosLinearSolver {
         self.method_name().to_string()
     }
 
-    /// Kept (column-major, as ML reads it) for ML; other preconditioners ignore it.
+    /// Kept for ML, whose solves refuse it unless it has `count` values for each row of the
+    /// matrix; other preconditioners ignore it. `count` 0 offers none (ML then uses its
+    /// default, constants per unknown of a point), replacing one offered before.
     fn set_near_null_space(&mut self, modes: &[f64], count: usize) {
-        if self.settings.preconditioner != TrilinosPreconditioner::Ml || count == 0 {
+        if self.settings.preconditioner != TrilinosPreconditioner::Ml {
             return;
         }
-        let rows = modes.len() / count;
-        let mut columns = vec![0.0; rows * count];
-        for (row, values) in modes.chunks_exact(count).enumerate() {
-            for (mode, value) in values.iter().enumerate() {
-                columns[mode * rows + row] = *value;
-            }
-        }
-        self.null_space = Some((columns, count));
+        self.null_space = (count > 0).then(|| (modes.to_vec(), count));
     }
 
     fn set_point_groups(&mut self, groups: &[usize]) {
