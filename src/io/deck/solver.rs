@@ -244,7 +244,8 @@ pub enum AlgebraicPreconditioner {
     Jacobi,
     /// `"ILU"` (default): Ifpack incomplete LU.
     Ilu,
-    /// `"ML"`: ML smoothed-aggregation algebraic multigrid.
+    /// `"ML"` (or `"AMG"`, the native backend's name for its multigrid, so that a deck keeps
+    /// its multigrid when it moves to Trilinos): ML smoothed-aggregation algebraic multigrid.
     Ml,
 }
 
@@ -839,7 +840,7 @@ fn read_preconditioner(
         }
         let algebraic = match given_preconditioner {
             None | Some(("ILU", _)) => AlgebraicPreconditioner::Ilu,
-            Some(("ML", _)) => AlgebraicPreconditioner::Ml,
+            Some(("ML" | "AMG", _)) => AlgebraicPreconditioner::Ml,
             Some(("Jacobi", _)) => AlgebraicPreconditioner::Jacobi,
             Some(("None", _)) => AlgebraicPreconditioner::None,
             Some((native, f)) => {
@@ -1478,13 +1479,27 @@ mod linear_solve_tests {
 
     #[cfg(feature = "trilinos")]
     #[test]
-    fn amg_on_the_trilinos_backend_names_its_alternatives() {
-        let error =
+    fn amg_on_the_trilinos_backend_is_ml_and_block_3x3_names_its_alternatives() {
+        let amg =
             linear_solve("    Backend: \"Trilinos\"\n    Linear Solver Preconditioner: \"AMG\"")
-                .unwrap_err()
-                .to_string();
+                .unwrap();
         assert!(
-            error.contains("\"AMG\" is a native preconditioner") && error.contains("\"ML\""),
+            matches!(
+                amg.backend,
+                LinearBackend::Trilinos {
+                    preconditioner: AlgebraicPreconditioner::Ml,
+                    ..
+                }
+            ),
+            "{amg:?}"
+        );
+        let error = linear_solve(
+            "    Backend: \"Trilinos\"\n    Linear Solver Preconditioner: \"Block 3x3\"",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            error.contains("\"Block 3x3\" is a native preconditioner") && error.contains("\"ML\""),
             "{error}"
         );
     }
