@@ -30,6 +30,7 @@ mod elastic_plastic;
 #[cfg(test)]
 pub(crate) mod generic_force;
 mod influence;
+mod linear_lps;
 mod linear_peridynamic_solid;
 mod microplastic;
 mod pals;
@@ -59,6 +60,7 @@ pub use elastic_plastic::{
     PlasticityInput,
 };
 pub use influence::{InfluenceFunction, UserInfluence};
+pub use linear_lps::{LinearLps, LinearLpsParameters};
 pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};
 pub use microplastic::{fields as microplastic_fields, permanent_stretch, MicroplasticBondBased};
 pub use pals::{Multipliers, Pals, PalsInfluence, MULTIPLIERS};

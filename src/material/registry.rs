@@ -9,7 +9,7 @@ use super::{
     BondBased, ElasticCorrespondence, ElasticHypoelasticCorrespondence, ElasticPlastic,
     ElasticPlasticCorrespondence, ElasticPlasticHardening, ElasticPlasticHypoelasticCorrespondence,
     ElasticStress, HardeningPlasticStress, HypoelasticStress, InfluenceFunction,
-    IsotropicHardeningCorrespondence, IsotropicHardeningHypoelasticCorrespondence,
+    IsotropicHardeningCorrespondence, IsotropicHardeningHypoelasticCorrespondence, LinearLps,
     LinearPeridynamicSolid, Material, MaterialError, MicroplasticBondBased, NeedlemanStress, Pals,
     PalsInfluence, PerfectlyPlasticStress, PlasticityInput, StressModel, Viscoelastic,
     ViscoelasticInput, ViscoplasticNeedlemanCorrespondence,
@@ -51,6 +51,9 @@ pub struct MaterialInput {
     pub pals: Option<PalsInfluence>,
     /// `Yield Stretch` s_Y of `Microplastic Bond Based` (`None` for other models).
     pub yield_stretch: Option<f64>,
+    /// `Analytic Weighted Volume` m of `Linear LPS Partial Volume` when the deck sets `Use
+    /// Analytic Weighted Volume: true` (length⁵; `None` otherwise: m from the family).
+    pub analytic_weighted_volume: Option<f64>,
 }
 
 /// The deck parameters of a correspondence model besides its elastic constants.
@@ -120,6 +123,10 @@ pub static MATERIALS: &[MaterialEntry] = &[
     MaterialEntry {
         declaration: &LinearPeridynamicSolid::DECLARATION,
         build: LinearPeridynamicSolid::build,
+    },
+    MaterialEntry {
+        declaration: &LinearLps::DECLARATION,
+        build: LinearLps::build,
     },
     MaterialEntry {
         declaration: &ElasticPlastic::DECLARATION,
@@ -228,13 +235,14 @@ mod tests {
                 }),
                 pals: None,
                 yield_stretch: Some(0.01),
+                analytic_weighted_volume: None,
             };
             let material = (entry.build)(&input).unwrap();
             assert_eq!(material.model_name(), name);
             assert_eq!(material.declaration(), entry.declaration);
             assert!(std::ptr::eq(material_entry(name).unwrap(), entry));
         }
-        assert!(material_entry("Linear LPS Partial Volume").is_none());
+        assert!(material_entry("Linear LPS Partial Volume").is_some());
     }
 
     #[test]
@@ -252,6 +260,7 @@ mod tests {
             correspondence: None,
             pals: None,
             yield_stretch: None,
+            analytic_weighted_volume: None,
         };
         let error = (material_entry("Elastic").unwrap().build)(&input).err();
         assert_eq!(

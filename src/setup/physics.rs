@@ -204,6 +204,7 @@ fn build_material(
         correspondence: material.model.correspondence_input(),
         pals: material.model.pals_input(),
         yield_stretch: material.model.yield_stretch(),
+        analytic_weighted_volume: material.model.analytic_weighted_volume(),
     };
     let mut built =
         (registered.build)(&input).map_err(|e| deck.error_at(&key_material, e.to_string()))?;

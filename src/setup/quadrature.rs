@@ -1,5 +1,6 @@
 //! The quadrature rule of every block (`Blocks → … → Quadrature`, else Peridigm's
-//! `Element-Horizon Intersection Partial Volume Scheme`, else full volume), the family reach
+//! `Element-Horizon Intersection Partial Volume Scheme`, else `Exact` for a `Linear LPS Partial
+//! Volume` material that asks for partial volumes, else full volume), the family reach
 //! the rules need, and the per-bond quadrature volumes ([`crate::model::quadrature`]).
 
 use super::SetupError;
@@ -8,7 +9,8 @@ use crate::model::quadrature::{self, QuadratureRule, QuadratureSummary};
 use crate::model::Model;
 
 /// The rule of the deck block `entry`: its `Quadrature`, else the Peridigm scheme of the
-/// `Discretization`, else full volume.
+/// `Discretization`, else `Exact` when its material asks for partial volumes (`Linear LPS
+/// Partial Volume` with `Use Partial Volume` or `Use Improved Quadrature`), else full volume.
 pub fn block_rule(deck: &Deck, entry: &Block) -> Result<QuadratureRule, SetupError> {
     let tolerance = entry
         .quadrature_tolerance
@@ -20,7 +22,19 @@ pub fn block_rule(deck: &Deck, entry: &Block) -> Result<QuadratureRule, SetupErr
                 format!("unknown quadrature rule \"{name}\""),
             )
         })?,
-        None => peridigm_scheme(deck).unwrap_or_default(),
+        None => peridigm_scheme(deck).unwrap_or_else(|| {
+            // `Linear LPS Partial Volume` with `Use Partial Volume` / `Use Improved Quadrature`
+            // asks for partial volumes without naming a rule: the exact cell∩sphere volumes,
+            // Peridigm's own `PV` scheme.
+            let asks = deck
+                .material(&entry.material)
+                .is_some_and(|m| m.model.asks_for_partial_volumes());
+            if asks {
+                QuadratureRule::Exact
+            } else {
+                QuadratureRule::default()
+            }
+        }),
     };
     if entry.quadrature_tolerance.is_some() && !matches!(rule, QuadratureRule::Adaptive { .. }) {
         return Err(deck

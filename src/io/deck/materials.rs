@@ -1100,6 +1100,34 @@ impl MaterialModel {
         }
     }
 
+    /// `Analytic Weighted Volume` of `Linear LPS Partial Volume` when `Use Analytic Weighted
+    /// Volume` is true; `None` for every other model.
+    pub fn analytic_weighted_volume(&self) -> Option<f64> {
+        match *self {
+            MaterialModel::LinearLpsPartialVolume {
+                analytic_weighted_volume,
+                ..
+            } => analytic_weighted_volume,
+            _ => None,
+        }
+    }
+
+    /// True when the model asks for partial-volume weights itself (`Linear LPS Partial
+    /// Volume` with `Use Partial Volume` or `Use Improved Quadrature`): a block without its
+    /// own `Quadrature` then uses the `Exact` rule.
+    pub fn asks_for_partial_volumes(&self) -> bool {
+        matches!(
+            *self,
+            MaterialModel::LinearLpsPartialVolume {
+                use_partial_volume: true,
+                ..
+            } | MaterialModel::LinearLpsPartialVolume {
+                use_improved_quadrature: true,
+                ..
+            }
+        )
+    }
+
     /// `Apply Shear Correction Factor` with the model's default (true for `Elastic Plastic
     /// Hardening`, false for `Elastic`); false for models without the option.
     pub fn shear_correction(&self) -> bool {

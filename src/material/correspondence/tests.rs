@@ -45,6 +45,7 @@ fn material(hourglass: f64) -> Box<dyn Material> {
         }),
         pals: None,
         yield_stretch: None,
+        analytic_weighted_volume: None,
     })
     .unwrap()
 }
@@ -555,6 +556,7 @@ fn the_plastic_tangent_matches_finite_differences_while_yielding() {
         }),
         pals: None,
         yield_stretch: None,
+        analytic_weighted_volume: None,
     })
     .unwrap();
     m.setup(
@@ -715,6 +717,7 @@ fn needleman_body() -> Body {
             }),
             pals: None,
             yield_stretch: None,
+            analytic_weighted_volume: None,
         })
         .unwrap(),
     )
@@ -865,6 +868,7 @@ fn hypoelastic_input(hourglass: f64, horizon: f64, actual_horizon: f64) -> Mater
         }),
         pals: None,
         yield_stretch: None,
+        analytic_weighted_volume: None,
     }
 }
 

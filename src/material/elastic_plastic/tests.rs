@@ -35,6 +35,7 @@ pub(super) fn input(horizon: f64, yield_stress: f64, disabled: bool) -> Material
         correspondence: None,
         pals: None,
         yield_stretch: None,
+        analytic_weighted_volume: None,
     }
 }
 

@@ -29,6 +29,7 @@ fn input(horizon: f64, influence: Option<PalsInfluence>) -> MaterialInput {
         correspondence: None,
         pals: influence,
         yield_stretch: None,
+        analytic_weighted_volume: None,
     }
 }
 

@@ -53,6 +53,7 @@ fn correspondence(alpha: Option<f64>) -> Box<dyn Material> {
         }),
         pals: None,
         yield_stretch: None,
+        analytic_weighted_volume: None,
     })
     .unwrap();
     if let Some(alpha) = alpha {
@@ -356,6 +357,7 @@ fn models_without_thermal_strain_refuse_the_coefficient() {
         correspondence: None,
         pals: None,
         yield_stretch: Some(0.01),
+        analytic_weighted_volume: None,
     };
     for name in ["Elastic Plastic", "Microplastic Bond Based", "Pals"] {
         let mut m = (material_entry(name).unwrap().build)(&input).unwrap();

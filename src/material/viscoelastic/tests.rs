@@ -34,6 +34,7 @@ fn input(horizon: f64, lambda_i: f64) -> MaterialInput {
         correspondence: None,
         pals: None,
         yield_stretch: None,
+        analytic_weighted_volume: None,
     }
 }
 

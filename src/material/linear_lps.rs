@@ -1,0 +1,540 @@
+//! Small-displacement linear peridynamic solid, Peridigm's `Linear LPS Partial Volume`
+//! (`Peridigm_LinearLPSPVMaterial.cpp`, `linear_lps_pv.cxx` in Peridigm's public repository).
+//!
+//! The LPS of `Elastic` (Silling et al. 2007) linearized about the reference configuration: a
+//! bond's extension is the displacement difference projected on the reference bond, and its
+//! force acts along the reference bond. With ξ = X_j − X_i, ζ = |ξ|, n = ξ/ζ and the
+//! displacement u = Y − X:
+//!
+//! * extension `e_ij = n·(u_j − u_i)` (the same number from both ends);
+//! * weighted volume `m_i = Σ_j ω ζ² w_ij` (reference configuration, all bonds, computed once
+//!   at setup), or the deck's `Analytic Weighted Volume` for every point when `Use Analytic
+//!   Weighted Volume: true`;
+//! * dilatation `θ_i = (3/m_i) Σ_j ω (1−d) ζ e w_ij`;
+//! * scalar force state, with `Elastic`'s damage rule:
+//!   `t_ij = (1−d)·[ (3K/m − 5μ/m)·ω·θ·ζ + (1−d)·(15μ/m)·ω·e ]`, which for d = 0 is
+//!   `(3Kθ/m) ω ζ + (15μ/m) ω (e − θζ/3)`;
+//! * force density `F_i = Σ_j (t_ij + t_ji) w_ij n_ij` (the gather form of the module docs of
+//!   `material`, with the reference direction n in place of the current one M);
+//! * stored energy density `W_i = Kθ_i²/2 + (α_i/2) Σ_j (1−d) ω (e − θ_i ζ/3)² w_ij`,
+//!   α = 15μ/m, whose derivative is the force for intact bonds.
+//!
+//! w_ij is the block's quadrature volume of the bond (`Blocks → … → Quadrature`; the cell
+//! volume V_j under the default full-volume rule). Peridigm's `Use Partial Volume` and `Use
+//! Improved Quadrature` need a special Peridigm build; here either key set to true makes a
+//! block without its own `Quadrature` (and without a `Discretization` partial-volume scheme)
+//! use the `Exact` rule (the volume of the neighbour's cell inside the horizon sphere), and a
+//! block that names its `Quadrature` keeps that rule.
+//!
+//! Being linear in u, the model is exact only for small displacements: a rigid translation
+//! gives no force, an infinitesimal rotation gives a force of second order in the angle, but a
+//! finite rotation stretches the projected bonds and gives a force (the price of the
+//! linearization, as in Peridigm). The tangent is constant: analytic by default, or automatic
+//! or finite differences of the same force state (`Tangent`).
+//!
+//! A point whose weighted volume is 0 has no dilatation and carries no force.
+
+use super::influence::InfluenceFunction;
+use super::{
+    assert_point_set, checked_tangent_method, kept_points, local_offsets, positive, CurrentView,
+    Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
+};
+use crate::model::point_chunks::for_each_chunk;
+use crate::model::{
+    BondList, BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach,
+};
+use crate::tangent::{
+    assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
+    TangentMethod,
+};
+
+/// Deck parameters of `Linear LPS Partial Volume`.
+#[derive(Debug, Clone)]
+pub struct LinearLpsParameters {
+    /// `Density` ρ (mass/length³).
+    pub density: f64,
+    /// Bulk modulus K (pressure).
+    pub bulk_modulus: f64,
+    /// Shear modulus μ (pressure).
+    pub shear_modulus: f64,
+    /// Horizon δ of the block (length).
+    pub horizon: f64,
+    /// `Discretization → Influence Function` (default `One`).
+    pub influence: InfluenceFunction,
+    /// `Analytic Weighted Volume` m (length⁵) used for every point in place of the family sum,
+    /// when the deck sets `Use Analytic Weighted Volume: true`; default `None`.
+    pub analytic_weighted_volume: Option<f64>,
+}
+
+/// The small-displacement LPS of one block (see the module docs for the formulas).
+#[derive(Debug, Clone)]
+pub struct LinearLps {
+    parameters: LinearLpsParameters,
+    points: Vec<u32>,
+    /// Block-local row starts into `weights`.
+    local_offsets: Vec<usize>,
+    /// ω per block bond (block-local numbering).
+    weights: Vec<f64>,
+    /// m per block point (same order as `points`).
+    weighted_volume: Vec<f64>,
+    /// How the tangent is computed (default analytic).
+    tangent: TangentMethod,
+    /// The points whose force is computed, when fewer than `points`
+    /// ([`Material::restrict_forces`]).
+    force_points: Option<Vec<u32>>,
+}
+
+/// `ξ·(u_j − u_i)/|ξ|` and `ξ/|ξ|` of a bond from `i` to `j` (reference `x`, current `y`).
+#[inline(always)]
+fn linear_extension<T: Scalar>(xi: [f64; 3], yi: [T; 3], yj: [T; 3], zeta: f64) -> (T, [f64; 3]) {
+    let n = xi.map(|c| c / zeta);
+    let mut e = T::from(0.0);
+    for k in 0..3 {
+        // u_j − u_i = (Y_j − Y_i) − ξ.
+        e += (yj[k] - yi[k] - xi[k]) * n[k];
+    }
+    (e, n)
+}
+
+/// The reference bond vector X_j − X_i.
+#[inline(always)]
+fn bond_vector(x: &[[f64; 3]], i: usize, j: usize) -> [f64; 3] {
+    [0, 1, 2].map(|k| x[j][k] - x[i][k])
+}
+
+impl LinearLps {
+    /// `Linear LPS Partial Volume`: state-based (both ends' dilatations enter every bond force,
+    /// so the force reaches two hops); keeps m and θ per point.
+    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+        deck_name: "Linear LPS Partial Volume",
+        deck_keys: &[
+            "Density",
+            "Bulk Modulus",
+            "Shear Modulus",
+            "Young's Modulus",
+            "Poisson's Ratio",
+            "Use Partial Volume",
+            "Use Improved Quadrature",
+            "Use Analytic Weighted Volume",
+            "Analytic Weighted Volume",
+            "Verbose",
+            "Tangent",
+            "Finite Difference Probe Length",
+        ],
+        reach: Reach::TwoHop,
+        fields: &[
+            FieldDeclaration {
+                name: "Weighted_Volume",
+                carrier: FieldCarrier::Point,
+                bytes_per_value: 8,
+                staged: false,
+            },
+            FieldDeclaration {
+                name: "Dilatation",
+                carrier: FieldCarrier::Point,
+                bytes_per_value: 8,
+                staged: false,
+            },
+        ],
+        outputs: &["Weighted_Volume", "Dilatation"],
+    };
+
+    /// The registry's constructor: ρ, K, μ, δ, ω and the analytic m from `input`.
+    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
+        Ok(Box::new(Self::new(LinearLpsParameters {
+            density: input.density,
+            bulk_modulus: input.bulk_modulus,
+            shear_modulus: input.required_shear_modulus()?,
+            horizon: input.horizon,
+            influence: input.influence.clone(),
+            analytic_weighted_volume: input.analytic_weighted_volume,
+        })?))
+    }
+
+    /// Validates the parameters (ρ, K, μ, δ and an analytic m positive and finite).
+    pub fn new(parameters: LinearLpsParameters) -> Result<Self, MaterialError> {
+        positive("Density", parameters.density)?;
+        positive("Bulk Modulus", parameters.bulk_modulus)?;
+        positive("Shear Modulus", parameters.shear_modulus)?;
+        positive("Horizon", parameters.horizon)?;
+        if let Some(m) = parameters.analytic_weighted_volume {
+            positive("Analytic Weighted Volume", m)?;
+        }
+        Ok(Self {
+            parameters,
+            points: Vec::new(),
+            local_offsets: vec![0],
+            weights: Vec::new(),
+            weighted_volume: Vec::new(),
+            tangent: TangentMethod::Analytic,
+            force_points: None,
+        })
+    }
+
+    /// The force state the tangent differentiates (and the force and energy passes evaluate).
+    fn kernel<'a>(
+        &'a self,
+        reference: &'a ReferenceView<'a>,
+        damage: Option<&'a [f32]>,
+    ) -> LinearLpsForceState<'a> {
+        LinearLpsForceState {
+            bonds: reference.bonds,
+            position: reference.position,
+            volume: reference.bond_volumes(),
+            local_offsets: &self.local_offsets,
+            weighted_volume: &self.weighted_volume,
+            weights: &self.weights,
+            damage,
+            bulk: self.parameters.bulk_modulus,
+            shear: self.parameters.shear_modulus,
+        }
+    }
+}
+
+/// What the bond loops read.
+struct LinearLpsForceState<'a> {
+    bonds: &'a BondList,
+    /// Reference positions X.
+    position: &'a [[f64; 3]],
+    volume: BondVolumes<'a>,
+    local_offsets: &'a [usize],
+    weighted_volume: &'a [f64],
+    weights: &'a [f64],
+    /// Bond damage (global bond index), if a damage model runs.
+    damage: Option<&'a [f32]>,
+    bulk: f64,
+    shear: f64,
+}
+
+impl LinearLpsForceState<'_> {
+    /// 1 − d of bond `b`.
+    #[inline(always)]
+    fn intact(&self, b: usize) -> f64 {
+        self.damage.map_or(1.0, |d| 1.0 - f64::from(d[b]))
+    }
+
+    /// θ of block point `point` at current positions `y` (the point first, then its family).
+    fn dilatation<T: Scalar>(&self, point: PointIndex, y: &[[T; 3]]) -> T {
+        let m = self.weighted_volume[point.local];
+        let mut sum = T::from(0.0);
+        if m <= 0.0 {
+            return sum;
+        }
+        let local = self.local_offsets[point.local];
+        for (n, b) in self.bonds.range(point.global).enumerate() {
+            let j = self.bonds.neighbor[b] as usize;
+            let zeta = self.bonds.reference_length[b];
+            let xi = bond_vector(self.position, point.global, j);
+            let (e, _) = linear_extension(xi, y[0], y[n + 1], zeta);
+            sum += e * (self.weights[local + n] * self.intact(b) * zeta * self.volume.of(b, j));
+        }
+        sum * (3.0 / m)
+    }
+
+    /// The published coefficients of a point: θ, (3K − 5μ)θ/m and 15μ/m.
+    fn coefficients(&self, point: PointIndex, y: &[[f64; 3]]) -> PointCoefficients {
+        let m = self.weighted_volume[point.local];
+        if m <= 0.0 {
+            return PointCoefficients::default();
+        }
+        let theta = self.dilatation(point, y);
+        PointCoefficients {
+            dilatation: theta,
+            isotropic: (3.0 * self.bulk - 5.0 * self.shear) * theta / m,
+            deviatoric: 15.0 * self.shear / m,
+        }
+    }
+}
+
+impl ForceState for LinearLpsForceState<'_> {
+    const BOND_LOCAL: bool = false;
+    const ANALYTIC: bool = true;
+
+    fn force_state<T: Scalar>(
+        &self,
+        point: PointIndex,
+        y: &[[T; 3]],
+        _only: Option<usize>,
+        t: &mut [[T; 3]],
+    ) {
+        let m = self.weighted_volume[point.local];
+        if m <= 0.0 {
+            t.fill([T::from(0.0); 3]);
+            return;
+        }
+        let theta = self.dilatation(point, y);
+        let isotropic = theta * ((3.0 * self.bulk - 5.0 * self.shear) / m);
+        let deviatoric = 15.0 * self.shear / m;
+        let local = self.local_offsets[point.local];
+        for (n, b) in self.bonds.range(point.global).enumerate() {
+            let j = self.bonds.neighbor[b] as usize;
+            let zeta = self.bonds.reference_length[b];
+            let xi = bond_vector(self.position, point.global, j);
+            let (e, direction) = linear_extension(xi, y[0], y[n + 1], zeta);
+            let intact = self.intact(b);
+            let scalar =
+                (isotropic * zeta + e * (intact * deviatoric)) * (intact * self.weights[local + n]);
+            t[n] = direction.map(|c| scalar * c);
+        }
+    }
+
+    /// The direction is the reference one (fixed), so `lateral = 0`; `axial = (1−d)² ω 15μ/m`,
+    /// `γ_n = ∂t_n/∂θ = (1−d) ω ζ (3K − 5μ)/m`, `β_n = ∂θ/∂e_n = (3/m) ω (1−d) ζ w_n`.
+    fn ordinary_derivatives(&self, point: PointIndex, _y: &[[f64; 3]], out: &mut [OrdinaryBond]) {
+        let m = self.weighted_volume[point.local];
+        if m <= 0.0 {
+            out.fill(OrdinaryBond::default());
+            return;
+        }
+        let local = self.local_offsets[point.local];
+        for ((n, b), bond) in self
+            .bonds
+            .range(point.global)
+            .enumerate()
+            .zip(out.iter_mut())
+        {
+            let j = self.bonds.neighbor[b] as usize;
+            let zeta = self.bonds.reference_length[b];
+            let omega = self.weights[local + n];
+            let intact = self.intact(b);
+            *bond = OrdinaryBond {
+                direction: bond_vector(self.position, point.global, j).map(|c| c / zeta),
+                axial: intact * intact * omega * 15.0 * self.shear / m,
+                lateral: 0.0,
+                coupling: intact * omega * zeta * (3.0 * self.bulk - 5.0 * self.shear) / m,
+                weight: 3.0 / m * omega * intact * zeta * self.volume.of(b, j),
+            };
+        }
+    }
+}
+
+impl Material for LinearLps {
+    fn declaration(&self) -> &'static ModelDeclaration {
+        &Self::DECLARATION
+    }
+
+    fn density(&self) -> f64 {
+        self.parameters.density
+    }
+
+    fn bulk_modulus(&self) -> f64 {
+        self.parameters.bulk_modulus
+    }
+
+    fn horizon(&self) -> f64 {
+        self.parameters.horizon
+    }
+
+    fn weighted_volume(&self) -> Option<&[f64]> {
+        Some(&self.weighted_volume)
+    }
+
+    fn setup(
+        &mut self,
+        reference: &ReferenceView<'_>,
+        points: Vec<u32>,
+    ) -> Result<(), MaterialError> {
+        let bonds = reference.bonds;
+        assert_point_set(&points, bonds.num_points());
+        let horizon = self.parameters.horizon;
+        let weights = self
+            .parameters
+            .influence
+            .per_bond(bonds, &points, horizon)?;
+        let local_offsets = local_offsets(bonds, &points);
+        let weighted_volume: Vec<f64> = match self.parameters.analytic_weighted_volume {
+            Some(m) => vec![m; points.len()],
+            None => points
+                .iter()
+                .zip(&local_offsets)
+                .map(|(&i, &local)| {
+                    bonds
+                        .range(i as usize)
+                        .enumerate()
+                        .map(|(n, b)| {
+                            let zeta = bonds.reference_length[b];
+                            weights[local + n]
+                                * zeta
+                                * zeta
+                                * reference.neighbor_volume(b, bonds.neighbor[b] as usize)
+                        })
+                        .sum()
+                })
+                .collect(),
+        };
+        self.points = points;
+        self.force_points = None;
+        self.weights = weights;
+        self.local_offsets = local_offsets;
+        self.weighted_volume = weighted_volume;
+        Ok(())
+    }
+
+    fn points(&self) -> &[u32] {
+        &self.points
+    }
+
+    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
+        self.force_points = kept_points(&self.points, keep);
+    }
+
+    fn compute_point_coefficients(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &mut [PointCoefficients],
+    ) {
+        let kernel = self.kernel(reference, current.bond_damage);
+        let bonds = reference.bonds;
+        for_each_chunk(
+            &self.points,
+            coefficients,
+            &|i| i as usize,
+            &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
+                let mut y = Vec::new();
+                let k0 = self.points.partition_point(|&p| p < chunk[0]);
+                for (local, &i) in (k0..).zip(chunk) {
+                    let global = i as usize;
+                    y.clear();
+                    y.push(current.position[global]);
+                    y.extend(
+                        bonds
+                            .family(global)
+                            .iter()
+                            .map(|&j| current.position[j as usize]),
+                    );
+                    out[global - base] = kernel.coefficients(PointIndex { global, local }, &y);
+                }
+            },
+        );
+    }
+
+    fn add_force_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &[PointCoefficients],
+        force_density: &mut [[f64; 3]],
+    ) {
+        let kernel = self.kernel(reference, current.bond_damage);
+        let bonds = reference.bonds;
+        let x = reference.position;
+        let y = current.position;
+        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        for_each_chunk(
+            force_points,
+            force_density,
+            &|i| i as usize,
+            &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
+                for &i in chunk {
+                    let i = i as usize;
+                    let local = self
+                        .points
+                        .binary_search(&(i as u32))
+                        .expect("force points are block points");
+                    let row = self.local_offsets[local];
+                    let ci = coefficients[i];
+                    let mut total = [0.0; 3];
+                    for (n, b) in bonds.range(i).enumerate() {
+                        let j = bonds.neighbor[b] as usize;
+                        let cj = coefficients[j];
+                        let zeta = bonds.reference_length[b];
+                        let (e, direction) =
+                            linear_extension(bond_vector(x, i, j), y[i], y[j], zeta);
+                        let intact = kernel.intact(b);
+                        // t_ij + t_ji: the same ω, d, ζ and e from both ends.
+                        let t = intact
+                            * kernel.weights[row + n]
+                            * ((ci.isotropic + cj.isotropic) * zeta
+                                + intact * (ci.deviatoric + cj.deviatoric) * e);
+                        let scale = t * reference.neighbor_volume(b, j);
+                        for k in 0..3 {
+                            total[k] += scale * direction[k];
+                        }
+                    }
+                    for k in 0..3 {
+                        out[i - base][k] += total[k];
+                    }
+                }
+            },
+        );
+    }
+
+    fn stored_energy_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &[PointCoefficients],
+        energy_density: &mut [f64],
+    ) {
+        let bonds = reference.bonds;
+        let x = reference.position;
+        let y = current.position;
+        let kernel = self.kernel(reference, current.bond_damage);
+        for_each_chunk(
+            &self.points,
+            energy_density,
+            &|i| i as usize,
+            &|chunk: &[u32], base: usize, out: &mut [f64]| {
+                let k0 = self.points.partition_point(|&p| p < chunk[0]);
+                for (local, &i) in (k0..).zip(chunk) {
+                    let i = i as usize;
+                    let m = self.weighted_volume[local];
+                    if m <= 0.0 {
+                        out[i - base] = 0.0;
+                        continue;
+                    }
+                    let theta = coefficients[i].dilatation;
+                    let alpha = 15.0 * self.parameters.shear_modulus / m;
+                    let row = self.local_offsets[local];
+                    let mut deviatoric = 0.0;
+                    for (n, b) in bonds.range(i).enumerate() {
+                        let j = bonds.neighbor[b] as usize;
+                        let zeta = bonds.reference_length[b];
+                        let (e, _) = linear_extension(bond_vector(x, i, j), y[i], y[j], zeta);
+                        let ed = e - theta * zeta / 3.0;
+                        deviatoric += kernel.intact(b)
+                            * kernel.weights[row + n]
+                            * ed
+                            * ed
+                            * reference.neighbor_volume(b, j);
+                    }
+                    out[i - base] = 0.5 * self.parameters.bulk_modulus * theta * theta
+                        + 0.5 * alpha * deviatoric;
+                }
+            },
+        );
+    }
+
+    fn tangent_method(&self) -> TangentMethod {
+        self.tangent
+    }
+
+    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
+        self.tangent = checked_tangent_method(method)?;
+        Ok(())
+    }
+
+    fn add_tangent(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        method: TangentMethod,
+        tangent: &mut BlockTangent,
+    ) -> Result<(), TangentError> {
+        let kernel = self.kernel(reference, current.bond_damage);
+        assemble(
+            &kernel,
+            self.model_name(),
+            &self.points,
+            reference,
+            current,
+            method,
+            tangent,
+        )
+    }
+}
+
+#[cfg(test)]
+#[path = "linear_lps_tests.rs"]
+mod tests;
