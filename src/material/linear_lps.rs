@@ -11,9 +11,10 @@
 //!   at setup), or the deck's `Analytic Weighted Volume` for every point when `Use Analytic
 //!   Weighted Volume: true`;
 //! * dilatation `θ_i = (3/m_i) Σ_j ω (1−d) ζ e w_ij`;
-//! * scalar force state, with `Elastic`'s damage rule:
-//!   `t_ij = (1−d)·[ (3K/m − 5μ/m)·ω·θ·ζ + (1−d)·(15μ/m)·ω·e ]`, which for d = 0 is
-//!   `(3Kθ/m) ω ζ + (15μ/m) ω (e − θζ/3)`;
+//! * scalar force state `t_ij = (1−d)·[ (3K/m − 5μ/m)·ω·θ·ζ + (15μ/m)·ω·e ]`, which for
+//!   d = 0 is `(3Kθ/m) ω ζ + (15μ/m) ω (e − θζ/3)`; the bond damage d enters once, as in
+//!   Peridigm's `linear_lps_pv.cxx` (`Elastic` squares it on the deviatoric part; the two
+//!   differ only on partly damaged bonds, 0 < d < 1);
 //! * force density `F_i = Σ_j (t_ij + t_ji) w_ij n_ij` (the gather form of the module docs of
 //!   `material`, with the reference direction n in place of the current one M);
 //! * stored energy density `W_i = Kθ_i²/2 + (α_i/2) Σ_j (1−d) ω (e − θ_i ζ/3)² w_ij`,
@@ -32,7 +33,9 @@
 //! linearization, as in Peridigm). The tangent is constant: analytic by default, or automatic
 //! or finite differences of the same force state (`Tangent`).
 //!
-//! A point whose weighted volume is 0 has no dilatation and carries no force.
+//! A point whose weighted volume is 0 has no dilatation and carries no force. A bond to a
+//! block of another state-based model takes that point's published coefficients (θ, m, K, μ)
+//! with this model's linearized extension and reference direction.
 
 use super::influence::InfluenceFunction;
 use super::{
@@ -272,13 +275,12 @@ impl ForceState for LinearLpsForceState<'_> {
             let xi = bond_vector(self.position, point.global, j);
             let (e, direction) = linear_extension(xi, y[0], y[n + 1], zeta);
             let intact = self.intact(b);
-            let scalar =
-                (isotropic * zeta + e * (intact * deviatoric)) * (intact * self.weights[local + n]);
+            let scalar = (isotropic * zeta + e * deviatoric) * (intact * self.weights[local + n]);
             t[n] = direction.map(|c| scalar * c);
         }
     }
 
-    /// The direction is the reference one (fixed), so `lateral = 0`; `axial = (1−d)² ω 15μ/m`,
+    /// The direction is the reference one (fixed), so `lateral = 0`; `axial = (1−d) ω 15μ/m`,
     /// `γ_n = ∂t_n/∂θ = (1−d) ω ζ (3K − 5μ)/m`, `β_n = ∂θ/∂e_n = (3/m) ω (1−d) ζ w_n`.
     fn ordinary_derivatives(&self, point: PointIndex, _y: &[[f64; 3]], out: &mut [OrdinaryBond]) {
         let m = self.weighted_volume[point.local];
@@ -299,7 +301,7 @@ impl ForceState for LinearLpsForceState<'_> {
             let intact = self.intact(b);
             *bond = OrdinaryBond {
                 direction: bond_vector(self.position, point.global, j).map(|c| c / zeta),
-                axial: intact * intact * omega * 15.0 * self.shear / m,
+                axial: intact * omega * 15.0 * self.shear / m,
                 lateral: 0.0,
                 coupling: intact * omega * zeta * (3.0 * self.bulk - 5.0 * self.shear) / m,
                 weight: 3.0 / m * omega * intact * zeta * self.volume.of(b, j),
@@ -446,7 +448,7 @@ impl Material for LinearLps {
                         let t = intact
                             * kernel.weights[row + n]
                             * ((ci.isotropic + cj.isotropic) * zeta
-                                + intact * (ci.deviatoric + cj.deviatoric) * e);
+                                + (ci.deviatoric + cj.deviatoric) * e);
                         let scale = t * reference.neighbor_volume(b, j);
                         for k in 0..3 {
                             total[k] += scale * direction[k];

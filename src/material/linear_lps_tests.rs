@@ -108,7 +108,8 @@ impl Body {
         self.evaluate(material, y).0
     }
 
-    /// Breaks about a fifth of the pairs (both directions).
+    /// Damages about a fifth of the pairs (both directions): half of them broken (d = 1),
+    /// half partly (d = 0.4, where the single factor 1 − d of the force state shows).
     fn break_some_bonds(&mut self, seed: u64) {
         let mut rng = Rng::new(seed);
         let bonds = &self.bonds;
@@ -119,8 +120,9 @@ impl Body {
                 if j > i && rng.uniform() < 0.2 {
                     let back =
                         bonds.offsets[j] + bonds.family(j).binary_search(&(i as u32)).unwrap();
-                    damage[b] = 1.0;
-                    damage[back] = 1.0;
+                    let d = if rng.uniform() < 0.5 { 1.0 } else { 0.4 };
+                    damage[b] = d;
+                    damage[back] = d;
                 }
             }
         }
