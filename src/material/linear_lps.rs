@@ -39,8 +39,9 @@
 
 use super::influence::InfluenceFunction;
 use super::{
-    assert_point_set, checked_tangent_method, kept_points, local_offsets, positive, CurrentView,
-    Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
+    assert_point_set, checked_tangent_method, influence_weighted_volumes, kept_points,
+    local_offsets, positive, CurrentView, Material, MaterialError, MaterialInput,
+    PointCoefficients, ReferenceView,
 };
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::{
@@ -346,23 +347,7 @@ impl Material for LinearLps {
         let local_offsets = local_offsets(bonds, &points);
         let weighted_volume: Vec<f64> = match self.parameters.analytic_weighted_volume {
             Some(m) => vec![m; points.len()],
-            None => points
-                .iter()
-                .zip(&local_offsets)
-                .map(|(&i, &local)| {
-                    bonds
-                        .range(i as usize)
-                        .enumerate()
-                        .map(|(n, b)| {
-                            let zeta = bonds.reference_length[b];
-                            weights[local + n]
-                                * zeta
-                                * zeta
-                                * reference.neighbor_volume(b, bonds.neighbor[b] as usize)
-                        })
-                        .sum()
-                })
-                .collect(),
+            None => influence_weighted_volumes(reference, &points, &local_offsets, Some(&weights)),
         };
         self.points = points;
         self.force_points = None;

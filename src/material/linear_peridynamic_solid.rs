@@ -36,9 +36,9 @@
 
 use super::influence::InfluenceFunction;
 use super::{
-    assert_point_set, checked_tangent_method, kept_points, local_offsets, positive, BondWeights,
-    CurrentView, Damaged, Integrity, Material, MaterialError, MaterialInput, PointCoefficients,
-    ReferenceView, StoredWeights, Undamaged, UnitWeights,
+    assert_point_set, checked_tangent_method, influence_weighted_volumes, kept_points,
+    local_offsets, positive, BondWeights, CurrentView, Damaged, Integrity, Material, MaterialError,
+    MaterialInput, PointCoefficients, ReferenceView, StoredWeights, Undamaged, UnitWeights,
 };
 use super::{BreakingCoefficientPass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
@@ -997,24 +997,8 @@ impl Material for LinearPeridynamicSolid {
             )
         };
         let local_offsets = local_offsets(bonds, &points);
-        let weighted_volume: Vec<f64> = points
-            .iter()
-            .zip(&local_offsets)
-            .map(|(&i, &local)| {
-                bonds
-                    .range(i as usize)
-                    .enumerate()
-                    .map(|(n, b)| {
-                        let omega = weights.as_ref().map_or(1.0, |w| w[local + n]);
-                        let zeta = bonds.reference_length[b];
-                        omega
-                            * zeta
-                            * zeta
-                            * reference.neighbor_volume(b, bonds.neighbor[b] as usize)
-                    })
-                    .sum()
-            })
-            .collect();
+        let weighted_volume =
+            influence_weighted_volumes(reference, &points, &local_offsets, weights.as_deref());
         let mut member = vec![false; bonds.num_points()];
         for &i in &points {
             member[i as usize] = true;

@@ -729,6 +729,34 @@ pub(crate) fn local_offsets(bonds: &BondList, points: &[u32]) -> Vec<usize> {
     offsets
 }
 
+/// The weighted volume m_i = Σ_j ω_ij ζ_ij² w_ij of each of `points` (length⁵; reference
+/// configuration, no damage; Silling et al. 2007, eq. 88), with w_ij the bond's quadrature
+/// volume and ω the block-local influence `weights` indexed through `local_offsets`
+/// ([`local_offsets`]), or ω ≡ 1 when `weights` is `None`. The m of the LPS-family models.
+pub(crate) fn influence_weighted_volumes(
+    reference: &ReferenceView<'_>,
+    points: &[u32],
+    local_offsets: &[usize],
+    weights: Option<&[f64]>,
+) -> Vec<f64> {
+    let bonds = reference.bonds;
+    points
+        .iter()
+        .zip(local_offsets)
+        .map(|(&i, &local)| {
+            bonds
+                .range(i as usize)
+                .enumerate()
+                .map(|(n, b)| {
+                    let omega = weights.map_or(1.0, |w| w[local + n]);
+                    let zeta = bonds.reference_length[b];
+                    omega * zeta * zeta * reference.neighbor_volume(b, bonds.neighbor[b] as usize)
+                })
+                .sum()
+        })
+        .collect()
+}
+
 /// Panics unless `points` is a strictly increasing list of valid point indices (an internal
 /// invariant of the block set-up, not user input).
 pub(crate) fn assert_point_set(points: &[u32], num_points: usize) {
