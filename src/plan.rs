@@ -195,7 +195,8 @@ pub struct SolverPlan {
     /// `Final Time`.
     pub final_time: f64,
     /// The solver the PETSc backend resolved from the deck's keys and `PETSc Options` (e.g.
-    /// `PETSc KSP cg + PC gamg`); `None` on the other backends.
+    /// `PETSc KSP cg + PC gamg`), or the linear strategy of peridyn's Newton on the native
+    /// backend (e.g. `native CG + block 3x3`); `None` for explicit lists and NOX.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub resolved: Option<String>,
 }

@@ -411,7 +411,8 @@ pub(super) fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
                 kind: solver.integrator.deck_name().into(),
                 initial_time: solver.initial_time,
                 final_time: solver.final_time,
-                resolved: petsc_resolution(solver, model),
+                resolved: petsc_resolution(solver, model)
+                    .or_else(|| newton_resolution(solver, model.points.len())),
             })
             .collect(),
         time_step: time_step_plan(deck, model),
@@ -431,6 +432,27 @@ fn petsc_resolution(solver: &crate::io::deck::Solver, model: &Model) -> Option<S
 #[cfg(not(feature = "petsc"))]
 fn petsc_resolution(_solver: &crate::io::deck::Solver, _model: &Model) -> Option<String> {
     None
+}
+
+/// The linear strategy peridyn's Newton runs for a `QuasiStatic`, `NOXQuasiStatic` or
+/// `Implicit` list on the native backend over `points` points (what `Linear Solver:
+/// "Automatic"` chose, for instance); `None` for other lists and backends.
+fn newton_resolution(solver: &crate::io::deck::Solver, points: usize) -> Option<String> {
+    use crate::backend::factory::{nonlinear_backend, NonlinearBackend};
+    use crate::io::deck::{Integrator, LinearBackend};
+    let newton_list = matches!(
+        solver.integrator,
+        Integrator::QuasiStatic(_) | Integrator::NoxQuasiStatic(_) | Integrator::Implicit(_)
+    );
+    if !newton_list
+        || solver.linear_solve.backend != LinearBackend::Native
+        || nonlinear_backend(solver) != Ok(NonlinearBackend::Newton)
+    {
+        return None;
+    }
+    crate::solver::linear::strategy(solver, points)
+        .ok()
+        .map(|strategy| format!("peridyn Newton, {}", strategy.describe()))
 }
 
 /// Points, bonds, family sizes and horizons of every block.
@@ -666,9 +688,10 @@ fn memory_plans(
     if pair_once > 0 {
         memory.push(("PMB pair plan", pair_once));
     }
+    let points = model.points.len();
     let assembled = deck.solvers.iter().any(|s| {
         s.integrator.is_implicit()
-            && crate::backend::factory::matrix_free_preconditioner(s).is_none()
+            && crate::backend::factory::jacobian_free_preconditioner(s, points).is_none()
     });
     if assembled {
         let blocks = if state_based {
@@ -684,7 +707,7 @@ fn memory_plans(
             blocks * (9 * 8 + 4) + blocks * 9 * 16 + 8 * (4 * n + 2),
         ));
     } else if deck.solvers.iter().any(|s| {
-        crate::backend::factory::matrix_free_preconditioner(s)
+        crate::backend::factory::jacobian_free_preconditioner(s, points)
             .is_some_and(|p| p != crate::io::deck::LinearPreconditioner::Amg)
     }) {
         // Jacobian-free Newton–Krylov with block 3×3 keeps only the 3×3 diagonal blocks (with

@@ -499,7 +499,7 @@ impl Run<'_> {
             .as_ref()
             .and_then(|s| s.load_schedule.as_ref())
             .map(load_step_position);
-        let mut nonlinear = linear::nonlinear_solver(solver, self.model, physics)
+        let mut nonlinear = linear::nonlinear_solver(solver, self.ranks.global_points())
             .map_err(|error| collective(self.ranks.communicator(), error.into()))?;
         if self.root() {
             eprintln!(
@@ -663,7 +663,7 @@ impl Run<'_> {
         if let Some(snapshot) = &resume {
             settings.first_step = snapshot.position.step + 1;
         }
-        let mut nonlinear = linear::nonlinear_solver(solver, self.model, physics)
+        let mut nonlinear = linear::nonlinear_solver(solver, self.ranks.global_points())
             .map_err(|error| collective(self.ranks.communicator(), error.into()))?;
         if self.root() {
             eprintln!(

@@ -4,7 +4,9 @@
 //! * `QuasiStatic` and `Implicit`: the peridyn `Linear Solver` keys ([`LinearSolve`]) on the
 //!   native backend; `Direct` is sparse Cholesky, with sparse LU taking over for good once the
 //!   stiffness is found not positive definite. `Linear Solver Preconditioner: "AMG"` with `CG`
-//!   or `GMRES` is [`LinearStrategy::Multigrid`].
+//!   or `GMRES` is [`LinearStrategy::Multigrid`]. `Automatic` above the direct-solve limit
+//!   makes a quasi-static list that names no preconditioner Jacobian-free with AMG
+//!   ([`factory::automatic_jacobian_free`]).
 //! * `NOXQuasiStatic` on the native backend: `Direction → Newton → Linear Solver → Jacobian
 //!   Operator: "Matrix-Free"` together with `Peridigm Preconditioner: "Block 3x3"`, `"AMG"` or
 //!   `"None"` selects Jacobian-free Newton–Krylov (Peridigm's rule, reference §4.2: `Matrix-Free` with
@@ -19,7 +21,7 @@
 //!   KSP (`PetscLinearSolver`) configured by the deck's keys and `PETSc Options`, or with
 //!   `Nonlinear Solver: "SNES"` are solved by SNES too. Both run on N MPI ranks.
 
-use crate::backend::factory::{self, matrix_free_preconditioner, NonlinearBackend};
+use crate::backend::factory::{self, jacobian_free_preconditioner, NonlinearBackend};
 use crate::backend::native::{
     KrylovSettings, NativeLinearSolver, NativeMethod, NativeSolverSettings, PreconditionerKind,
 };
@@ -27,8 +29,6 @@ use crate::backend::Unsupported;
 use crate::io::deck::{
     AlgebraicPreconditioner, LinearBackend, LinearMethod, LinearPreconditioner, LinearSolve, Solver,
 };
-use crate::model::Model;
-use crate::physics::Physics;
 use crate::solver::multigrid::MultigridCache;
 use crate::solver::newton::{LinearStrategy, NonlinearSolver};
 
@@ -38,16 +38,17 @@ use crate::solver::newton::{LinearStrategy, NonlinearSolver};
 pub const MATRIX_FREE_TOLERANCE_FLOOR: f64 = 1e-7;
 
 /// The nonlinear solver of a quasi-static `solver` list: NOX for `NOXQuasiStatic` on the
-/// Trilinos backend, otherwise peridyn's Newton with [`strategy`].
+/// Trilinos backend, otherwise peridyn's Newton with [`strategy`]. `global_points` counts the
+/// points of all ranks: the choices `Automatic` makes by the size of the system must be the
+/// same on every rank and the same as on one.
 pub fn nonlinear_solver(
     solver: &Solver,
-    model: &Model,
-    physics: &Physics,
+    global_points: usize,
 ) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
     match factory::nonlinear_backend(solver)? {
         NonlinearBackend::Nox => nox_solver(solver),
-        NonlinearBackend::Snes => snes_solver(solver, model),
-        NonlinearBackend::Newton => Ok(Box::new(strategy(solver, model, physics)?)),
+        NonlinearBackend::Snes => snes_solver(solver, global_points),
+        NonlinearBackend::Newton => Ok(Box::new(strategy(solver, global_points)?)),
     }
 }
 
@@ -62,23 +63,29 @@ fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, Unsupported> 
 }
 
 #[cfg(feature = "petsc")]
-fn snes_solver(solver: &Solver, model: &Model) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
+fn snes_solver(
+    solver: &Solver,
+    global_points: usize,
+) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
     Ok(Box::new(super::snes_newton::SnesNewton::from_deck(
         solver,
-        3 * model.points.len(),
+        3 * global_points,
     )?))
 }
 
 #[cfg(not(feature = "petsc"))]
-fn snes_solver(solver: &Solver, _model: &Model) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
+fn snes_solver(
+    solver: &Solver,
+    _global_points: usize,
+) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
     Err(factory::petsc_not_built(solver))
 }
 
 /// KSP through the PETSc bindings with the deck's keys and `PETSc Options`.
 #[cfg(feature = "petsc")]
-fn petsc_strategy(solver: &Solver, model: &Model) -> Result<LinearStrategy, Unsupported> {
+fn petsc_strategy(solver: &Solver, global_points: usize) -> Result<LinearStrategy, Unsupported> {
     use crate::backend::petsc::{deck, PetscLinearSolver};
-    let settings = deck::settings(solver, 3 * model.points.len())
+    let settings = deck::settings(solver, 3 * global_points)
         .ok_or_else(|| factory::petsc_not_built(solver))?;
     Ok(LinearStrategy::Assembled(Box::new(PetscLinearSolver::new(
         settings,
@@ -86,23 +93,20 @@ fn petsc_strategy(solver: &Solver, model: &Model) -> Result<LinearStrategy, Unsu
 }
 
 #[cfg(not(feature = "petsc"))]
-fn petsc_strategy(solver: &Solver, _model: &Model) -> Result<LinearStrategy, Unsupported> {
+fn petsc_strategy(solver: &Solver, _global_points: usize) -> Result<LinearStrategy, Unsupported> {
     Err(factory::petsc_not_built(solver))
 }
 
-/// The linear strategy of `solver` (see the module docs).
-pub fn strategy(
-    solver: &Solver,
-    model: &Model,
-    _physics: &Physics,
-) -> Result<LinearStrategy, Unsupported> {
+/// The linear strategy of `solver` (see the module docs) for a model of `global_points`
+/// points on all ranks together.
+pub fn strategy(solver: &Solver, global_points: usize) -> Result<LinearStrategy, Unsupported> {
     let settings = &solver.linear_solve;
     let krylov = KrylovSettings {
         relative_tolerance: settings.relative_tolerance,
         max_iterations: settings.maximum_iterations.map(|m| m as usize),
         ..KrylovSettings::default()
     };
-    if let Some(preconditioner) = matrix_free_preconditioner(solver) {
+    if let Some(preconditioner) = jacobian_free_preconditioner(solver, global_points) {
         return Ok(LinearStrategy::MatrixFree {
             krylov: KrylovSettings {
                 relative_tolerance: krylov.relative_tolerance.max(MATRIX_FREE_TOLERANCE_FLOOR),
@@ -110,10 +114,11 @@ pub fn strategy(
             },
             preconditioner,
             multigrid: MultigridCache::default(),
+            automatic: factory::matrix_free_preconditioner(solver).is_none(),
         });
     }
     if let LinearBackend::Petsc { .. } = settings.backend {
-        return petsc_strategy(solver, model);
+        return petsc_strategy(solver, global_points);
     }
     if let LinearBackend::Trilinos {
         preconditioner,
@@ -139,9 +144,7 @@ pub fn strategy(
         )
     };
     let method = match settings.method {
-        LinearMethod::Automatic
-            if 3 * model.points.len() <= LinearMethod::AUTOMATIC_DIRECT_LIMIT =>
-        {
+        LinearMethod::Automatic if 3 * global_points <= LinearMethod::AUTOMATIC_DIRECT_LIMIT => {
             LinearMethod::Direct
         }
         LinearMethod::Automatic => LinearMethod::Cg,

@@ -83,6 +83,10 @@ pub enum LinearStrategy {
         preconditioner: LinearPreconditioner,
         /// The AMG hierarchy (with `AMG`), kept across the Newton solves of the run.
         multigrid: MultigridCache,
+        /// Chosen by `Linear Solver: "Automatic"` for a large quasi-static deck
+        /// ([`crate::backend::factory::automatic_jacobian_free`]) rather than named by the
+        /// deck; the description says so.
+        automatic: bool,
     },
 }
 
@@ -150,13 +154,25 @@ impl LinearStrategy {
                     _ => "CG",
                 }
             ),
-            LinearStrategy::MatrixFree { preconditioner, .. } => format!(
-                "Jacobian-free Newton–Krylov (GMRES, preconditioner {})",
+            LinearStrategy::MatrixFree {
+                preconditioner,
+                automatic,
+                ..
+            } => format!(
+                "Jacobian-free Newton–Krylov (GMRES, preconditioner {}){}",
                 match preconditioner {
                     LinearPreconditioner::Block3x3 => "Block 3x3",
                     LinearPreconditioner::Jacobi => "Jacobi",
                     LinearPreconditioner::None => "none",
                     LinearPreconditioner::Amg => "AMG",
+                },
+                if *automatic {
+                    format!(
+                        ", chosen by Linear Solver \"Automatic\" above {} unknowns (name a Linear Solver or its preconditioner for an assembled tangent)",
+                        crate::io::deck::LinearMethod::AUTOMATIC_DIRECT_LIMIT
+                    )
+                } else {
+                    String::new()
                 }
             ),
         }

@@ -54,7 +54,9 @@ pub struct Solver {
 /// `Direct` up to [`LinearMethod::AUTOMATIC_DIRECT_LIMIT`] unknowns and CG beyond, where the
 /// fill-in of a factorization of a three-dimensional peridynamic stiffness costs minutes and
 /// gigabytes (a 20,000-point LPS block: over 10 minutes per factorization here, against 10 s
-/// for preconditioned CG).
+/// for preconditioned CG). Beyond the limit a quasi-static list on the native backend that
+/// names no preconditioner is not assembled at all: it runs Jacobian-free Newton–Krylov with
+/// AMG ([`crate::backend::factory::automatic_jacobian_free`]).
 ///
 /// `Backend: "Trilinos"` hands the assembled tangent to Belos (`CG` is `BlockCG`, `GMRES` is
 /// `BlockGMRES`) with an Ifpack or ML preconditioner; its default preconditioner is ILU(0),
@@ -102,7 +104,8 @@ pub enum NonlinearMethod {
 /// `Linear Solver`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LinearMethod {
-    /// `"Automatic"` (default): `Direct` for small systems, `CG` for large ones.
+    /// `"Automatic"` (default): `Direct` for small systems, `CG` for large ones (Jacobian-free
+    /// Newton–Krylov with AMG for large quasi-static ones on the native backend).
     Automatic,
     /// `"Direct"`: sparse Cholesky, LU when the matrix is not positive definite.
     Direct,
