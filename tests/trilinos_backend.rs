@@ -365,6 +365,30 @@ fn peridyn_run_with_the_trilinos_backend_matches_the_native_direct_solve() {
     let difference = largest_difference(&direct, &final_displacement(dir.path()));
     // As in the test above.
     assert!(difference < 1e-8 * PULL, "differs by {difference:e}\n{log}");
+    // The solver CSV reports ML's builds: Belos refills the matrix at each Newton iteration
+    // and ML is rebuilt on it, so a step builds at least one hierarchy per Newton iteration
+    // (more if CG broke down and GMRES took over), and its time is counted.
+    let csv = std::fs::read_to_string(dir.path().join("bar_solver.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = |row: &[&str], name: &str| -> f64 {
+        let k = header
+            .iter()
+            .position(|h| *h == name)
+            .unwrap_or_else(|| panic!("no {name} in {header:?}"));
+        row[k].parse().unwrap()
+    };
+    let rows: Vec<&str> = lines.collect();
+    // One row per load step of the deck.
+    assert_eq!(rows.len(), 2, "{csv}");
+    for line in rows {
+        let row: Vec<&str> = line.split(',').collect();
+        let newton = column(&row, "Newton_Iterations");
+        assert!(newton >= 1.0, "{csv}");
+        assert!(column(&row, "Preconditioner_Setups") >= newton, "{csv}");
+        assert!(column(&row, "AMG_Levels") >= 1.0, "{csv}");
+        assert!(column(&row, "Preconditioner_Setup_Seconds") > 0.0, "{csv}");
+    }
 }
 
 #[test]
@@ -531,6 +555,16 @@ fn ml_with_the_rigid_body_modes_needs_fewer_cg_iterations_on_a_pmb_block() {
         let report = solver
             .solve(&matrix, &rhs, &mut x)
             .expect("ML-CG converges");
+        // One ML hierarchy per solve. ML's smoothed-aggregation defaults stop coarsening at
+        // 128 unknowns ("coarse: max size"), so the block's 1,536 unknowns need at least two
+        // levels, and the coarse levels add entries: operator complexity above 1.
+        let setup = solver.take_preconditioner_setup();
+        assert_eq!(setup.hierarchies, 1, "{setup:?}");
+        assert!(setup.levels >= 2, "{setup:?}");
+        assert!(setup.operator_complexity > 1.0, "{setup:?}");
+        assert!(setup.seconds > 0.0, "{setup:?}");
+        // Taken: the next report starts from nothing.
+        assert_eq!(solver.take_preconditioner_setup().hierarchies, 0);
         (report.iterations, x)
     };
     let (without, x_without) = solve(false);

@@ -239,12 +239,14 @@ std::unique_ptr<Epetra_Operator> build_ml(const Epetra_RowMatrix &matrix,
   return ml;
 }
 
-void set_ml_preconditioner(LinearSystem &system, std::int32_t pde_equations,
-                           rust::Slice<const double> null_space, std::int32_t modes) {
+MlHierarchy set_ml_preconditioner(LinearSystem &system, std::int32_t pde_equations,
+                                  rust::Slice<const double> null_space, std::int32_t modes) {
   system.preconditioner.reset();
   system.null_space.assign(null_space.begin(), null_space.end());
+  MultigridShape shape;
   system.preconditioner =
-      build_ml(*system.matrix, pde_equations, system.null_space, modes, nullptr);
+      build_ml(*system.matrix, pde_equations, system.null_space, modes, &shape);
+  return MlHierarchy{shape.levels, shape.operator_complexity};
 }
 
 BelosOutcome belos_solve(const LinearSystem &system, bool gmres, rust::Slice<const double> rhs,

@@ -72,6 +72,23 @@ pub struct KrylovReport {
     pub relative_residual: f64,
 }
 
+/// What an assembled linear solver spent building its preconditioners since it was last
+/// asked ([`LinearSolver::take_preconditioner_setup`]): the `Preconditioner_*` and `AMG_*`
+/// columns of the solver CSV for assembled Newton.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PreconditionerSetup {
+    /// Wall-clock seconds spent building preconditioners.
+    pub seconds: f64,
+    /// Multigrid hierarchies built (0 without multigrid).
+    pub hierarchies: usize,
+    /// Levels of the last multigrid hierarchy, the finest and the coarsest included (0
+    /// without multigrid).
+    pub levels: usize,
+    /// Operator complexity of the last multigrid hierarchy: the levels' entries over the
+    /// finest level's (0 without multigrid).
+    pub operator_complexity: f64,
+}
+
 /// Solves A x = b for one matrix. Implementations may keep a factorization or preconditioner
 /// between calls on the same pattern.
 pub trait LinearSolver {
@@ -88,6 +105,13 @@ pub trait LinearSolver {
         rhs: &[f64],
         x: &mut [f64],
     ) -> Result<KrylovReport, SolveError>;
+    /// What building preconditioners cost since the last call, and the shape of the last
+    /// multigrid hierarchy; the counters start again at zero. The default reports nothing
+    /// (solvers whose preconditioner setup is part of their solve, unseparated).
+    fn take_preconditioner_setup(&mut self) -> PreconditionerSetup {
+        PreconditionerSetup::default()
+    }
+
     /// Offers the near-null space of the matrices to come (row-major, unknowns × `count`:
     /// the rigid-body modes for elasticity), for algebraic multigrid preconditioners; the
     /// default ignores it.

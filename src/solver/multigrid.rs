@@ -15,7 +15,7 @@ use std::time::Instant;
 
 use crate::backend::native::{Amg, Cycle};
 use crate::backend::problem::NonlinearProblem;
-use crate::backend::SolveError;
+use crate::backend::{PreconditionerSetup, SolveError};
 
 /// What the preconditioners of one Newton solve were and cost: the `Preconditioner_*`,
 /// `AMG_*` and `GMRES_Restart` columns of `<output>_solver.csv`.
@@ -23,13 +23,15 @@ use crate::backend::SolveError;
 pub struct PreconditionerReport {
     /// Wall-clock seconds spent building preconditioners during the solve: for `AMG` the
     /// one-hop operator and its hierarchy, for Jacobian-free Newton–Krylov with `Block 3x3`
-    /// or `Jacobi` the diagonal blocks and their inverses. 0 where the preconditioner is
-    /// built inside an assembled linear solver (native CG/GMRES + block Jacobi, direct
-    /// methods, Trilinos, PETSc), whose time is in `Seconds` only.
+    /// or `Jacobi` the diagonal blocks and their inverses, for Belos (`Backend: "Trilinos"`)
+    /// the Ifpack or ML builds. 0 where the preconditioner is built inside an assembled
+    /// linear solver that does not report it apart (native CG/GMRES + block Jacobi, direct
+    /// methods, PETSc), whose time is in `Seconds` only.
     pub setup_seconds: f64,
     /// AMG hierarchies built during the solve (0 when the solve reused the one of an earlier
     /// solve or ran without AMG, 1 when it built one for all its Newton iterations, more
-    /// when bonds broke or points were held mid-step).
+    /// when bonds broke or points were held mid-step; Belos + ML builds one per Newton
+    /// iteration, on each new tangent).
     pub setups: usize,
     /// Levels of the last AMG hierarchy, the finest and the coarsest included (0 without
     /// AMG).
@@ -39,6 +41,19 @@ pub struct PreconditionerReport {
     /// GMRES restart length (Krylov vectors kept; the basis holds at most restart + 1
     /// vectors of the unknowns) of the solve's GMRES, 0 when no GMRES ran.
     pub gmres_restart: usize,
+}
+
+impl PreconditionerReport {
+    /// Adds what an assembled linear solver (Trilinos, PETSc) spent on its preconditioners in
+    /// the solve; its multigrid shape replaces this one's when it built a hierarchy.
+    pub fn add_assembled(&mut self, setup: PreconditionerSetup) {
+        self.setup_seconds += setup.seconds;
+        self.setups += setup.hierarchies;
+        if setup.hierarchies > 0 {
+            self.levels = setup.levels;
+            self.operator_complexity = setup.operator_complexity;
+        }
+    }
 }
 
 /// The hierarchy kept between linear solves, Newton solves included.

@@ -347,6 +347,11 @@ pub fn solve_problem(
     report.converged = measure <= settings.tolerance;
     report.preconditioner = multigrid.report();
     linear.keep_multigrid(multigrid);
+    if let LinearStrategy::Assembled(solver) = linear {
+        report
+            .preconditioner
+            .add_assembled(solver.take_preconditioner_setup());
+    }
     if report.iterations > 0 {
         report.preconditioner.gmres_restart = linear.gmres_restart();
     }

@@ -26,6 +26,7 @@ namespace peridyn {
 namespace trilinos {
 
 struct BelosOutcome;
+struct MlHierarchy;
 struct Parameter;
 
 // The shape of an ML hierarchy.
@@ -105,9 +106,9 @@ void set_jacobi_preconditioner(LinearSystem &system, std::int32_t sweeps);
 void set_ilu_preconditioner(LinearSystem &system, std::int32_t fill_level);
 // ML smoothed aggregation (build_ml) with `pde_equations` unknowns per node and, when
 // `null_space` (column-major, `modes` vectors over the owned rows) is not empty, that
-// near-null space, kept in the system for ML's lifetime.
-void set_ml_preconditioner(LinearSystem &system, std::int32_t pde_equations,
-                           rust::Slice<const double> null_space, std::int32_t modes);
+// near-null space, kept in the system for ML's lifetime; returns the hierarchy's shape.
+MlHierarchy set_ml_preconditioner(LinearSystem &system, std::int32_t pde_equations,
+                                  rust::Slice<const double> null_space, std::int32_t modes);
 
 // Belos BlockCGSolMgr (left preconditioner) or BlockGmresSolMgr (right preconditioner) with
 // the parameter list built from `parameters` (block size, tolerance, limits and residual

@@ -14,6 +14,14 @@ pub(crate) mod bridge {
         achieved_tolerance: f64,
     }
 
+    /// The shape of the ML hierarchy `set_ml_preconditioner` built.
+    struct MlHierarchy {
+        /// Levels, the finest and the coarsest included.
+        levels: i32,
+        /// ML's operator complexity: the levels' entries over the finest level's.
+        operator_complexity: f64,
+    }
+
     /// Type of one Teuchos parameter.
     #[derive(Debug, Clone, Copy, PartialEq, Eq)]
     enum ParameterKind {
@@ -82,13 +90,14 @@ pub(crate) mod bridge {
         /// Ifpack ILU(k).
         fn set_ilu_preconditioner(system: Pin<&mut LinearSystem>, fill_level: i32) -> Result<()>;
         /// ML smoothed aggregation with `pde_equations` unknowns per node and, unless
-        /// `null_space` is empty, the near-null space of `modes` column-major vectors.
+        /// `null_space` is empty, the near-null space of `modes` column-major vectors; returns
+        /// the hierarchy's shape.
         fn set_ml_preconditioner(
             system: Pin<&mut LinearSystem>,
             pde_equations: i32,
             null_space: &[f64],
             modes: i32,
-        ) -> Result<()>;
+        ) -> Result<MlHierarchy>;
 
         /// Belos BlockCG (`gmres` false) or BlockGMRES with the parameter list built from
         /// `parameters` (every setting comes from Rust).

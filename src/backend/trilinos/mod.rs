@@ -42,9 +42,10 @@ mod parameters;
 use self::ffi::bridge;
 use super::fingerprint::Fingerprint;
 use super::native::KrylovSettings;
-use super::{Csr, KrylovReport, LinearSolver, SolveError};
+use super::{Csr, KrylovReport, LinearSolver, PreconditionerSetup, SolveError};
 use crate::io::deck::ParameterValue;
 use crate::mpi_session::{fortran_handle, CommScope};
+use std::time::Instant;
 
 /// Belos solver manager.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -129,6 +130,8 @@ pub struct TrilinosLinearSolver {
     kept: Option<KeptSystem>,
     /// Epetra matrices built so far (refills not counted).
     builds: usize,
+    /// Preconditioner setups since [`LinearSolver::take_preconditioner_setup`] last asked.
+    setup: PreconditionerSetup,
 }
 
 /// An Epetra system kept between solves, with the fingerprint of the CSR pattern it was
@@ -181,6 +184,7 @@ impl TrilinosLinearSolver {
             whole_points: None,
             kept: None,
             builds: 0,
+            setup: PreconditionerSetup::default(),
         }
     }
 
@@ -331,20 +335,32 @@ impl TrilinosLinearSolver {
         let preconditioner = self.settings.preconditioner;
         let kept = self.kept.as_mut().expect("built or refilled above");
         let pinned = kept.system.pin_mut();
+        let start = Instant::now();
         let built = match preconditioner {
-            TrilinosPreconditioner::None => Ok(()),
-            TrilinosPreconditioner::Jacobi => bridge::set_jacobi_preconditioner(pinned, 1),
+            TrilinosPreconditioner::None => Ok(None),
+            TrilinosPreconditioner::Jacobi => {
+                bridge::set_jacobi_preconditioner(pinned, 1).map(|()| None)
+            }
             TrilinosPreconditioner::Ilu { fill_level } => {
-                bridge::set_ilu_preconditioner(pinned, to_i32(fill_level as usize))
+                bridge::set_ilu_preconditioner(pinned, to_i32(fill_level as usize)).map(|()| None)
             }
             TrilinosPreconditioner::Ml => bridge::set_ml_preconditioner(
                 pinned,
                 to_i32(pde_equations as usize),
                 &null_space,
                 to_i32(modes),
-            ),
+            )
+            .map(Some),
         };
-        built.map_err(|e| self.cxx_failure("building the preconditioner", e))?;
+        let hierarchy = built.map_err(|e| self.cxx_failure("building the preconditioner", e))?;
+        if preconditioner != TrilinosPreconditioner::None {
+            self.setup.seconds += start.elapsed().as_secs_f64();
+        }
+        if let Some(ml) = hierarchy {
+            self.setup.hierarchies += 1;
+            self.setup.levels = usize::try_from(ml.levels).unwrap_or(0);
+            self.setup.operator_complexity = ml.operator_complexity;
+        }
         let parameters = parameters::flatten(&self.belos_parameters(matrix.unknowns));
         let system = &self.kept.as_ref().expect("built or refilled above").system;
         bridge::belos_solve(
@@ -472,6 +488,12 @@ fn norm(v: &[f64]) -> f64 {
 impl LinearSolver for TrilinosLinearSolver {
     fn describe(&self) -> String {
         self.method_name().to_string()
+    }
+
+    /// The Ifpack or ML builds of the solves since the last call (each solve builds its
+    /// preconditioner anew, on the refilled matrix), with ML's levels and operator complexity.
+    fn take_preconditioner_setup(&mut self) -> PreconditionerSetup {
+        std::mem::take(&mut self.setup)
     }
 
     /// Kept for ML, whose solves refuse it unless it has `count` values for each row of the
