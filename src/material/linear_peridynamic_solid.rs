@@ -1780,4 +1780,24 @@ mod tests {
         }
         assert!(checked > 0);
     }
+
+    #[test]
+    fn a_row_whose_neighbour_lies_beyond_the_gathered_arrays_is_refused() {
+        // The bond loops index the per-point arrays without a check per bond; checked_row is
+        // what makes that sound, so a neighbour index at or past the bound must stop it.
+        // Two points bonded to each other: row 0 is bond 0 (to point 1), row 1 is bond 1.
+        let bonds = crate::model::BondList {
+            offsets: vec![0, 1, 2],
+            neighbor: vec![1, 0],
+            reference_length: vec![1.5, 1.5],
+        };
+        let (neighbors, lengths) = checked_row(&bonds, 0..1, 2);
+        assert_eq!((neighbors, lengths), (&[1][..], &[1.5][..]));
+        // Arrays of one point: point 0's neighbour 1 is out of them.
+        let refused = std::panic::catch_unwind(|| checked_row(&bonds, 0..1, 1).0.len());
+        assert!(refused.is_err());
+        assert_eq!(checked_row(&bonds, 1..2, 1).0, &[0][..]);
+        // An empty row needs no neighbour in range.
+        assert!(checked_row(&bonds, 1..1, 0).0.is_empty());
+    }
 }
