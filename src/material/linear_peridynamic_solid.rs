@@ -262,14 +262,14 @@ impl<V: VolumeRule> Rows<'_, V> {
         let volume = self.volume;
         let y = self.current.position;
         let k0 = self.first_local(chunk);
+        let points = gather_bound(bonds, y.len(), volume, damage);
         let mut broken = 0;
         for (k, &i) in (k0..).zip(chunk) {
             let i = i as usize;
             let yi = y[i];
             let range = bonds.range(i);
             let local = self.local_offsets[k];
-            let neighbors = &bonds.neighbor[range.clone()];
-            let lengths = &bonds.reference_length[range.clone()];
+            let (neighbors, lengths) = checked_row(bonds, range.clone(), points);
             let mut sum = 0.0;
             // Lane arrays stay in registers (written and read within one group of LANES); the
             // tail bonds are groups of one.
@@ -281,26 +281,37 @@ impl<V: VolumeRule> Rows<'_, V> {
                     let mut zeta = [0.0; LANES];
                     let mut neighbor_volume = [0.0; LANES];
                     for lane in 0..width {
-                        let j = neighbors[start + lane] as usize;
-                        let yj = y[j];
+                        // SAFETY: start + lane < the row's length, and the row is checked
+                        // (`checked_row`, `gather_bound`).
+                        let (_, yj, z, w) = unsafe {
+                            gather(neighbors, lengths, y, volume, range.start, start + lane)
+                        };
                         let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
                         // q = dx*dx + dy*dy + dz*dz, the number the damage models test.
                         squared[lane] = dx * dx + dy * dy + dz * dz;
-                        zeta[lane] = lengths[start + lane];
-                        neighbor_volume[lane] = volume.of(range.start + start + lane, j);
+                        zeta[lane] = z;
+                        neighbor_volume[lane] = w;
                     }
                     if let Some(limit) = breaker.limit() {
+                        // The filter of every lane first, with no branch (it vectorizes); the
+                        // lanes are visited one by one only when one of them may break.
+                        let mut filtered = [false; LANES];
                         for lane in 0..width {
-                            if !limit.certainly_intact(squared[lane], zeta[lane]) {
-                                let b = range.start + start + lane;
-                                // SAFETY: b is in the row of a point of this chunk (the caller's
-                                // contract).
-                                if unsafe { breaker.damage(b) } < 1.0
-                                    && limit.exceeded(squared[lane], zeta[lane])
-                                {
-                                    // SAFETY: as above.
-                                    unsafe { breaker.break_bond(b) };
-                                    broken += 1;
+                            filtered[lane] = limit.certainly_intact(squared[lane], zeta[lane]);
+                        }
+                        if !filtered[..width].iter().fold(true, |all, &f| all & f) {
+                            for lane in 0..width {
+                                if !filtered[lane] {
+                                    let b = range.start + start + lane;
+                                    // SAFETY: b is in the row of a point of this chunk (the
+                                    // caller's contract).
+                                    if unsafe { breaker.damage(b) } < 1.0
+                                        && limit.exceeded(squared[lane], zeta[lane])
+                                    {
+                                        // SAFETY: as above.
+                                        unsafe { breaker.break_bond(b) };
+                                        broken += 1;
+                                    }
                                 }
                             }
                         }
@@ -309,8 +320,10 @@ impl<V: VolumeRule> Rows<'_, V> {
                     // that it has no indexing (bounds checks would keep it scalar).
                     let mut weight = [0.0; LANES];
                     for lane in 0..width {
+                        // SAFETY: the bond is in the row, below `bonds.neighbor.len()`
+                        // (`gather_bound`).
                         weight[lane] = weights.weight(local + start + lane)
-                            * damage.intact(range.start + start + lane);
+                            * unsafe { damage.intact_unchecked(range.start + start + lane) };
                     }
                     let mut term = [0.0; LANES];
                     for lane in 0..width {
@@ -432,6 +445,8 @@ impl<V: VolumeRule> Rows<'_, V> {
         let volume = self.volume;
         let y = self.current.position;
         let k0 = self.first_local(chunk);
+        // Every neighbour indexes both `y` and `coefficients`.
+        let points = gather_bound(bonds, y.len().min(coefficients.len()), volume, damage);
         for (n, &i) in chunk.iter().enumerate() {
             let k = if self.force_subset {
                 self.points.partition_point(|&p| p < i)
@@ -443,8 +458,7 @@ impl<V: VolumeRule> Rows<'_, V> {
             let own = coefficients[i];
             let range = bonds.range(i);
             let local = self.local_offsets[k];
-            let neighbors = &bonds.neighbor[range.clone()];
-            let lengths = &bonds.reference_length[range.clone()];
+            let (neighbors, lengths) = checked_row(bonds, range.clone(), points);
             let (mut fx, mut fy, mut fz) = (0.0, 0.0, 0.0);
             // Lane arrays stay in registers (written and read within one group of LANES); the
             // tail bonds are groups of one.
@@ -462,17 +476,23 @@ impl<V: VolumeRule> Rows<'_, V> {
                     let mut intact = [0.0; LANES];
                     let mut omega = [0.0; LANES];
                     for lane in 0..width {
-                        let j = neighbors[start + lane] as usize;
-                        let yj = y[j];
+                        // SAFETY: start + lane < the row's length, and the row is checked
+                        // (`checked_row`, `gather_bound`, j < coefficients.len()).
+                        let (j, yj, z, w) = unsafe {
+                            gather(neighbors, lengths, y, volume, range.start, start + lane)
+                        };
                         for c in 0..3 {
                             d[c][lane] = yj[c] - yi[c];
                         }
-                        zeta[lane] = lengths[start + lane];
-                        neighbor_volume[lane] = volume.of(range.start + start + lane, j);
-                        let other = coefficients[j];
+                        zeta[lane] = z;
+                        neighbor_volume[lane] = w;
+                        // SAFETY: as above.
+                        let other = unsafe { coefficients.get_unchecked(j) };
                         other_isotropic[lane] = other.isotropic;
                         other_deviatoric[lane] = other.deviatoric;
-                        intact[lane] = damage.intact(range.start + start + lane);
+                        // SAFETY: as above.
+                        intact[lane] =
+                            unsafe { damage.intact_unchecked(range.start + start + lane) };
                         omega[lane] = weights.weight(local + start + lane);
                     }
                     let mut part = [[0.0; LANES]; 3];
@@ -685,6 +705,69 @@ impl<V: VolumeRule> Rows<'_, V> {
                 out[i - base][c] += total[c];
             }
         }
+    }
+}
+
+/// The number of points the bond loops may gather from without a check per bond: `points`
+/// (the length of the per-point arrays they index) or fewer, as far as the volume rule covers
+/// ([`VolumeRule::covered_points`]). Panics unless the per-bond arrays (reference lengths,
+/// damage: [`Integrity::covers`]) cover the whole bond list. Checked once per call.
+#[inline(always)]
+fn gather_bound<V: VolumeRule, D: Integrity>(
+    bonds: &crate::model::BondList,
+    points: usize,
+    volume: V,
+    damage: D,
+) -> usize {
+    let all = bonds.neighbor.len();
+    assert!(
+        all <= bonds.reference_length.len() && damage.covers(all),
+        "bond arrays shorter than the bond list"
+    );
+    points.min(volume.covered_points(all))
+}
+
+/// The neighbours and reference lengths of the bonds `range`, after checking once that every
+/// neighbour is a point below `points` (a maximum over the row, which vectorizes), so that
+/// [`gather`] may index the per-point arrays without a check per bond.
+#[inline(always)]
+fn checked_row(
+    bonds: &crate::model::BondList,
+    range: std::ops::Range<usize>,
+    points: usize,
+) -> (&[u32], &[f64]) {
+    let neighbors = &bonds.neighbor[range.clone()];
+    let highest = neighbors.iter().fold(0, |m, &j| m.max(j));
+    assert!(
+        neighbors.is_empty() || (highest as usize) < points,
+        "neighbour index out of range"
+    );
+    (neighbors, &bonds.reference_length[range])
+}
+
+/// Bond `start + n` of a row ([`checked_row`]): its neighbour j, Y_j, ζ and w_ij.
+///
+/// # Safety
+/// `n` is below the row's length, the row `start..` is from [`checked_row`] with a bound
+/// `points` from [`gather_bound`] over `y.len()` or less and `volume`.
+#[inline(always)]
+unsafe fn gather<V: VolumeRule>(
+    neighbors: &[u32],
+    lengths: &[f64],
+    y: &[[f64; 3]],
+    volume: V,
+    start: usize,
+    n: usize,
+) -> (usize, [f64; 3], f64, f64) {
+    // SAFETY: as the caller guarantees (neighbors and lengths are the same row).
+    unsafe {
+        let j = *neighbors.get_unchecked(n) as usize;
+        (
+            j,
+            *y.get_unchecked(j),
+            *lengths.get_unchecked(n),
+            volume.of_unchecked(start + n, j),
+        )
     }
 }
 
@@ -1696,5 +1779,25 @@ mod tests {
             }
         }
         assert!(checked > 0);
+    }
+
+    #[test]
+    fn a_row_whose_neighbour_lies_beyond_the_gathered_arrays_is_refused() {
+        // The bond loops index the per-point arrays without a check per bond; checked_row is
+        // what makes that sound, so a neighbour index at or past the bound must stop it.
+        // Two points bonded to each other: row 0 is bond 0 (to point 1), row 1 is bond 1.
+        let bonds = crate::model::BondList {
+            offsets: vec![0, 1, 2],
+            neighbor: vec![1, 0],
+            reference_length: vec![1.5, 1.5],
+        };
+        let (neighbors, lengths) = checked_row(&bonds, 0..1, 2);
+        assert_eq!((neighbors, lengths), (&[1][..], &[1.5][..]));
+        // Arrays of one point: point 0's neighbour 1 is out of them.
+        let refused = std::panic::catch_unwind(|| checked_row(&bonds, 0..1, 1).0.len());
+        assert!(refused.is_err());
+        assert_eq!(checked_row(&bonds, 1..2, 1).0, &[0][..]);
+        // An empty row needs no neighbour in range.
+        assert!(checked_row(&bonds, 1..1, 0).0.is_empty());
     }
 }

@@ -631,6 +631,19 @@ impl BondWeights for StoredWeights<'_> {
 pub(crate) trait Integrity: Copy + Send + Sync {
     /// 1 − d of global bond `bond`.
     fn intact(self, bond: usize) -> f64;
+
+    /// True when [`Integrity::intact_unchecked`] may read every bond below `bonds` (checked
+    /// once, so that the bonds of a loop need no check each).
+    fn covers(self, bonds: usize) -> bool;
+
+    /// [`Integrity::intact`] without a bounds check.
+    ///
+    /// # Safety
+    /// `bond < bonds` for some `bonds` with `self.covers(bonds)`.
+    #[inline(always)]
+    unsafe fn intact_unchecked(self, bond: usize) -> f64 {
+        self.intact(bond)
+    }
 }
 
 /// No damage model: every bond intact.
@@ -642,6 +655,11 @@ impl Integrity for Undamaged {
     fn intact(self, _bond: usize) -> f64 {
         1.0
     }
+
+    #[inline(always)]
+    fn covers(self, _bonds: usize) -> bool {
+        true
+    }
 }
 
 /// Bond damage array (global bond numbering).
@@ -652,6 +670,17 @@ impl Integrity for Damaged<'_> {
     #[inline(always)]
     fn intact(self, bond: usize) -> f64 {
         1.0 - f64::from(self.0[bond])
+    }
+
+    #[inline(always)]
+    fn covers(self, bonds: usize) -> bool {
+        bonds <= self.0.len()
+    }
+
+    #[inline(always)]
+    unsafe fn intact_unchecked(self, bond: usize) -> f64 {
+        // SAFETY: bond < bonds <= len (the caller's `covers`).
+        1.0 - f64::from(unsafe { *self.0.get_unchecked(bond) })
     }
 }
 
@@ -706,6 +735,12 @@ impl Integrity for FusedCriticalStretch {
         // SAFETY: the bond loops read only entries of their own task's bonds, which no other
         // task writes (the breaking traits' contracts); the pointer covers every bond.
         1.0 - f64::from(unsafe { self.read(bond) })
+    }
+
+    /// Always: the pointer covers every bond (and [`Integrity::intact`] has no check).
+    #[inline(always)]
+    fn covers(self, _bonds: usize) -> bool {
+        true
     }
 }
 

@@ -80,6 +80,20 @@ pub trait VolumeRule: Copy + Send + Sync {
     /// w_ij of bond `b` (global index) whose neighbour is `j` (length³), as
     /// [`BondVolumes::of`] gives it.
     fn of(self, b: usize, j: usize) -> f64;
+
+    /// The number of points `p` such that [`VolumeRule::of_unchecked`] may read every bond
+    /// `b < bonds` whose neighbour is `j < p` (0 when the rule's per-bond data is shorter than
+    /// `bonds`): checked once by a loop, so that its bonds need no check each.
+    fn covered_points(self, bonds: usize) -> usize;
+
+    /// [`VolumeRule::of`] without bounds checks.
+    ///
+    /// # Safety
+    /// `b < bonds` and `j < self.covered_points(bonds)` for some `bonds`.
+    #[inline(always)]
+    unsafe fn of_unchecked(self, b: usize, j: usize) -> f64 {
+        self.of(b, j)
+    }
 }
 
 /// Either rule, decided per bond (for loops not worth one build per rule).
@@ -87,6 +101,11 @@ impl VolumeRule for BondVolumes<'_> {
     #[inline(always)]
     fn of(self, b: usize, j: usize) -> f64 {
         BondVolumes::of(&self, b, j)
+    }
+
+    /// All: [`VolumeRule::of_unchecked`] is the checked [`BondVolumes::of`] here.
+    fn covered_points(self, _bonds: usize) -> usize {
+        usize::MAX
     }
 }
 
@@ -99,6 +118,17 @@ impl VolumeRule for FullVolume<'_> {
     fn of(self, _b: usize, j: usize) -> f64 {
         self.0[j]
     }
+
+    #[inline(always)]
+    fn covered_points(self, _bonds: usize) -> usize {
+        self.0.len()
+    }
+
+    #[inline(always)]
+    unsafe fn of_unchecked(self, _b: usize, j: usize) -> f64 {
+        // SAFETY: j < covered_points = len (the caller's contract).
+        unsafe { *self.0.get_unchecked(j) }
+    }
 }
 
 /// Per-bond quadrature volumes: w_ij is bond b's own (length³, global bond index).
@@ -109,6 +139,21 @@ impl VolumeRule for PerBondVolume<'_> {
     #[inline(always)]
     fn of(self, b: usize, _j: usize) -> f64 {
         self.0[b]
+    }
+
+    #[inline(always)]
+    fn covered_points(self, bonds: usize) -> usize {
+        if bonds <= self.0.len() {
+            usize::MAX
+        } else {
+            0
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn of_unchecked(self, b: usize, _j: usize) -> f64 {
+        // SAFETY: b < bonds <= len (covered_points > j >= 0, the caller's contract).
+        unsafe { *self.0.get_unchecked(b) }
     }
 }
 
