@@ -220,6 +220,12 @@ std::unique_ptr<Epetra_Operator> build_ml(const Epetra_RowMatrix &matrix,
   ML_Epetra::SetDefaults("SA", params);
   params.set("ML output", 0);
   params.set("PDE equations", agreed);
+  // Chebyshev (degree 2) instead of SA's default symmetric Gauss-Seidel (2 sweeps before and
+  // after): on the one-hop operator of the 20,000-point tension block NOX's GMRES needs the
+  // same iterations (146 + 94 against 152 + 99 over two load steps) at less than half the
+  // time (20.9 s against 46.7 s on one thread); it is built from mat-vecs, so it does not
+  // depend on the split over ranks, and it is symmetric, as CG needs.
+  params.set("smoother: type", std::string("Chebyshev"));
   if (!null_space.empty()) {
     params.set("null space: type", std::string("pre-computed"));
     params.set("null space: dimension", static_cast<int>(modes));
