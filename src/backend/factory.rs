@@ -351,44 +351,11 @@ mod tests {
         assert_eq!(nox_string(&tree, &["Direction", "Method"]), None);
     }
 
-    /// The first solver list of a three-point bar deck whose `Solver` list is `solver_keys`
-    /// (indented as a `Solver` list's children).
+    /// The first solver list of a three-point bar deck whose `Solver` list holds the lines
+    /// `solver_keys` besides `Final Time`.
     fn solver(solver_keys: &str) -> Solver {
-        let text = format!(
-            r#"Peridigm:
-  Discretization:
-    Type: "PdQuickGrid"
-    NeighborhoodType: "Spherical"
-    TensorProduct3DMeshGenerator:
-      X Origin: 0.0
-      Y Origin: 0.0
-      Z Origin: 0.0
-      X Length: 3.0
-      Y Length: 1.0
-      Z Length: 1.0
-      Number Points X: 3
-      Number Points Y: 1
-      Number Points Z: 1
-  Materials:
-    Steel:
-      Material Model: "Elastic"
-      Density: 7800.0
-      Bulk Modulus: 130.0e9
-      Shear Modulus: 78.0e9
-  Blocks:
-    Everything:
-      Block Names: "block_1"
-      Material: "Steel"
-      Horizon: 2
-  Solver:
-    Final Time: 1.0
-{solver_keys}
-  Output:
-    Output Filename: "bar"
-    Output Variables:
-      Displacement: true
-"#
-        );
+        let text =
+            crate::io::deck::three_point_bar_text(&format!("    Final Time: 1.0\n{solver_keys}"));
         let deck = crate::io::deck::parse_str(
             &text,
             crate::io::deck::DeckFormat::Yaml,

@@ -26,6 +26,8 @@ mod overrides;
 mod parameters;
 mod reader;
 mod solver;
+#[cfg(test)]
+pub(crate) use solver::linear_solve_tests::three_point_bar_text;
 mod study;
 mod tree;
 mod xml;

@@ -1284,7 +1284,7 @@ impl Integrator {
 }
 
 #[cfg(test)]
-mod linear_solve_tests {
+pub(super) mod linear_solve_tests {
     use super::*;
     use crate::io::deck::{parse_str, DeckFormat};
     use std::path::Path;
@@ -1310,6 +1310,14 @@ mod linear_solve_tests {
 
     /// The text of [`deck_with`].
     fn deck_text(keys: &str, quasi_static_keys: &str) -> String {
+        three_point_bar_text(&format!(
+            "    Final Time: 1.0\n{keys}\n    QuasiStatic:\n      Number of Load Steps: 2\n{quasi_static_keys}"
+        ))
+    }
+
+    /// A three-point steel bar deck (Elastic, horizon 2) whose `Solver` list holds the lines
+    /// `solver_list` (indented as its children), for tests of solver-list keys.
+    pub(crate) fn three_point_bar_text(solver_list: &str) -> String {
         format!(
             r#"Peridigm:
   Discretization:
@@ -1337,11 +1345,7 @@ mod linear_solve_tests {
       Material: "Steel"
       Horizon: 2
   Solver:
-    Final Time: 1.0
-{keys}
-    QuasiStatic:
-      Number of Load Steps: 2
-{quasi_static_keys}
+{solver_list}
   Output:
     Output Filename: "bar"
     Output Variables:
