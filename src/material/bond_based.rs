@@ -61,8 +61,9 @@
 //! exact for 0/1 damage; for fractional damage it is the energy of the softened spring.)
 
 use super::{
-    assert_point_set, checked_tangent_method, kept_points, positive, CurrentView, Damaged,
-    Integrity, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView, Undamaged,
+    assert_point_set, checked_row, checked_tangent_method, gather_bound, kept_points, positive,
+    CurrentView, Damaged, Integrity, Material, MaterialError, MaterialInput, PointCoefficients,
+    ReferenceView, Undamaged,
 };
 use super::{BreakingForcePass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
@@ -587,6 +588,9 @@ impl PairPlan {
         } = points;
         assert!(force_density.len() >= rows.y.len());
         scale.resize(self.num_pairs(), 0.0);
+        // The per-bond arrays checked once here, each row's upper neighbours once by the pair
+        // loop.
+        let bound = gather_bound(rows.bonds, rows.y.len(), volume, damage);
         // Pass 1: each task owns the scale slots of its points' upper pairs.
         let mut tasks = Vec::with_capacity(points.len().div_ceil(PAIR_CHUNK));
         let mut rest = &mut scale[..];
@@ -606,6 +610,7 @@ impl PairPlan {
                         &points[range.clone()],
                         &self.upper_start[range],
                         out,
+                        bound,
                         damage,
                         breaker,
                     )
@@ -721,16 +726,17 @@ impl PairRows<'_> {
         points: &[u32],
         upper_start: &[usize],
         out: &mut [f64],
+        bound: usize,
         damage: D,
         breaker: B,
     ) -> usize {
         #[cfg(target_arch = "x86_64")]
         if self.wide {
             // SAFETY: AVX2 was detected at run time; the rest as the caller guarantees.
-            return unsafe { self.chunk_avx2(points, upper_start, out, damage, breaker) };
+            return unsafe { self.chunk_avx2(points, upper_start, out, bound, damage, breaker) };
         }
         // SAFETY: as the caller guarantees.
-        unsafe { self.chunk(points, upper_start, out, damage, breaker) }
+        unsafe { self.chunk(points, upper_start, out, bound, damage, breaker) }
     }
 
     /// [`PairRows::chunk`] with AVX2 enabled.
@@ -744,27 +750,32 @@ impl PairRows<'_> {
         points: &[u32],
         upper_start: &[usize],
         out: &mut [f64],
+        bound: usize,
         damage: D,
         breaker: B,
     ) -> usize {
         // SAFETY: as the caller guarantees.
-        unsafe { self.chunk(points, upper_start, out, damage, breaker) }
+        unsafe { self.chunk(points, upper_start, out, bound, damage, breaker) }
     }
 
     /// For every point i of the chunk and every upper neighbour j > i, in order: first the
     /// critical stretch test of `breaker` (if any), then `s = c (1−d) (|Y| − ζ)/(ζ|Y|)` into
     /// `out` (the chunk's pair slots, consecutive). The inputs are those of the pair alone
     /// (Y_i, Y_j, ζ and d of the bond i→j), so s does not depend on which points share the
-    /// chunk. Returns the directed bonds broken.
+    /// chunk. Returns the directed bonds broken. Each row's upper neighbours are checked once
+    /// against `bound` ([`checked_row`]), so that its bonds read Y_j and 1 − d without a check
+    /// each.
     ///
     /// # Safety
-    /// The contract of `breaker` ([`Breaker`]) must hold.
+    /// The contract of `breaker` ([`Breaker`]) must hold; `bound` is from [`gather_bound`]
+    /// over `self.y.len()` (or less) and `damage`.
     #[inline(always)]
     unsafe fn chunk<D: Integrity, B: Breaker>(
         self,
         points: &[u32],
         upper_start: &[usize],
         out: &mut [f64],
+        bound: usize,
         damage: D,
         breaker: B,
     ) -> usize {
@@ -783,15 +794,17 @@ impl PairRows<'_> {
             let i = i as usize;
             let end = bonds.offsets[i + 1];
             let yi = y[i];
+            let (row_neighbors, row_lengths) = checked_row(bonds, first..end, bound);
             for block_start in (first..end).step_by(PAIR_BLOCK) {
                 let block_end = (block_start + PAIR_BLOCK).min(end);
                 let count = block_end - block_start;
-                let neighbors = &bonds.neighbor[block_start..block_end];
-                let lengths = &bonds.reference_length[block_start..block_end];
+                let neighbors = &row_neighbors[block_start - first..block_end - first];
+                let lengths = &row_lengths[block_start - first..block_end - first];
                 // q = dx*dx + dy*dy + dz*dz with d = Y_j − Y_i: the very number the damage
                 // models test and whose square root the force uses.
                 for (n, &j) in neighbors.iter().enumerate() {
-                    let yj = y[j as usize];
+                    // SAFETY: j < bound <= y.len() (`checked_row`, the caller's `bound`).
+                    let yj = unsafe { *y.get_unchecked(j as usize) };
                     let d = [yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]];
                     squared[n] = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
                 }
@@ -818,7 +831,9 @@ impl PairRows<'_> {
                     }
                 }
                 for (n, pair) in pair[..count].iter_mut().enumerate() {
-                    *pair = self.micromodulus * damage.intact(block_start + n);
+                    // SAFETY: the bond is in the row, below `bonds.neighbor.len()`, which
+                    // `damage` covers (the caller's `bound` is from `gather_bound`).
+                    *pair = self.micromodulus * unsafe { damage.intact_unchecked(block_start + n) };
                 }
                 let out = &mut out[slot..slot + count];
                 for n in 0..count {

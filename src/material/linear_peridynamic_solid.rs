@@ -36,9 +36,10 @@
 
 use super::influence::InfluenceFunction;
 use super::{
-    assert_point_set, checked_tangent_method, influence_weighted_volumes, kept_points,
-    local_offsets, positive, BondWeights, CurrentView, Damaged, Integrity, Material, MaterialError,
-    MaterialInput, PointCoefficients, ReferenceView, StoredWeights, Undamaged, UnitWeights,
+    assert_point_set, checked_row, checked_tangent_method, gather_bound,
+    influence_weighted_volumes, kept_points, local_offsets, positive, BondWeights, CurrentView,
+    Damaged, Integrity, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
+    StoredWeights, Undamaged, UnitWeights,
 };
 use super::{BreakingCoefficientPass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
@@ -706,43 +707,6 @@ impl<V: VolumeRule> Rows<'_, V> {
             }
         }
     }
-}
-
-/// The number of points the bond loops may gather from without a check per bond: `points`
-/// (the length of the per-point arrays they index) or fewer, as far as the volume rule covers
-/// ([`VolumeRule::covered_points`]). Panics unless the per-bond arrays (reference lengths,
-/// damage: [`Integrity::covers`]) cover the whole bond list. Checked once per call.
-#[inline(always)]
-fn gather_bound<V: VolumeRule, D: Integrity>(
-    bonds: &crate::model::BondList,
-    points: usize,
-    volume: V,
-    damage: D,
-) -> usize {
-    let all = bonds.neighbor.len();
-    assert!(
-        all <= bonds.reference_length.len() && damage.covers(all),
-        "bond arrays shorter than the bond list"
-    );
-    points.min(volume.covered_points(all))
-}
-
-/// The neighbours and reference lengths of the bonds `range`, after checking once that every
-/// neighbour is a point below `points` (a maximum over the row, which vectorizes), so that
-/// [`gather`] may index the per-point arrays without a check per bond.
-#[inline(always)]
-fn checked_row(
-    bonds: &crate::model::BondList,
-    range: std::ops::Range<usize>,
-    points: usize,
-) -> (&[u32], &[f64]) {
-    let neighbors = &bonds.neighbor[range.clone()];
-    let highest = neighbors.iter().fold(0, |m, &j| m.max(j));
-    assert!(
-        neighbors.is_empty() || (highest as usize) < points,
-        "neighbour index out of range"
-    );
-    (neighbors, &bonds.reference_length[range])
 }
 
 /// Bond `start + n` of a row ([`checked_row`]): its neighbour j, Y_j, ζ and w_ij.

@@ -73,7 +73,7 @@ pub use viscoelastic::{fields as viscoelastic_fields, Viscoelastic, Viscoelastic
 
 use rayon::prelude::*;
 
-use crate::model::{BondList, ModelDeclaration, Reach};
+use crate::model::{BondList, ModelDeclaration, Reach, VolumeRule};
 pub use crate::model::{CurrentView, ReferenceView};
 use crate::tangent::{BlockTangent, TangentError, TangentMethod};
 
@@ -742,6 +742,43 @@ impl Integrity for FusedCriticalStretch {
     fn covers(self, _bonds: usize) -> bool {
         true
     }
+}
+
+/// The number of points the bond loops may gather from without a check per bond: `points`
+/// (the length of the per-point arrays they index) or fewer, as far as the volume rule covers
+/// ([`VolumeRule::covered_points`]). Panics unless the per-bond arrays (reference lengths,
+/// damage: [`Integrity::covers`]) cover the whole bond list. Checked once per call.
+#[inline(always)]
+pub(crate) fn gather_bound<V: VolumeRule, D: Integrity>(
+    bonds: &BondList,
+    points: usize,
+    volume: V,
+    damage: D,
+) -> usize {
+    let all = bonds.neighbor.len();
+    assert!(
+        all <= bonds.reference_length.len() && damage.covers(all),
+        "bond arrays shorter than the bond list"
+    );
+    points.min(volume.covered_points(all))
+}
+
+/// The neighbours and reference lengths of the bonds `range`, after checking once that every
+/// neighbour is a point below `points` (a maximum over the row, which vectorizes), so that
+/// the bonds of the row may index the per-point arrays without a check each.
+#[inline(always)]
+pub(crate) fn checked_row(
+    bonds: &BondList,
+    range: std::ops::Range<usize>,
+    points: usize,
+) -> (&[u32], &[f64]) {
+    let neighbors = &bonds.neighbor[range.clone()];
+    let highest = neighbors.iter().fold(0, |m, &j| m.max(j));
+    assert!(
+        neighbors.is_empty() || (highest as usize) < points,
+        "neighbour index out of range"
+    );
+    (neighbors, &bonds.reference_length[range])
 }
 
 /// The points of `points` for which `keep` is true, or `None` when that is all of them
