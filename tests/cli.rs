@@ -182,16 +182,13 @@ fn check_prints_the_planned_memory_per_directed_bond() {
     let output = peridyn(&["check", "deck.yaml", "--json"], dir.path());
     assert!(output.status.success(), "{}", stderr(&output));
     let plan: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
-    // The 208 directed bonds and 16 points of `check_reports_exact_sizes_as_json`. PMB's
-    // pair plan: a 4-byte pair slot per directed bond, an 8-byte scale per pair (104 pairs)
-    // and three 8-byte row starts per point plus one: 4·208 + 8·104 + 24·17 = 2072 bytes.
+    // The 208 directed bonds and 16 points of `check_reports_exact_sizes_as_json`. An explicit
+    // PMB run holds the points' and the bonds' fields and nothing per pair or per bond beyond
+    // them (its closed-block loop reads each bond's own data).
     assert_eq!(plan["bonds"], 208);
     let parts = plan["memory"].as_array().unwrap();
-    let pair_plan = parts
-        .iter()
-        .find(|p| p["part"] == "PMB pair plan")
-        .expect("a PMB pair plan part");
-    assert_eq!(pair_plan["bytes"], 2072);
+    let names: Vec<&str> = parts.iter().map(|p| p["part"].as_str().unwrap()).collect();
+    assert_eq!(names, ["points and state", "bonds"]);
     let total = plan["memory_total"].as_u64().unwrap();
     let sum: u64 = parts.iter().map(|p| p["bytes"].as_u64().unwrap()).sum();
     assert_eq!(total, sum);
@@ -210,12 +207,6 @@ fn check_prints_the_planned_memory_per_directed_bond() {
         line.ends_with(&format!("{:.1} B", total as f64 / 208.0)),
         "{line}"
     );
-    // LPS has no pair plan.
-    write_deck(dir.path(), BASE);
-    let output = peridyn(&["check", "deck.yaml", "--json"], dir.path());
-    let plan: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
-    let parts = plan["memory"].as_array().unwrap();
-    assert!(parts.iter().all(|p| p["part"] != "PMB pair plan"));
 }
 
 #[test]

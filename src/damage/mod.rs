@@ -26,7 +26,7 @@ pub use registry::{
 };
 pub use time_dependent_critical_stretch::TimeDependentCriticalStretch;
 
-pub(crate) use stretch_kernel::StretchLimit;
+pub(crate) use stretch_kernel::{break_stretched_rows, StretchLimit};
 
 /// `value` if it is a finite number, else the error naming `key`.
 fn finite(key: &'static str, value: f64) -> Result<f64, DamageError> {

@@ -131,6 +131,19 @@ pub(super) fn update_stretch_damage<L: BondLimit>(
     }
 }
 
+/// Breaks (d = 1) every intact bond in the rows of `points` whose stretch exceeds `limit`, each
+/// row by itself (the directed loop); returns how many directed bonds broke. For the rows a
+/// material's fused pass decides without computing their forces.
+pub(crate) fn break_stretched_rows(
+    reference: &ReferenceView<'_>,
+    current_position: &[[f64; 3]],
+    points: &[u32],
+    bond_damage: &mut [f32],
+    limit: StretchLimit,
+) -> usize {
+    directed(reference, current_position, points, bond_damage, &limit)
+}
+
 /// The directed loop: every bond of every row of `points`, a row per point.
 fn directed<L: BondLimit>(
     reference: &ReferenceView<'_>,

@@ -11,9 +11,10 @@
 //! ends belong to blocks with different micromoduli.
 //!
 //! # Two force loops
-//! * A block whose families stay inside it (every single-block model) with symmetric families
-//!   evaluates each pair once ([`PairPlan`]: half the square roots and divisions), then lets
-//!   every point gather its row.
+//! * A block whose families stay inside it (every single-block model) is *closed*: every
+//!   bond's micromodulus is c, and each point sums its row with the bond's own data
+//!   ([`ClosedRows`]), breaking its over-stretched bonds on the way when the block's damage is
+//!   a constant critical stretch ([`Material::critical_stretch_fast_path`]).
 //! * Otherwise each point gathers its own row (`for_each_chunk`), reading c_j/2 per neighbour.
 //!
 //! # Why a point's force depends only on its row
@@ -22,34 +23,29 @@
 //! forces of the one-rank model on the owned points. Floating-point sums depend on their order,
 //! so the force of a point must be a sum whose terms *and* order are fixed by data both models
 //! share: the point's row (an owned point's row is its whole family, in the global order) and
-//! the states of the two ends of each bond. Both loops are built so:
-//! * the gather adds the bonds of the row in row order, in four interleaved partial sums
-//!   combined `(0 + 1) + (2 + 3)`; each term reads only the bond and its two ends;
-//! * the pair-once plan first stores, for every pair, the scale
-//!   `s = c (1−d) (|Y| − ζ)/(ζ|Y|)` computed from the lower end i (the lower point of a pair
-//!   is the same in every model, since local numbering follows the global one) with
-//!   `d = Y_j − Y_i`, the bond i→j's ζ and damage — nothing else. Then every point gathers its
-//!   row as above, term `s V_j (Y_j − Y_i)`. Seen from j the difference `Y_i − Y_j` is exactly
-//!   `−(Y_j − Y_i)` (IEEE subtraction is antisymmetric) and q = |d|² is the same number, so
-//!   both ends use bitwise the same s and each end's force is a function of its row alone.
+//! the states of the two ends of each bond. Both loops add the bonds of the row in row order,
+//! in four interleaved partial sums combined `(0 + 1) + (2 + 3)`, and each term reads only the
+//! bond (its ζ and damage) and its two ends. So neither depends on how the points are cut
+//! into tasks, on the thread count or on which other points the model holds (a ghost's row
+//! may lack the bonds to points outside the rank; its force is wrong and never used).
 //!
-//! Neither pass depends on how the points are cut into tasks, on the thread count or on
-//! which other points the model holds. The earlier plan added `−f` into F_j while visiting i,
-//! in an order set by chunks of the block's points, which differ between the global and a
-//! rank's model (about 2e-7 relative on a 2,560-point bar). A ghost's row may lack the bonds
-//! to points outside the rank (so its force is wrong and is never used), but every pair the
-//! local model holds has both bonds there (rows are cut to local points on both ends), so the
-//! plan is built as on one rank.
+//! The two ends of a pair compute the same scale `s = c (1−d) (|Y| − ζ)/(ζ|Y|)`: seen from j,
+//! `Y_i − Y_j` is exactly `−(Y_j − Y_i)` (IEEE subtraction is antisymmetric), so q = |d|² is
+//! the same number, ζ is the same number in both directions (`BondList`), and so is the
+//! damage of a critical stretch. The forces are therefore exactly antisymmetric pair by pair,
+//! and they are bitwise those of the earlier pair-once plan, which computed s once per pair
+//! from the lower end and let both rows gather it.
 //!
-//! The square roots and divisions are vectorized (built for AVX2 when the CPU has it, with
-//! bitwise the same result as the baseline build). On the LAMMPS comparison lattice (30³,
-//! m = 3.015) the one-pass pair loop (which scattered −f into F_j) measured 3.4–4.2e8 directed
-//! bond evaluations per second on one core of the 2-vCPU EPYC test machine, against 2.4e8 for
-//! the earlier one-bond-at-a-time gather (`benches/material_kernels.rs`). The two passes cost
-//! about a quarter more per step than that one-pass loop (`peridyn bench`, PMB on one thread:
-//! 13.3 against 10.8 ms/step, run back to back): the gather pass reads every bond's scale and
-//! neighbour again. Two alternatives measured slower: per-bond weights with the reverse weight
-//! scattered into the other row (27 ms/step; the scatter spans a megabyte of rows), and
+//! # Speed
+//! Each directed bond takes its own square root and division (vectorized, built for AVX2 when
+//! the CPU has it, with bitwise the same result as the baseline build), twice the pair-once
+//! plan's, but in one pass that streams 16 bytes per directed bond (neighbour index, ζ,
+//! damage) and holds no per-pair data. The pair-once plan's second pass read every bond's
+//! neighbour, pair slot and the pair's scale again (28 bytes per directed bond streamed, 8
+//! more held). The earlier designs measured on the LAMMPS comparison lattice (30³, m =
+//! 3.015): one pass that scattered −f into F_j (10.8 ms/step on one thread, but its sums
+//! depended on the task cut), the pair-once plan with its gather (13.3 ms/step the same day),
+//! per-bond weights with the reverse weight scattered into the other row (27 ms/step), and
 //! gathering each point inside the pair pass as soon as its pairs are known (17–23 ms/step).
 //!
 //! # Stored energy
@@ -66,7 +62,7 @@ use super::{
     ReferenceView, Undamaged,
 };
 use super::{BreakingForcePass, CriticalStretchFastPath, FusedCriticalStretch};
-use crate::damage::StretchLimit;
+use crate::damage::{break_stretched_rows, StretchLimit};
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::{with_volume_rule, ModelDeclaration, Reach, VolumeRule};
 use crate::tangent::{
@@ -95,20 +91,18 @@ pub struct BondBased {
     micromodulus: f64,
     points: Vec<u32>,
     /// Every neighbour of every block point is itself a block point, so every bond's
-    /// micromodulus is this block's c (decided in `setup`).
-    closed: bool,
-    /// Pair-once evaluation plan, when the block is closed, its rows strictly increasing and
-    /// every bond has its reverse; the plan then also breaks each pair in both directions
+    /// micromodulus is this block's c (decided in `setup`): the block then runs the
+    /// closed-block loop ([`ClosedRows`]), which also breaks bonds
     /// ([`Material::critical_stretch_fast_path`]).
-    pairs: Option<PairPlan>,
-    /// The pair plan's per-pair scale buffer, kept between calls (a model of 10⁶ bonds needs
-    /// 4 MB, which would otherwise be allocated and faulted in at every step).
-    pair_scratch: PairScratch,
+    closed: bool,
     /// How the tangent is computed (default analytic).
     tangent: TangentMethod,
     /// The points whose force is computed, when fewer than `points`
     /// ([`Material::restrict_forces`]).
     force_points: Option<Vec<u32>>,
+    /// The block's other points, whose bonds the fused pass still breaks (empty unless
+    /// `force_points` is set).
+    unforced_points: Vec<u32>,
 }
 
 impl BondBased {
@@ -157,9 +151,8 @@ impl BondBased {
             micromodulus,
             points: Vec::new(),
             closed: false,
-            pairs: None,
-            pair_scratch: PairScratch::default(),
             force_points: None,
+            unforced_points: Vec::new(),
             tangent: TangentMethod::Analytic,
         })
     }
@@ -173,12 +166,41 @@ impl BondBased {
         0.5 * self.micromodulus
     }
 
-    /// The block's points and those whose force is computed.
-    fn pass_points(&self) -> PassPoints<'_> {
-        PassPoints {
-            block: &self.points,
-            gather: self.force_points.as_deref(),
-        }
+    /// The points whose force is computed.
+    fn forced_points(&self) -> &[u32] {
+        self.force_points.as_deref().unwrap_or(&self.points)
+    }
+
+    /// Adds the force density of the forced points of this closed block to `force_density`,
+    /// with the bond breaking of `breaker` in their rows first, on every thread
+    /// ([`ClosedRows::chunk`]); returns the directed bonds broken.
+    fn add_closed_force<D: Integrity, B: Breaker>(
+        &self,
+        reference: &ReferenceView<'_>,
+        position: &[[f64; 3]],
+        damage: D,
+        breaker: B,
+        force_density: &mut [[f64; 3]],
+    ) -> usize {
+        assert!(force_density.len() >= position.len());
+        let rows = ClosedRows {
+            bonds: reference.bonds,
+            y: position,
+            // c/2 doubled: exactly c.
+            micromodulus: 2.0 * self.half(),
+            wide: wide_vectors_available(),
+        };
+        let broken = std::sync::atomic::AtomicUsize::new(0);
+        with_volume_rule!(reference, |v| {
+            let run = |chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
+                // SAFETY: the breaker's contract is the caller's; a chunk reads and writes the
+                // damage of its own points' rows only, and no two chunks share a point.
+                let n = unsafe { rows.chunk_dispatch(chunk, base, out, v, damage, breaker) };
+                broken.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+            };
+            for_each_chunk(self.forced_points(), force_density, &|i| i as usize, &run)
+        });
+        broken.into_inner()
     }
 }
 
@@ -189,31 +211,16 @@ impl BondBased {
 /// result does not depend on the vector width the compiler picks.
 const LANES: usize = 4;
 
-/// `a_i + a_j` (= c_ij, with a = c/2 published per point) of the bonds of one row.
-trait PairStiffness: Copy {
-    /// c_ij of the bond to neighbour `j`.
-    fn of(self, j: usize) -> f64;
-}
-
-/// Every neighbour belongs to this block, so c_ij = c for every bond (no per-neighbour read).
-#[derive(Clone, Copy)]
-struct Uniform(f64);
-
-impl PairStiffness for Uniform {
-    #[inline(always)]
-    fn of(self, _j: usize) -> f64 {
-        self.0
-    }
-}
-
-/// Neighbours may belong to other blocks: c_ij = c_i/2 + (published c_j/2).
+/// The pair stiffness of an open block's bonds, whose neighbours may belong to other blocks:
+/// c_ij = a_i + a_j with a = c/2 published per point.
 #[derive(Clone, Copy)]
 struct Mixed<'a> {
     own_half: f64,
     coefficients: &'a [PointCoefficients],
 }
 
-impl PairStiffness for Mixed<'_> {
+impl Mixed<'_> {
+    /// c_ij of the bond to neighbour `j`.
     #[inline(always)]
     fn of(self, j: usize) -> f64 {
         self.own_half + self.coefficients[j].isotropic
@@ -271,13 +278,13 @@ struct BondRow<'a> {
 /// `F_i = Σ_j c_ij (1−d) w_ij (|Y| − ζ)/(ζ|Y|) (Y_j − Y_i)` over the bond-list `row` of the
 /// point at `yi` (w_ij the bond's quadrature volume, V_j under the full-volume rule).
 #[inline(always)]
-fn row_force<V: VolumeRule, D: Integrity, K: PairStiffness>(
+fn row_force<V: VolumeRule, D: Integrity>(
     yi: [f64; 3],
     row: BondRow<'_>,
     y: &[[f64; 3]],
     volume: V,
     damage: D,
-    stiffness: K,
+    stiffness: Mixed<'_>,
 ) -> [f64; 3] {
     let BondRow {
         first_bond,
@@ -341,14 +348,14 @@ impl Rows<'_> {
     /// Adds the force density of the chunk's points (see [`row_force`]), with w_ij by the
     /// quadrature rule `volume`.
     #[inline(always)]
-    fn add_force<V: VolumeRule, D: Integrity, K: PairStiffness>(
+    fn add_force<V: VolumeRule, D: Integrity>(
         &self,
         chunk: &[u32],
         base: usize,
         out: &mut [[f64; 3]],
         volume: V,
         damage: D,
-        stiffness: K,
+        stiffness: Mixed<'_>,
     ) {
         let bonds = self.reference.bonds;
         let y = self.current.position;
@@ -374,14 +381,14 @@ impl Rows<'_> {
     /// fused (FMA is not enabled).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn add_force_dispatch<V: VolumeRule, D: Integrity, K: PairStiffness>(
+    fn add_force_dispatch<V: VolumeRule, D: Integrity>(
         &self,
         chunk: &[u32],
         base: usize,
         out: &mut [[f64; 3]],
         volume: V,
         damage: D,
-        stiffness: K,
+        stiffness: Mixed<'_>,
         wide: bool,
     ) {
         #[cfg(target_arch = "x86_64")]
@@ -398,14 +405,14 @@ impl Rows<'_> {
     /// divisions (twice the width of the x86-64 baseline's SSE2).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn add_force_avx2<V: VolumeRule, D: Integrity, K: PairStiffness>(
+    fn add_force_avx2<V: VolumeRule, D: Integrity>(
         &self,
         chunk: &[u32],
         base: usize,
         out: &mut [[f64; 3]],
         volume: V,
         damage: D,
-        stiffness: K,
+        stiffness: Mixed<'_>,
     ) {
         self.add_force(chunk, base, out, volume, damage, stiffness);
     }
@@ -433,279 +440,9 @@ impl Rows<'_> {
     }
 }
 
-/// A reusable buffer behind a lock, so that `&self` force calls can keep it. Cloning a
-/// material gives the clone an empty buffer of its own.
-#[derive(Default)]
-struct PairScratch(std::sync::Mutex<Vec<f64>>);
-
-impl PairScratch {
-    /// The kept buffer (empty when another call holds it or a call panicked while holding it).
-    fn take(&self) -> Vec<f64> {
-        self.0
-            .try_lock()
-            .map(|mut kept| std::mem::take(&mut *kept))
-            .unwrap_or_default()
-    }
-
-    /// Keeps `buffer` for the next call.
-    fn keep(&self, buffer: Vec<f64>) {
-        if let Ok(mut kept) = self.0.try_lock() {
-            *kept = buffer;
-        }
-    }
-}
-
-impl Clone for PairScratch {
-    fn clone(&self) -> Self {
-        Self::default()
-    }
-}
-
-impl std::fmt::Debug for PairScratch {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("PairScratch")
-    }
-}
-
-/// Points per task of the pair pass: fixes only how the work is shared among threads, never a
-/// result (every pair's scale is written by exactly one task, into its own slot).
-const PAIR_CHUNK: usize = 256;
-
-/// Pair-once ("half list") evaluation of a closed block with symmetric families, in two
-/// passes that make every point's force a function of its own row (see the module docs):
-///
-/// 1. *pair pass*: every pair i < j is evaluated once, from the row of its lower point i: the
-///    critical-stretch decision (when fused), then the scale
-///    `s_ij = c (1−d_ij) (|Y| − ζ)/(ζ|Y|)` into the pair's slot of a per-pair buffer. Each
-///    square root and division serves two directed bonds.
-/// 2. *gather pass*: every point i sums its row, in row order, `s_ij V_j (Y_j − Y_i)`, reading
-///    the slot of the pair each bond belongs to.
-///
-/// Neither pass writes an entry that another task reads or writes, so no colouring is
-/// needed: pass 1 writes the slots of its own points' upper pairs (and the damage of those
-/// pairs), pass 2 writes the force of its own points.
-#[derive(Debug, Clone)]
-struct PairPlan {
-    /// For the k-th block point i: the first bond of i's row whose neighbour is > i (rows are
-    /// strictly increasing, so the bonds from there to the row end are exactly the upper
-    /// pairs).
-    upper_start: Vec<usize>,
-    /// Pairs are numbered by lower point (in block order), then by row position: the k-th
-    /// block point's upper pairs are `pair_start[k]..pair_start[k + 1]`.
-    pair_start: Vec<usize>,
-    /// Where the k-th block point's row starts in `pair_of_bond` (block-local bond offsets).
-    row_start: Vec<usize>,
-    /// The pair of every bond of the block's rows (block-local bond numbering): i→j and j→i
-    /// name the same pair.
-    pair_of_bond: Vec<u32>,
-}
-
-impl PairPlan {
-    /// The plan for a closed block, or `None` when some row is not strictly increasing or some
-    /// bond lacks its reverse (then the block gathers, which needs neither).
-    fn new(bonds: &crate::model::BondList, points: &[u32]) -> Option<Self> {
-        let mut upper_start = Vec::with_capacity(points.len());
-        let mut pair_start = Vec::with_capacity(points.len() + 1);
-        let mut pairs = 0;
-        pair_start.push(pairs);
-        for &i in points {
-            let row = bonds.family(i as usize);
-            if !row.windows(2).all(|w| w[0] < w[1]) {
-                return None;
-            }
-            let upper = row.partition_point(|&j| j <= i);
-            upper_start.push(bonds.offsets[i as usize] + upper);
-            pairs += row.len() - upper;
-            pair_start.push(pairs);
-        }
-        if u32::try_from(pairs).is_err() {
-            return None;
-        }
-        let mut position = vec![u32::MAX; bonds.num_points()];
-        for (k, &i) in points.iter().enumerate() {
-            position[i as usize] = k as u32;
-        }
-        let row_start = super::local_offsets(bonds, points);
-        let mut pair_of_bond = Vec::with_capacity(row_start[points.len()]);
-        let mut lower_bonds = 0;
-        for (k, &i) in points.iter().enumerate() {
-            let row = bonds.range(i as usize);
-            // Lower bonds j < i: the pair sits in j's upper part, at i's place in j's row.
-            for b in row.start..upper_start[k] {
-                let j = bonds.neighbor[b] as usize;
-                let kj = position[j];
-                if kj == u32::MAX {
-                    return None;
-                }
-                let kj = kj as usize;
-                let upper = upper_start[kj] - bonds.offsets[j];
-                let at = bonds.family(j).binary_search(&i).ok()?;
-                if at < upper {
-                    return None;
-                }
-                pair_of_bond.push((pair_start[kj] + at - upper) as u32);
-                lower_bonds += 1;
-            }
-            pair_of_bond.extend((pair_start[k]..pair_start[k + 1]).map(|p| p as u32));
-        }
-        // Each lower bond found a distinct upper bond (its reverse); as many lower as upper
-        // bonds means every upper bond has its reverse too.
-        if lower_bonds != pairs {
-            return None;
-        }
-        Some(Self {
-            upper_start,
-            pair_start,
-            row_start,
-            pair_of_bond,
-        })
-    }
-
-    /// Number of pairs (slots of the scale buffer).
-    fn num_pairs(&self) -> usize {
-        self.pair_start[self.pair_start.len() - 1]
-    }
-
-    /// Adds the force density of every point of the block (of the points to gather alone,
-    /// when a subset) to `force_density`, breaking first the bonds `breaker` breaks in every
-    /// pair; returns the directed bonds broken. `scale` is scratch space (resized here); the
-    /// gather reads w_ij by the quadrature rule `volume` (the pairs' scales do not involve it).
-    #[allow(clippy::too_many_arguments)]
-    fn run<V: VolumeRule, D: Integrity, B: Breaker>(
-        &self,
-        points: PassPoints<'_>,
-        scale: &mut Vec<f64>,
-        force_density: &mut [[f64; 3]],
-        rows: PairRows<'_>,
-        volume: V,
-        damage: D,
-        breaker: B,
-    ) -> usize {
-        use rayon::prelude::*;
-        let PassPoints {
-            block: points,
-            gather,
-        } = points;
-        assert!(force_density.len() >= rows.y.len());
-        scale.resize(self.num_pairs(), 0.0);
-        // The per-bond arrays checked once here, each row's upper neighbours once by the pair
-        // loop.
-        let bound = gather_bound(rows.bonds, rows.y.len(), volume, damage);
-        // Pass 1: each task owns the scale slots of its points' upper pairs.
-        let mut tasks = Vec::with_capacity(points.len().div_ceil(PAIR_CHUNK));
-        let mut rest = &mut scale[..];
-        for first in (0..points.len()).step_by(PAIR_CHUNK) {
-            let end = (first + PAIR_CHUNK).min(points.len());
-            let (mine, tail) = rest.split_at_mut(self.pair_start[end] - self.pair_start[first]);
-            tasks.push((first..end, mine));
-            rest = tail;
-        }
-        let broken = tasks
-            .into_par_iter()
-            .map(|(range, out)| {
-                // SAFETY: the breaker's contract is the caller's; each pair (and its two
-                // damage entries) belongs to the one task of its lower point.
-                unsafe {
-                    rows.chunk_dispatch(
-                        &points[range.clone()],
-                        &self.upper_start[range],
-                        out,
-                        bound,
-                        damage,
-                        breaker,
-                    )
-                }
-            })
-            .sum::<usize>();
-        // Pass 2: each point gathers its row.
-        let scale = &scale[..];
-        let gathered = |chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
-            let first = points.partition_point(|&p| p < chunk[0]);
-            for (n, &i) in chunk.iter().enumerate() {
-                // A subset's chunks are not contiguous runs of the block's points.
-                let k = match gather {
-                    Some(_) => points.partition_point(|&p| p < i),
-                    None => first + n,
-                };
-                let i = i as usize;
-                let f = gathered_row(
-                    rows.y[i],
-                    rows.bonds.offsets[i],
-                    rows.bonds.family(i),
-                    &self.pair_of_bond[self.row_start[k]..self.row_start[k + 1]],
-                    scale,
-                    rows.y,
-                    volume,
-                );
-                let out = &mut out[i - base];
-                for k in 0..3 {
-                    out[k] += f[k];
-                }
-            }
-        };
-        let gather_points = gather.unwrap_or(points);
-        for_each_chunk(gather_points, force_density, &|i| i as usize, &gathered);
-        broken
-    }
-}
-
-/// `F_i = Σ_n s_n w_ij (Y_j − Y_i)` over the row of point i in row order (`pairs[n]` is the
-/// scale slot of its n-th bond, `first_bond` the global index of its first), in `LANES`
-/// partial sums added `(0 + 1) + (2 + 3)` as [`row_force`] does (independent sums keep the
-/// adds from waiting on each other). The pair's scale s does not involve the volume, so
-/// quadrature weights (symmetric or not) enter here alone, exactly as in [`row_force`].
-#[inline(always)]
-fn gathered_row<V: VolumeRule>(
-    yi: [f64; 3],
-    first_bond: usize,
-    neighbors: &[u32],
-    pairs: &[u32],
-    scale: &[f64],
-    y: &[[f64; 3]],
-    volume: V,
-) -> [f64; 3] {
-    let mut sum = [[0.0; LANES]; 3];
-    let term = |n: usize, j: u32, p: u32| {
-        let j = j as usize;
-        let w = scale[p as usize] * volume.of(first_bond + n, j);
-        let yj = y[j];
-        [0, 1, 2].map(|k| w * (yj[k] - yi[k]))
-    };
-    let mut neighbor_blocks = neighbors.chunks_exact(LANES);
-    let mut pair_blocks = pairs.chunks_exact(LANES);
-    for (block, (js, ps)) in (&mut neighbor_blocks).zip(&mut pair_blocks).enumerate() {
-        for lane in 0..LANES {
-            let t = term(block * LANES + lane, js[lane], ps[lane]);
-            for k in 0..3 {
-                sum[k][lane] += t[k];
-            }
-        }
-    }
-    let full = neighbors.len() - neighbors.len() % LANES;
-    let rest = neighbor_blocks
-        .remainder()
-        .iter()
-        .zip(pair_blocks.remainder());
-    for (lane, (&j, &p)) in rest.enumerate() {
-        let t = term(full + lane, j, p);
-        for k in 0..3 {
-            sum[k][lane] += t[k];
-        }
-    }
-    sum.map(|s| (s[0] + s[1]) + (s[2] + s[3]))
-}
-
-/// The points a pair pass serves: the block's points, whose upper pairs it computes, and
-/// the subset whose force it gathers (all of them when `None`).
+/// What the closed-block loop reads, bundled once per call ([`ClosedRows::chunk`]).
 #[derive(Clone, Copy)]
-struct PassPoints<'a> {
-    block: &'a [u32],
-    gather: Option<&'a [u32]>,
-}
-
-/// What the pair loop reads.
-#[derive(Clone, Copy)]
-struct PairRows<'a> {
+struct ClosedRows<'a> {
     bonds: &'a crate::model::BondList,
     y: &'a [[f64; 3]],
     /// c (the block is closed, so c_ij = c).
@@ -714,146 +451,193 @@ struct PairRows<'a> {
     wide: bool,
 }
 
-impl PairRows<'_> {
-    /// [`PairRows::chunk`] built for AVX2 when [`PairRows::wide`], else for the baseline
-    /// target (the same result bitwise, as for the gather loop).
+impl ClosedRows<'_> {
+    /// Adds the force density of the points of `chunk` to `out` (indexed from `base`) and, with
+    /// a `breaker`, breaks their over-stretched bonds first; returns the directed bonds broken.
+    /// Over the whole call: builds for AVX2 when [`ClosedRows::wide`], else for the baseline
+    /// target (bitwise the same result, as for the gather loop).
     ///
     /// # Safety
-    /// As [`PairRows::chunk`].
+    /// The contract of `breaker` ([`Breaker`]) must hold for the rows of `chunk`.
     #[inline(always)]
-    unsafe fn chunk_dispatch<D: Integrity, B: Breaker>(
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn chunk_dispatch<V: VolumeRule, D: Integrity, B: Breaker>(
         self,
-        points: &[u32],
-        upper_start: &[usize],
-        out: &mut [f64],
-        bound: usize,
+        chunk: &[u32],
+        base: usize,
+        out: &mut [[f64; 3]],
+        volume: V,
         damage: D,
         breaker: B,
     ) -> usize {
         #[cfg(target_arch = "x86_64")]
         if self.wide {
             // SAFETY: AVX2 was detected at run time; the rest as the caller guarantees.
-            return unsafe { self.chunk_avx2(points, upper_start, out, bound, damage, breaker) };
+            return unsafe { self.chunk_avx2(chunk, base, out, volume, damage, breaker) };
         }
         // SAFETY: as the caller guarantees.
-        unsafe { self.chunk(points, upper_start, out, bound, damage, breaker) }
+        unsafe { self.chunk(chunk, base, out, volume, damage, breaker) }
     }
 
-    /// [`PairRows::chunk`] with AVX2 enabled.
+    /// [`ClosedRows::chunk`] with AVX2 enabled.
     ///
     /// # Safety
-    /// As [`PairRows::chunk`], and the CPU supports AVX2.
+    /// As [`ClosedRows::chunk`], and the CPU supports AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn chunk_avx2<D: Integrity, B: Breaker>(
+    unsafe fn chunk_avx2<V: VolumeRule, D: Integrity, B: Breaker>(
         self,
-        points: &[u32],
-        upper_start: &[usize],
-        out: &mut [f64],
-        bound: usize,
+        chunk: &[u32],
+        base: usize,
+        out: &mut [[f64; 3]],
+        volume: V,
         damage: D,
         breaker: B,
     ) -> usize {
         // SAFETY: as the caller guarantees.
-        unsafe { self.chunk(points, upper_start, out, bound, damage, breaker) }
+        unsafe { self.chunk(chunk, base, out, volume, damage, breaker) }
     }
 
-    /// For every point i of the chunk and every upper neighbour j > i, in order: first the
-    /// critical stretch test of `breaker` (if any), then `s = c (1−d) (|Y| − ζ)/(ζ|Y|)` into
-    /// `out` (the chunk's pair slots, consecutive). The inputs are those of the pair alone
-    /// (Y_i, Y_j, ζ and d of the bond i→j), so s does not depend on which points share the
-    /// chunk. Returns the directed bonds broken. Each row's upper neighbours are checked once
-    /// against `bound` ([`checked_row`]), so that its bonds read Y_j and 1 − d without a check
-    /// each.
+    /// Adds, for every point i of `chunk`, the force density of its row (see
+    /// [`ClosedRows::row`]) to `out` (indexed from `base`); returns the directed bonds broken.
     ///
     /// # Safety
-    /// The contract of `breaker` ([`Breaker`]) must hold; `bound` is from [`gather_bound`]
-    /// over `self.y.len()` (or less) and `damage`.
+    /// The contract of `breaker` ([`Breaker`]) must hold for the rows of `chunk`.
     #[inline(always)]
-    unsafe fn chunk<D: Integrity, B: Breaker>(
+    unsafe fn chunk<V: VolumeRule, D: Integrity, B: Breaker>(
         self,
-        points: &[u32],
-        upper_start: &[usize],
-        out: &mut [f64],
-        bound: usize,
+        chunk: &[u32],
+        base: usize,
+        out: &mut [[f64; 3]],
+        volume: V,
         damage: D,
         breaker: B,
     ) -> usize {
-        let bonds = self.bonds;
-        let y = self.y;
-        // Per block of a row's upper bonds: gather the squared lengths (scalar); if bonds may
-        // break, filter them (vectorized) and give the few the filter cannot clear the exact
-        // test; then compute every bond's scale in a loop over plain arrays, which the
-        // compiler vectorizes (the square roots and divisions dominate).
-        let mut squared = [0.0; PAIR_BLOCK];
-        let mut pair = [0.0; PAIR_BLOCK];
-        let mut suspect = [false; PAIR_BLOCK];
+        let bound = gather_bound(self.bonds, self.y.len(), volume, damage);
         let mut broken = 0;
-        let mut slot = 0;
-        for (&i, &first) in points.iter().zip(upper_start) {
+        for &i in chunk {
             let i = i as usize;
-            let end = bonds.offsets[i + 1];
-            let yi = y[i];
-            let (row_neighbors, row_lengths) = checked_row(bonds, first..end, bound);
-            for block_start in (first..end).step_by(PAIR_BLOCK) {
-                let block_end = (block_start + PAIR_BLOCK).min(end);
-                let count = block_end - block_start;
-                let neighbors = &row_neighbors[block_start - first..block_end - first];
-                let lengths = &row_lengths[block_start - first..block_end - first];
-                // q = dx*dx + dy*dy + dz*dz with d = Y_j − Y_i: the very number the damage
-                // models test and whose square root the force uses.
-                for (n, &j) in neighbors.iter().enumerate() {
-                    // SAFETY: j < bound <= y.len() (`checked_row`, the caller's `bound`).
-                    let yj = unsafe { *y.get_unchecked(j as usize) };
-                    let d = [yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]];
-                    squared[n] = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            // SAFETY: `bound` is from `gather_bound`; the breaker's contract is the caller's.
+            let (f, newly) = unsafe { self.row(i, bound, volume, damage, breaker) };
+            broken += newly;
+            let out = &mut out[i - base];
+            for k in 0..3 {
+                out[k] += f[k];
+            }
+        }
+        broken
+    }
+
+    /// `F_i = Σ_j c (1−d_ij) (|Y| − ζ)/(ζ|Y|) w_ij (Y_j − Y_i)` over the row of point i, and
+    /// the directed bonds of the row `breaker` broke first. Every input of a term is the
+    /// bond's own (Y_i, Y_j, ζ and d of i→j), so the result depends on the row alone.
+    ///
+    /// The row is taken in blocks of [`ROW_BLOCK`] bonds, each in four loops over plain
+    /// arrays: gather (Y_j − Y_i, q = |Y_j − Y_i|², ζ, w_ij); the critical stretch of
+    /// `breaker` (when it has one: a branch-free filter over the block, the exact test only
+    /// for the bonds it cannot clear, breaking the bond i→j alone); the scale
+    /// `s = c (1−d) (|Y| − ζ)/(ζ|Y|)` times w_ij; the sum in [`LANES`] partial sums by row
+    /// position, added `(0 + 1) + (2 + 3)`. Loops of independent iterations let the square
+    /// roots and divisions of many bonds overlap (a group of four bonds at a time, gathered
+    /// and summed in one loop, measured 20 against 16 ms/step on the bench lattice). The
+    /// row's neighbours are checked once ([`checked_row`]), so that its bonds read Y_j, w_ij
+    /// and 1 − d without a check each.
+    ///
+    /// # Safety
+    /// `bound` is from [`gather_bound`] over `self.y.len()` (or less), `volume` and `damage`;
+    /// the contract of `breaker` ([`Breaker`]) holds for the row of i.
+    #[inline(always)]
+    unsafe fn row<V: VolumeRule, D: Integrity, B: Breaker>(
+        self,
+        i: usize,
+        bound: usize,
+        volume: V,
+        damage: D,
+        breaker: B,
+    ) -> ([f64; 3], usize) {
+        let y = self.y;
+        let yi = y[i];
+        let range = self.bonds.range(i);
+        let first = range.start;
+        let (neighbors, lengths) = checked_row(self.bonds, range, bound);
+        let mut sum = [[0.0; LANES]; 3];
+        let mut broken = 0;
+        for block_start in (0..neighbors.len()).step_by(ROW_BLOCK) {
+            let count = (neighbors.len() - block_start).min(ROW_BLOCK);
+            let mut d = [[0.0; ROW_BLOCK]; 3];
+            let mut squared = [0.0; ROW_BLOCK];
+            let mut zeta = [0.0; ROW_BLOCK];
+            let mut weight = [0.0; ROW_BLOCK];
+            for n in 0..count {
+                let b = block_start + n;
+                let j = neighbors[b] as usize;
+                // SAFETY: j < bound <= y.len(), and below the volume rule's covered points
+                // (`checked_row` with `gather_bound`).
+                let (yj, w) = unsafe { (*y.get_unchecked(j), volume.of_unchecked(first + b, j)) };
+                for k in 0..3 {
+                    d[k][n] = yj[k] - yi[k];
                 }
-                if let Some(limit) = breaker.limit() {
-                    let mut any = false;
-                    for n in 0..count {
-                        suspect[n] = !limit.certainly_intact(squared[n], lengths[n]);
-                        any |= suspect[n];
-                    }
-                    if any {
-                        for n in (0..count).filter(|&n| suspect[n]) {
-                            let b = block_start + n;
-                            // SAFETY: b is an upper pair of a point of this chunk (the
-                            // breaker's contract).
-                            if unsafe { breaker.damage(b) } < 1.0
-                                && limit.exceeded(squared[n], lengths[n])
-                            {
-                                // SAFETY: as above.
-                                broken += unsafe {
-                                    breaker.break_pair(bonds, i, neighbors[n] as usize, b)
-                                };
-                            }
+                // q = dx*dx + dy*dy + dz*dz, the number the damage models test.
+                squared[n] = d[0][n] * d[0][n] + d[1][n] * d[1][n] + d[2][n] * d[2][n];
+                zeta[n] = lengths[b];
+                weight[n] = w;
+            }
+            if let Some(limit) = breaker.limit() {
+                let mut cleared = [false; ROW_BLOCK];
+                let mut all = true;
+                for n in 0..count {
+                    cleared[n] = limit.certainly_intact(squared[n], zeta[n]);
+                    all &= cleared[n];
+                }
+                if !all {
+                    for n in (0..count).filter(|&n| !cleared[n]) {
+                        let b = first + block_start + n;
+                        // SAFETY: b is in the row of i (the breaker's contract).
+                        if unsafe { breaker.damage(b) } < 1.0 && limit.exceeded(squared[n], zeta[n])
+                        {
+                            // SAFETY: as above.
+                            broken += usize::from(unsafe { breaker.break_bond(b) });
                         }
                     }
                 }
-                for (n, pair) in pair[..count].iter_mut().enumerate() {
-                    // SAFETY: the bond is in the row, below `bonds.neighbor.len()`, which
-                    // `damage` covers (the caller's `bound` is from `gather_bound`).
-                    *pair = self.micromodulus * unsafe { damage.intact_unchecked(block_start + n) };
+            }
+            for n in 0..count {
+                // SAFETY: the bond is in the row, below `bonds.neighbor.len()`, which `damage`
+                // covers (`gather_bound`).
+                let intact = unsafe { damage.intact_unchecked(first + block_start + n) };
+                weight[n] *= bond_scale_squared(self.micromodulus * intact, zeta[n], squared[n]);
+            }
+            // ROW_BLOCK is a multiple of LANES, so bond n of the block is at row position
+            // n mod LANES too.
+            let full = count - count % LANES;
+            for start in (0..full).step_by(LANES) {
+                for lane in 0..LANES {
+                    for k in 0..3 {
+                        sum[k][lane] += weight[start + lane] * d[k][start + lane];
+                    }
                 }
-                let out = &mut out[slot..slot + count];
-                for n in 0..count {
-                    out[n] = bond_scale_squared(pair[n], lengths[n], squared[n]);
+            }
+            for n in full..count {
+                for k in 0..3 {
+                    sum[k][n - full] += weight[n] * d[k][n];
                 }
-                slot += count;
             }
         }
-        debug_assert_eq!(slot, out.len());
-        broken
+        (sum.map(|s| (s[0] + s[1]) + (s[2] + s[3])), broken)
     }
 }
 
-/// The bond breaking a pair loop does before its forces (see [`PairRows::chunk`]).
+/// Bonds of a row handled per block of the closed-block loop (an interior row at m = 3 has
+/// 122): a multiple of [`LANES`].
+const ROW_BLOCK: usize = 64;
+
+/// The bond breaking the closed-block loop does before its forces (see [`ClosedRows::chunk`]).
 ///
 /// # Contract of an implementation that breaks bonds
-/// `damage` and `break_pair` access the bond-damage array of the loop's bond list through a
-/// pointer; the pair loop only calls them for upper bonds i→j (i < j) of the points of the
-/// running chunk, whose entries (and those of their reverse bonds j→i) no other task reads or
-/// writes meanwhile; the damage reads of the force loop go through the same pointer.
+/// `damage` and `break_bond` access the bond-damage array of the loop's bond list through a
+/// pointer; the loop only calls them for the bonds of the rows of the running chunk's points,
+/// whose entries no other task reads or writes meanwhile; the damage reads of the force loop
+/// go through the same pointer.
 trait Breaker: Copy + Send + Sync {
     /// The critical stretch to test, `None` when the loop breaks nothing.
     fn limit(self) -> Option<StretchLimit>;
@@ -864,18 +648,11 @@ trait Breaker: Copy + Send + Sync {
     /// See the trait.
     unsafe fn damage(self, b: usize) -> f32;
 
-    /// Breaks the pair (i, j) through bond `b` (i→j): d = 1 in both directions. Returns the
-    /// directed bonds that changed.
+    /// Sets d = 1 on bond `b`; returns whether it changed (it was intact or partly damaged).
     ///
     /// # Safety
     /// See the trait.
-    unsafe fn break_pair(
-        self,
-        bonds: &crate::model::BondList,
-        i: usize,
-        j: usize,
-        b: usize,
-    ) -> usize;
+    unsafe fn break_bond(self, b: usize) -> bool;
 }
 
 /// The force loop alone (damage already up to date, or no damage).
@@ -892,13 +669,7 @@ impl Breaker for NoBreaking {
         unreachable!("NoBreaking has no limit")
     }
 
-    unsafe fn break_pair(
-        self,
-        _bonds: &crate::model::BondList,
-        _i: usize,
-        _j: usize,
-        _b: usize,
-    ) -> usize {
+    unsafe fn break_bond(self, _b: usize) -> bool {
         unreachable!("NoBreaking has no limit")
     }
 }
@@ -916,23 +687,9 @@ impl Breaker for FusedCriticalStretch {
     }
 
     #[inline(never)]
-    unsafe fn break_pair(
-        self,
-        bonds: &crate::model::BondList,
-        i: usize,
-        j: usize,
-        b: usize,
-    ) -> usize {
-        let back = bonds.offsets[j]
-            + bonds
-                .family(j)
-                .binary_search(&(i as u32))
-                .expect("fused blocks have symmetric families (checked in setup)");
-        // SAFETY: both entries belong to the running chunk (the caller's contract).
-        unsafe {
-            self.break_bond(b);
-            1 + usize::from(self.break_bond(back))
-        }
+    unsafe fn break_bond(self, b: usize) -> bool {
+        // SAFETY: as the caller guarantees.
+        unsafe { FusedCriticalStretch::break_bond(self, b) }
     }
 }
 
@@ -1001,9 +758,6 @@ impl<D: Integrity> ForceState for PmbForceState<'_, D> {
     }
 }
 
-/// Upper bonds of a row handled per block of the pair loop (an interior row at m = 3 has 61).
-const PAIR_BLOCK: usize = 64;
-
 impl Material for BondBased {
     fn declaration(&self) -> &'static ModelDeclaration {
         &Self::DECLARATION
@@ -1035,13 +789,9 @@ impl Material for BondBased {
         self.closed = points
             .iter()
             .all(|&i| bonds.family(i as usize).iter().all(|&j| member[j as usize]));
-        self.pairs = if self.closed {
-            PairPlan::new(bonds, &points)
-        } else {
-            None
-        };
         self.points = points;
         self.force_points = None;
+        self.unforced_points.clear();
         Ok(())
     }
 
@@ -1051,6 +801,10 @@ impl Material for BondBased {
 
     fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
         self.force_points = kept_points(&self.points, keep);
+        self.unforced_points = match &self.force_points {
+            Some(_) => self.points.iter().copied().filter(|&p| !keep(p)).collect(),
+            None => Vec::new(),
+        };
     }
 
     fn compute_point_coefficients(
@@ -1082,73 +836,43 @@ impl Material for BondBased {
             coefficients,
             own_half: self.half(),
         };
-        let uniform = Uniform(2.0 * self.half());
         let mixed = Mixed {
             own_half: self.half(),
             coefficients,
         };
-        let wide = wide_vectors_available();
-        if let Some(plan) = &self.pairs {
-            let pairs = PairRows {
-                bonds: reference.bonds,
-                y: current.position,
-                micromodulus: uniform.0,
-                wide,
-            };
-            let scale = &mut self.pair_scratch.take();
-            with_volume_rule!(reference, |v| match current.bond_damage {
-                None => plan.run(
-                    self.pass_points(),
-                    scale,
-                    force_density,
-                    pairs,
-                    v,
+        if self.closed {
+            match current.bond_damage {
+                None => self.add_closed_force(
+                    reference,
+                    current.position,
                     Undamaged,
                     NoBreaking,
-                ),
-                Some(d) => plan.run(
-                    self.pass_points(),
-                    scale,
                     force_density,
-                    pairs,
-                    v,
+                ),
+                Some(d) => self.add_closed_force(
+                    reference,
+                    current.position,
                     Damaged(d),
                     NoBreaking,
+                    force_density,
                 ),
-            });
-            self.pair_scratch.keep(std::mem::take(scale));
+            };
             return;
         }
-        let closed = self.closed;
-        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        let wide = wide_vectors_available();
         with_volume_rule!(reference, |v| {
-            let run = |chunk: &[u32], base: usize, out: &mut [[f64; 3]]| match (
-                current.bond_damage,
-                closed,
-            ) {
-                (None, true) => {
-                    rows.add_force_dispatch(chunk, base, out, v, Undamaged, uniform, wide)
-                }
-                (None, false) => {
-                    rows.add_force_dispatch(chunk, base, out, v, Undamaged, mixed, wide)
-                }
-                (Some(d), true) => {
-                    rows.add_force_dispatch(chunk, base, out, v, Damaged(d), uniform, wide)
-                }
-                (Some(d), false) => {
-                    rows.add_force_dispatch(chunk, base, out, v, Damaged(d), mixed, wide)
-                }
+            let run = |chunk: &[u32], base: usize, out: &mut [[f64; 3]]| match current.bond_damage {
+                None => rows.add_force_dispatch(chunk, base, out, v, Undamaged, mixed, wide),
+                Some(d) => rows.add_force_dispatch(chunk, base, out, v, Damaged(d), mixed, wide),
             };
-            for_each_chunk(force_points, force_density, &|i| i as usize, &run)
+            for_each_chunk(self.forced_points(), force_density, &|i| i as usize, &run)
         })
     }
 
-    /// The pair plan breaks each pair in both directions in the force pass (only when the
-    /// plan exists: the block is closed with symmetric families).
+    /// The closed-block loop breaks each bond in its own row just before its force (only a
+    /// closed block: an open one leaves its interface bonds to the damage model).
     fn critical_stretch_fast_path(&self) -> Option<CriticalStretchFastPath<'_>> {
-        self.pairs
-            .is_some()
-            .then_some(CriticalStretchFastPath::Force(self))
+        self.closed.then_some(CriticalStretchFastPath::Force(self))
     }
 
     fn tangent_method(&self) -> TangentMethod {
@@ -1227,10 +951,11 @@ impl Material for BondBased {
 }
 
 impl BreakingForcePass for BondBased {
-    /// The pair-once loop tests each pair just before its force: same q, same exact test
-    /// (behind the filter of `StretchLimit::breaks`), both directions written at once, as the
-    /// pair-once `Critical Stretch` update; the force then reads the updated damage, so forces
-    /// and damage are bitwise those of the separate update followed by the force.
+    /// The closed-block loop tests each bond of a row just before its force: the same q, the
+    /// same exact test (behind the filter of `StretchLimit::breaks`) as the `Critical Stretch`
+    /// update, on the bond alone; the force then reads the updated damage, so forces and
+    /// damage are bitwise those of the separate update followed by the force. The rows of
+    /// points whose force is not computed ([`Material::restrict_forces`]) are decided too.
     fn add_force_density_breaking_bonds(
         &self,
         reference: &ReferenceView<'_>,
@@ -1240,38 +965,28 @@ impl BreakingForcePass for BondBased {
         _coefficients: &[PointCoefficients],
         force_density: &mut [[f64; 3]],
     ) -> usize {
-        let plan = self
-            .pairs
-            .as_ref()
-            .expect("the fast path is offered only with a pair plan");
+        assert!(
+            self.closed,
+            "the fast path is offered only to closed blocks"
+        );
         assert_eq!(bond_damage.len(), reference.bonds.num_bonds());
-        let pairs = PairRows {
-            bonds: reference.bonds,
-            y: position,
-            // As `add_force_density` (c/2 doubled: exactly c).
-            micromodulus: 2.0 * self.half(),
-            wide: wide_vectors_available(),
-        };
+        let limit = StretchLimit::new(critical_stretch);
         let fused = FusedCriticalStretch {
-            limit: StretchLimit::new(critical_stretch),
+            limit,
             damage: bond_damage.as_mut_ptr(),
         };
         // The `Breaker` contract holds: `bond_damage` is borrowed mutably for this call and
-        // covers every bond; the chunk of point i reads and writes only the entries of i's
-        // upper bonds and of their reverses, which belong to no other chunk (each pair has
-        // one lower point, and the block is closed with symmetric families: the plan exists).
-        let scale = &mut self.pair_scratch.take();
-        let broken = with_volume_rule!(reference, |v| plan.run(
-            self.pass_points(),
-            scale,
-            force_density,
-            pairs,
-            v,
-            fused,
-            fused,
-        ));
-        self.pair_scratch.keep(std::mem::take(scale));
+        // covers every bond, and the chunk of point i reads and writes only the entries of
+        // i's row.
+        let broken = self.add_closed_force(reference, position, fused, fused, force_density);
         broken
+            + break_stretched_rows(
+                reference,
+                position,
+                &self.unforced_points,
+                bond_damage,
+                limit,
+            )
     }
 }
 
@@ -1296,8 +1011,8 @@ mod tests {
     type Body = (Vec<[f64; 3]>, Vec<f64>, BondList, Vec<[f64; 3]>, Vec<f32>);
 
     #[test]
-    fn the_pair_once_force_matches_the_generic_force_state_sum() {
-        // The pair-once kernel is a fast path of F_i = Σ_j (T_i⟨ξ_ij⟩ − T_j⟨ξ_ji⟩) V_j
+    fn the_closed_block_force_matches_the_generic_force_state_sum() {
+        // The closed-block loop is a fast path of F_i = Σ_j (T_i⟨ξ_ij⟩ − T_j⟨ξ_ji⟩) V_j
         // (`material::generic_force`): same force to round-off, with damage.
         let (x, v, bonds, y, damage) = body();
         let reference = ReferenceView {
@@ -1406,11 +1121,11 @@ mod tests {
     }
 
     #[test]
-    fn pair_once_plan_matches_the_gather_loop() {
-        // One closed block takes the pair-once path; the same constants split over two blocks
-        // take the gather path (c_ij = c/2 + c/2 = c exactly). The two sum the same bond forces
-        // in different orders, so they agree to round-off: relative 1e-12 of the largest
-        // force (each entry sums ~60 terms of that size with 1e-16 rounding each).
+    fn closed_block_loop_matches_the_gather_loop() {
+        // One closed block takes the closed-block loop; the same constants split over two
+        // blocks take the gather loop (c_ij = c/2 + c/2 = c exactly). The two multiply the
+        // same factors in different orders, so they agree to round-off: relative 1e-12 of the
+        // largest force (each entry sums ~60 terms of that size with 1e-16 rounding each).
         let (x, v, bonds, y, damage) = body();
         let reference = ReferenceView {
             bonds: &bonds,
@@ -1422,22 +1137,22 @@ mod tests {
         whole
             .setup(&reference, (0..x.len() as u32).collect())
             .unwrap();
-        assert!(whole.pairs.is_some());
+        assert!(whole.closed);
         let (left, right): (Vec<u32>, Vec<u32>) =
             (0..x.len() as u32).partition(|&i| x[i as usize][0] < 3.5);
         let mut a = material();
         let mut b = material();
         a.setup(&reference, left).unwrap();
         b.setup(&reference, right).unwrap();
-        assert!(a.pairs.is_none() && b.pairs.is_none());
-        let pair_once = force(&[&whole], &reference, &y, &damage);
+        assert!(!a.closed && !b.closed);
+        let closed = force(&[&whole], &reference, &y, &damage);
         let gathered = force(&[&a, &b], &reference, &y, &damage);
         let largest = gathered
             .iter()
             .flatten()
             .fold(0.0f64, |m, f| m.max(f.abs()));
         assert!(largest > 0.0);
-        for (p, g) in pair_once.iter().zip(&gathered) {
+        for (p, g) in closed.iter().zip(&gathered) {
             for k in 0..3 {
                 assert!((p[k] - g[k]).abs() <= 1e-12 * largest, "{p:?} vs {g:?}");
             }
@@ -1445,7 +1160,7 @@ mod tests {
     }
 
     #[test]
-    fn pair_once_result_is_the_same_for_every_thread_count() {
+    fn closed_block_result_is_the_same_for_every_thread_count() {
         // Every point gathers its own row in row order, whatever the threads.
         let (x, v, bonds, y, damage) = body();
         let reference = ReferenceView {
@@ -1468,34 +1183,8 @@ mod tests {
         assert_eq!(one, run(3));
     }
 
-    #[test]
-    fn every_bond_and_its_reverse_name_the_same_pair() {
-        let (x, _, bonds, _, _) = body();
-        let points: Vec<u32> = (0..x.len() as u32).collect();
-        let plan = PairPlan::new(&bonds, &points).unwrap();
-        let mut bonds_of_pair = vec![Vec::new(); plan.num_pairs()];
-        for i in 0..x.len() {
-            for (n, b) in bonds.range(i).enumerate() {
-                let p = plan.pair_of_bond[plan.row_start[i] + n] as usize;
-                let j = bonds.neighbor[b] as usize;
-                bonds_of_pair[p].push((i.min(j), i.max(j)));
-                // A point's own pairs are its upper bonds, numbered in row order.
-                if j > i {
-                    assert_eq!(p, plan.pair_start[i] + (b - plan.upper_start[i]));
-                }
-            }
-        }
-        // Every pair is named by exactly its two directed bonds.
-        for named in &bonds_of_pair {
-            assert_eq!(named.len(), 2);
-            assert_eq!(named[0], named[1]);
-        }
-        assert_eq!(2 * plan.num_pairs(), bonds.num_bonds());
-    }
-
     /// The force of every point as the module docs define it, written plainly: row order, four
-    /// partial sums by position, each pair's scale from its lower end with the lower-to-upper
-    /// bond's ζ and damage.
+    /// partial sums by position, each bond's scale from its own ζ and damage.
     fn row_ordered_reference(
         bonds: &BondList,
         v: &[f64],
@@ -1508,13 +1197,10 @@ mod tests {
                 let mut sum = [[0.0f64; 4]; 3];
                 for (n, b) in bonds.range(i).enumerate() {
                     let j = bonds.neighbor[b] as usize;
-                    let (lower, upper) = (i.min(j), i.max(j));
-                    let upper_bond = bonds.offsets[lower]
-                        + bonds.family(lower).binary_search(&(upper as u32)).unwrap();
-                    let zeta = bonds.reference_length[upper_bond];
-                    let d = [0, 1, 2].map(|k| y[upper][k] - y[lower][k]);
+                    let zeta = bonds.reference_length[b];
+                    let d = [0, 1, 2].map(|k| y[j][k] - y[i][k]);
                     let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                    let intact = 1.0 - f64::from(damage[upper_bond]);
+                    let intact = 1.0 - f64::from(damage[b]);
                     let s = if length > 0.0 {
                         c * intact * (length - zeta) / (zeta * length)
                     } else {
@@ -1530,8 +1216,12 @@ mod tests {
     }
 
     #[test]
-    fn pair_once_force_is_the_row_ordered_sum_bitwise() {
-        let (x, v, bonds, y, damage) = body();
+    fn closed_block_force_is_the_row_ordered_sum_bitwise() {
+        // Damage made one-sided on some bonds: each direction reads its own.
+        let (x, v, bonds, y, mut damage) = body();
+        for b in (0..damage.len()).step_by(7) {
+            damage[b] = 0.5;
+        }
         let reference = ReferenceView {
             bonds: &bonds,
             position: &x,
@@ -1540,7 +1230,7 @@ mod tests {
         };
         let mut m = material();
         m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
-        assert!(m.pairs.is_some());
+        assert!(m.closed);
         let expected = row_ordered_reference(&bonds, &v, &y, &damage, m.micromodulus());
         assert_eq!(force(&[&m], &reference, &y, &damage), expected);
     }
@@ -1601,8 +1291,7 @@ mod tests {
         };
         let sub_x = pick(&x);
         let sub_v: Vec<f64> = points.iter().map(|&g| v[g as usize]).collect();
-        // More than one pair-pass task locally, and fewer points than the whole body.
-        assert!(points.len() > PAIR_CHUNK && points.len() < x.len());
+        assert!(points.len() < x.len());
         assert!(owned.contains(&true) && owned.contains(&false));
         let whole_reference = ReferenceView {
             bonds: &bonds,
@@ -1698,27 +1387,29 @@ mod tests {
     }
 
     #[test]
-    fn rows_without_their_reverse_fall_back_to_the_gather_loop() {
-        // 0 → 1 and 1 → 0, 2 → 0 without 0 → 2: the pair (0, 2) has one bond only.
+    fn closed_block_loop_needs_neither_sorted_rows_nor_reverse_bonds() {
+        // Row 0 unsorted (2 before 1), 2 → 1 without 1 → 2: each row is summed as it stands.
         let bonds = BondList {
-            offsets: vec![0, 1, 2, 3],
-            neighbor: vec![1, 0, 0],
-            reference_length: vec![1.0, 1.0, 2.0],
+            offsets: vec![0, 2, 3, 5],
+            neighbor: vec![2, 1, 0, 0, 1],
+            reference_length: vec![2.0, 1.0, 1.0, 2.0, 5f64.sqrt()],
         };
-        assert!(PairPlan::new(&bonds, &[0, 1, 2]).is_none());
-        // And the other way round: 0 → 2 without 2 → 0.
-        let bonds = BondList {
-            offsets: vec![0, 2, 3, 3],
-            neighbor: vec![1, 2, 0],
-            reference_length: vec![1.0, 2.0, 1.0],
+        let x = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]];
+        let v = vec![1.0, 0.5, 0.25];
+        let y = vec![[0.0, 0.01, 0.0], [1.02, 0.0, 0.0], [0.0, 2.03, 0.01]];
+        let damage = vec![0.0f32; 5];
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+            bond_volume: None,
         };
-        assert!(PairPlan::new(&bonds, &[0, 1, 2]).is_none());
-        let symmetric = BondList {
-            offsets: vec![0, 2, 3, 4],
-            neighbor: vec![1, 2, 0, 0],
-            reference_length: vec![1.0, 2.0, 1.0, 2.0],
-        };
-        assert!(PairPlan::new(&symmetric, &[0, 1, 2]).is_some());
+        let mut m = material();
+        m.setup(&reference, vec![0, 1, 2]).unwrap();
+        assert!(m.closed);
+        let expected = row_ordered_reference(&bonds, &v, &y, &damage, m.micromodulus());
+        assert!(expected.iter().all(|f| f.iter().any(|&c| c != 0.0)));
+        assert_eq!(force(&[&m], &reference, &y, &damage), expected);
     }
 
     #[test]
@@ -1791,15 +1482,5 @@ mod tests {
         let mut m = material();
         m.setup(&reference, left).unwrap();
         assert!(m.critical_stretch_fast_path().is_none());
-    }
-
-    #[test]
-    fn unsorted_rows_fall_back_to_the_gather_loop() {
-        let bonds = BondList {
-            offsets: vec![0, 2, 3, 4],
-            neighbor: vec![2, 1, 0, 0],
-            reference_length: vec![2.0, 1.0, 1.0, 2.0],
-        };
-        assert!(PairPlan::new(&bonds, &[0, 1, 2]).is_none());
     }
 }

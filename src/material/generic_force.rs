@@ -6,7 +6,7 @@
 //!
 //! through the reverse of each bond (Silling et al. 2007, eq. 9; the force convention of the
 //! module docs of `material`). Cost: one force-state evaluation per point and 3 numbers per
-//! directed bond of scratch. The hand-tuned kernels of PMB and LPS (pair-once loops,
+//! directed bond of scratch. The hand-tuned kernels of PMB and LPS (row loops with
 //! published coefficients) and the correspondence gather (published `P K⁻¹` and F) are fast
 //! paths of this sum; it is the reference their tests check them against (built for tests
 //! only, as every model of this build has its own gather).

@@ -684,7 +684,7 @@ impl Integrity for Damaged<'_> {
     }
 }
 
-/// A constant critical stretch tested inside a material's bond loop (PMB's pair-once force
+/// A constant critical stretch tested inside a material's bond loop (PMB's closed-block force
 /// loop, LPS's dilatation pass), with the bond-damage array the loop both reads (as its
 /// [`Integrity`]) and writes, through one pointer. Each material's breaking trait states which
 /// entries a task may touch; tasks touch disjoint entries, which is what makes sharing the

@@ -684,10 +684,6 @@ fn memory_plans(
         ("points and state", total("point")),
         ("bonds", total("bond")),
     ];
-    let pair_once = pair_plan_bytes(deck, model);
-    if pair_once > 0 {
-        memory.push(("PMB pair plan", pair_once));
-    }
     let points = model.points.len();
     let assembled = deck.solvers.iter().any(|s| {
         s.integrator.is_implicit()
@@ -741,32 +737,6 @@ fn memory_plans(
             bytes,
         })
         .collect()
-}
-
-/// What the pair-once plans of the `Elastic Bond Based` blocks hold (`material::bond_based`):
-/// the pair slot of every bond (4 B) and the per-pair scale buffer of the force pass (8 B per
-/// pair, i.e. 4 B per directed bond), plus three 8-byte row starts per point. Estimated for
-/// every such block, as if its families were closed and symmetric (the usual case; a block
-/// whose families are not gathers without a plan and holds less).
-fn pair_plan_bytes(deck: &Deck, model: &Model) -> u64 {
-    model
-        .blocks
-        .iter()
-        .filter(|block| {
-            deck.material(&deck.blocks[block.deck_block].material)
-                .is_some_and(|m| {
-                    m.model.deck_name() == crate::material::BondBased::DECLARATION.deck_name
-                })
-        })
-        .map(|block| {
-            let bonds: u64 = block
-                .points
-                .iter()
-                .map(|&p| model.bonds.family_size(p as usize) as u64)
-                .sum();
-            (4 + 4) * bonds + 3 * 8 * (block.points.len() as u64 + 1)
-        })
-        .sum()
 }
 
 /// Vectors of `unknowns` entries the GMRES basis of the Jacobian-free solve of `solver` holds

@@ -9,17 +9,12 @@
 //! first touched by the thread pool that later streams them).
 //!
 //! # The PMB bound
-//! A step of peridyn's PMB (pair-once plan, see `material::bond_based`) streams per directed
-//! bond, counting only the per-bond arrays (per-point data is ≈ 1/120 of it on the bench's
-//! 122-neighbour families and mostly cache-resident):
-//!
-//! * pair pass, once per pair = ½ per directed bond: neighbour index (4 B), reference length
-//!   ζ (8 B), bond damage (4 B) read and the pair's scale (8 B) written: 24 B / 2 = 12 B;
-//! * gather pass, every directed bond: neighbour index (4 B), pair slot (4 B), scale (8 B)
-//!   read: 16 B;
-//!
-//! so [`PMB_BYTES_PER_BOND`] = 28 B, and with a stream bandwidth `B` (bytes/s) no PMB step can
-//! evaluate more than `B / 28` directed bonds per second. The bench prints the evaluations per
+//! A step of peridyn's PMB (the closed-block loop, see `material::bond_based`) streams per
+//! directed bond, counting only the per-bond arrays (per-point data is ≈ 1/120 of it on the
+//! bench's 122-neighbour families and mostly cache-resident): the neighbour index (4 B), the
+//! reference length ζ (8 B) and the bond damage (4 B, read, and written where a bond breaks),
+//! so [`PMB_BYTES_PER_BOND`] = 16 B, and with a stream bandwidth `B` (bytes/s) no PMB step can
+//! evaluate more than `B / 16` directed bonds per second. The bench prints the evaluations per
 //! second it reaches and their fraction of that bound: on one thread against the one-thread
 //! bandwidth, on N threads against the all-thread bandwidth.
 
@@ -27,9 +22,9 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-/// Bytes a PMB step streams per directed bond evaluation (module docs: 12 B in the pair pass,
-/// 16 B in the gather pass).
-pub const PMB_BYTES_PER_BOND: f64 = 28.0;
+/// Bytes a PMB step streams per directed bond evaluation (module docs: neighbour index, ζ and
+/// damage).
+pub const PMB_BYTES_PER_BOND: f64 = 16.0;
 
 /// Timed passes per measurement; the best counts (as in STREAM).
 const PASSES: usize = 5;
@@ -181,10 +176,10 @@ mod tests {
 
     #[test]
     fn bound_is_bandwidth_over_bytes_per_bond() {
-        // 28 GB/s over 28 B per bond: 1e9 evaluations/s; one thread uses the one-thread figure.
+        // 16 GB/s over 16 B per bond: 1e9 evaluations/s; one thread uses the one-thread figure.
         let b = Bandwidth {
-            one_thread: 14e9,
-            all_threads: 28e9,
+            one_thread: 8e9,
+            all_threads: 16e9,
             threads: 2,
             array_bytes: 0,
         };

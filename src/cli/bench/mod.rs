@@ -18,7 +18,7 @@
 //!
 //! Before the runs the bench measures the machine's stream bandwidth (a triad, one thread and
 //! all threads; [`bandwidth`]) and prints PMB's rate as a fraction of the bound it puts on
-//! PMB, `bandwidth / 28 B per directed bond` (the bytes are counted in [`bandwidth`]). Each run
+//! PMB, `bandwidth / 16 B per directed bond` (the bytes are counted in [`bandwidth`]). Each run
 //! also reports its memory per directed bond: planned (`peridyn check`'s estimate over the
 //! bonds) and measured (peak resident memory above the resident memory before the run, over
 //! the bonds; freed heap is handed back to the system first).
