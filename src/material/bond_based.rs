@@ -514,11 +514,12 @@ impl ClosedRows<'_> {
         breaker: B,
     ) -> usize {
         let bound = gather_bound(self.bonds, self.y.len(), volume, damage);
+        let mut scratch = RowBlock::default();
         let mut broken = 0;
         for &i in chunk {
             let i = i as usize;
             // SAFETY: `bound` is from `gather_bound`; the breaker's contract is the caller's.
-            let (f, newly) = unsafe { self.row(i, bound, volume, damage, breaker) };
+            let (f, newly) = unsafe { self.row(i, bound, volume, damage, breaker, &mut scratch) };
             broken += newly;
             let out = &mut out[i - base];
             for k in 0..3 {
@@ -532,16 +533,16 @@ impl ClosedRows<'_> {
     /// the directed bonds of the row `breaker` broke first. Every input of a term is the
     /// bond's own (Y_i, Y_j, ζ and d of i→j), so the result depends on the row alone.
     ///
-    /// The row is taken in blocks of [`ROW_BLOCK`] bonds, each in four loops over plain
-    /// arrays: gather (Y_j − Y_i, q = |Y_j − Y_i|², ζ, w_ij); the critical stretch of
-    /// `breaker` (when it has one: a branch-free filter over the block, the exact test only
-    /// for the bonds it cannot clear, breaking the bond i→j alone); the scale
+    /// The row is taken in blocks of [`ROW_BLOCK`] bonds, each in loops over plain arrays:
+    /// the gather of Y_j and w_ij (scalar loads); Y_j − Y_i and q = |Y_j − Y_i|²; the critical
+    /// stretch of `breaker` (when it has one: a branch-free filter over the block, the exact
+    /// test only for the bonds it cannot clear, breaking the bond i→j alone); the scale
     /// `s = c (1−d) (|Y| − ζ)/(ζ|Y|)` times w_ij; the sum in [`LANES`] partial sums by row
-    /// position, added `(0 + 1) + (2 + 3)`. Loops of independent iterations let the square
-    /// roots and divisions of many bonds overlap (a group of four bonds at a time, gathered
-    /// and summed in one loop, measured 20 against 16 ms/step on the bench lattice). The
-    /// row's neighbours are checked once ([`checked_row`]), so that its bonds read Y_j, w_ij
-    /// and 1 − d without a check each.
+    /// position, added `(0 + 1) + (2 + 3)`. Loops of independent iterations vectorize and let
+    /// the square roots and divisions of many bonds overlap (groups of four bonds gathered,
+    /// scaled and summed in one loop measured 20 against 16 ms/step on the bench lattice).
+    /// The row's neighbours are checked once ([`checked_row`]), so that its bonds read Y_j,
+    /// w_ij and 1 − d without a check each.
     ///
     /// # Safety
     /// `bound` is from [`gather_bound`] over `self.y.len()` (or less), `volume` and `damage`;
@@ -554,6 +555,7 @@ impl ClosedRows<'_> {
         volume: V,
         damage: D,
         breaker: B,
+        scratch: &mut RowBlock,
     ) -> ([f64; 3], usize) {
         let y = self.y;
         let yi = y[i];
@@ -564,26 +566,34 @@ impl ClosedRows<'_> {
         let mut broken = 0;
         for block_start in (0..neighbors.len()).step_by(ROW_BLOCK) {
             let count = (neighbors.len() - block_start).min(ROW_BLOCK);
-            let mut d = [[0.0; ROW_BLOCK]; 3];
-            let mut squared = [0.0; ROW_BLOCK];
-            let mut zeta = [0.0; ROW_BLOCK];
-            let mut weight = [0.0; ROW_BLOCK];
-            for n in 0..count {
-                let b = block_start + n;
-                let j = neighbors[b] as usize;
+            let block_neighbors = &neighbors[block_start..block_start + count];
+            let zeta = &lengths[block_start..block_start + count];
+            let first = first + block_start;
+            let RowBlock {
+                d,
+                squared,
+                weight,
+                cleared,
+            } = scratch;
+            // The gather alone (scalar loads); the arithmetic below runs over whole arrays.
+            for (n, &j) in block_neighbors.iter().enumerate() {
+                let j = j as usize;
                 // SAFETY: j < bound <= y.len(), and below the volume rule's covered points
                 // (`checked_row` with `gather_bound`).
-                let (yj, w) = unsafe { (*y.get_unchecked(j), volume.of_unchecked(first + b, j)) };
+                let (yj, w) = unsafe { (*y.get_unchecked(j), volume.of_unchecked(first + n, j)) };
                 for k in 0..3 {
-                    d[k][n] = yj[k] - yi[k];
+                    d[k][n] = yj[k];
+                }
+                weight[n] = w;
+            }
+            for n in 0..count {
+                for k in 0..3 {
+                    d[k][n] -= yi[k];
                 }
                 // q = dx*dx + dy*dy + dz*dz, the number the damage models test.
                 squared[n] = d[0][n] * d[0][n] + d[1][n] * d[1][n] + d[2][n] * d[2][n];
-                zeta[n] = lengths[b];
-                weight[n] = w;
             }
             if let Some(limit) = breaker.limit() {
-                let mut cleared = [false; ROW_BLOCK];
                 let mut all = true;
                 for n in 0..count {
                     cleared[n] = limit.certainly_intact(squared[n], zeta[n]);
@@ -591,12 +601,12 @@ impl ClosedRows<'_> {
                 }
                 if !all {
                     for n in (0..count).filter(|&n| !cleared[n]) {
-                        let b = first + block_start + n;
-                        // SAFETY: b is in the row of i (the breaker's contract).
-                        if unsafe { breaker.damage(b) } < 1.0 && limit.exceeded(squared[n], zeta[n])
+                        // SAFETY: the bond is in the row of i (the breaker's contract).
+                        if unsafe { breaker.damage(first + n) } < 1.0
+                            && limit.exceeded(squared[n], zeta[n])
                         {
                             // SAFETY: as above.
-                            broken += usize::from(unsafe { breaker.break_bond(b) });
+                            broken += usize::from(unsafe { breaker.break_bond(first + n) });
                         }
                     }
                 }
@@ -604,16 +614,16 @@ impl ClosedRows<'_> {
             for n in 0..count {
                 // SAFETY: the bond is in the row, below `bonds.neighbor.len()`, which `damage`
                 // covers (`gather_bound`).
-                let intact = unsafe { damage.intact_unchecked(first + block_start + n) };
+                let intact = unsafe { damage.intact_unchecked(first + n) };
                 weight[n] *= bond_scale_squared(self.micromodulus * intact, zeta[n], squared[n]);
             }
             // ROW_BLOCK is a multiple of LANES, so bond n of the block is at row position
             // n mod LANES too.
             let full = count - count % LANES;
-            for start in (0..full).step_by(LANES) {
-                for lane in 0..LANES {
-                    for k in 0..3 {
-                        sum[k][lane] += weight[start + lane] * d[k][start + lane];
+            for at in (0..full).step_by(LANES) {
+                for k in 0..3 {
+                    for lane in 0..LANES {
+                        sum[k][lane] += weight[at + lane] * d[k][at + lane];
                     }
                 }
             }
@@ -630,6 +640,31 @@ impl ClosedRows<'_> {
 /// Bonds of a row handled per block of the closed-block loop (an interior row at m = 3 has
 /// 122): a multiple of [`LANES`].
 const ROW_BLOCK: usize = 64;
+
+/// The arrays of one block of bonds of [`ClosedRows::row`], made once per chunk (zeroing them
+/// for every block cost a tenth of the step) and overwritten, up to the block's length, by
+/// every block.
+struct RowBlock {
+    /// Y_j, then Y_j − Y_i, by component.
+    d: [[f64; ROW_BLOCK]; 3],
+    /// q = |Y_j − Y_i|².
+    squared: [f64; ROW_BLOCK],
+    /// w_ij, then the bond's s·w_ij.
+    weight: [f64; ROW_BLOCK],
+    /// The critical-stretch filter proved the bond intact.
+    cleared: [bool; ROW_BLOCK],
+}
+
+impl Default for RowBlock {
+    fn default() -> Self {
+        Self {
+            d: [[0.0; ROW_BLOCK]; 3],
+            squared: [0.0; ROW_BLOCK],
+            weight: [0.0; ROW_BLOCK],
+            cleared: [false; ROW_BLOCK],
+        }
+    }
+}
 
 /// The bond breaking the closed-block loop does before its forces (see [`ClosedRows::chunk`]).
 ///
