@@ -111,3 +111,4 @@ pub mod simulation;
 pub mod solver;
 pub mod state;
 pub mod tangent;
+mod vector_width;

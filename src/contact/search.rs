@@ -4,6 +4,7 @@ use crate::model::BondList;
 use crate::neighbors::{
     find_families_with, FamilySearch, NeighborhoodRule, SearchBackend, MAX_CELLS_PER_POINT,
 };
+use crate::vector_width::wide_vectors_available;
 use rayon::prelude::*;
 
 /// Every point's contact candidates: the points within the search radius R at the last search
@@ -246,20 +247,6 @@ fn general_rows(
                 .collect()
         })
         .collect()
-}
-
-/// True when the grid scan may use its AVX2 build (x86-64 CPUs that report AVX2; cached by the
-/// standard library). `PERIDYN_NO_WIDE_VECTORS` in the environment forces the baseline build.
-fn wide_vectors_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2")
-            && std::env::var_os("PERIDYN_NO_WIDE_VECTORS").is_none()
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
 }
 
 /// Points per task of the grid search.

@@ -15,6 +15,7 @@
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::BondList;
 use crate::model::ReferenceView;
+use crate::vector_width::wide_vectors_available;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -378,20 +379,6 @@ impl PairPlan {
                 unsafe { chunk.dispatch(wide) }
             })
             .sum()
-    }
-}
-
-/// True when the pair loop may use its AVX2 build (x86-64 CPUs that report AVX2; cached by the
-/// standard library). `PERIDYN_NO_WIDE_VECTORS` in the environment forces the baseline build.
-fn wide_vectors_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2")
-            && std::env::var_os("PERIDYN_NO_WIDE_VECTORS").is_none()
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
     }
 }
 

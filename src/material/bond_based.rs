@@ -69,6 +69,7 @@ use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
 };
+use crate::vector_width::wide_vectors_available;
 
 /// Deck parameters of `Elastic Bond Based`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -327,21 +328,6 @@ fn row_force<V: VolumeRule, D: Integrity>(
         }
     }
     sum.map(|s| (s[0] + s[1]) + (s[2] + s[3]))
-}
-
-/// True when the force loop may use its AVX2 build (x86-64 CPUs that report AVX2; the answer
-/// is cached by the standard library). `PERIDYN_NO_WIDE_VECTORS` set in the environment forces
-/// the baseline build (for comparisons).
-fn wide_vectors_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2")
-            && std::env::var_os("PERIDYN_NO_WIDE_VECTORS").is_none()
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
 }
 
 impl Rows<'_> {
@@ -1032,6 +1018,20 @@ mod tests {
     use crate::model::test_support::{brute_force_bonds, random_cloud, Rng};
     use crate::model::BondList;
 
+    /// The reference view of `bonds` over the points `x` of volumes `v` (full-volume rule).
+    fn reference_view<'a>(
+        bonds: &'a BondList,
+        x: &'a [[f64; 3]],
+        v: &'a [f64],
+    ) -> ReferenceView<'a> {
+        ReferenceView {
+            bonds,
+            position: x,
+            volume: v,
+            bond_volume: None,
+        }
+    }
+
     fn material() -> BondBased {
         BondBased::new(BondBasedParameters {
             density: 2.0,
@@ -1050,12 +1050,7 @@ mod tests {
         // The closed-block loop is a fast path of F_i = Σ_j (T_i⟨ξ_ij⟩ − T_j⟨ξ_ji⟩) V_j
         // (`material::generic_force`): same force to round-off, with damage.
         let (x, v, bonds, y, damage) = body();
-        let reference = ReferenceView {
-            bonds: &bonds,
-            position: &x,
-            volume: &v,
-            bond_volume: None,
-        };
+        let reference = reference_view(&bonds, &x, &v);
         let all: Vec<u32> = (0..x.len() as u32).collect();
         let mut m = material();
         m.setup(&reference, all.clone()).unwrap();
@@ -1117,12 +1112,7 @@ mod tests {
             .iter()
             .map(|p| p.map(|c| c + 0.1 * (2.0 * rng.uniform() - 1.0)))
             .collect();
-        let reference = ReferenceView {
-            bonds: &bonds,
-            position: &x,
-            volume: &v,
-            bond_volume: None,
-        };
+        let reference = reference_view(&bonds, &x, &v);
         let mut damage = vec![0.0f32; bonds.num_bonds()];
         let all: Vec<u32> = (0..x.len() as u32).collect();
         CriticalStretch::new(0.02)
@@ -1162,12 +1152,7 @@ mod tests {
         // same factors in different orders, so they agree to round-off: relative 1e-12 of the
         // largest force (each entry sums ~60 terms of that size with 1e-16 rounding each).
         let (x, v, bonds, y, damage) = body();
-        let reference = ReferenceView {
-            bonds: &bonds,
-            position: &x,
-            volume: &v,
-            bond_volume: None,
-        };
+        let reference = reference_view(&bonds, &x, &v);
         let mut whole = material();
         whole
             .setup(&reference, (0..x.len() as u32).collect())
@@ -1198,12 +1183,7 @@ mod tests {
     fn closed_block_result_is_the_same_for_every_thread_count() {
         // Every point gathers its own row in row order, whatever the threads.
         let (x, v, bonds, y, damage) = body();
-        let reference = ReferenceView {
-            bonds: &bonds,
-            position: &x,
-            volume: &v,
-            bond_volume: None,
-        };
+        let reference = reference_view(&bonds, &x, &v);
         let mut m = material();
         m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
         let run = |threads: usize| {
@@ -1257,12 +1237,7 @@ mod tests {
         for b in (0..damage.len()).step_by(7) {
             damage[b] = 0.5;
         }
-        let reference = ReferenceView {
-            bonds: &bonds,
-            position: &x,
-            volume: &v,
-            bond_volume: None,
-        };
+        let reference = reference_view(&bonds, &x, &v);
         let mut m = material();
         m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
         assert!(m.closed);
@@ -1328,18 +1303,8 @@ mod tests {
         let sub_v: Vec<f64> = points.iter().map(|&g| v[g as usize]).collect();
         assert!(points.len() < x.len());
         assert!(owned.contains(&true) && owned.contains(&false));
-        let whole_reference = ReferenceView {
-            bonds: &bonds,
-            position: &x,
-            volume: &v,
-            bond_volume: None,
-        };
-        let sub_reference = ReferenceView {
-            bonds: &sub_bonds,
-            position: &sub_x,
-            volume: &sub_v,
-            bond_volume: None,
-        };
+        let whole_reference = reference_view(&bonds, &x, &v);
+        let sub_reference = reference_view(&sub_bonds, &sub_x, &sub_v);
         let mut whole = material();
         whole
             .setup(&whole_reference, (0..x.len() as u32).collect())
@@ -1433,12 +1398,7 @@ mod tests {
         let v = vec![1.0, 0.5, 0.25];
         let y = vec![[0.0, 0.01, 0.0], [1.02, 0.0, 0.0], [0.0, 2.03, 0.01]];
         let damage = vec![0.0f32; 5];
-        let reference = ReferenceView {
-            bonds: &bonds,
-            position: &x,
-            volume: &v,
-            bond_volume: None,
-        };
+        let reference = reference_view(&bonds, &x, &v);
         let mut m = material();
         m.setup(&reference, vec![0, 1, 2]).unwrap();
         assert!(m.closed);
@@ -1454,12 +1414,7 @@ mod tests {
         // must break (same count, same damage array) and the forces must be the same bits:
         // the fused loop takes the exact test on the same q and reads the updated damage.
         let (x, v, bonds, y, _) = body();
-        let reference = ReferenceView {
-            bonds: &bonds,
-            position: &x,
-            volume: &v,
-            bond_volume: None,
-        };
+        let reference = reference_view(&bonds, &x, &v);
         let mut m = material();
         m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
         assert!(m.critical_stretch_fast_path().is_some());
@@ -1505,12 +1460,7 @@ mod tests {
         // A block with bonds to another block leaves its damage to the damage model (the
         // physics symmetrises interface bonds between the update and the force).
         let (x, v, bonds, _, _) = body();
-        let reference = ReferenceView {
-            bonds: &bonds,
-            position: &x,
-            volume: &v,
-            bond_volume: None,
-        };
+        let reference = reference_view(&bonds, &x, &v);
         let left: Vec<u32> = (0..x.len() as u32)
             .filter(|&i| x[i as usize][0] < 3.5)
             .collect();

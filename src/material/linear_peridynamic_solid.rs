@@ -52,6 +52,7 @@ use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
 };
+use crate::vector_width::wide_vectors_available;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Deck parameters of `Elastic`.
@@ -745,21 +746,6 @@ fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// Bonds of a row evaluated together in the LPS loops (the width of an AVX2 vector of f64; the
 /// result does not depend on it, since the terms are summed in bond order).
 const LANES: usize = 4;
-
-/// True when the bond loops may use their AVX2 build (x86-64 CPUs that report AVX2; cached by
-/// the standard library). `PERIDYN_NO_WIDE_VECTORS` in the environment forces the baseline
-/// build (for comparisons).
-fn wide_vectors_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2")
-            && std::env::var_os("PERIDYN_NO_WIDE_VECTORS").is_none()
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
 
 /// The bond breaking the dilatation pass does before it uses each bond.
 ///
