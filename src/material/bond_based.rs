@@ -331,6 +331,15 @@ fn row_force<V: VolumeRule, D: Integrity>(
 }
 
 impl Rows<'_> {
+    /// c_ij of this block's bonds.
+    #[inline(always)]
+    fn pair_stiffness(&self) -> Mixed<'_> {
+        Mixed {
+            own_half: self.own_half,
+            coefficients: self.coefficients,
+        }
+    }
+
     /// Adds the force density of the chunk's points (see [`row_force`]), with w_ij by the
     /// quadrature rule `volume`.
     #[inline(always)]
@@ -341,8 +350,8 @@ impl Rows<'_> {
         out: &mut [[f64; 3]],
         volume: V,
         damage: D,
-        stiffness: Mixed<'_>,
     ) {
+        let stiffness = self.pair_stiffness();
         let bonds = self.reference.bonds;
         let y = self.current.position;
         for &i in chunk {
@@ -366,7 +375,6 @@ impl Rows<'_> {
     /// result: the lanes do the same IEEE operations in the same order, and no multiply-add is
     /// fused (FMA is not enabled).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     fn add_force_dispatch<V: VolumeRule, D: Integrity>(
         &self,
         chunk: &[u32],
@@ -374,17 +382,16 @@ impl Rows<'_> {
         out: &mut [[f64; 3]],
         volume: V,
         damage: D,
-        stiffness: Mixed<'_>,
         wide: bool,
     ) {
         #[cfg(target_arch = "x86_64")]
         if wide {
             // SAFETY: `wide` is true only when the CPU reports AVX2 at run time.
-            unsafe { self.add_force_avx2(chunk, base, out, volume, damage, stiffness) };
+            unsafe { self.add_force_avx2(chunk, base, out, volume, damage) };
             return;
         }
         let _ = wide;
-        self.add_force(chunk, base, out, volume, damage, stiffness);
+        self.add_force(chunk, base, out, volume, damage);
     }
 
     /// [`Rows::add_force`] with AVX2 enabled, so the `LANES` loop becomes 4-wide square roots and
@@ -398,13 +405,13 @@ impl Rows<'_> {
         out: &mut [[f64; 3]],
         volume: V,
         damage: D,
-        stiffness: Mixed<'_>,
     ) {
-        self.add_force(chunk, base, out, volume, damage, stiffness);
+        self.add_force(chunk, base, out, volume, damage);
     }
 
     /// `W_i = Σ_j ¼ c_ij s² ζ (1−d) w_ij = Σ_j ¼ (a_i + a_j)(1−d) e²/ζ w_ij`.
     fn energy<D: Integrity>(&self, chunk: &[u32], base: usize, out: &mut [f64], damage: D) {
+        let stiffness = self.pair_stiffness();
         let bonds = self.reference.bonds;
         let y = self.current.position;
         for &i in chunk {
@@ -417,7 +424,7 @@ impl Rows<'_> {
                 let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
                 let zeta = bonds.reference_length[b];
                 let extension = (dx * dx + dy * dy + dz * dz).sqrt() - zeta;
-                let c_pair = self.own_half + self.coefficients[j].isotropic;
+                let c_pair = stiffness.of(j);
                 w += 0.25 * c_pair * damage.intact(b) * extension * extension / zeta
                     * self.reference.neighbor_volume(b, j);
             }
@@ -446,7 +453,6 @@ impl ClosedRows<'_> {
     /// # Safety
     /// The contract of `breaker` ([`Breaker`]) must hold for the rows of `chunk`.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     unsafe fn chunk_dispatch<V: VolumeRule, D: Integrity, B: Breaker>(
         self,
         chunk: &[u32],
@@ -851,16 +857,6 @@ impl Material for BondBased {
         coefficients: &[PointCoefficients],
         force_density: &mut [[f64; 3]],
     ) {
-        let rows = Rows {
-            reference,
-            current,
-            coefficients,
-            own_half: self.half(),
-        };
-        let mixed = Mixed {
-            own_half: self.half(),
-            coefficients,
-        };
         if self.closed {
             match current.bond_damage {
                 None => self.add_closed_force(
@@ -880,11 +876,17 @@ impl Material for BondBased {
             };
             return;
         }
+        let rows = Rows {
+            reference,
+            current,
+            coefficients,
+            own_half: self.half(),
+        };
         let wide = wide_vectors_available();
         with_volume_rule!(reference, |v| {
             let run = |chunk: &[u32], base: usize, out: &mut [[f64; 3]]| match current.bond_damage {
-                None => rows.add_force_dispatch(chunk, base, out, v, Undamaged, mixed, wide),
-                Some(d) => rows.add_force_dispatch(chunk, base, out, v, Damaged(d), mixed, wide),
+                None => rows.add_force_dispatch(chunk, base, out, v, Undamaged, wide),
+                Some(d) => rows.add_force_dispatch(chunk, base, out, v, Damaged(d), wide),
             };
             for_each_chunk(self.forced_points(), force_density, &|i| i as usize, &run)
         })
