@@ -42,12 +42,19 @@ impl StretchLimit {
         }
     }
 
+    /// k, the factor of the squared-length filter ([`StretchLimit::certainly_intact`]).
+    #[inline(always)]
+    pub(crate) fn intact_factor(self) -> f64 {
+        self.intact_factor
+    }
+
     /// True when the filter proves the bond intact: squared length `length_squared` at most
     /// fl(fl(ζ²)·k) with fl(ζ²) normal (see [`StretchLimit::breaks`] for the proof).
     #[inline(always)]
     pub(crate) fn certainly_intact(self, length_squared: f64, zeta: f64) -> bool {
         let z2 = zeta * zeta;
-        length_squared <= z2 * self.intact_factor && z2 >= f64::MIN_POSITIVE
+        // `&`, not `&&`: both comparisons are cheap and branch-free, so a loop of them vectorizes.
+        (length_squared <= z2 * self.intact_factor) & (z2 >= f64::MIN_POSITIVE)
     }
 
     /// The exact test `(fl(√q) − ζ)/ζ > s_c`, the expression the models have always used.

@@ -71,6 +71,9 @@ use crate::tangent::{
 };
 use crate::vector_width::wide_vectors_available;
 
+#[cfg(target_arch = "x86_64")]
+mod closed_row_avx2;
+
 /// Deck parameters of `Elastic Bond Based`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BondBasedParameters {
@@ -486,8 +489,25 @@ impl ClosedRows<'_> {
         damage: D,
         breaker: B,
     ) -> usize {
-        // SAFETY: as the caller guarantees.
-        unsafe { self.chunk(chunk, base, out, volume, damage, breaker) }
+        let bound = gather_bound(self.bonds, self.y.len(), volume, damage);
+        if !closed_row_avx2::gather_offsets_fit(bound) {
+            // SAFETY: as the caller guarantees.
+            return unsafe { self.chunk(chunk, base, out, volume, damage, breaker) };
+        }
+        let mut broken = 0;
+        for &i in chunk {
+            let i = i as usize;
+            // SAFETY: AVX2 is enabled here; `bound` is from `gather_bound` and fits the
+            // gather's offsets; the breaker's contract is the caller's.
+            let (f, newly) =
+                unsafe { closed_row_avx2::row(self, i, bound, volume, damage, breaker) };
+            broken += newly;
+            let out = &mut out[i - base];
+            for k in 0..3 {
+                out[k] += f[k];
+            }
+        }
+        broken
     }
 
     /// Adds, for every point i of `chunk`, the force density of its row (see
@@ -561,12 +581,7 @@ impl ClosedRows<'_> {
             let block_neighbors = &neighbors[block_start..block_start + count];
             let zeta = &lengths[block_start..block_start + count];
             let first = first + block_start;
-            let RowBlock {
-                d,
-                squared,
-                weight,
-                cleared,
-            } = scratch;
+            let RowBlock { d, squared, weight } = scratch;
             // The gather alone (scalar loads); the arithmetic below runs over whole arrays.
             for (n, &j) in block_neighbors.iter().enumerate() {
                 let j = j as usize;
@@ -586,15 +601,17 @@ impl ClosedRows<'_> {
                 squared[n] = d[0][n] * d[0][n] + d[1][n] * d[1][n] + d[2][n] * d[2][n];
             }
             if let Some(limit) = breaker.limit() {
-                let mut all = true;
+                // The filter as a reduction over the block (it vectorizes); the rare block with
+                // a bond it cannot clear tests that bond again, then exactly.
+                let mut all_cleared = true;
                 for n in 0..count {
-                    cleared[n] = limit.certainly_intact(squared[n], zeta[n]);
-                    all &= cleared[n];
+                    all_cleared &= limit.certainly_intact(squared[n], zeta[n]);
                 }
-                if !all {
-                    for n in (0..count).filter(|&n| !cleared[n]) {
+                if !all_cleared {
+                    for n in 0..count {
                         // SAFETY: the bond is in the row of i (the breaker's contract).
-                        if unsafe { breaker.damage(first + n) } < 1.0
+                        if !limit.certainly_intact(squared[n], zeta[n])
+                            && unsafe { breaker.damage(first + n) } < 1.0
                             && limit.exceeded(squared[n], zeta[n])
                         {
                             // SAFETY: as above.
@@ -643,8 +660,6 @@ struct RowBlock {
     squared: [f64; ROW_BLOCK],
     /// w_ij, then the bond's s·w_ij.
     weight: [f64; ROW_BLOCK],
-    /// The critical-stretch filter proved the bond intact.
-    cleared: [bool; ROW_BLOCK],
 }
 
 impl Default for RowBlock {
@@ -653,7 +668,6 @@ impl Default for RowBlock {
             d: [[0.0; ROW_BLOCK]; 3],
             squared: [0.0; ROW_BLOCK],
             weight: [0.0; ROW_BLOCK],
-            cleared: [false; ROW_BLOCK],
         }
     }
 }
@@ -1455,6 +1469,70 @@ mod tests {
             total += broken;
         }
         assert!(total > 0 && total < bonds.num_bonds(), "{total}");
+    }
+
+    /// Forces, damage and the count of bonds broken by the closed-block loop over the whole
+    /// body, with the AVX2 build of the row or the baseline one, breaking at `stretch` from
+    /// `damage` (or, with `None`, reading `damage` and breaking nothing).
+    fn closed_rows_result(
+        reference: &ReferenceView<'_>,
+        y: &[[f64; 3]],
+        mut damage: Vec<f32>,
+        stretch: Option<f64>,
+        wide: bool,
+    ) -> (Vec<[f64; 3]>, Vec<f32>, usize) {
+        let rows = ClosedRows {
+            bonds: reference.bonds,
+            y,
+            micromodulus: material().micromodulus(),
+            wide,
+        };
+        let all: Vec<u32> = (0..y.len() as u32).collect();
+        let mut f = vec![[0.0; 3]; y.len()];
+        let broken = with_volume_rule!(reference, |v| match stretch {
+            // SAFETY: one chunk holds every row; `damage` outlives the call.
+            None => unsafe {
+                rows.chunk_dispatch(&all, 0, &mut f, v, Damaged(&damage), NoBreaking)
+            },
+            Some(stretch) => {
+                let fused = FusedCriticalStretch {
+                    limit: StretchLimit::new(stretch),
+                    damage: damage.as_mut_ptr(),
+                };
+                // SAFETY: as above; the pointer is the only access to `damage` meanwhile.
+                unsafe { rows.chunk_dispatch(&all, 0, &mut f, v, fused, fused) }
+            }
+        });
+        (f, damage, broken)
+    }
+
+    #[test]
+    fn the_avx2_row_is_the_baseline_row_bitwise() {
+        // The AVX2 row (intrinsics, four bonds per register, gathers) against the baseline
+        // build of the staged loop: rows of every length mod 4, fractional and full damage,
+        // and a critical stretch that breaks bonds on the way.
+        if !wide_vectors_available() {
+            eprintln!("this CPU has no AVX2: only the baseline row runs here");
+            return;
+        }
+        let (x, v, bonds, y, mut damage) = body();
+        for b in (0..damage.len()).step_by(7) {
+            damage[b] = 0.5;
+        }
+        let reference = reference_view(&bonds, &x, &v);
+        let lengths: std::collections::BTreeSet<usize> =
+            (0..x.len()).map(|i| bonds.family_size(i) % 4).collect();
+        assert_eq!(lengths.len(), 4, "rows of every length mod 4");
+        for stretch in [None, Some(0.02)] {
+            let start = match stretch {
+                None => damage.clone(),
+                Some(_) => vec![0.0; damage.len()],
+            };
+            let wide = closed_rows_result(&reference, &y, start.clone(), stretch, true);
+            let narrow = closed_rows_result(&reference, &y, start, stretch, false);
+            assert_eq!(wide, narrow);
+            assert_eq!(wide.2 > 0, stretch.is_some(), "bonds broken: {}", wide.2);
+        }
     }
 
     #[test]
