@@ -490,15 +490,11 @@ impl ClosedRows<'_> {
         breaker: B,
     ) -> usize {
         let bound = gather_bound(self.bonds, self.y.len(), volume, damage);
-        if !closed_row_avx2::gather_offsets_fit(bound) {
-            // SAFETY: as the caller guarantees.
-            return unsafe { self.chunk(chunk, base, out, volume, damage, breaker) };
-        }
         let mut broken = 0;
         for &i in chunk {
             let i = i as usize;
-            // SAFETY: AVX2 is enabled here; `bound` is from `gather_bound` and fits the
-            // gather's offsets; the breaker's contract is the caller's.
+            // SAFETY: AVX2 is enabled here; `bound` is from `gather_bound`; the breaker's
+            // contract is the caller's.
             let (f, newly) =
                 unsafe { closed_row_avx2::row(self, i, bound, volume, damage, breaker) };
             broken += newly;

@@ -23,6 +23,8 @@
 //! family iff i in j's), with the same ω from both ends; bonds between a bond-based and a
 //! state-based block would need the two coefficient meanings mixed and are not supported yet.
 
+#[cfg(target_arch = "x86_64")]
+mod avx2;
 mod bond_based;
 mod correspondence;
 mod elastic_constants;

@@ -3,37 +3,35 @@
 //! [`ClosedRows::row`] stages each block of bonds through arrays so that the compiler
 //! vectorizes its loops; built for AVX2 it still spent 38 instructions per directed bond on the
 //! bench lattice, most of them moving the staged values in and out of memory. Here four bonds
-//! at a time stay in registers from the gather of Y_j (`vgatherdpd`) to the partial sums.
+//! at a time stay in registers from the loads of Y_j to the partial sums.
 //!
 //! The result is bitwise that of [`ClosedRows::row`]: every bond evaluates the same IEEE
 //! operations in the same order (q = (dx² + dy²) + dz², s = (c(1−d)·(|Y| − ζ))/(ζ|Y|), zero
 //! when |Y| is not positive, then w·s, then the products added to partial sum n mod 4), the
-//! critical-stretch filter and the exact test are those of [`StretchLimit`], and the partial
+//! critical-stretch filter and the exact test are those of
+//! [`StretchLimit`](crate::damage::StretchLimit), and the partial
 //! sums are combined `(0 + 1) + (2 + 3)`. The last `len mod 4` bonds of a row take the scalar
 //! formulas of the same operations.
 
+// LANES is the staged loop's: the partial sums must be the same (`lanes` returns four).
 use super::{bond_scale_squared, Breaker, ClosedRows, LANES};
+use crate::material::avx2::{
+    broadcast, cleared_lanes, lanes, loaded_differences, neighbor_lanes, squared_length,
+    ALL_CLEARED,
+};
 use crate::material::{checked_row, Integrity};
 use crate::model::VolumeRule;
 use std::arch::x86_64::{
-    __m128i, __m256d, _mm256_add_pd, _mm256_and_pd, _mm256_cmp_pd, _mm256_div_pd,
-    _mm256_i32gather_pd, _mm256_loadu_pd, _mm256_movemask_pd, _mm256_mul_pd, _mm256_set1_pd,
-    _mm256_setzero_pd, _mm256_sqrt_pd, _mm256_storeu_pd, _mm256_sub_pd, _mm_add_epi32,
-    _mm_loadu_si128, _mm_slli_epi32, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ,
+    _mm256_add_pd, _mm256_and_pd, _mm256_cmp_pd, _mm256_div_pd, _mm256_loadu_pd, _mm256_mul_pd,
+    _mm256_set1_pd, _mm256_setzero_pd, _mm256_sqrt_pd, _mm256_sub_pd, _CMP_GT_OQ,
 };
-
-/// Whether `points` per-point coordinate triples can be gathered with the 32-bit signed
-/// element offsets of `vgatherdpd` (offset 3j + 2 for point j).
-pub(super) fn gather_offsets_fit(points: usize) -> bool {
-    points <= (i32::MAX as usize - 2) / 3
-}
 
 /// [`ClosedRows::row`] with four bonds per register.
 ///
 /// # Safety
 /// The CPU supports AVX2; `bound` is from [`crate::material::gather_bound`] over
-/// `rows.y.len()` (or less), `volume` and `damage`, and [`gather_offsets_fit`]`(bound)`; the
-/// contract of `breaker` ([`Breaker`]) holds for the row of i.
+/// `rows.y.len()` (or less), `volume` and `damage`; the contract of `breaker` ([`Breaker`])
+/// holds for the row of i.
 #[target_feature(enable = "avx2")]
 pub(super) unsafe fn row<V: VolumeRule, D: Integrity, B: Breaker>(
     rows: ClosedRows<'_>,
@@ -48,11 +46,7 @@ pub(super) unsafe fn row<V: VolumeRule, D: Integrity, B: Breaker>(
     let first = range.start;
     let (neighbors, lengths) = checked_row(rows.bonds, range, bound);
     let coordinates = rows.y.as_ptr().cast::<f64>();
-    let origin = [
-        _mm256_set1_pd(yi[0]),
-        _mm256_set1_pd(yi[1]),
-        _mm256_set1_pd(yi[2]),
-    ];
+    let origin = broadcast(yi);
     let micromodulus = _mm256_set1_pd(rows.micromodulus);
     let zero = _mm256_setzero_pd();
     let mut sum = [zero; 3];
@@ -60,36 +54,19 @@ pub(super) unsafe fn row<V: VolumeRule, D: Integrity, B: Breaker>(
     let full = neighbors.len() - neighbors.len() % LANES;
     for at in (0..full).step_by(LANES) {
         let bond = first + at;
-        // SAFETY: at + 4 <= full <= the row's length (both arrays).
-        let (j, zeta) = unsafe {
+        // SAFETY: at + 4 <= full <= the row's length (both arrays); every neighbour is below
+        // `bound` <= y.len() (`checked_row`).
+        let (zeta, d) = unsafe {
+            let j = neighbor_lanes(neighbors.as_ptr().add(at));
             (
-                _mm_loadu_si128(neighbors.as_ptr().add(at).cast::<__m128i>()),
                 _mm256_loadu_pd(lengths.as_ptr().add(at)),
+                loaded_differences(coordinates, &j, &origin),
             )
         };
-        // Element offset of x_j in the coordinate array: 3j, below 2³¹ by `gather_offsets_fit`.
-        let offset = _mm_add_epi32(j, _mm_slli_epi32::<1>(j));
-        let mut d = [zero; 3];
-        for k in 0..3 {
-            // SAFETY: every j < bound <= y.len() (`checked_row`), so 3j + k < 3·y.len().
-            let y = unsafe { _mm256_i32gather_pd::<8>(coordinates.add(k), offset) };
-            d[k] = _mm256_sub_pd(y, origin[k]);
-        }
-        let squared = _mm256_add_pd(
-            _mm256_add_pd(_mm256_mul_pd(d[0], d[0]), _mm256_mul_pd(d[1], d[1])),
-            _mm256_mul_pd(d[2], d[2]),
-        );
+        let squared = squared_length(&d);
         if let Some(limit) = breaker.limit() {
-            let z2 = _mm256_mul_pd(zeta, zeta);
-            let cleared = _mm256_and_pd(
-                _mm256_cmp_pd::<_CMP_LE_OQ>(
-                    squared,
-                    _mm256_mul_pd(z2, _mm256_set1_pd(limit.intact_factor())),
-                ),
-                _mm256_cmp_pd::<_CMP_GE_OQ>(z2, _mm256_set1_pd(f64::MIN_POSITIVE)),
-            );
-            let cleared = _mm256_movemask_pd(cleared);
-            if cleared != 0b1111 {
+            let cleared = cleared_lanes(limit, squared, zeta);
+            if cleared != ALL_CLEARED {
                 let (q, z) = (lanes(squared), lanes(zeta));
                 for lane in 0..LANES {
                     // SAFETY: the bond is in the row of i (the breaker's contract).
@@ -154,13 +131,4 @@ pub(super) unsafe fn row<V: VolumeRule, D: Integrity, B: Breaker>(
     }
     let total = |s: [f64; LANES]| (s[0] + s[1]) + (s[2] + s[3]);
     ([total(sum[0]), total(sum[1]), total(sum[2])], broken)
-}
-
-/// The four lanes of a register.
-#[inline(always)]
-fn lanes(v: __m256d) -> [f64; LANES] {
-    let mut out = [0.0; LANES];
-    // SAFETY: `out` holds four f64.
-    unsafe { _mm256_storeu_pd(out.as_mut_ptr(), v) };
-    out
 }
