@@ -55,6 +55,9 @@ use crate::tangent::{
 use crate::vector_width::wide_vectors_available;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+#[cfg(target_arch = "x86_64")]
+mod rows_avx2;
+
 /// Deck parameters of `Elastic`.
 #[derive(Debug, Clone)]
 pub struct LinearPeridynamicSolidParameters {
@@ -329,8 +332,12 @@ impl<V: VolumeRule> Rows<'_, V> {
                     }
                     let mut term = [0.0; LANES];
                     for lane in 0..width {
-                        let extension = squared[lane].sqrt() - zeta[lane];
-                        term[lane] = weight[lane] * zeta[lane] * extension * neighbor_volume[lane];
+                        term[lane] = dilatation_term(
+                            weight[lane],
+                            zeta[lane],
+                            squared[lane],
+                            neighbor_volume[lane],
+                        );
                     }
                     for &t in &term[..width] {
                         sum += t;
@@ -344,20 +351,38 @@ impl<V: VolumeRule> Rows<'_, V> {
             for start in full..neighbors.len() {
                 group!(start, 1);
             }
-            let m = self.weighted_volume[k];
-            out[i - base] = if m > 0.0 {
-                let theta = 3.0 * sum / m;
-                let shear = corrected_shear(self.shear, self.correction, k);
-                PointCoefficients {
-                    dilatation: theta,
-                    isotropic: (3.0 * self.bulk - 5.0 * shear) * theta / m,
-                    deviatoric: 15.0 * shear / m,
-                }
-            } else {
-                PointCoefficients::default()
-            };
+            out[i - base] = self.point_coefficients(k, sum);
         }
         broken
+    }
+
+    /// θ = 3 Σ/m of block point k from its row's sum Σ = Σ_j ω (1−d) ζ e V_j, and its force
+    /// coefficients A = (3K − 5μ) θ/m, B = 15μ/m (all zero when m = 0).
+    #[inline(always)]
+    fn point_coefficients(&self, k: usize, sum: f64) -> PointCoefficients {
+        let m = self.weighted_volume[k];
+        if m > 0.0 {
+            let theta = 3.0 * sum / m;
+            let shear = corrected_shear(self.shear, self.correction, k);
+            PointCoefficients {
+                dilatation: theta,
+                isotropic: (3.0 * self.bulk - 5.0 * shear) * theta / m,
+                deviatoric: 15.0 * shear / m,
+            }
+        } else {
+            PointCoefficients::default()
+        }
+    }
+
+    /// Block-local index of point `i`, the `n`-th of a force chunk whose first point has
+    /// block-local index `k0` (when the forced points are all of them).
+    #[inline(always)]
+    fn force_local(&self, k0: usize, n: usize, i: u32) -> usize {
+        if self.force_subset {
+            self.points.partition_point(|&p| p < i)
+        } else {
+            k0 + n
+        }
     }
 
     /// [`Rows::dilatation`] built for AVX2 when [`Rows::wide`], else for the baseline target;
@@ -400,8 +425,29 @@ impl<V: VolumeRule> Rows<'_, V> {
         damage: D,
         breaker: B,
     ) -> usize {
-        // SAFETY: as the caller guarantees.
-        unsafe { self.dilatation(chunk, base, out, weights, damage, breaker) }
+        let bonds = self.reference.bonds;
+        let points = gather_bound(bonds, self.current.position.len(), self.volume, damage);
+        let k0 = self.first_local(chunk);
+        let mut broken = 0;
+        for (k, &i) in (k0..).zip(chunk) {
+            let i = i as usize;
+            // SAFETY: AVX2 is enabled here; `points` is from `gather_bound`; the breaker's
+            // contract is the caller's.
+            let sum = unsafe {
+                rows_avx2::dilatation_sum(
+                    self,
+                    i,
+                    self.local_offsets[k],
+                    points,
+                    weights,
+                    damage,
+                    breaker,
+                    &mut broken,
+                )
+            };
+            out[i - base] = self.point_coefficients(k, sum);
+        }
+        broken
     }
 
     /// The dilatation pass over every block point with the bond breaking of `fused`; returns
@@ -450,11 +496,7 @@ impl<V: VolumeRule> Rows<'_, V> {
         // Every neighbour indexes both `y` and `coefficients`.
         let points = gather_bound(bonds, y.len().min(coefficients.len()), volume, damage);
         for (n, &i) in chunk.iter().enumerate() {
-            let k = if self.force_subset {
-                self.points.partition_point(|&p| p < i)
-            } else {
-                k0 + n
-            };
+            let k = self.force_local(k0, n, i);
             let i = i as usize;
             let yi = y[i];
             let own = coefficients[i];
@@ -500,18 +542,15 @@ impl<V: VolumeRule> Rows<'_, V> {
                     let mut part = [[0.0; LANES]; 3];
                     for lane in 0..width {
                         let (dx, dy, dz) = (d[0][lane], d[1][lane], d[2][lane]);
-                        let length = (dx * dx + dy * dy + dz * dz).sqrt();
-                        let extension = length - zeta[lane];
-                        let t = intact[lane]
-                            * omega[lane]
-                            * ((own.isotropic + other_isotropic[lane]) * zeta[lane]
-                                + intact[lane]
-                                    * (own.deviatoric + other_deviatoric[lane])
-                                    * extension);
-                        // Divided unconditionally so that the lanes need no branch (the inf/NaN
-                        // of a zero length is discarded).
-                        let scale = t * neighbor_volume[lane] / length;
-                        let scale = if length > 0.0 { scale } else { 0.0 };
+                        let scale = force_scale(
+                            intact[lane] * omega[lane],
+                            intact[lane],
+                            own.isotropic + other_isotropic[lane],
+                            own.deviatoric + other_deviatoric[lane],
+                            zeta[lane],
+                            (dx * dx + dy * dy + dz * dz).sqrt(),
+                            neighbor_volume[lane],
+                        );
                         part[0][lane] = scale * dx;
                         part[1][lane] = scale * dy;
                         part[2][lane] = scale * dz;
@@ -570,7 +609,31 @@ impl<V: VolumeRule> Rows<'_, V> {
         weights: W,
         damage: D,
     ) {
-        self.add_force(coefficients, chunk, base, out, weights, damage);
+        let bonds = self.reference.bonds;
+        let y = self.current.position;
+        let points = gather_bound(bonds, y.len().min(coefficients.len()), self.volume, damage);
+        let k0 = self.first_local(chunk);
+        for (n, &i) in chunk.iter().enumerate() {
+            let k = self.force_local(k0, n, i);
+            let i = i as usize;
+            // SAFETY: AVX2 is enabled here; `points` is from `gather_bound` over both arrays
+            // the row reads.
+            let f = unsafe {
+                rows_avx2::force_sum(
+                    self,
+                    coefficients,
+                    i,
+                    self.local_offsets[k],
+                    points,
+                    weights,
+                    damage,
+                )
+            };
+            let out = &mut out[i - base];
+            for c in 0..3 {
+                out[c] += f[c];
+            }
+        }
     }
 
     /// `W_i = K θ²/2 + (α/2) Σ_j (1−d) ω (e − ε_i ζ − θζ/3)² V_j`, α = 15μ/m, ε the free
@@ -733,6 +796,39 @@ unsafe fn gather<V: VolumeRule>(
             *lengths.get_unchecked(n),
             volume.of_unchecked(start + n, j),
         )
+    }
+}
+
+/// ω (1−d) ζ e V_j, a bond's term of the dilatation sum, with `weight` = ω (1−d) and
+/// e = fl(√q) − ζ.
+#[inline(always)]
+fn dilatation_term(weight: f64, zeta: f64, squared: f64, volume: f64) -> f64 {
+    let extension = squared.sqrt() - zeta;
+    weight * zeta * extension * volume
+}
+
+/// The factor of `Y_j − Y_i` in a bond's force: `t V_j / |Y|` with
+/// `t = (1−d) ω [(A_i + A_j) ζ + (1−d)(B_i + B_j) e]`, e = |Y| − ζ, from `scaled` = (1−d) ω,
+/// `intact` = 1 − d, the coefficient sums and `length` = |Y|; zero when |Y| is not positive
+/// (divided unconditionally so that the lanes need no branch: the inf/NaN of a zero length
+/// is discarded).
+#[inline(always)]
+fn force_scale(
+    scaled: f64,
+    intact: f64,
+    isotropic: f64,
+    deviatoric: f64,
+    zeta: f64,
+    length: f64,
+    volume: f64,
+) -> f64 {
+    let extension = length - zeta;
+    let t = scaled * (isotropic * zeta + intact * deviatoric * extension);
+    let scale = t * volume / length;
+    if length > 0.0 {
+        scale
+    } else {
+        0.0
     }
 }
 
@@ -1564,6 +1660,86 @@ mod tests {
         let mut again = vec![[0.0; 3]; x.len()];
         m.add_force_density(&reference, &current, &c, &mut again);
         assert_eq!(again, all);
+    }
+
+    #[test]
+    fn the_avx2_rows_are_the_baseline_rows_bitwise() {
+        // The AVX2 rows (intrinsics, four bonds per register) against the baseline build of
+        // the staged loops: stored ω, fractional damage, rows of every length mod 4, and a
+        // critical stretch that breaks bonds in the dilatation pass.
+        if !wide_vectors_available() {
+            eprintln!("this CPU has no AVX2: only the baseline rows run here");
+            return;
+        }
+        let (x, v, bonds, y) = perturbed_cloud(11);
+        let reference = ReferenceView {
+            bonds: &bonds,
+            position: &x,
+            volume: &v,
+            bond_volume: None,
+        };
+        let lengths: std::collections::BTreeSet<usize> =
+            (0..x.len()).map(|i| bonds.family_size(i) % 4).collect();
+        assert_eq!(lengths.len(), 4, "rows of every length mod 4");
+        let all: Vec<u32> = (0..x.len() as u32).collect();
+        let mut m = small_material(InfluenceFunction::ParabolicDecay);
+        m.setup(&reference, all.clone()).unwrap();
+        let weights = StoredWeights(m.weights.as_deref().expect("parabolic ω is stored"));
+        let mut damage = vec![0.0f32; bonds.num_bonds()];
+        for b in (0..damage.len()).step_by(5) {
+            damage[b] = 0.5;
+        }
+        let current = CurrentView {
+            position: &y,
+            bond_damage: None,
+            history: &crate::history::NO_HISTORY,
+        };
+        with_volume_rule!(reference, |volume| {
+            let run = |wide: bool, stretch: Option<f64>| {
+                let mut rows = m.rows(&reference, &current, volume);
+                rows.wide = wide;
+                let mut coefficients = vec![PointCoefficients::default(); x.len()];
+                let mut damage = damage.clone();
+                let broken = match stretch {
+                    // SAFETY: one chunk holds every row; nothing else touches `damage`.
+                    None => unsafe {
+                        rows.dilatation_dispatch(
+                            &all,
+                            0,
+                            &mut coefficients,
+                            weights,
+                            Damaged(&damage),
+                            NoBreaking,
+                        )
+                    },
+                    Some(stretch) => {
+                        let fused = FusedCriticalStretch {
+                            limit: StretchLimit::new(stretch),
+                            damage: damage.as_mut_ptr(),
+                        };
+                        // SAFETY: as above; the pointer is the only access meanwhile.
+                        unsafe {
+                            rows.dilatation_dispatch(
+                                &all,
+                                0,
+                                &mut coefficients,
+                                weights,
+                                fused,
+                                fused,
+                            )
+                        }
+                    }
+                };
+                let mut f = vec![[0.0; 3]; x.len()];
+                rows.add_force_dispatch(&coefficients, &all, 0, &mut f, weights, Damaged(&damage));
+                (coefficients, f, damage, broken)
+            };
+            for stretch in [None, Some(0.02)] {
+                let wide = run(true, stretch);
+                assert_eq!(wide, run(false, stretch));
+                assert_eq!(wide.3 > 0, stretch.is_some(), "bonds broken: {}", wide.3);
+            }
+        });
     }
 
     #[test]
