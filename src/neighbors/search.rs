@@ -244,8 +244,8 @@ fn find_rows_assembled(
                 search.positions,
                 || (),
                 |_, i, row| {
-                    grid.neighbours(i, search.positions[i], queries.shape(i), &rules, row);
-                    split_off_lower(i, row)
+                    let p = search.positions[i];
+                    grid.neighbours(i, p, queries.shape(i), &rules, Half::Upper, row)
                 },
             );
         }
@@ -253,7 +253,10 @@ fn find_rows_assembled(
             search.positions,
             rows,
             || (),
-            |_, i, row| grid.neighbours(i, search.positions[i], queries.shape(i), &rules, row),
+            |_, i, row| {
+                let p = search.positions[i];
+                grid.neighbours(i, p, queries.shape(i), &rules, Half::Both, row);
+            },
         )
     } else {
         let tree: ImmutableKdTree<f64, 3> = ImmutableKdTree::new_from_slice(search.positions)
@@ -662,16 +665,28 @@ impl CellGrid {
     }
 }
 
+/// Which neighbours of point i [`CellGrid::neighbours`] appends.
+#[derive(Clone, Copy, PartialEq)]
+enum Half {
+    /// All of them.
+    Both,
+    /// Those with a larger index, counting those with a smaller one (mirrored assembly).
+    Upper,
+}
+
 impl CellGrid {
-    /// Appends the neighbours of point i (at `p`), unsorted, to `row`.
+    /// Appends the neighbours of point i (at `p`) that `half` asks for, unsorted, to `row`;
+    /// returns how many neighbours with a smaller index it left out (0 for [`Half::Both`]).
     fn neighbours(
         &self,
         i: usize,
         p: [f64; 3],
         shape: Shape,
         rules: &BondRules,
+        half: Half,
         row: &mut Vec<u32>,
-    ) {
+    ) -> usize {
+        let mut lower = 0;
         match shape {
             Shape::Ball { radius_squared } if rules.is_trivial() => {
                 // The hot path. Per run of slots: a vectorisable pass computes the accept mask,
@@ -687,14 +702,33 @@ impl CellGrid {
                             &self.y[start..end],
                             &self.z[start..end],
                         );
-                        for (m, ((&a, &b), &c)) in
-                            mask[..length].iter_mut().zip(x.iter().zip(y).zip(z))
-                        {
-                            let xi = [a - p[0], b - p[1], c - p[2]];
-                            *m = (squared_length(xi) <= radius_squared) as u8;
+                        let index = &self.index[start..end];
+                        match half {
+                            Half::Both => {
+                                for (m, ((&a, &b), &c)) in
+                                    mask[..length].iter_mut().zip(x.iter().zip(y).zip(z))
+                                {
+                                    let xi = [a - p[0], b - p[1], c - p[2]];
+                                    *m = (squared_length(xi) <= radius_squared) as u8;
+                                }
+                            }
+                            // The index test in the same branch-free pass: leaving the lower
+                            // neighbours out afterwards was a branch per bond that the
+                            // space-filling order makes unpredictable.
+                            Half::Upper => {
+                                for (m, (((&a, &b), &c), &j)) in mask[..length]
+                                    .iter_mut()
+                                    .zip(x.iter().zip(y).zip(z).zip(index))
+                                {
+                                    let xi = [a - p[0], b - p[1], c - p[2]];
+                                    let within = squared_length(xi) <= radius_squared;
+                                    lower += usize::from(within & ((j as usize) < i));
+                                    *m = (within & (j as usize > i)) as u8;
+                                }
+                            }
                         }
                         let used = row.len();
-                        row.extend_from_slice(&self.index[start..end]);
+                        row.extend_from_slice(index);
                         let out = &mut row[used..];
                         let mut accepted = 0;
                         for k in 0..length {
@@ -704,8 +738,10 @@ impl CellGrid {
                         row.truncate(used + accepted);
                     }
                 });
-                if let Some(own) = row.iter().position(|&j| j as usize == i) {
-                    row.swap_remove(own);
+                if half == Half::Both {
+                    if let Some(own) = row.iter().position(|&j| j as usize == i) {
+                        row.swap_remove(own);
+                    }
                 }
             }
             _ => self.candidates(p, &shape, |run| {
@@ -717,11 +753,16 @@ impl CellGrid {
                         self.z[slot] - p[2],
                     ];
                     if shape.contains(xi) && j != i && rules.allows(i, j) {
-                        row.push(j as u32);
+                        if half == Half::Upper && j < i {
+                            lower += 1;
+                        } else {
+                            row.push(j as u32);
+                        }
                     }
                 }
             }),
         }
+        lower
     }
 }
 
