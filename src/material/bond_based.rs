@@ -37,8 +37,9 @@
 //! from the lower end and let both rows gather it.
 //!
 //! # Speed
-//! Each directed bond takes its own square root and division (vectorized, built for AVX2 when
-//! the CPU has it, with bitwise the same result as the baseline build), twice the pair-once
+//! Each directed bond takes its own square root and division (vectorized; on a CPU with AVX2
+//! the row is the intrinsics loop of `closed_row_avx2`, four bonds per register from the loads
+//! of Y_j to the partial sums, with bitwise the staged loop's result), twice the pair-once
 //! plan's, but in one pass that streams 16 bytes per directed bond (neighbour index, ζ,
 //! damage) and holds no per-pair data. The pair-once plan's second pass read every bond's
 //! neighbour, pair slot and the pair's scale again (28 bytes per directed bond streamed, 8
@@ -474,7 +475,8 @@ impl ClosedRows<'_> {
         unsafe { self.chunk(chunk, base, out, volume, damage, breaker) }
     }
 
-    /// [`ClosedRows::chunk`] with AVX2 enabled.
+    /// [`ClosedRows::chunk`] with AVX2: each row by the intrinsics loop `closed_row_avx2::row`
+    /// (bitwise the staged loop's force).
     ///
     /// # Safety
     /// As [`ClosedRows::chunk`], and the CPU supports AVX2.

@@ -410,7 +410,8 @@ impl<V: VolumeRule> Rows<'_, V> {
         unsafe { self.dilatation(chunk, base, out, weights, damage, breaker) }
     }
 
-    /// [`Rows::dilatation`] with AVX2 enabled.
+    /// [`Rows::dilatation`] with AVX2: each row by the intrinsics loop
+    /// `rows_avx2::dilatation_sum` (bitwise the staged loop's sum).
     ///
     /// # Safety
     /// As [`Rows::dilatation`], and the CPU supports AVX2.
@@ -597,7 +598,8 @@ impl<V: VolumeRule> Rows<'_, V> {
         self.add_force(coefficients, chunk, base, out, weights, damage);
     }
 
-    /// [`Rows::add_force`] with AVX2 enabled.
+    /// [`Rows::add_force`] with AVX2: each row by the intrinsics loop `rows_avx2::force_sum`
+    /// (bitwise the staged loop's force).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn add_force_avx2<W: BondWeights, D: Integrity>(
