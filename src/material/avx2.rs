@@ -94,7 +94,7 @@ pub(crate) fn squared_length(d: &[__m256d; 3]) -> __m256d {
 /// The lanes [`StretchLimit::certainly_intact`] clears, as bits 0–3.
 #[target_feature(enable = "avx2")]
 #[inline]
-pub(crate) fn cleared_lanes(limit: StretchLimit, squared: __m256d, zeta: __m256d) -> i32 {
+fn cleared_lanes(limit: StretchLimit, squared: __m256d, zeta: __m256d) -> i32 {
     let z2 = _mm256_mul_pd(zeta, zeta);
     let below = _mm256_cmp_pd::<_CMP_LE_OQ>(
         squared,
@@ -104,8 +104,25 @@ pub(crate) fn cleared_lanes(limit: StretchLimit, squared: __m256d, zeta: __m256d
     _mm256_movemask_pd(_mm256_and_pd(below, normal))
 }
 
-/// All four lanes cleared ([`cleared_lanes`]).
-pub(crate) const ALL_CLEARED: i32 = 0b1111;
+/// The lanes (bits 0–3) whose stretch exceeds the limit, by the exact test
+/// [`StretchLimit::exceeded`] on the lanes the filter [`cleared_lanes`] does not clear (the
+/// decisions of the staged loops' `certainly_intact`-then-`exceeded`); usually 0 at once.
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(crate) fn exceeding_lanes(limit: StretchLimit, squared: __m256d, zeta: __m256d) -> i32 {
+    let cleared = cleared_lanes(limit, squared, zeta);
+    if cleared == 0b1111 {
+        return 0;
+    }
+    let (q, z) = (lanes(squared), lanes(zeta));
+    let mut exceeding = 0;
+    for lane in 0..LANES {
+        if cleared & (1 << lane) == 0 && limit.exceeded(q[lane], z[lane]) {
+            exceeding |= 1 << lane;
+        }
+    }
+    exceeding
+}
 
 /// The four lanes of a register.
 #[target_feature(enable = "avx2")]

@@ -16,8 +16,7 @@
 // LANES is the staged loop's: the partial sums must be the same (`lanes` returns four).
 use super::{bond_scale_squared, Breaker, ClosedRows, LANES};
 use crate::material::avx2::{
-    broadcast, cleared_lanes, lanes, loaded_differences, neighbor_lanes, squared_length,
-    ALL_CLEARED,
+    broadcast, exceeding_lanes, lanes, loaded_differences, neighbor_lanes, squared_length,
 };
 use crate::material::{checked_row, Integrity};
 use crate::model::VolumeRule;
@@ -65,18 +64,12 @@ pub(super) unsafe fn row<V: VolumeRule, D: Integrity, B: Breaker>(
         };
         let squared = squared_length(&d);
         if let Some(limit) = breaker.limit() {
-            let cleared = cleared_lanes(limit, squared, zeta);
-            if cleared != ALL_CLEARED {
-                let (q, z) = (lanes(squared), lanes(zeta));
-                for lane in 0..LANES {
-                    // SAFETY: the bond is in the row of i (the breaker's contract).
-                    if cleared & (1 << lane) == 0
-                        && unsafe { breaker.damage(bond + lane) } < 1.0
-                        && limit.exceeded(q[lane], z[lane])
-                    {
-                        // SAFETY: as above.
-                        broken += usize::from(unsafe { breaker.break_bond(bond + lane) });
-                    }
+            let exceeding = exceeding_lanes(limit, squared, zeta);
+            for lane in (0..LANES).filter(|lane| exceeding & (1 << lane) != 0) {
+                // SAFETY: the bond is in the row of i (the breaker's contract).
+                if unsafe { breaker.damage(bond + lane) } < 1.0 {
+                    // SAFETY: as above.
+                    broken += usize::from(unsafe { breaker.break_bond(bond + lane) });
                 }
             }
         }

@@ -10,8 +10,8 @@
 
 use super::{dilatation_term, force_scale, RowBreaker, Rows, LANES};
 use crate::material::avx2::{
-    broadcast, cleared_lanes, lanes, load_field, loaded_differences, neighbor_lanes,
-    squared_length, ALL_CLEARED,
+    broadcast, exceeding_lanes, lanes, load_field, loaded_differences, neighbor_lanes,
+    squared_length,
 };
 use crate::material::{checked_row, BondWeights, Integrity, PointCoefficients};
 use crate::model::VolumeRule;
@@ -77,19 +77,13 @@ pub(super) unsafe fn dilatation_sum<V: VolumeRule, W: BondWeights, D: Integrity,
         };
         let squared = squared_length(&d);
         if let Some(limit) = breaker.limit() {
-            let cleared = cleared_lanes(limit, squared, zeta);
-            if cleared != ALL_CLEARED {
-                let (q, z) = (lanes(squared), lanes(zeta));
-                for lane in 0..LANES {
-                    // SAFETY: the bond is in the row of i (the breaker's contract).
-                    if cleared & (1 << lane) == 0
-                        && unsafe { breaker.damage(bond + lane) } < 1.0
-                        && limit.exceeded(q[lane], z[lane])
-                    {
-                        // SAFETY: as above.
-                        unsafe { breaker.break_bond(bond + lane) };
-                        *broken += 1;
-                    }
+            let exceeding = exceeding_lanes(limit, squared, zeta);
+            for lane in (0..LANES).filter(|lane| exceeding & (1 << lane) != 0) {
+                // SAFETY: the bond is in the row of i (the breaker's contract).
+                if unsafe { breaker.damage(bond + lane) } < 1.0 {
+                    // SAFETY: as above.
+                    unsafe { breaker.break_bond(bond + lane) };
+                    *broken += 1;
                 }
             }
         }
