@@ -53,25 +53,18 @@ pub fn table(series: &[Series], bandwidth: &Bandwidth) -> String {
             entry.model.lammps_name(),
             if entry.contact { " + contact" } else { "" }
         );
-        let lammps = lammps_medians(&entry.lammps);
-        let single = entry.runs.first().map(|(_, runs)| {
-            median(
-                &runs
-                    .iter()
-                    .map(Measurement::ms_per_step)
-                    .collect::<Vec<_>>(),
-            )
-        });
+        let single = entry.runs.first().map(|(_, runs)| &runs[..]);
         for (threads, runs) in &entry.runs {
             // The bandwidth bound is PMB's: its bytes per bond are counted in `bandwidth`.
             let bound = (entry.model == BenchModel::Pmb).then(|| bandwidth.pmb_bound(*threads));
-            out.push_str(&row(&name, *threads, runs, single, lammps, bound));
+            out.push_str(&row(&name, *threads, runs, single, &entry.lammps, bound));
         }
     }
     let _ = writeln!(
         out,
         "bond evals/s/core = directed bonds × steps / loop wall time / threads; per-core × = peridyn per core / LAMMPS (1 proc);\n\
          evals/CPU-s = the same per CPU-second (run CPU time scaled to the loop; LAMMPS: loop × its `% CPU use`); medians of the repeats;\n\
+         per-core ×, per-CPU-s × and speed-up (1-thread / N-thread loop time) pair the runs of the same repeat, which ran one after the other, and take the median of the pairs' ratios;\n\
          of bound = directed bonds × steps / loop wall time (all threads) over the PMB bandwidth bound, triad bandwidth ({:.1} GB/s on 1 thread, {:.1} GB/s on {}) / {PMB_BYTES_PER_BOND} B per directed bond;\n\
          B/bond plan = `peridyn check`'s memory estimate / directed bonds; B/bond RSS = peak resident memory of the run above the resident memory before it / directed bonds",
         bandwidth.one_thread * 1e-9,
@@ -88,35 +81,47 @@ struct LammpsMedians {
     ms_per_step: f64,
     /// The bond count LAMMPS printed in its first run.
     bonds: Option<usize>,
-    /// Bond evaluations per CPU-second, when LAMMPS printed its CPU use.
-    rate_per_cpu_second: Option<f64>,
 }
 
 fn lammps_medians(runs: &[LammpsRun]) -> Option<LammpsMedians> {
     (!runs.is_empty()).then(|| {
         let ms = median(&runs.iter().map(LammpsRun::ms_per_step).collect::<Vec<_>>());
-        let cpu_rates: Vec<f64> = runs
-            .iter()
-            .filter_map(LammpsRun::rate_per_cpu_second)
-            .collect();
         LammpsMedians {
             ms_per_step: ms,
             bonds: runs[0].bonds,
-            rate_per_cpu_second: (!cpu_rates.is_empty()).then(|| median(&cpu_rates)),
         }
     })
 }
 
-/// The table line of one thread count of one configuration; `single` is the one-thread median
-/// ms/step of the configuration, for the speed-up.
+/// The median over the repeats of `ratio(ours[k], theirs[k])`: pairing the runs of one repeat,
+/// which ran one after the other, keeps a ratio of two codes or two thread counts apart from
+/// the drift of a shared machine's speed between repeats (a ratio of medians may take its two
+/// medians from different repeats). `None` when there is no pair.
+fn paired_median<A, B>(
+    ours: &[A],
+    theirs: &[B],
+    ratio: impl Fn(&A, &B) -> Option<f64>,
+) -> Option<f64> {
+    let ratios: Vec<f64> = ours
+        .iter()
+        .zip(theirs)
+        .filter_map(|(a, b)| ratio(a, b))
+        .collect();
+    (!ratios.is_empty()).then(|| median(&ratios))
+}
+
+/// The table line of one thread count of one configuration; `single` holds the one-thread runs
+/// of the configuration, for the speed-up, and `lammps` LAMMPS's runs (one per repeat, when it
+/// ran).
 fn row(
     name: &str,
     threads: usize,
     runs: &[Measurement],
-    single: Option<f64>,
-    lammps: Option<LammpsMedians>,
+    single: Option<&[Measurement]>,
+    lammps_runs: &[LammpsRun],
     bound: Option<f64>,
 ) -> String {
+    let lammps = lammps_medians(lammps_runs);
     let pick = |f: fn(&Measurement) -> f64| median(&runs.iter().map(f).collect::<Vec<_>>());
     let ms = pick(Measurement::ms_per_step);
     let rate = pick(Measurement::rate_per_core);
@@ -134,10 +139,10 @@ fn row(
         .filter_map(Measurement::rate_per_cpu_second)
         .collect();
     let cpu_rate = (!cpu_rates.is_empty()).then(|| median(&cpu_rates));
-    let cpu_ratio = match (cpu_rate, lammps.and_then(|l| l.rate_per_cpu_second)) {
-        (Some(ours), Some(theirs)) => format!("{:.2}", ours / theirs),
-        _ => "-".into(),
-    };
+    let cpu_ratio = paired_median(runs, lammps_runs, |ours, theirs| {
+        Some(ours.rate_per_cpu_second()? / theirs.rate_per_cpu_second()?)
+    })
+    .map_or("-".into(), |r| format!("{r:.2}"));
     let cpu_rate = cpu_rate.map_or("n/a".into(), format_rate);
     let (lammps_ms, ratio) = match lammps {
         Some(LammpsMedians {
@@ -146,16 +151,21 @@ fn row(
             ..
         }) => {
             let bonds = lammps_bonds.unwrap_or(runs[0].bonds) as f64;
-            let lammps_rate = bonds / (lammps_ms * 1e-3);
+            let ratio = paired_median(runs, lammps_runs, |ours, theirs| {
+                Some(ours.rate_per_core() / (bonds / (theirs.ms_per_step() * 1e-3)))
+            });
             (
                 format!("{lammps_ms:.2}"),
-                format!("{:.2}", rate / lammps_rate),
+                ratio.map_or("-".into(), |r| format!("{r:.2}")),
             )
         }
         None => ("-".into(), "-".into()),
     };
     let speedup = match single {
-        Some(one) if threads > 1 => format!("{:.2}", one / ms),
+        Some(one) if threads > 1 => paired_median(one, runs, |one, many| {
+            Some(one.ms_per_step() / many.ms_per_step())
+        })
+        .map_or("-".into(), |r| format!("{r:.2}")),
         _ => "-".into(),
     };
     let of_bound = bound.map_or("-".into(), |bound| {
@@ -180,6 +190,20 @@ fn row(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn paired_ratios_resist_drift_between_repeats() {
+        // One-thread loops of 10, 20, 40 ms and two-thread loops of 5, 21, 20 ms: the machine
+        // slowed down in the second repeat for the two-thread run and in the third for both.
+        // Pairs give 2, 0.95 and 2 (median 2); the ratio of medians, 20/20, gives 1.
+        let one = [10.0, 20.0, 40.0];
+        let two = [5.0, 21.0, 20.0];
+        let paired = paired_median(&one, &two, |a, b| Some(a / b));
+        assert_eq!(paired, Some(2.0));
+        assert_eq!(median(&one) / median(&two), 1.0);
+        assert_eq!(paired_median(&one, &[] as &[f64], |a, b| Some(a / b)), None);
+        assert_eq!(paired_median(&one, &two, |_, _| None), None);
+    }
 
     #[test]
     fn median_of_odd_and_even_lists() {
