@@ -8,8 +8,9 @@
 
 use crate::damage::StretchLimit;
 use std::arch::x86_64::{
-    __m256d, _mm256_add_pd, _mm256_and_pd, _mm256_cmp_pd, _mm256_movemask_pd, _mm256_mul_pd,
-    _mm256_set1_pd, _mm256_set_pd, _mm256_storeu_pd, _mm256_sub_pd, _CMP_GE_OQ, _CMP_LE_OQ,
+    __m256d, _mm256_add_pd, _mm256_and_pd, _mm256_cmp_pd, _mm256_loadu_pd, _mm256_movemask_pd,
+    _mm256_mul_pd, _mm256_set1_pd, _mm256_set_pd, _mm256_storeu_pd, _mm256_sub_pd, _CMP_GE_OQ,
+    _CMP_LE_OQ,
 };
 
 /// Bonds per register.
@@ -21,7 +22,7 @@ pub(crate) const LANES: usize = 4;
 /// `neighbors` points to four readable u32.
 #[target_feature(enable = "avx2")]
 #[inline]
-pub(crate) unsafe fn neighbor_lanes(neighbors: *const u32) -> [usize; LANES] {
+unsafe fn neighbor_lanes(neighbors: *const u32) -> [usize; LANES] {
     // SAFETY: as the caller guarantees.
     unsafe { [0, 1, 2, 3].map(|lane| *neighbors.add(lane) as usize) }
 }
@@ -54,7 +55,7 @@ pub(crate) unsafe fn load_field(records: *const f64, j: &[usize; LANES], field: 
 /// Every neighbour is a point of the coordinate array.
 #[target_feature(enable = "avx2")]
 #[inline]
-pub(crate) unsafe fn loaded_differences(
+unsafe fn loaded_differences(
     coordinates: *const f64,
     j: &[usize; LANES],
     origin: &[__m256d; 3],
@@ -66,6 +67,47 @@ pub(crate) unsafe fn loaded_differences(
             _mm256_sub_pd(load_field(coordinates, j, 1), origin[1]),
             _mm256_sub_pd(load_field(coordinates, j, 2), origin[2]),
         ]
+    }
+}
+
+/// Four bonds of a row in registers ([`bond_lanes`]).
+pub(crate) struct BondLanes {
+    /// The neighbours j.
+    pub j: [usize; LANES],
+    /// ζ.
+    pub zeta: __m256d,
+    /// Y_j − Y_i by component.
+    pub d: [__m256d; 3],
+    /// q = |Y_j − Y_i|² ([`squared_length`]).
+    pub squared: __m256d,
+}
+
+/// The bonds at row positions `at..at + 4` of a row (`neighbors` and `lengths` as
+/// [`checked_row`](crate::material::checked_row) gives them), with Y_i = `origin` and the
+/// coordinates at `coordinates`.
+///
+/// # Safety
+/// `at + 4` is at most the length of both slices; every neighbour is a point of the
+/// coordinate array.
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(crate) unsafe fn bond_lanes(
+    neighbors: &[u32],
+    lengths: &[f64],
+    at: usize,
+    coordinates: *const f64,
+    origin: &[__m256d; 3],
+) -> BondLanes {
+    // SAFETY: as the caller guarantees.
+    unsafe {
+        let j = neighbor_lanes(neighbors.as_ptr().add(at));
+        let d = loaded_differences(coordinates, &j, origin);
+        BondLanes {
+            j,
+            zeta: _mm256_loadu_pd(lengths.as_ptr().add(at)),
+            squared: squared_length(&d),
+            d,
+        }
     }
 }
 
@@ -84,7 +126,7 @@ pub(crate) fn broadcast(yi: [f64; 3]) -> [__m256d; 3] {
 /// models test.
 #[target_feature(enable = "avx2")]
 #[inline]
-pub(crate) fn squared_length(d: &[__m256d; 3]) -> __m256d {
+fn squared_length(d: &[__m256d; 3]) -> __m256d {
     _mm256_add_pd(
         _mm256_add_pd(_mm256_mul_pd(d[0], d[0]), _mm256_mul_pd(d[1], d[1])),
         _mm256_mul_pd(d[2], d[2]),

@@ -15,9 +15,7 @@
 
 // LANES is the staged loop's: the partial sums must be the same (`lanes` returns four).
 use super::{bond_scale_squared, Breaker, ClosedRows, LANES};
-use crate::material::avx2::{
-    broadcast, exceeding_lanes, lanes, loaded_differences, neighbor_lanes, squared_length,
-};
+use crate::material::avx2::{bond_lanes, broadcast, exceeding_lanes, lanes, BondLanes};
 use crate::material::{checked_row, Integrity};
 use crate::model::VolumeRule;
 use std::arch::x86_64::{
@@ -55,14 +53,9 @@ pub(super) unsafe fn row<V: VolumeRule, D: Integrity, B: Breaker>(
         let bond = first + at;
         // SAFETY: at + 4 <= full <= the row's length (both arrays); every neighbour is below
         // `bound` <= y.len() (`checked_row`).
-        let (zeta, d) = unsafe {
-            let j = neighbor_lanes(neighbors.as_ptr().add(at));
-            (
-                _mm256_loadu_pd(lengths.as_ptr().add(at)),
-                loaded_differences(coordinates, &j, &origin),
-            )
-        };
-        let squared = squared_length(&d);
+        let BondLanes {
+            zeta, d, squared, ..
+        } = unsafe { bond_lanes(neighbors, lengths, at, coordinates, &origin) };
         if let Some(limit) = breaker.limit() {
             let exceeding = exceeding_lanes(limit, squared, zeta);
             for lane in (0..LANES).filter(|lane| exceeding & (1 << lane) != 0) {

@@ -9,10 +9,7 @@
 //! row take the scalar formulas.
 
 use super::{dilatation_term, force_scale, RowBreaker, Rows, LANES};
-use crate::material::avx2::{
-    broadcast, exceeding_lanes, lanes, load_field, loaded_differences, neighbor_lanes,
-    squared_length,
-};
+use crate::material::avx2::{bond_lanes, broadcast, exceeding_lanes, lanes, load_field, BondLanes};
 use crate::material::{checked_row, BondWeights, Integrity, PointCoefficients};
 use crate::model::VolumeRule;
 use std::arch::x86_64::{
@@ -68,14 +65,8 @@ pub(super) unsafe fn dilatation_sum<V: VolumeRule, W: BondWeights, D: Integrity,
         let bond = first + at;
         // SAFETY: at + 4 <= full <= the row's length (both arrays); every neighbour is below
         // `bound` <= y.len() (`checked_row`).
-        let (zeta, d) = unsafe {
-            let j = neighbor_lanes(neighbors.as_ptr().add(at));
-            (
-                _mm256_loadu_pd(lengths.as_ptr().add(at)),
-                loaded_differences(coordinates, &j, &origin),
-            )
-        };
-        let squared = squared_length(&d);
+        let BondLanes { zeta, squared, .. } =
+            unsafe { bond_lanes(neighbors, lengths, at, coordinates, &origin) };
         if let Some(limit) = breaker.limit() {
             let exceeding = exceeding_lanes(limit, squared, zeta);
             for lane in (0..LANES).filter(|lane| exceeding & (1 << lane) != 0) {
@@ -171,14 +162,19 @@ pub(super) unsafe fn force_sum<V: VolumeRule, W: BondWeights, D: Integrity>(
         let bond = first + at;
         // SAFETY: at + 4 <= full <= the row's length (both arrays); every neighbour is below
         // `bound` <= y.len(), coefficients.len().
-        let (zeta, d, other_isotropic, other_deviatoric) = unsafe {
-            let j = neighbor_lanes(neighbors.as_ptr().add(at));
-            (
-                _mm256_loadu_pd(lengths.as_ptr().add(at)),
-                loaded_differences(coordinates, &j, &origin),
-                load_field(records, &j, ISOTROPIC),
-                load_field(records, &j, DEVIATORIC),
-            )
+        let (
+            BondLanes {
+                zeta, d, squared, ..
+            },
+            other_isotropic,
+            other_deviatoric,
+        ) = unsafe {
+            let bonds = bond_lanes(neighbors, lengths, at, coordinates, &origin);
+            let (isotropic, deviatoric) = (
+                load_field(records, &bonds.j, ISOTROPIC),
+                load_field(records, &bonds.j, DEVIATORIC),
+            );
+            (bonds, isotropic, deviatoric)
         };
         let mut intact = [0.0; LANES];
         let mut omega = [0.0; LANES];
@@ -194,7 +190,7 @@ pub(super) unsafe fn force_sum<V: VolumeRule, W: BondWeights, D: Integrity>(
             omega[lane] = weights.weight(local + at + lane);
         }
         let intact = vector(&intact);
-        let length = _mm256_sqrt_pd(squared_length(&d));
+        let length = _mm256_sqrt_pd(squared);
         let extension = _mm256_sub_pd(length, zeta);
         let isotropic = _mm256_mul_pd(_mm256_add_pd(own_isotropic, other_isotropic), zeta);
         let deviatoric = _mm256_mul_pd(
