@@ -86,9 +86,6 @@ pub struct LinearPeridynamicSolid {
     weighted_volume: Vec<f64>,
     /// How the tangent is computed (default analytic).
     tangent: TangentMethod,
-    /// Every neighbour of every block point is a block point (decided in `setup`), so the
-    /// block has no bond to another block ([`Material::critical_stretch_fast_path`]).
-    closed: bool,
     /// The points whose force is computed, when fewer than `points`
     /// ([`Material::restrict_forces`]).
     force_points: Option<Vec<u32>>,
@@ -170,7 +167,6 @@ impl LinearPeridynamicSolid {
             weights: None,
             weighted_volume: Vec::new(),
             tangent: TangentMethod::Analytic,
-            closed: false,
             force_points: None,
             thermal_expansion: None,
             shear_correction: false,
@@ -1130,13 +1126,6 @@ impl Material for LinearPeridynamicSolid {
         let local_offsets = local_offsets(bonds, &points);
         let weighted_volume =
             influence_weighted_volumes(reference, &points, &local_offsets, weights.as_deref());
-        let mut member = vec![false; bonds.num_points()];
-        for &i in &points {
-            member[i as usize] = true;
-        }
-        self.closed = points
-            .iter()
-            .all(|&i| bonds.family(i as usize).iter().all(|&j| member[j as usize]));
         self.correction = if self.shear_correction {
             super::shear_correction::factors(
                 reference,
@@ -1199,10 +1188,14 @@ impl Material for LinearPeridynamicSolid {
         })
     }
 
-    /// The dilatation pass breaks the bonds of each row (only for a closed block without
-    /// thermal expansion: the fused pass measures e without the thermal strain).
+    /// The dilatation pass breaks the bonds of each row (not with thermal expansion: the fused
+    /// pass measures e without the thermal strain). Each row decides its own bonds and reads
+    /// only its neighbours' positions, so the block need not hold its neighbours: a rank's
+    /// layer-1 ghosts, whose neighbours in the outer ghost layer belong to no block's point
+    /// list, take the pass as their owner does.
     fn critical_stretch_fast_path(&self) -> Option<CriticalStretchFastPath<'_>> {
-        (self.closed && self.thermal_expansion.is_none())
+        self.thermal_expansion
+            .is_none()
             .then_some(CriticalStretchFastPath::PointCoefficients(self))
     }
 
@@ -1390,10 +1383,6 @@ impl BreakingCoefficientPass for LinearPeridynamicSolid {
         bond_damage: &mut [f32],
         coefficients: &mut [PointCoefficients],
     ) -> usize {
-        assert!(
-            self.closed,
-            "the fast path is offered only for a closed block"
-        );
         assert_eq!(bond_damage.len(), reference.bonds.num_bonds());
         let current = CurrentView {
             position,
@@ -1514,7 +1503,9 @@ mod tests {
         // and then at the full random field so that the second pass meets broken bonds, with
         // ω = 1 and a stored ω. The dilatation pass that breaks bonds itself must break the
         // same bonds as the `Critical Stretch` update (same count, same damage array) and give
-        // the same coefficients bit for bit, and so the same forces.
+        // the same coefficients bit for bit, and so the same forces. Also for a block that
+        // does not hold all its neighbours (a rank's layer-1 ghosts, whose neighbours in the
+        // outer ghost layer are in no block's list): the points left of x = 4.
         let mut rng = Rng::new(5);
         let (x, v) = random_cloud(&mut rng, 500, 6.0);
         let bonds = brute_force_bonds(&x, 1.7);
@@ -1529,13 +1520,31 @@ mod tests {
             bond_volume: None,
         };
         let all: Vec<u32> = (0..x.len() as u32).collect();
+        let left: Vec<u32> = all
+            .iter()
+            .copied()
+            .filter(|&i| x[i as usize][0] < 4.0)
+            .collect();
+        let open = left.iter().any(|&i| {
+            bonds
+                .family(i as usize)
+                .iter()
+                .any(|&j| x[j as usize][0] >= 4.0)
+        });
+        assert!(
+            open,
+            "some neighbours of the left points should be right of x = 4"
+        );
         // The shear correction changes μ per point in both the coefficients and the force
         // states, so the two must still agree with it on.
-        for (influence, corrected) in [
+        for ((influence, corrected), points) in [
             (InfluenceFunction::One, false),
             (InfluenceFunction::ParabolicDecay, false),
             (InfluenceFunction::ParabolicDecay, true),
-        ] {
+        ]
+        .into_iter()
+        .flat_map(|case| [(case.clone(), &all), (case, &left)])
+        {
             let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
                 density: 1.0,
                 bulk_modulus: 3.0,
@@ -1545,7 +1554,7 @@ mod tests {
             })
             .unwrap()
             .with_shear_correction(corrected);
-            m.setup(&reference, all.clone()).unwrap();
+            m.setup(&reference, points.clone()).unwrap();
             assert_eq!(m.correction.is_empty(), !corrected);
             assert!(m.critical_stretch_fast_path().is_some());
             let model = CriticalStretch::new(0.02).unwrap();
@@ -1558,7 +1567,7 @@ mod tests {
                     .zip(&y)
                     .map(|(p, q)| [0, 1, 2].map(|k| p[k] + fraction * (q[k] - p[k])))
                     .collect();
-                let broken = model.update(&reference, &at, &all, &mut separate);
+                let broken = model.update(&reference, &at, points, &mut separate);
                 let mut expected = vec![PointCoefficients::default(); x.len()];
                 let current = CurrentView {
                     position: &at,

@@ -437,9 +437,10 @@ pub trait Material: Send + Sync {
     /// The material's fast path for a constant critical stretch, when it has one for this
     /// block: the pass in which it can take the decisions of a constant critical stretch
     /// ([`crate::damage::DamageModel::fusable_critical_stretch`]) itself, saving the damage
-    /// model's own pass over the bonds. Only blocks whose bonds all stay inside the block
-    /// qualify (no bond to another block, whose damage the physics makes symmetric between the
-    /// damage update and the bond passes). Default `None`: the separate damage pass.
+    /// model's own pass over the bonds. [`crate::physics::Physics`] takes it only for a block
+    /// without bonds to another block (their damage is made symmetric between the damage
+    /// update and the bond passes); a material may ask more. Default `None`: the separate
+    /// damage pass.
     fn critical_stretch_fast_path(&self) -> Option<CriticalStretchFastPath<'_>> {
         None
     }

@@ -496,6 +496,24 @@ mod tests {
     }
 
     #[test]
+    fn lps_ghosts_break_their_bonds_in_the_dilatation_pass_as_their_owners_do() {
+        // At depth 2 the outer ghost layer is in no block's list, so the LPS block of a rank
+        // does not hold all its neighbours; it still breaks its bonds in its dilatation pass,
+        // as on one rank, instead of a separate damage update over its rows.
+        let (_dir, deck) = deck("Elastic");
+        let global = crate::setup::build(&deck).unwrap();
+        let one_rank = crate::setup::build_physics(&deck, &global).unwrap();
+        assert!(one_rank.breaks_bonds_in_material_pass(0));
+        for rank in 0..3 {
+            let sub = Subdomain::new(&global, 3, rank, 2, false);
+            let outer = sub.plan.layer().iter().filter(|&&l| l == 2).count();
+            assert!(outer > 0, "rank {rank} has an outer ghost layer");
+            let physics = crate::setup::build_physics(&deck, &sub.model).unwrap();
+            assert!(physics.breaks_bonds_in_material_pass(0), "rank {rank}");
+        }
+    }
+
+    #[test]
     fn depth_follows_the_materials() {
         assert_eq!(halo_depth(&deck("Elastic Bond Based").1), 1);
         assert_eq!(halo_depth(&deck("Elastic").1), 2);

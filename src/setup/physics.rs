@@ -51,7 +51,7 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
         let horizon = block_horizon(deck, entry)?;
         let material = build_material(deck, entry, horizon, &influence, &reference, model, block)
             .map_err(|e| name_the_point(e, &model.points.original_id))?;
-        let mut damage = match &entry.damage_model {
+        let damage = match &entry.damage_model {
             None => None,
             Some(name) => Some(build_damage(
                 deck,
@@ -64,21 +64,11 @@ pub fn build_physics(deck: &Deck, model: &Model) -> Result<Physics, SetupError> 
                 &point_critical_stretch,
             )?),
         };
-        if let Some(damage) = &mut damage {
-            // A block whose material breaks its bonds in its own force pass never runs the
-            // damage model's update (`Physics::internal_force`), so a plan for the update
-            // would only cost set-up time and memory (the pair-once plan took 4 % of a
-            // 100-step run of the LAMMPS bench deck).
-            let fused = damage.fusable_critical_stretch().is_some()
-                && material.critical_stretch_fast_path().is_some();
-            if !fused {
-                damage.prepare(&reference, &block.points);
-            }
-        }
         blocks.push(BlockPhysics { material, damage });
     }
     let mut physics =
         Physics::with_bond_volume(blocks, &model.points, &model.bonds, bond_volume.clone());
+    physics.prepare_damage_updates(&model.bonds, &model.points);
     physics.contact = crate::contact::Contact::from_deck(deck, model)?;
     Ok(physics)
 }
