@@ -1,12 +1,12 @@
 //! Whether the bond loops run their AVX2 builds.
 //!
 //! The hot loops (PMB and LPS forces, the critical-stretch pass, the contact grid scan, the
-//! cell-grid neighbour search) are
-//! compiled twice: for the x86-64 baseline (SSE2) and with AVX2 enabled, which gives the
-//! compiler 256-bit vectors (four `f64` square roots or divisions at once); the AVX2 rows of
-//! PMB's closed blocks and of LPS are written with intrinsics (`material::avx2`). Both builds
-//! do the same IEEE operations in the same order and fuse no multiply-add (FMA is not
-//! enabled), so they give bitwise the same results; the AVX2 one is only faster.
+//! cell-grid neighbour search) are compiled twice: for the x86-64 baseline (SSE2) and with AVX2
+//! enabled, which gives the compiler 256-bit vectors (four `f64` square roots or divisions at
+//! once); the AVX2 rows of PMB's closed blocks and of LPS are written with intrinsics
+//! (`material::avx2`). Both builds do the same IEEE operations in the same order and fuse no
+//! multiply-add (FMA is not enabled), so they give bitwise the same results; the AVX2 one is
+//! only faster.
 
 use std::sync::OnceLock;
 
