@@ -250,8 +250,14 @@ fn find_rows_assembled(
                 search.positions,
                 || (),
                 |_, i, row| {
-                    let p = search.positions[i];
-                    grid.neighbours(i, p, queries.shape(i), &rules, Half::Upper, row)
+                    let query = Query {
+                        i,
+                        p: search.positions[i],
+                        shape: queries.shape(i),
+                        rules: &rules,
+                        half: Half::Upper,
+                    };
+                    grid.neighbours(query, row)
                 },
             );
         }
@@ -260,8 +266,14 @@ fn find_rows_assembled(
             rows,
             || (),
             |_, i, row| {
-                let p = search.positions[i];
-                grid.neighbours(i, p, queries.shape(i), &rules, Half::Both, row);
+                let query = Query {
+                    i,
+                    p: search.positions[i],
+                    shape: queries.shape(i),
+                    rules: &rules,
+                    half: Half::Both,
+                };
+                grid.neighbours(query, row);
             },
         )
     } else {
@@ -732,52 +744,47 @@ enum Half {
     Upper,
 }
 
+/// One query of [`CellGrid::neighbours`]: point i at `p`, its shape, the bond rules, and which
+/// half of its neighbours to append.
+#[derive(Clone, Copy)]
+struct Query<'r> {
+    i: usize,
+    p: [f64; 3],
+    shape: Shape,
+    rules: &'r BondRules<'r>,
+    half: Half,
+}
+
 impl CellGrid {
-    /// Appends the neighbours of point i (at `p`) that `half` asks for, unsorted, to `row`;
-    /// returns how many neighbours with a smaller index it left out (0 for [`Half::Both`]).
-    fn neighbours(
-        &self,
-        i: usize,
-        p: [f64; 3],
-        shape: Shape,
-        rules: &BondRules,
-        half: Half,
-        row: &mut Vec<u32>,
-    ) -> usize {
+    /// Appends the neighbours of the query's point that its `half` asks for, unsorted, to
+    /// `row`; returns how many neighbours with a smaller index it left out (0 for
+    /// [`Half::Both`]).
+    fn neighbours(&self, query: Query, row: &mut Vec<u32>) -> usize {
         #[cfg(target_arch = "x86_64")]
         if crate::vector_width::wide_vectors_available() {
             // SAFETY: the CPU reports AVX2.
-            return unsafe { self.neighbours_avx2(i, p, shape, rules, half, row) };
+            return unsafe { self.neighbours_avx2(query, row) };
         }
-        self.neighbours_inlined(i, p, shape, rules, half, row)
+        self.neighbours_inlined(query, row)
     }
 
     /// [`CellGrid::neighbours`] built with AVX2: the accept masks take four candidates per
     /// instruction instead of two. The same IEEE operations (no FMA), so the same neighbours.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn neighbours_avx2(
-        &self,
-        i: usize,
-        p: [f64; 3],
-        shape: Shape,
-        rules: &BondRules,
-        half: Half,
-        row: &mut Vec<u32>,
-    ) -> usize {
-        self.neighbours_inlined(i, p, shape, rules, half, row)
+    fn neighbours_avx2(&self, query: Query, row: &mut Vec<u32>) -> usize {
+        self.neighbours_inlined(query, row)
     }
 
     #[inline(always)]
-    fn neighbours_inlined(
-        &self,
-        i: usize,
-        p: [f64; 3],
-        shape: Shape,
-        rules: &BondRules,
-        half: Half,
-        row: &mut Vec<u32>,
-    ) -> usize {
+    fn neighbours_inlined(&self, query: Query, row: &mut Vec<u32>) -> usize {
+        let Query {
+            i,
+            p,
+            shape,
+            rules,
+            half,
+        } = query;
         let mut lower = 0;
         match shape {
             Shape::Ball { radius_squared } if rules.is_trivial() => {
@@ -1252,12 +1259,16 @@ mod tests {
             for (i, &p) in positions.iter().enumerate() {
                 wide.clear();
                 baseline.clear();
-                let shape = queries.shape(i);
+                let query = Query {
+                    i,
+                    p,
+                    shape: queries.shape(i),
+                    rules: &rules,
+                    half,
+                };
                 // SAFETY: the CPU reports AVX2 (checked above).
-                let lower_wide =
-                    unsafe { grid.neighbours_avx2(i, p, shape, &rules, half, &mut wide) };
-                let lower_baseline =
-                    grid.neighbours_inlined(i, p, shape, &rules, half, &mut baseline);
+                let lower_wide = unsafe { grid.neighbours_avx2(query, &mut wide) };
+                let lower_baseline = grid.neighbours_inlined(query, &mut baseline);
                 assert_eq!(wide, baseline, "point {i}");
                 assert_eq!(lower_wide, lower_baseline, "point {i}");
                 accepted += wide.len();
