@@ -27,10 +27,7 @@ features=mpi,trilinos,petsc,hdf5
 # dev-dependencies' features). Compile first, then run under `timeout`: the limit is for hangs.
 cargo test --release --locked --features "$features" --no-run
 timeout 1200 cargo test --release --locked --features "$features"
-# --release: the lints are the same (no code here depends on debug_assertions), and the release
-# profile reuses the build scripts just run, the C++ shim's compile among them; the dev profile
-# compiled the shim again (7.4 min of a 39-min CI run against 2.5 for this one, measured locally).
-cargo clippy --release --locked --all-targets --features "$features" -- -D warnings
+cargo clippy --locked --all-targets --features "$features" -- -D warnings
 
 if [ ! -d ../shared/peridigm ]; then
   echo "../shared/peridigm is absent: backend regression decks skipped"
