@@ -45,9 +45,15 @@ pub struct Physics {
     free_of_interface_bonds: Vec<bool>,
 }
 
-/// The (bond, reverse bond) pairs of bonds that join different blocks (each pair once).
-fn interface_bonds(points: &PointCloud, bonds: &BondList) -> Vec<(u32, u32)> {
+/// The (bond, reverse bond) pairs of bonds that join different blocks (each pair once), and
+/// per block whether none of them lies in its rows (`blocks` blocks).
+fn interface_bonds(
+    points: &PointCloud,
+    bonds: &BondList,
+    blocks: usize,
+) -> (Vec<(u32, u32)>, Vec<bool>) {
     let mut pairs = Vec::new();
+    let mut free = vec![true; blocks];
     // `points.block` names every local point's block, also that of a rank's outer ghost layer,
     // which is in no block's point list (`crate::parallel::Subdomain`): a bond to such a ghost
     // of the same block is no interface bond.
@@ -61,10 +67,12 @@ fn interface_bonds(points: &PointCloud, bonds: &BondList) -> Vec<(u32, u32)> {
             // (variable horizons) has no reverse and nothing to keep consistent.
             if let Ok(k) = bonds.family(j).binary_search(&(i as u32)) {
                 pairs.push((b as u32, (bonds.offsets[j] + k) as u32));
+                free[points.block[i] as usize] = false;
+                free[points.block[j] as usize] = false;
             }
         }
     }
-    pairs
+    (pairs, free)
 }
 
 /// The critical stretch and the material's fast path of a block that breaks its bonds in its
@@ -105,21 +113,12 @@ impl Physics {
             .iter()
             .map(|&b| blocks[b as usize].material.density())
             .collect();
-        let interface_bonds = if blocks.iter().any(|b| b.damage.is_some()) {
-            interface_bonds(points, bonds)
-        } else {
-            Vec::new()
-        };
-        let mut free_of_interface_bonds = vec![true; blocks.len()];
-        for &(forward, backward) in &interface_bonds {
-            for bond in [forward, backward] {
-                let row = bonds
-                    .offsets
-                    .partition_point(|&start| start <= bond as usize)
-                    - 1;
-                free_of_interface_bonds[points.block[row] as usize] = false;
-            }
-        }
+        let (interface_bonds, free_of_interface_bonds) =
+            if blocks.iter().any(|b| b.damage.is_some()) {
+                interface_bonds(points, bonds, blocks.len())
+            } else {
+                (Vec::new(), vec![true; blocks.len()])
+            };
         let mut physics = Self {
             blocks,
             coefficients: vec![PointCoefficients::default(); points.len()],

@@ -245,20 +245,18 @@ fn find_rows_assembled(
     let rules = BondRules::new(search, queries.pad);
     if use_grid {
         let grid = CellGrid::new(search.positions, &queries, budget);
+        let query = |i: usize, half: Half| Query {
+            i,
+            p: search.positions[i],
+            shape: queries.shape(i),
+            rules: &rules,
+            half,
+        };
         if mirrored {
             return assemble_mirrored(
                 search.positions,
                 || (),
-                |_, i, row| {
-                    let query = Query {
-                        i,
-                        p: search.positions[i],
-                        shape: queries.shape(i),
-                        rules: &rules,
-                        half: Half::Upper,
-                    };
-                    grid.neighbours(query, row)
-                },
+                |_, i, row| grid.neighbours(query(i, Half::Upper), row),
             );
         }
         assemble(
@@ -266,14 +264,7 @@ fn find_rows_assembled(
             rows,
             || (),
             |_, i, row| {
-                let query = Query {
-                    i,
-                    p: search.positions[i],
-                    shape: queries.shape(i),
-                    rules: &rules,
-                    half: Half::Both,
-                };
-                grid.neighbours(query, row);
+                grid.neighbours(query(i, Half::Both), row);
             },
         )
     } else {
