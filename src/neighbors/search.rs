@@ -1049,11 +1049,11 @@ const _: () = assert!(
 /// one, so each point sorts only half its row; every kept bond i→j whose j lies in a later
 /// block is also recorded for that block as the mirrored bond j→i. Then each block of rows is
 /// filled by the thread that owns it (first touch there): first the mirrored bonds, taken from
-/// the earlier blocks in increasing order and, within one, in increasing i; then the mirrored
-/// bonds within the block, read from its own upper rows in increasing i; so each row's lower
-/// part comes out sorted without a sort. Then its own upper part. The result is the full
-/// search's, bond for bond: the lower count a point finds itself equals the mirrored bonds it
-/// receives, which is checked.
+/// the earlier blocks in increasing order and, within one, in increasing i; then, row by row in
+/// increasing i, the row's own upper part, whose bonds within the block are mirrored into the
+/// later rows as it goes; so each row's lower part comes out sorted without a sort. The result
+/// is the full search's, bond for bond: the lower count a point finds itself equals the
+/// mirrored bonds it receives, which is checked.
 fn assemble_mirrored<S, I, F>(
     positions: &[[f64; 3]],
     init: I,
@@ -1151,31 +1151,28 @@ where
                 }
             }
             let own = &searched_ref[d];
-            // Lower neighbours from this block come after every earlier block's, in increasing
-            // i: each sorted upper row holds its own block's points first.
             let mut taken = 0;
             for (k, i) in block.clone().enumerate() {
+                let lower = own.lower_counts[k] as usize;
                 let upper = &own.upper[taken..taken + own.upper_counts[k] as usize];
                 taken += upper.len();
-                for &j in upper.iter().take_while(|&&j| (j as usize) < block.end) {
-                    let slot = &mut cursor[j as usize - block.start];
-                    neighbors[*slot] = i as u32;
-                    *slot += 1;
-                }
-            }
-            let mut taken = 0;
-            for (k, i) in block.enumerate() {
-                let lower = own.lower_counts[k] as usize;
-                let upper = own.upper_counts[k] as usize;
                 let start = offsets_ref[i] - base;
+                // Row i's lower part is complete: the earlier blocks' records came above, and
+                // this block's rows before i have mirrored their bonds into it.
                 assert_eq!(
                     cursor[k],
                     start + lower,
                     "point {i}: the neighbour test is not symmetric"
                 );
-                let end = start + lower + upper;
-                neighbors[start + lower..end].copy_from_slice(&own.upper[taken..taken + upper]);
-                taken += upper;
+                let end = start + lower + upper.len();
+                neighbors[start + lower..end].copy_from_slice(upper);
+                // The sorted upper row holds this block's points first; each receives i after
+                // every earlier block's points and after this block's smaller indices.
+                for &j in upper.iter().take_while(|&&j| (j as usize) < block.end) {
+                    let slot = &mut cursor[j as usize - block.start];
+                    neighbors[*slot] = i as u32;
+                    *slot += 1;
+                }
                 let x = positions[i];
                 for (length, &j) in lengths[start..end].iter_mut().zip(&neighbors[start..end]) {
                     *length = squared_length(difference(x, positions[j as usize])).sqrt();
