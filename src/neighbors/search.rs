@@ -57,11 +57,11 @@
 //! way within noise): a query spends its time per run of cells, not per candidate, and
 //! splitting runs at cells added back what the skipped candidates saved.
 //!
-//! Also measured and rejected: a bounding-box tree over runs of consecutive indices (leaves cut at the
-//! Morton cells of the point order), visited depth first so rows come out sorted, with an exact
-//! count pass and a fill pass straight into the output. It needed fewer distance tests (189 per
-//! point against the grid's 289) but short runs and tree bookkeeping made it 3.45 CPU s against
-//! the grid's 2.65 on one thread.
+//! Also measured and rejected: a bounding-box tree over runs of consecutive indices (leaves cut
+//! at the Morton cells of the point order), visited depth first so rows come out sorted, with an
+//! exact count pass and a fill pass straight into the output. It needed fewer distance tests
+//! (189 per point against the grid's 289) but short runs and tree bookkeeping made it 3.45 CPU s
+//! against the grid's 2.65 on one thread.
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
