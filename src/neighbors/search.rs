@@ -1077,6 +1077,12 @@ fn reference_lengths_from(
     }
 }
 
+/// How many neighbours of a sorted upper row lie in `block`, the row's own block of points:
+/// they come first, the later blocks' neighbours after them.
+fn in_block(row: &[u32], block: &Range<usize>) -> usize {
+    row.partition_point(|&j| (j as usize) < block.end)
+}
+
 /// Keeps the neighbours of point i above i in `row` and returns how many were below.
 fn split_off_lower(i: usize, row: &mut Vec<u32>) -> usize {
     let before = row.len();
@@ -1149,8 +1155,7 @@ where
                     upper_counts.push(row.len() as u32);
                     upper.extend_from_slice(row);
                     let source = (i - block.start) as u16;
-                    let in_later_blocks = row.partition_point(|&j| (j as usize) < block.end);
-                    for &j in &row[in_later_blocks..] {
+                    for &j in &row[in_block(row, block)..] {
                         let j = j as usize;
                         let k = j / BLOCK - b - 1;
                         if k >= mirrored.len() {
@@ -1229,7 +1234,7 @@ where
                 neighbors[start + lower..end].copy_from_slice(upper);
                 // The sorted upper row holds this block's points first; each receives i after
                 // every earlier block's points and after this block's smaller indices.
-                for &j in upper.iter().take_while(|&&j| (j as usize) < block.end) {
+                for &j in &upper[..in_block(upper, &block)] {
                     let slot = &mut cursor[j as usize - block.start];
                     neighbors[*slot] = i as u32;
                     *slot += 1;
