@@ -1,16 +1,16 @@
 //! Sorting a row of neighbour indices with a bitonic network in AVX2 registers.
 //!
 //! The grid visits a query's candidates cell by cell, so a row comes out unsorted; on the 100³
-//! lattice sorting the rows was a tenth of the search (`core::slice::sort_unstable`, about
-//! 550 ns for 61 random indices on the development machine, its comparisons mostly
-//! unpredictable branches). Batcher's bitonic sorter (K. E. Batcher, "Sorting networks and
-//! their applications", AFIPS 1968) compares fixed pairs in a fixed order, so it has no
-//! data-dependent branch, and eight 32-bit lanes go through each compare-exchange at once
-//! (`vpminud`/`vpmaxud`): about 180 ns for the same 61 indices.
+//! lattice sorting the rows was a tenth of the search (`core::slice::sort_unstable`, its
+//! comparisons mostly unpredictable branches). Batcher's bitonic sorter (K. E. Batcher,
+//! "Sorting networks and their applications", AFIPS 1968) compares fixed pairs in a fixed
+//! order, so it has no data-dependent branch, and eight 32-bit lanes go through each
+//! compare-exchange at once (`vpminud`/`vpmaxud`). Rows of 61 random indices, alternately in
+//! one process on the development machine: 413 ns per row with `sort_unstable`, 115 ns here.
 //!
-//! A row of n ≤ 128 indices is padded with `u32::MAX` to the next size of 8, 16, 32, 64 or 128
-//! elements (1 to 16 registers) and sorted there; the padding sorts to the end, beyond the n
-//! entries copied back. Sorting plain integers has only one result, so the row is exactly what
+//! A row of n ≤ 128 indices is loaded into the registers of the next size of 8, 16, 32, 64 or
+//! 128 lanes (1 to 16 registers), the lanes past n filled with `u32::MAX`, and sorted there;
+//! the padding sorts to the end, past the n lanes stored back. Sorting plain integers has only one result, so the row is exactly what
 //! `sort_unstable` gives. Longer rows (horizons of more than about four spacings) take
 //! `sort_unstable`.
 //!
@@ -21,8 +21,9 @@
 //! (the flip reverses the lanes of the partner register).
 
 use std::arch::x86_64::{
-    __m256i, _mm256_blend_epi32, _mm256_loadu_si256, _mm256_max_epu32, _mm256_min_epu32,
-    _mm256_permutevar8x32_epi32, _mm256_setr_epi32, _mm256_setzero_si256, _mm256_storeu_si256,
+    __m256i, _mm256_blend_epi32, _mm256_blendv_epi8, _mm256_cmpgt_epi32, _mm256_loadu_si256,
+    _mm256_maskload_epi32, _mm256_maskstore_epi32, _mm256_max_epu32, _mm256_min_epu32,
+    _mm256_permutevar8x32_epi32, _mm256_set1_epi32, _mm256_setr_epi32, _mm256_storeu_si256,
 };
 
 /// 32-bit lanes per register.
@@ -52,7 +53,8 @@ pub(super) unsafe fn sort(row: &mut [u32]) {
     }
 }
 
-/// Sorts a row of at most 8·`REGISTERS` indices through `REGISTERS` registers.
+/// Sorts a row of at most 8·`REGISTERS` indices through `REGISTERS` registers, loaded from
+/// and stored to the row directly (a masked load and store for a last, partial register).
 ///
 /// # Safety
 /// The CPU supports AVX2; `row.len() <= LANES * REGISTERS <= NETWORK_MAX`.
@@ -60,19 +62,34 @@ pub(super) unsafe fn sort(row: &mut [u32]) {
 #[inline]
 unsafe fn sort_padded<const REGISTERS: usize>(row: &mut [u32]) {
     let n = row.len();
-    let mut padded = [u32::MAX; NETWORK_MAX];
-    padded[..n].copy_from_slice(row);
-    let mut registers = [_mm256_setzero_si256(); REGISTERS];
+    let (full, rest) = (n / LANES, n % LANES);
+    // All ones in the lanes below `rest`: the masked lanes' high bits.
+    let partial = _mm256_cmpgt_epi32(
+        _mm256_set1_epi32(rest as i32),
+        _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+    );
+    let padding = _mm256_set1_epi32(-1);
+    let start = row.as_mut_ptr().cast::<i32>();
+    let mut registers = [padding; REGISTERS];
     for (q, register) in registers.iter_mut().enumerate() {
-        // SAFETY: 8q + 8 <= 8·REGISTERS <= NETWORK_MAX, within `padded`.
-        *register = unsafe { _mm256_loadu_si256(padded.as_ptr().add(LANES * q).cast()) };
+        // SAFETY: below `full` the register's eight lanes lie within the row; at `full` the
+        // masked load reads only the `rest` lanes that do (the others neither read nor fault).
+        if q < full {
+            *register = unsafe { _mm256_loadu_si256(start.add(LANES * q).cast()) };
+        } else if q == full && rest > 0 {
+            let loaded = unsafe { _mm256_maskload_epi32(start.add(LANES * q), partial) };
+            *register = _mm256_blendv_epi8(padding, loaded, partial);
+        }
     }
     bitonic_network(&mut registers);
     for (q, register) in registers.iter().enumerate() {
         // SAFETY: as for the loads.
-        unsafe { _mm256_storeu_si256(padded.as_mut_ptr().add(LANES * q).cast(), *register) };
+        if q < full {
+            unsafe { _mm256_storeu_si256(start.add(LANES * q).cast(), *register) };
+        } else if q == full && rest > 0 {
+            unsafe { _mm256_maskstore_epi32(start.add(LANES * q), partial, *register) };
+        }
     }
-    row.copy_from_slice(&padded[..n]);
 }
 
 /// The bitonic network over the 8·`REGISTERS` lanes of `registers`, register q holding
