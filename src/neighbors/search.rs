@@ -56,11 +56,12 @@
 //! 4 alternated pairs, each the median of three searches).
 //!
 //! Measured and rejected: transparent huge pages for the output (`madvise`), which spare the
-//! faults of 4 KiB pages: the first search of a process took 2.85–3.04 s on two threads against
-//! 2.16–2.46 s (3 alternated pairs; the kernel clears, and on fragmented memory compacts, 2 MiB pages at first touch);
-//! only later searches in the same process gained, and a run searches once. And cells two to
-//! four times finer along x alone (the runs stay one per row of cells, trimmed closer to the
-//! chord): 40³ −2 to −3 % instructions, 100³ (two times finer) within noise.
+//! faults of 4 KiB pages: the first search of a process took 2.85–3.04 s on two threads
+//! against 2.16–2.46 s (3 alternated pairs; the kernel clears, and on fragmented memory
+//! compacts, 2 MiB pages at first touch); only later searches in the same process gained, and
+//! a run searches once. And cells two to four times finer along x alone (the runs stay one per
+//! row of cells, trimmed closer to the chord): 40³ −2 to −3 % instructions, 100³ (two times
+//! finer) within noise.
 //!
 //! Measured and rejected: a half stencil for the mirrored search, testing only each cell's
 //! slots above the query's index (a suffix: a cell's slots are in increasing index) with the

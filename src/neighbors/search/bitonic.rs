@@ -10,9 +10,9 @@
 //!
 //! A row of n ≤ 128 indices is loaded into the registers of the next size of 8, 16, 32, 64 or
 //! 128 lanes (1 to 16 registers), the lanes past n filled with `u32::MAX`, and sorted there;
-//! the padding sorts to the end, past the n lanes stored back. Sorting plain integers has only one result, so the row is exactly what
-//! `sort_unstable` gives. Longer rows (horizons of more than about four spacings) take
-//! `sort_unstable`.
+//! the padding sorts to the end, past the n lanes stored back. Sorting plain integers has only
+//! one result, so the row is exactly what `sort_unstable` gives. Longer rows (horizons of more
+//! than about four spacings) take `sort_unstable`.
 //!
 //! The network, for block sizes s = 2, 4, …, N (the form in which every stage puts the smaller
 //! value first): a *flip* stage pairs position k of each block with position s − 1 − k, then
@@ -106,7 +106,8 @@ fn bitonic_network<const REGISTERS: usize>(registers: &mut [__m256i; REGISTERS])
         v = exchange_lanes::<0b1100_1100>(v, flip_fours);
         v = exchange_lanes::<0b1010_1010>(v, swap_neighbours);
         v = exchange_lanes::<0b1111_0000>(v, reversed_lanes());
-        *register = half_cleaners_within(v);
+        v = exchange_lanes::<0b1100_1100>(v, swap_pairs());
+        *register = exchange_lanes::<0b1010_1010>(v, swap_neighbours);
     }
     // Block sizes 16, 32, …: `span` registers per block.
     let mut span = 2;
@@ -143,7 +144,7 @@ fn bitonic_network<const REGISTERS: usize>(registers: &mut [__m256i; REGISTERS])
 #[inline]
 fn half_cleaners_within(v: __m256i) -> __m256i {
     let v = exchange_lanes::<0b1111_0000>(v, _mm256_setr_epi32(4, 5, 6, 7, 0, 1, 2, 3));
-    let v = exchange_lanes::<0b1100_1100>(v, _mm256_setr_epi32(2, 3, 0, 1, 6, 7, 4, 5));
+    let v = exchange_lanes::<0b1100_1100>(v, swap_pairs());
     exchange_lanes::<0b1010_1010>(v, _mm256_setr_epi32(1, 0, 3, 2, 5, 4, 7, 6))
 }
 
@@ -154,6 +155,13 @@ fn half_cleaners_within(v: __m256i) -> __m256i {
 fn exchange_lanes<const HIGHER: i32>(v: __m256i, partner: __m256i) -> __m256i {
     let other = _mm256_permutevar8x32_epi32(v, partner);
     _mm256_blend_epi32::<HIGHER>(_mm256_min_epu32(v, other), _mm256_max_epu32(v, other))
+}
+
+/// The permutation that pairs lane k with lane k ± 2 within each group of four.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn swap_pairs() -> __m256i {
+    _mm256_setr_epi32(2, 3, 0, 1, 6, 7, 4, 5)
 }
 
 /// The permutation that reverses the eight lanes.
