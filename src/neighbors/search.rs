@@ -51,9 +51,10 @@
 //! → 2.19e9 instructions; 0.89 on one thread, 0.94 on two (4 pairs each).
 //!
 //! With AVX2 the rows are sorted by a bitonic sorting network in registers (`bitonic`), which
-//! has no data-dependent branch, instead of `sort_unstable`: 40³ lattice 2.33e9 → 2.06e9
-//! instructions (cachegrind, three searches); 100³ on two threads 0.82 of the time (median of
-//! 4 alternated pairs, each the median of three searches).
+//! has no data-dependent branch, instead of `sort_unstable`: 40³ lattice 2.19e9 → 2.04e9
+//! instructions (cachegrind, three searches); 100³ paired medians 0.94 of the time on one
+//! thread, 0.98 on two (4 alternated pairs, best of three searches each), where the output's
+//! page faults and memory traffic hide most of the gain.
 //!
 //! Measured and rejected: transparent huge pages for the output (`madvise`), which spare the
 //! faults of 4 KiB pages: the first search of a process took 2.85–3.04 s on two threads
