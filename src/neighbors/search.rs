@@ -52,8 +52,8 @@
 //!
 //! With AVX2 the rows are sorted by a bitonic sorting network in registers (`bitonic`), which
 //! has no data-dependent branch, instead of `sort_unstable`: 40³ lattice 2.19e9 → 2.04e9
-//! instructions (cachegrind, three searches); 100³ paired medians 0.94 of the time on one
-//! thread, 0.98 on two (4 alternated pairs, best of three searches each), where the output's
+//! instructions (cachegrind, three searches); 100³ paired medians 0.93 of the time on one
+//! thread, 0.97 on two (4 alternated pairs, best of three searches each), where the output's
 //! page faults and memory traffic hide most of the gain.
 //!
 //! Measured and rejected: transparent huge pages for the output (`madvise`), which spare the
