@@ -143,12 +143,8 @@ pub(super) unsafe fn reference_lengths_wide(
                 _mm256_set1_pd(x[k]),
             )
         });
-        let q = _mm256_add_pd(
-            _mm256_add_pd(_mm256_mul_pd(d[0], d[0]), _mm256_mul_pd(d[1], d[1])),
-            _mm256_mul_pd(d[2], d[2]),
-        );
         // SAFETY: `out` holds four f64.
-        unsafe { _mm256_storeu_pd(out.as_mut_ptr(), _mm256_sqrt_pd(q)) };
+        unsafe { _mm256_storeu_pd(out.as_mut_ptr(), _mm256_sqrt_pd(squared_lengths(d))) };
     }
     reference_lengths_from(positions, i, row, lengths, full);
 }
@@ -172,18 +168,28 @@ unsafe fn ball_lanes(
     radius_squared: __m256d,
 ) -> u32 {
     // SAFETY: the caller's contract.
-    let (dx, dy, dz) = unsafe {
-        (
+    let d = unsafe {
+        [
             _mm256_sub_pd(_mm256_loadu_pd(x.add(at)), px),
             _mm256_sub_pd(_mm256_loadu_pd(y.add(at)), py),
             _mm256_sub_pd(_mm256_loadu_pd(z.add(at)), pz),
-        )
+        ]
     };
-    let q = _mm256_add_pd(
-        _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
-        _mm256_mul_pd(dz, dz),
-    );
-    _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(q, radius_squared)) as u32
+    _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(
+        squared_lengths(d),
+        radius_squared,
+    )) as u32
+}
+
+/// q = (dx² + dy²) + dz² per lane, as `squared_length` evaluates it (no fused multiply-add):
+/// the number both the ball test and the reference lengths take.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn squared_lengths(d: [__m256d; 3]) -> __m256d {
+    _mm256_add_pd(
+        _mm256_add_pd(_mm256_mul_pd(d[0], d[0]), _mm256_mul_pd(d[1], d[1])),
+        _mm256_mul_pd(d[2], d[2]),
+    )
 }
 
 /// The 8-bit mask of the 32-bit lanes of `v` whose top bit is set (a comparison's result).
