@@ -97,17 +97,15 @@ unsafe fn sort_padded<const REGISTERS: usize>(row: &mut [u32]) {
 #[target_feature(enable = "avx2")]
 #[inline]
 fn bitonic_network<const REGISTERS: usize>(registers: &mut [__m256i; REGISTERS]) {
-    let swap_neighbours = _mm256_setr_epi32(1, 0, 3, 2, 5, 4, 7, 6);
-    let flip_fours = _mm256_setr_epi32(3, 2, 1, 0, 7, 6, 5, 4);
-    // Block sizes 2, 4 and 8 lie within one register.
+    // Block sizes 2, 4 and 8 lie within one register: each size's flip, then its half-cleaners
+    // (size 4: distance 1; size 8: distances 2 and 1).
     for register in registers.iter_mut() {
         let mut v = *register;
-        v = exchange_lanes::<0b1010_1010>(v, swap_neighbours);
-        v = exchange_lanes::<0b1100_1100>(v, flip_fours);
-        v = exchange_lanes::<0b1010_1010>(v, swap_neighbours);
+        v = exchange_lanes::<0b1010_1010>(v, swap_neighbours());
+        v = exchange_lanes::<0b1100_1100>(v, flip_fours());
+        v = exchange_lanes::<0b1010_1010>(v, swap_neighbours());
         v = exchange_lanes::<0b1111_0000>(v, reversed_lanes());
-        v = exchange_lanes::<0b1100_1100>(v, swap_pairs());
-        *register = exchange_lanes::<0b1010_1010>(v, swap_neighbours);
+        *register = half_cleaners_within_fours(v);
     }
     // Block sizes 16, 32, …: `span` registers per block.
     let mut span = 2;
@@ -143,9 +141,15 @@ fn bitonic_network<const REGISTERS: usize>(registers: &mut [__m256i; REGISTERS])
 #[target_feature(enable = "avx2")]
 #[inline]
 fn half_cleaners_within(v: __m256i) -> __m256i {
-    let v = exchange_lanes::<0b1111_0000>(v, _mm256_setr_epi32(4, 5, 6, 7, 0, 1, 2, 3));
+    half_cleaners_within_fours(exchange_lanes::<0b1111_0000>(v, swap_halves()))
+}
+
+/// The half-cleaners at distances 2 and 1, which lie within each group of four lanes.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn half_cleaners_within_fours(v: __m256i) -> __m256i {
     let v = exchange_lanes::<0b1100_1100>(v, swap_pairs());
-    exchange_lanes::<0b1010_1010>(v, _mm256_setr_epi32(1, 0, 3, 2, 5, 4, 7, 6))
+    exchange_lanes::<0b1010_1010>(v, swap_neighbours())
 }
 
 /// Compare-exchange of each lane with lane `partner[lane]`: the lanes set in `HIGHER` keep the
@@ -155,6 +159,27 @@ fn half_cleaners_within(v: __m256i) -> __m256i {
 fn exchange_lanes<const HIGHER: i32>(v: __m256i, partner: __m256i) -> __m256i {
     let other = _mm256_permutevar8x32_epi32(v, partner);
     _mm256_blend_epi32::<HIGHER>(_mm256_min_epu32(v, other), _mm256_max_epu32(v, other))
+}
+
+/// The permutation that pairs lane k with lane k ± 1 within each pair of lanes.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn swap_neighbours() -> __m256i {
+    _mm256_setr_epi32(1, 0, 3, 2, 5, 4, 7, 6)
+}
+
+/// The permutation that pairs lane k with lane 3 − k within each group of four.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn flip_fours() -> __m256i {
+    _mm256_setr_epi32(3, 2, 1, 0, 7, 6, 5, 4)
+}
+
+/// The permutation that pairs lane k with lane k ± 4.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn swap_halves() -> __m256i {
+    _mm256_setr_epi32(4, 5, 6, 7, 0, 1, 2, 3)
 }
 
 /// The permutation that pairs lane k with lane k ± 2 within each group of four.
