@@ -31,6 +31,10 @@
 //! order), ≈ 0.9 s allocating and filling the 1.4 GB of output; see `benches/neighbor_search.rs`.
 //! Of that output cost, first-touch page faults alone take ≈ 0.65 CPU s (4 KiB pages; huge pages
 //! are opt-in via madvise on the development machine and their fault time varied 0.2–3 s).
+//! On 2026-11-28 the same machine, much slower by then, took 1.0–1.25 s on one thread and
+//! 0.54–0.65 s on two to first-touch 1.4 GB of fresh pages (a C program touching one byte per
+//! page, ≈ 3 µs per fault, most of it the kernel's fault path under virtualisation): a floor
+//! for this search's output that no change inside the search can lower.
 //!
 //! On CPUs with AVX2 the cell-grid query runs a second build of itself compiled for AVX2
 //! (four distance tests per instruction instead of two; the same operations, no FMA, so the
