@@ -101,10 +101,10 @@ fn bitonic_network<const REGISTERS: usize>(registers: &mut [__m256i; REGISTERS])
     // (size 4: distance 1; size 8: distances 2 and 1).
     for register in registers.iter_mut() {
         let mut v = *register;
-        v = exchange_lanes::<0b1010_1010>(v, swap_neighbours());
-        v = exchange_lanes::<0b1100_1100>(v, flip_fours());
-        v = exchange_lanes::<0b1010_1010>(v, swap_neighbours());
-        v = exchange_lanes::<0b1111_0000>(v, reversed_lanes());
+        v = exchange_lanes::<0b1010_1010>(v, permutation(SWAP_NEIGHBOURS));
+        v = exchange_lanes::<0b1100_1100>(v, permutation(FLIP_FOURS));
+        v = exchange_lanes::<0b1010_1010>(v, permutation(SWAP_NEIGHBOURS));
+        v = exchange_lanes::<0b1111_0000>(v, permutation(REVERSED_LANES));
         *register = half_cleaners_within_fours(v);
     }
     // Block sizes 16, 32, …: `span` registers per block.
@@ -141,15 +141,15 @@ fn bitonic_network<const REGISTERS: usize>(registers: &mut [__m256i; REGISTERS])
 #[target_feature(enable = "avx2")]
 #[inline]
 fn half_cleaners_within(v: __m256i) -> __m256i {
-    half_cleaners_within_fours(exchange_lanes::<0b1111_0000>(v, swap_halves()))
+    half_cleaners_within_fours(exchange_lanes::<0b1111_0000>(v, permutation(SWAP_HALVES)))
 }
 
 /// The half-cleaners at distances 2 and 1, which lie within each group of four lanes.
 #[target_feature(enable = "avx2")]
 #[inline]
 fn half_cleaners_within_fours(v: __m256i) -> __m256i {
-    let v = exchange_lanes::<0b1100_1100>(v, swap_pairs());
-    exchange_lanes::<0b1010_1010>(v, swap_neighbours())
+    let v = exchange_lanes::<0b1100_1100>(v, permutation(SWAP_PAIRS));
+    exchange_lanes::<0b1010_1010>(v, permutation(SWAP_NEIGHBOURS))
 }
 
 /// Compare-exchange of each lane with lane `partner[lane]`: the lanes set in `HIGHER` keep the
@@ -161,46 +161,30 @@ fn exchange_lanes<const HIGHER: i32>(v: __m256i, partner: __m256i) -> __m256i {
     _mm256_blend_epi32::<HIGHER>(_mm256_min_epu32(v, other), _mm256_max_epu32(v, other))
 }
 
-/// The permutation that pairs lane k with lane k ± 1 within each pair of lanes.
+/// A lane permutation: lane k takes lane `lanes[k]`.
 #[target_feature(enable = "avx2")]
 #[inline]
-fn swap_neighbours() -> __m256i {
-    _mm256_setr_epi32(1, 0, 3, 2, 5, 4, 7, 6)
+fn permutation(lanes: [i32; LANES]) -> __m256i {
+    let [a, b, c, d, e, f, g, h] = lanes;
+    _mm256_setr_epi32(a, b, c, d, e, f, g, h)
 }
 
-/// The permutation that pairs lane k with lane 3 − k within each group of four.
-#[target_feature(enable = "avx2")]
-#[inline]
-fn flip_fours() -> __m256i {
-    _mm256_setr_epi32(3, 2, 1, 0, 7, 6, 5, 4)
-}
-
-/// The permutation that pairs lane k with lane k ± 4.
-#[target_feature(enable = "avx2")]
-#[inline]
-fn swap_halves() -> __m256i {
-    _mm256_setr_epi32(4, 5, 6, 7, 0, 1, 2, 3)
-}
-
-/// The permutation that pairs lane k with lane k ± 2 within each group of four.
-#[target_feature(enable = "avx2")]
-#[inline]
-fn swap_pairs() -> __m256i {
-    _mm256_setr_epi32(2, 3, 0, 1, 6, 7, 4, 5)
-}
-
-/// The permutation that reverses the eight lanes.
-#[target_feature(enable = "avx2")]
-#[inline]
-fn reversed_lanes() -> __m256i {
-    _mm256_setr_epi32(7, 6, 5, 4, 3, 2, 1, 0)
-}
+/// Pairs lane k with lane k ± 1 within each pair of lanes.
+const SWAP_NEIGHBOURS: [i32; LANES] = [1, 0, 3, 2, 5, 4, 7, 6];
+/// Pairs lane k with lane 3 − k within each group of four.
+const FLIP_FOURS: [i32; LANES] = [3, 2, 1, 0, 7, 6, 5, 4];
+/// Pairs lane k with lane k ± 4.
+const SWAP_HALVES: [i32; LANES] = [4, 5, 6, 7, 0, 1, 2, 3];
+/// Pairs lane k with lane k ± 2 within each group of four.
+const SWAP_PAIRS: [i32; LANES] = [2, 3, 0, 1, 6, 7, 4, 5];
+/// Reverses the eight lanes.
+const REVERSED_LANES: [i32; LANES] = [7, 6, 5, 4, 3, 2, 1, 0];
 
 /// `v` with its lanes in reverse order.
 #[target_feature(enable = "avx2")]
 #[inline]
 fn reverse(v: __m256i) -> __m256i {
-    _mm256_permutevar8x32_epi32(v, reversed_lanes())
+    _mm256_permutevar8x32_epi32(v, permutation(REVERSED_LANES))
 }
 
 #[cfg(test)]
