@@ -70,12 +70,19 @@ impl Running {
         );
     }
 
-    fn signal(&self, name: &str) {
-        let sent = Command::new("kill")
-            .args([&format!("-{name}"), &self.child.id().to_string()])
-            .status()
-            .expect("kill runs");
-        assert!(sent.success(), "kill -{name} failed");
+    /// Sends `signal` (`libc::SIGINT`, …) to the run through the kill(2) system call, so the
+    /// tests need no `kill` program (Debian's is in `procps`, which a minimal system lacks).
+    fn signal(&self, signal: libc::c_int) {
+        let pid = libc::pid_t::try_from(self.child.id()).expect("a process id fits pid_t");
+        // SAFETY: kill(2) only reads its two integer arguments; the child is not yet reaped
+        // (`finish` waits for it later), so the id still names this run.
+        let sent = unsafe { libc::kill(pid, signal) };
+        assert_eq!(
+            sent,
+            0,
+            "kill({pid}, {signal}) failed: {}",
+            std::io::Error::last_os_error()
+        );
     }
 
     /// The exit status and the whole stderr, killing the run if it has not ended in 5 minutes.
@@ -234,7 +241,7 @@ fn sigterm_finishes_the_explicit_step_and_writes_its_frame() {
     let mut run = Running::start(dir.path());
     run.wait_for("Verlet, Δt");
     std::thread::sleep(Duration::from_millis(300));
-    run.signal("TERM");
+    run.signal(libc::SIGTERM);
     let (status, stderr) = run.finish();
     assert_eq!(status.code(), Some(STOPPED), "{stderr}");
     assert!(stderr.contains("stopped by SIGTERM after step"), "{stderr}");
@@ -262,7 +269,7 @@ fn sigint_finishes_the_load_step_and_writes_its_frame() {
     quasi_static_run(dir.path(), (12, 6, 6), 50);
     let mut run = Running::start(dir.path());
     run.wait_for("load steps");
-    run.signal("INT");
+    run.signal(libc::SIGINT);
     let (status, stderr) = run.finish();
     assert_eq!(status.code(), Some(STOPPED), "{stderr}");
     assert!(stderr.contains("stopped by SIGINT after step"), "{stderr}");
@@ -285,9 +292,9 @@ fn a_second_signal_ends_the_run_at_once() {
     quasi_static_run(dir.path(), (40, 25, 20), 2);
     let mut run = Running::start(dir.path());
     run.wait_for("load steps");
-    run.signal("INT");
+    run.signal(libc::SIGINT);
     std::thread::sleep(Duration::from_millis(200));
-    run.signal("INT");
+    run.signal(libc::SIGINT);
     let (status, stderr) = run.finish();
     // 128 + SIGINT (2), the shell's convention for a process ended by a signal.
     assert_eq!(status.code(), Some(130), "{stderr}");
@@ -304,7 +311,7 @@ fn sigkill_leaves_the_frames_written_so_far_readable() {
     let mut run = Running::start(dir.path());
     run.wait_for("Verlet, Δt");
     std::thread::sleep(Duration::from_millis(1500));
-    run.signal("KILL");
+    run.signal(libc::SIGKILL);
     let (status, stderr) = run.finish();
     assert_eq!(status.code(), None, "killed by a signal: {stderr}");
     let file = ExodusFile::open(&dir.path().join("out/bar.e")).unwrap();
