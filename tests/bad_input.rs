@@ -400,3 +400,196 @@ fn an_instability_suggests_a_safety_factor_that_runs() {
         assert!(output.status.success(), "{}", stderr(&output));
     }
 }
+
+// Issue 44: a second fuzzing campaign (decks, meshes and node-set files mutated as a careless
+// user would) found eight answers that were wrong or blamed the wrong key.
+
+/// This machine's memory (MemTotal), or None where it cannot be read (then nothing is refused
+/// for its size).
+fn physical_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// `check` and `run` of `deck.yaml` in `dir` with at most 4 GiB of address space, so that a
+/// size guard that failed to refuse would end on a failed allocation instead of taking the
+/// machine's memory.
+fn peridyn_within_4_gib(args: &[&str], dir: &Path) -> Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_peridyn"));
+    command.args(args).current_dir(dir);
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::CommandExt;
+        // SAFETY: between fork and exec only setrlimit, which is async-signal-safe, is called.
+        unsafe {
+            command.pre_exec(|| {
+                let limit = libc::rlimit {
+                    rlim_cur: 4 << 30,
+                    rlim_max: 4 << 30,
+                };
+                if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                Ok(())
+            });
+        }
+    }
+    command.output().expect("peridyn runs")
+}
+
+/// [`assert_refused_alike`] within 4 GiB of address space.
+fn assert_refused_within_4_gib(dir: &Path, line: usize, expected: &[&str]) {
+    for args in [
+        &["check", "deck.yaml"][..],
+        &["run", "deck.yaml", "--output-dir", "out"][..],
+    ] {
+        let output = peridyn_within_4_gib(args, dir);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {message}");
+        assert!(
+            message.contains(&format!("deck.yaml:{line}:")),
+            "{args:?}: line {line} not named: {message}"
+        );
+        for part in expected {
+            assert!(
+                message.contains(part),
+                "{args:?}: {part:?} missing: {message}"
+            );
+        }
+    }
+}
+
+/// Issue 44, finding 1: a mesh deck had no size guard; a horizon of 10⁶ spacings built every
+/// bond of every pair of points. Now the families of sampled points are counted first.
+#[test]
+fn a_mesh_whose_bonds_cannot_fit_is_refused_at_its_horizon() {
+    let Some(memory) = physical_memory() else {
+        return;
+    };
+    // N points with N − 1 bonds each need at least N·(120 + 12·(N − 1)) bytes (the guard's
+    // floor, src/setup/size_guard.rs): N is chosen to need twice this machine's memory.
+    let n = ((2.0 * memory as f64 / 12.0).sqrt()).ceil() as usize + 1;
+    let dir = folder_with("Horizon: 1.75", "Horizon: 1.0e6");
+    let mut text = String::with_capacity(24 * n);
+    // A 100 × 100 × ⌈n/10⁴⌉ unit lattice, x fastest, cut at n points.
+    for p in 0..n {
+        let (i, j, k) = (p % 100, (p / 100) % 100, p / 10_000);
+        text.push_str(&format!("{i} {j} {k} 1 1.0\n"));
+    }
+    std::fs::write(dir.path().join("mesh.txt"), text).unwrap();
+    // A horizon of 10⁶ reaches every point of the lattice (its diagonal is below 200), so every
+    // point's family is the other n − 1 points.
+    assert_refused_within_4_gib(
+        dir.path(),
+        line_of(DECK, "Horizon: 1.75"),
+        &[
+            "Blocks → Everything → Horizon",
+            &format!("{n} points with about {} bonds each", n - 1),
+            "about 3 spacings",
+        ],
+    );
+}
+
+/// A QuickGrid deck: a unit cube of 5 × 5 × 5 points 0.2 apart, LPS steel, horizon 3.05
+/// spacings, an initial velocity on the x = 0.1 face (points 1, 6, …, 21 of the z = 0.1 layer).
+const GRID_DECK: &str = r#"Peridigm:
+  Discretization:
+    Type: "PdQuickGrid"
+    TensorProduct3DMeshGenerator:
+      X Origin: 0.0
+      Y Origin: 0.0
+      Z Origin: 0.0
+      X Length: 1.0
+      Y Length: 1.0
+      Z Length: 1.0
+      Number Points X: 5
+      Number Points Y: 5
+      Number Points Z: 5
+  Materials:
+    Steel:
+      Material Model: "Elastic"
+      Density: 7800.0
+      Bulk Modulus: 130.0e9
+      Shear Modulus: 78.0e9
+  Blocks:
+    All:
+      Block Names: "block_1"
+      Material: "Steel"
+      Horizon: 0.61
+  Boundary Conditions:
+    Left Node Set: "1 6 11 16 21"
+    Push:
+      Type: "Initial Velocity"
+      Node Set: "Left Node Set"
+      Coordinate: "x"
+      Value: "1.0"
+  Solver:
+    Initial Time: 0.0
+    Final Time: 1.0e-3
+    Verlet:
+      Safety Factor: 0.8
+  Output:
+    Output Filename: "grid"
+    Output Frequency: 100
+    Output Variables:
+      Displacement: true
+"#;
+
+/// A folder holding `deck.yaml`: GRID_DECK with each `(from, to)` replacement made once.
+fn grid_folder(replacements: &[(&str, &str)]) -> tempfile::TempDir {
+    let mut deck = GRID_DECK.to_string();
+    for (from, to) in replacements {
+        assert!(deck.contains(from), "test setup: {from:?} not in GRID_DECK");
+        deck = deck.replacen(from, to, 1);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("deck.yaml"), deck).unwrap();
+    dir
+}
+
+#[test]
+fn the_valid_grid_deck_runs() {
+    let dir = grid_folder(&[]);
+    let output = peridyn(&["run", "deck.yaml", "--output-dir", "out"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+}
+
+/// Issue 44, finding 2: the size guard counted 4,188,790,205 bonds a point for a 125-point
+/// cube with a huge horizon, and blamed `Number Points X`. A point has at most N − 1 bonds,
+/// and when the horizon is what makes a body too big, the horizon is named.
+#[test]
+fn the_size_guard_counts_at_most_n_minus_1_bonds_and_names_the_horizon() {
+    let dir = grid_folder(&[("Horizon: 0.61", "Horizon: 1.0e12")]);
+    let output = peridyn_within_4_gib(&["check", "deck.yaml"], dir.path());
+    let plan = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{}", stderr(&output));
+    // 125 points, each bonded to the 124 others.
+    assert!(
+        plan.contains("family min/max/mean 124/124/124.00"),
+        "{plan}"
+    );
+
+    if physical_memory().is_none() {
+        return;
+    }
+    // 100³ points 0.01 apart and a horizon of 100 spacings: Peridigm's box neighbourhood
+    // reaches every point (±100 cells), so 10⁶ − 1 bonds a point, 12 TB at 12 bytes a bond;
+    // with a horizon of 3 spacings the same points would need 1.5 GB.
+    let dir = grid_folder(&[
+        ("Number Points X: 5", "Number Points X: 100"),
+        ("Number Points Y: 5", "Number Points Y: 100"),
+        ("Number Points Z: 5", "Number Points Z: 100"),
+        ("Horizon: 0.61", "Horizon: 1.0"),
+    ]);
+    assert_refused_within_4_gib(
+        dir.path(),
+        line_of(GRID_DECK, "Horizon: 0.61"),
+        &[
+            "Blocks → All → Horizon",
+            "1000000 points with about 999999 bonds each",
+            "about 3 spacings",
+        ],
+    );
+}

@@ -10,6 +10,7 @@ mod node_sets;
 mod physics;
 pub mod quadrature;
 pub mod report;
+mod size_guard;
 pub mod surface_correction;
 mod validate;
 
@@ -24,8 +25,8 @@ use crate::discretization::{
 };
 use crate::expression::{Expression, INFLUENCE, SPACE, SPACE_TIME, TIME};
 use crate::io::deck::{
-    BoundaryConditionKind, DamageKind, Deck, DeckError, Horizon, InfluenceFunction, PointSource,
-    QuickGridGenerator,
+    BoundaryConditionKind, DamageKind, Deck, DeckError, Horizon, InfluenceFunction, OmitBonds,
+    PointSource, QuickGridGenerator,
 };
 use crate::model::{BlockInfo, BondList, Model, ModelBlock, NodeSets, PointCloud};
 use crate::neighbors::{space_filling_curve_order, NeighborhoodRule};
@@ -65,7 +66,7 @@ pub fn discretize(deck: &Deck) -> Result<Discretization, SetupError> {
                     length,
                     number_of_points,
                 } => {
-                    refuse_grid_beyond_memory(deck, length, number_of_points)?;
+                    size_guard::refuse_grid_beyond_memory(deck, length, number_of_points)?;
                     let grid = TensorProductGrid {
                         origin: *origin,
                         length: *length,
@@ -98,6 +99,7 @@ pub fn discretize(deck: &Deck) -> Result<Discretization, SetupError> {
                         center: *ring_center,
                         z_origin: *z_origin,
                     };
+                    size_guard::refuse_cylinder_beyond_memory(deck, &grid)?;
                     Discretization {
                         points: grid.generate(),
                         blocks: vec![BlockInfo::from_id(1)],
@@ -129,56 +131,6 @@ pub fn discretize(deck: &Deck) -> Result<Discretization, SetupError> {
         }
     };
     Ok(discretization)
-}
-
-/// Bytes a point needs at least in a run (reference data, the kinematic fields and the force),
-/// and a directed bond (neighbour index and reference length): the floor of the run plan's
-/// estimate, used before anything is allocated.
-const LEAST_BYTES_PER_POINT: u128 = 120;
-/// See [`LEAST_BYTES_PER_POINT`].
-const LEAST_BYTES_PER_BOND: u128 = 12;
-
-/// Refuses a QuickGrid block whose points and bonds cannot fit in this machine's memory
-/// before generating it (a typo such as `Number Points X: 100000` would otherwise abort on a
-/// failed allocation). Bonds per point are counted as the lattice points within the largest
-/// constant horizon; with no readable memory size (not Linux) nothing is refused.
-fn refuse_grid_beyond_memory(
-    deck: &Deck,
-    length: &[f64; 3],
-    number_of_points: &[u64; 3],
-) -> Result<(), DeckError> {
-    let Some(memory) = crate::plan::physical_memory_bytes() else {
-        return Ok(());
-    };
-    let points: u128 = number_of_points.iter().map(|&n| u128::from(n)).product();
-    let spacing = (0..3)
-        .map(|k| length[k] / number_of_points[k] as f64)
-        .fold(f64::INFINITY, f64::min);
-    let horizon = deck
-        .blocks
-        .iter()
-        .filter_map(|b| match b.horizon {
-            Horizon::Constant(h) => Some(h),
-            Horizon::Expression(_) => None,
-        })
-        .fold(0.0, f64::max);
-    let ratio = (horizon / spacing).min(1e3);
-    let family = (4.0 / 3.0 * std::f64::consts::PI * ratio.powi(3)).ceil() as u128;
-    let bytes = points * (LEAST_BYTES_PER_POINT + family * LEAST_BYTES_PER_BOND);
-    if bytes <= u128::from(memory) {
-        return Ok(());
-    }
-    Err(deck.error_at(
-        &["Discretization", "TensorProduct3DMeshGenerator", "Number Points X"],
-        format!(
-            "{} × {} × {} = {points} points with about {family} bonds each need at least {} of memory, more than this machine's {}; use fewer points",
-            number_of_points[0],
-            number_of_points[1],
-            number_of_points[2],
-            crate::plan::format_bytes(u64::try_from(bytes).unwrap_or(u64::MAX)),
-            crate::plan::format_bytes(memory)
-        ),
-    ))
 }
 
 /// For each mesh block, the deck `Blocks` entry that covers it (by name, or `Default`).
@@ -500,11 +452,23 @@ pub fn build_families(deck: &Deck, model: &mut Model, rule: &FamilyRule) -> Resu
     }
     // Partial-volume rules that reach cells beyond the horizon search a wider family.
     let widened = quadrature::search_horizons(deck, model)?;
+    let horizons = widened.as_deref().unwrap_or(&model.horizon);
+    if let FamilyRule::Search(NeighborhoodRule::Sphere) = rule {
+        let block_entry: Vec<usize> = model.blocks.iter().map(|b| b.deck_block).collect();
+        let same_block = deck.discretization.omit_bonds_between_blocks == OmitBonds::All;
+        size_guard::refuse_mesh_beyond_memory(
+            deck,
+            &model.points,
+            horizons,
+            &block_entry,
+            same_block,
+        )?;
+    }
     model.bonds = families::build(
         deck,
         rule,
         &model.points,
-        widened.as_deref().unwrap_or(&model.horizon),
+        horizons,
         &order,
         &model.run_index,
     )?;
