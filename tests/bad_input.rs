@@ -593,3 +593,34 @@ fn the_size_guard_counts_at_most_n_minus_1_bonds_and_names_the_horizon() {
         ],
     );
 }
+
+/// Issue 44, finding 3: a condition on a vector field without `Coordinate` was taken as x.
+#[test]
+fn a_vector_condition_without_coordinate_is_refused() {
+    for kind in [
+        "Initial Velocity",
+        "Initial Displacement",
+        "Prescribed Displacement",
+        "Body Force",
+    ] {
+        let deck = DECK
+            .replacen(
+                "Type: \"Initial Velocity\"",
+                &format!("Type: \"{kind}\""),
+                1,
+            )
+            .replacen("      Coordinate: \"x\"\n", "", 1);
+        let dir = folder_with("Safety Factor: 0.8", "Safety Factor: 0.8");
+        std::fs::write(dir.path().join("deck.yaml"), &deck).unwrap();
+        // A missing key is reported at the line of its list.
+        assert_refused_alike(
+            dir.path(),
+            line_of(&deck, "    Push:"),
+            &[
+                "Boundary Conditions → Push → Coordinate",
+                "required key is missing",
+                &format!("the component this \"{kind}\" sets"),
+            ],
+        );
+    }
+}

@@ -60,8 +60,11 @@ pub struct BoundaryCondition {
     pub node_set: String,
     /// `Node Set` normalised with [`normalize_name`].
     pub node_set_normalized: String,
-    /// `Coordinate` — `x`, `y` or `z`; default `x`. Must be `x` for scalar fields
-    /// (temperature, fluid pressure).
+    /// `Coordinate` — `x`, `y` or `z`. Required for the conditions on a vector field
+    /// (displacement, velocity, body force): Peridigm takes `x` when it is absent
+    /// (`to_spatial_coordinate` in its `src/core/Peridigm_Enums.cpp`), which silently turns a
+    /// forgotten key into an x condition, so peridyn asks for it. Omitted (or `x`) for scalar
+    /// fields (temperature, fluid pressure).
     pub coordinate: Coordinate,
     /// `Value` (required) — an expression in `x y z t` kept as text; numbers keep their
     /// spelling (Peridigm converts a double to a string too).
@@ -224,7 +227,14 @@ fn read_condition(ctx: &mut Ctx, field: &Field) -> Result<BoundaryCondition, Dec
         })?;
     let node_set = list.name_req(ctx, "Node Set")?;
     let coordinate = match list.get("Coordinate") {
-        None => Coordinate::X,
+        None if kind.is_scalar_field() => Coordinate::X,
+        None => {
+            let what = format!(
+                "\"x\", \"y\" or \"z\": the component this \"{}\" sets; peridyn does not take a missing one as \"x\"",
+                kind.deck_name()
+            );
+            return Err(list.missing(ctx, "Coordinate", &what));
+        }
         Some(f) => {
             let c = match f.name(ctx)?.as_str() {
                 "x" | "X" => Coordinate::X,
