@@ -624,3 +624,43 @@ fn a_vector_condition_without_coordinate_is_refused() {
         );
     }
 }
+
+/// Issue 44, finding 4: with `Y Origin: -1e308` every y rounded to the same value; the zero
+/// time step that followed was blamed on `Final Time`.
+#[test]
+fn points_that_coincide_by_rounding_name_the_origin() {
+    let dir = grid_folder(&[("Y Origin: 0.0", "Y Origin: -1e308")]);
+    assert_refused_alike(
+        dir.path(),
+        line_of(GRID_DECK, "Y Origin"),
+        &[
+            "TensorProduct3DMeshGenerator → Y Origin",
+            "the points coincide",
+            "move this key nearer 0",
+        ],
+    );
+}
+
+/// Issue 44, finding 5: `Y Length: 1e308` gave volumes whose mass is infinite, found only as a
+/// non-finite residual or kinetic energy during the run.
+#[test]
+fn geometry_beyond_a_double_names_the_key() {
+    let dir = grid_folder(&[("Y Length: 1.0", "Y Length: 1e308")]);
+    assert_refused_alike(
+        dir.path(),
+        line_of(GRID_DECK, "Y Length"),
+        &[
+            "TensorProduct3DMeshGenerator → Y Length",
+            "beyond the lengths peridyn computes with",
+        ],
+    );
+    // The same in a mesh: point 2's volume.
+    let dir = folder_with("Safety Factor: 0.8", "Safety Factor: 0.8");
+    let text = mesh().replacen("1.0 0.0 0.0 1 1.0", "1.0 0.0 0.0 1 1.0e300", 1);
+    std::fs::write(dir.path().join("mesh.txt"), text).unwrap();
+    assert_refused_alike(
+        dir.path(),
+        line_of(DECK, "Input Mesh File"),
+        &["point 2 has the volume 1e300", "outside the volumes"],
+    );
+}

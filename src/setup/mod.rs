@@ -6,6 +6,7 @@
 
 pub mod disk;
 mod families;
+mod geometry;
 mod node_sets;
 mod physics;
 pub mod quadrature;
@@ -66,6 +67,7 @@ pub fn discretize(deck: &Deck) -> Result<Discretization, SetupError> {
                     length,
                     number_of_points,
                 } => {
+                    geometry::check_box(deck, origin, length, number_of_points)?;
                     size_guard::refuse_grid_beyond_memory(deck, length, number_of_points)?;
                     let grid = TensorProductGrid {
                         origin: *origin,
@@ -99,6 +101,7 @@ pub fn discretize(deck: &Deck) -> Result<Discretization, SetupError> {
                         center: *ring_center,
                         z_origin: *z_origin,
                     };
+                    geometry::check_cylinder(deck, &grid)?;
                     size_guard::refuse_cylinder_beyond_memory(deck, &grid)?;
                     Discretization {
                         points: grid.generate(),
@@ -263,6 +266,16 @@ fn point_horizons(
                 ),
             ));
         }
+        if !(geometry::SMALLEST_LENGTH..=geometry::LARGEST_LENGTH).contains(&value) {
+            return Err(deck.error_at(
+                &["Blocks", &block.name, "Horizon"],
+                format!(
+                    "the horizon {value:e} is outside the lengths peridyn computes with ({:e} to {:e} in the deck's units): the bond-based micromodulus 18K/(πδ⁴) would overflow or underflow a double; give it in the deck's units, about 3 point spacings",
+                    geometry::SMALLEST_LENGTH,
+                    geometry::LARGEST_LENGTH
+                ),
+            ));
+        }
         horizons.push(value);
     }
     Ok(horizons)
@@ -387,6 +400,9 @@ pub fn build_points(deck: &Deck) -> Result<(Model, FamilyRule), SetupError> {
         ),
         other => other,
     })?;
+    if !matches!(deck.discretization.source, PointSource::PdQuickGrid { .. }) {
+        geometry::check_mesh_points(deck, &discretization.points)?;
+    }
     refuse_coincident_points(deck, &discretization.points)?;
     let block_entry = assign_blocks(deck, &discretization.blocks)?;
     let mut points = discretization.points.clone();
