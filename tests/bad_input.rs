@@ -664,3 +664,22 @@ fn geometry_beyond_a_double_names_the_key() {
         &["point 2 has the volume 1e300", "outside the volumes"],
     );
 }
+
+/// Issue 44, finding 6: `Fixed dt: 1e-320` was reported at `Final Time`.
+#[test]
+fn a_time_step_too_small_to_run_names_fixed_dt() {
+    let dir = folder_with("Safety Factor: 0.8", "Fixed dt: 1e-320");
+    assert_refused_alike(
+        dir.path(),
+        line_of(DECK, "Safety Factor: 0.8"),
+        &["Solver → Verlet → Fixed dt", "the time step is at fault"],
+    );
+    // A normal but tiny time step: the stable estimate would run the span, so the time step is
+    // at fault too.
+    let dir = folder_with("Safety Factor: 0.8", "Fixed dt: 1e-300");
+    assert_refused_alike(
+        dir.path(),
+        line_of(DECK, "Safety Factor: 0.8"),
+        &["Solver → Verlet → Fixed dt", "Peridigm's stable estimate"],
+    );
+}

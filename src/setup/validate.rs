@@ -88,32 +88,56 @@ fn validate_restart(deck: &Deck) -> Result<(), DeckError> {
 /// Every `Verlet` and `Implicit` list must have a time step and a step count within
 /// [`MAX_STEPS`].
 fn validate_time_steps(deck: &Deck, model: &Model) -> Result<(), DeckError> {
-    // Computed once, and only if a Verlet list needs it (one pass over the bonds).
+    // Computed once, and only if a list needs it (one pass over the bonds).
     let mut estimate: Option<Option<f64>> = None;
     for solver in &deck.solvers {
         let span = solver.final_time - solver.initial_time;
-        let time_step = match &solver.integrator {
-            Integrator::Verlet(verlet) => {
-                let base = match verlet.fixed_dt {
-                    Some(dt) => dt,
-                    None => estimate
+        let (time_step, step_key) = match &solver.integrator {
+            Integrator::Verlet(verlet) => match verlet.fixed_dt {
+                Some(dt) => (verlet.safety_factor * dt, "Fixed dt"),
+                None => {
+                    let base = estimate
                         .get_or_insert_with(|| critical_time_step(deck, model))
-                        .ok_or_else(|| no_neighbours(deck, model, &solver.name))?,
-                };
-                verlet.safety_factor * base
-            }
-            Integrator::Implicit(implicit) => implicit.fixed_dt,
+                        .ok_or_else(|| no_neighbours(deck, model, &solver.name))?;
+                    (verlet.safety_factor * base, "Safety Factor")
+                }
+            },
+            Integrator::Implicit(implicit) => (implicit.fixed_dt, "Fixed dt"),
             _ => continue,
         };
-        if step_count(span, time_step).is_none() {
-            return Err(deck.error_at(
-                &[&solver.name, "Final Time"],
-                format!(
-                    "solver \"{}\": {span:e} s at a time step of {time_step:e} s is not a step count peridyn can run (more than {MAX_STEPS:e} steps, or a zero time step); check Final Time, Initial Time and the time step",
-                    solver.name
-                ),
-            ));
+        if step_count(span, time_step).is_some() {
+            continue;
         }
+        // The time step is at fault when it is no normal positive double (a Safety Factor only
+        // when the stable estimate is one), or when the span runs at the stable estimate.
+        let stable = (*estimate.get_or_insert_with(|| critical_time_step(deck, model)))
+            .filter(|stable| stable.is_normal());
+        let step_at_fault = (!time_step.is_normal()
+            && (step_key == "Fixed dt" || stable.is_some()))
+            || stable.is_some_and(|stable| step_count(span, stable).is_some());
+        let message = format!(
+            "solver \"{}\": {span:e} s at a time step of {time_step:e} s is not a step count peridyn can run (more than {MAX_STEPS:e} steps, or a zero time step); ",
+            solver.name
+        );
+        let list = solver.integrator.deck_name();
+        let error = match stable {
+            Some(stable) if step_at_fault => deck.error_at(
+                &[&solver.name, list, step_key],
+                format!(
+                    "{message}the time step is at fault: Peridigm's stable estimate for this body is {stable:.3e} s, which gives {} steps; give a \"{step_key}\" that makes a time step near it",
+                    (span / stable).floor()
+                ),
+            ),
+            _ if step_at_fault => deck.error_at(
+                &[&solver.name, list, step_key],
+                format!("{message}the time step is at fault: give a larger \"{step_key}\""),
+            ),
+            _ => deck.error_at(
+                &[&solver.name, "Final Time"],
+                format!("{message}check Final Time, Initial Time and the time step"),
+            ),
+        };
+        return Err(error);
     }
     Ok(())
 }
