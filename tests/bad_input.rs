@@ -683,3 +683,26 @@ fn a_time_step_too_small_to_run_names_fixed_dt() {
         &["Solver → Verlet → Fixed dt", "Peridigm's stable estimate"],
     );
 }
+
+/// Issue 44, finding 7: an id out of range in a node-set file, or an empty file, was reported
+/// at the deck line naming the set, without the file and its line.
+#[test]
+fn a_bad_node_set_file_is_named_with_its_line() {
+    let dir = folder_with("Safety Factor: 0.8", "Safety Factor: 0.8");
+    std::fs::write(dir.path().join("left.txt"), "# ids\n1 4\n99\n").unwrap();
+    assert_refused_alike(
+        dir.path(),
+        line_of(DECK, "Left Node Set: \"left.txt\""),
+        &[
+            "Boundary Conditions → Left Node Set",
+            "left.txt:3: node id 99 is out of range",
+            "numbered 1 to 27",
+        ],
+    );
+    std::fs::write(dir.path().join("left.txt"), "# no ids\n").unwrap();
+    assert_refused_alike(
+        dir.path(),
+        line_of(DECK, "      Node Set: \"Left Node Set\""),
+        &["has no points (its file", "left.txt lists no node ids)"],
+    );
+}

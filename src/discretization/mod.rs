@@ -13,7 +13,7 @@ mod text_file;
 
 pub use cylinder::{CylinderGrid, IndexFamilies};
 pub use exodus_mesh::{read_exodus_mesh, ExodusMesh};
-pub use node_set_file::{parse_node_id, read_node_set_file};
+pub use node_set_file::{parse_node_id, read_node_set_file, read_node_set_file_lines, NodeSetFile};
 pub use shell_mesh::read_shell_faces;
 pub use tensor_product::{cells_per_horizon, TensorProductGrid};
 pub use text_file::{parse_text_mesh, read_text_mesh, TextMesh};

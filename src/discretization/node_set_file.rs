@@ -3,14 +3,29 @@
 use super::MeshError;
 use std::path::Path;
 
+/// The ids of a node-set file as written, with the line each is on, so that a problem with an
+/// id found later (beyond the number of points) names the file and its line.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct NodeSetFile {
+    /// The ids as written (1-based).
+    pub ids: Vec<u64>,
+    /// The 1-based line of each id.
+    pub lines: Vec<usize>,
+}
+
 /// Reads a node-set file: whitespace-separated 1-based ids, any number per line; lines
 /// starting with `#`, `/` or `*` are comments (Peridigm's rule). Returns the ids as written.
 pub fn read_node_set_file(path: &Path) -> Result<Vec<u64>, MeshError> {
+    read_node_set_file_lines(path).map(|file| file.ids)
+}
+
+/// [`read_node_set_file`], with the line of each id.
+pub fn read_node_set_file_lines(path: &Path) -> Result<NodeSetFile, MeshError> {
     let text = std::fs::read_to_string(path).map_err(|source| MeshError::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    let mut ids = Vec::new();
+    let mut file = NodeSetFile::default();
     for (index, raw) in text.lines().enumerate() {
         let content = raw.trim();
         if content.is_empty() || content.starts_with(['#', '/', '*']) {
@@ -22,10 +37,11 @@ pub fn read_node_set_file(path: &Path) -> Result<Vec<u64>, MeshError> {
                 line: index + 1,
                 message: format!("node id `{token}` is not a positive integer (ids are 1-based)"),
             })?;
-            ids.push(id);
+            file.ids.push(id);
+            file.lines.push(index + 1);
         }
     }
-    Ok(ids)
+    Ok(file)
 }
 
 /// A 1-based node id; `0`, negatives and non-integers are rejected.
@@ -43,6 +59,10 @@ mod tests {
         let path = dir.path().join("set.txt");
         std::fs::write(&path, "# header\n9 10\n// c\n* c\n11\n").unwrap();
         assert_eq!(read_node_set_file(&path).unwrap(), vec![9, 10, 11]);
+        assert_eq!(
+            read_node_set_file_lines(&path).unwrap().lines,
+            vec![2, 2, 5]
+        );
         std::fs::write(&path, "1\n0\n").unwrap();
         let err = read_node_set_file(&path).unwrap_err().to_string();
         assert!(err.contains("set.txt:2"), "{err}");

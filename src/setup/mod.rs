@@ -26,8 +26,8 @@ use crate::discretization::{
 };
 use crate::expression::{Expression, INFLUENCE, SPACE, SPACE_TIME, TIME};
 use crate::io::deck::{
-    BoundaryConditionKind, DamageKind, Deck, DeckError, Horizon, InfluenceFunction, OmitBonds,
-    PointSource, QuickGridGenerator,
+    BoundaryConditionKind, DamageKind, Deck, DeckError, Horizon, InfluenceFunction, NodeSetSource,
+    OmitBonds, PointSource, QuickGridGenerator,
 };
 use crate::model::{BlockInfo, BondList, Model, ModelBlock, NodeSets, PointCloud};
 use crate::neighbors::{space_filling_curve_order, NeighborhoodRule};
@@ -313,10 +313,16 @@ fn boundary_conditions(deck: &Deck, node_sets: &NodeSets) -> Result<BoundaryCond
             })?
             .to_vec();
         if points.is_empty() {
+            let from_file = match deck.node_set(&bc.node_set).map(|set| &set.source) {
+                Some(NodeSetSource::File(path)) => {
+                    format!(" (its file {} lists no node ids)", path.display())
+                }
+                _ => String::new(),
+            };
             return Err(deck.error_at(
                 &["Boundary Conditions", &bc.name, "Node Set"],
                 format!(
-                    "node set \"{}\" has no points, so this condition would act on nothing; give the set its node ids or remove the condition",
+                    "node set \"{}\" has no points{from_file}, so this condition would act on nothing; give the set its node ids or remove the condition",
                     bc.node_set
                 ),
             ));

@@ -1,7 +1,7 @@
 //! Node sets from the deck (id lists or files) and from the mesh.
 
 use super::SetupError;
-use crate::discretization::read_node_set_file;
+use crate::discretization::read_node_set_file_lines;
 use crate::io::deck::{Deck, NodeSetSource};
 use crate::model::NodeSets;
 
@@ -21,21 +21,32 @@ pub(super) fn collect(
     }
     for definition in &deck.boundary_conditions.node_sets {
         let key = ["Boundary Conditions", definition.name.as_str()];
-        let ids = match &definition.source {
-            NodeSetSource::Ids(ids) => ids.clone(),
-            NodeSetSource::File(path) => read_node_set_file(path)
-                .map_err(|e| deck.error_at(&key, format!("cannot use the node-set file: {e}")))?,
+        // For a file, where each id is written (`file:line: `), for messages.
+        let (ids, places): (Vec<u64>, Vec<String>) = match &definition.source {
+            NodeSetSource::Ids(ids) => (ids.clone(), Vec::new()),
+            NodeSetSource::File(path) => {
+                let file = read_node_set_file_lines(path).map_err(|e| {
+                    deck.error_at(&key, format!("cannot use the node-set file: {e}"))
+                })?;
+                let places = file
+                    .lines
+                    .iter()
+                    .map(|line| format!("{}:{line}: ", path.display()))
+                    .collect();
+                (file.ids, places)
+            }
         };
         let first_id = u64::from(!deck.boundary_conditions.zero_based_ids);
         let last_id = num_points as u64 + first_id - 1;
         let mut points = Vec::with_capacity(ids.len());
-        for id in ids {
+        for (k, id) in ids.into_iter().enumerate() {
             if id < first_id || id > last_id {
+                let place = places.get(k).map_or("", String::as_str);
                 return Err(deck
                     .error_at(
                         &key,
                         format!(
-                            "node id {id} is out of range: the discretization has {num_points} points, numbered {first_id} to {last_id}"
+                            "{place}node id {id} is out of range: the discretization has {num_points} points, numbered {first_id} to {last_id}; correct or remove the id"
                         ),
                     )
                     .into());
