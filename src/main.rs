@@ -247,6 +247,9 @@ fn run(
     let model = build(&deck)?;
     // The checks `check` makes, in the same order; the plan's fields size the restart files.
     let plan = setup::plan(&deck, &model).map_err(invalid)?;
+    for warning in setup::bondless_warnings(&deck, &model) {
+        eprintln!("warning: {warning}");
+    }
     let unsupported = setup::unsupported_features(&deck);
     if !unsupported.is_empty() {
         return Err(Failure::Unsupported(format!(

@@ -706,3 +706,55 @@ fn a_bad_node_set_file_is_named_with_its_line() {
         &["has no points (its file", "left.txt lists no node ids)"],
     );
 }
+
+/// Issue 44, finding 8: a horizon of 10⁻¹² spacings ran to the end with no bond and no word.
+#[test]
+fn a_body_without_bonds_is_warned_of_or_refused() {
+    // With a Fixed dt (no stable estimate is needed) the run goes on, with a warning in both.
+    let dir = folder_with("Horizon: 1.75", "Horizon: 1.75e-12");
+    let deck = DECK
+        .replacen("Horizon: 1.75", "Horizon: 1.75e-12", 1)
+        .replacen("Safety Factor: 0.8", "Fixed dt: 1.0e-5", 1);
+    std::fs::write(dir.path().join("deck.yaml"), &deck).unwrap();
+    let warning = format!(
+        "warning: deck.yaml:{}: Blocks → Everything → Horizon: no point of block \"block_1\" has a neighbour within its horizon 1.75e-12",
+        line_of(DECK, "Horizon: 1.75")
+    );
+    let output = peridyn(&["check", "deck.yaml"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let plan = String::from_utf8_lossy(&output.stdout);
+    assert!(plan.contains(&warning), "{plan}");
+    let output = peridyn(&["run", "deck.yaml", "--output-dir", "out"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(stderr(&output).contains(&warning), "{}", stderr(&output));
+
+    // Nothing moves a point (the condition is gone): an error.
+    let still = deck.replacen(
+        "Type: \"Initial Velocity\"",
+        "Type: \"Initial Temperature\"",
+        1,
+    );
+    std::fs::write(dir.path().join("deck.yaml"), &still).unwrap();
+    assert_refused_alike(
+        dir.path(),
+        line_of(DECK, "Horizon: 1.75"),
+        &["nothing could move in this run", "about 3 spacings (3e0)"],
+    );
+
+    // A quasi-static solver finds no equilibrium for points without stiffness: an error.
+    let quasi_static = deck.replacen(
+        "    Verlet:\n      Fixed dt: 1.0e-5\n",
+        "    QuasiStatic:\n      Number of Load Steps: 2\n      Absolute Tolerance: 1.0e-6\n      Maximum Solver Iterations: 10\n",
+        1,
+    );
+    assert_ne!(
+        quasi_static, deck,
+        "test setup: the Verlet list is replaced"
+    );
+    std::fs::write(dir.path().join("deck.yaml"), &quasi_static).unwrap();
+    assert_refused_alike(
+        dir.path(),
+        line_of(DECK, "Horizon: 1.75"),
+        &["the quasi-static solver \"Solver\" finds no equilibrium"],
+    );
+}

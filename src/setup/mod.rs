@@ -4,6 +4,7 @@
 //! line), like load-time errors: a node id beyond the number of points, a node set no one
 //! defines, a block the mesh does not have, an expression that does not compile.
 
+mod bondless;
 pub mod disk;
 mod families;
 mod geometry;
@@ -15,6 +16,7 @@ mod size_guard;
 pub mod surface_correction;
 mod validate;
 
+pub use bondless::warnings as bondless_warnings;
 pub use physics::build_physics;
 pub use report::unsupported_features;
 pub use validate::{validate, validate_points};

@@ -393,7 +393,12 @@ pub(super) fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
         .into(),
         points: model.points.len(),
         bonds: model.bonds.num_bonds(),
-        warnings: deck.warnings.clone(),
+        warnings: deck
+            .warnings
+            .iter()
+            .cloned()
+            .chain(super::bondless::warnings(deck, model))
+            .collect(),
         unsupported: unsupported_features(deck),
         blocks: block_plans(deck, model),
         node_sets: node_set_plans(model),
