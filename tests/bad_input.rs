@@ -654,6 +654,17 @@ fn geometry_beyond_a_double_names_the_key() {
             "beyond the lengths peridyn computes with",
         ],
     );
+    // A horizon of 10¹⁵⁴ (found by scripts/fuzz-decks) overflowed the size guard's count of
+    // cells within it in a debug build before the horizon was checked.
+    let dir = grid_folder(&[("Horizon: 0.61", "Horizon: 1e154")]);
+    assert_refused_alike(
+        dir.path(),
+        line_of(GRID_DECK, "Horizon: 0.61"),
+        &[
+            "Blocks → All → Horizon",
+            "outside the lengths peridyn computes with",
+        ],
+    );
     // The same in a mesh: point 2's volume.
     let dir = folder_with("Safety Factor: 0.8", "Safety Factor: 0.8");
     let text = mesh().replacen("1.0 0.0 0.0 1 1.0", "1.0 0.0 0.0 1 1.0e300", 1);

@@ -58,6 +58,10 @@ impl TensorProductGrid {
 /// `n = floor(δ/Δ)`, plus one when the fractional part is ≥ ½, capped at the number of cells.
 pub fn cells_per_horizon(horizon: f64, cell_size: f64, num_cells: usize) -> usize {
     let ratio = horizon / cell_size;
+    // Beyond the usize range `ratio as usize` saturates and the rounding below would overflow.
+    if ratio >= num_cells as f64 {
+        return num_cells;
+    }
     let mut n = ratio as usize;
     if ratio - n as f64 >= 0.5 {
         n += 1;
@@ -93,5 +97,8 @@ mod tests {
         assert_eq!(cells_per_horizon(2.5, 1.0, 100), 3);
         assert_eq!(cells_per_horizon(2.49, 1.0, 100), 2);
         assert_eq!(cells_per_horizon(10.0, 1.0, 4), 4);
+        // A horizon of 10¹⁵⁴ cells (a fuzzed deck) saturates `as usize`: still capped.
+        assert_eq!(cells_per_horizon(1e154, 1.0, 4), 4);
+        assert_eq!(cells_per_horizon(3.75, 1.0, 4), 4);
     }
 }
