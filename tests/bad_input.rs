@@ -88,11 +88,21 @@ fn line_of(text: &str, needle: &str) -> usize {
 /// `check` and `run` of the folder's deck both exit with 2 and a message that starts with
 /// `deck.yaml:LINE:` and holds every piece of `expected`.
 fn assert_refused_alike(dir: &Path, line: usize, expected: &[&str]) {
+    assert_refused_by(peridyn, dir, line, expected);
+}
+
+/// [`assert_refused_alike`] with peridyn started by `start`.
+fn assert_refused_by(
+    start: fn(&[&str], &Path) -> Output,
+    dir: &Path,
+    line: usize,
+    expected: &[&str],
+) {
     for args in [
         &["check", "deck.yaml"][..],
         &["run", "deck.yaml", "--output-dir", "out"][..],
     ] {
-        let output = peridyn(args, dir);
+        let output = start(args, dir);
         let message = stderr(&output);
         assert_eq!(output.status.code(), Some(2), "{args:?}: {message}");
         assert!(
@@ -441,24 +451,7 @@ fn peridyn_within_4_gib(args: &[&str], dir: &Path) -> Output {
 
 /// [`assert_refused_alike`] within 4 GiB of address space.
 fn assert_refused_within_4_gib(dir: &Path, line: usize, expected: &[&str]) {
-    for args in [
-        &["check", "deck.yaml"][..],
-        &["run", "deck.yaml", "--output-dir", "out"][..],
-    ] {
-        let output = peridyn_within_4_gib(args, dir);
-        let message = stderr(&output);
-        assert_eq!(output.status.code(), Some(2), "{args:?}: {message}");
-        assert!(
-            message.contains(&format!("deck.yaml:{line}:")),
-            "{args:?}: line {line} not named: {message}"
-        );
-        for part in expected {
-            assert!(
-                message.contains(part),
-                "{args:?}: {part:?} missing: {message}"
-            );
-        }
-    }
+    assert_refused_by(peridyn_within_4_gib, dir, line, expected);
 }
 
 /// Issue 44, finding 1: a mesh deck had no size guard; a horizon of 10⁶ spacings built every
@@ -492,11 +485,8 @@ fn a_mesh_whose_bonds_cannot_fit_is_refused_at_its_horizon() {
     );
 }
 
-/// A QuickGrid deck: a unit cube of 5 × 5 × 5 points 0.2 apart, LPS steel, horizon 3.05
-/// spacings, an initial velocity on the x = 0.1 face (points 1, 6, …, 21 of the z = 0.1 layer).
-const GRID_DECK: &str = r#"Peridigm:
-  Discretization:
-    Type: "PdQuickGrid"
+/// The QuickGrid box of [`grid_deck`]: a unit cube of 5 × 5 × 5 points 0.2 apart.
+const QUICKGRID: &str = r#"    Type: "PdQuickGrid"
     TensorProduct3DMeshGenerator:
       X Origin: 0.0
       Y Origin: 0.0
@@ -507,41 +497,29 @@ const GRID_DECK: &str = r#"Peridigm:
       Number Points X: 5
       Number Points Y: 5
       Number Points Z: 5
-  Materials:
-    Steel:
-      Material Model: "Elastic"
-      Density: 7800.0
-      Bulk Modulus: 130.0e9
-      Shear Modulus: 78.0e9
-  Blocks:
-    All:
-      Block Names: "block_1"
-      Material: "Steel"
-      Horizon: 0.61
-  Boundary Conditions:
-    Left Node Set: "1 6 11 16 21"
-    Push:
-      Type: "Initial Velocity"
-      Node Set: "Left Node Set"
-      Coordinate: "x"
-      Value: "1.0"
-  Solver:
-    Initial Time: 0.0
-    Final Time: 1.0e-3
-    Verlet:
-      Safety Factor: 0.8
-  Output:
-    Output Filename: "grid"
-    Output Frequency: 100
-    Output Variables:
-      Displacement: true
 "#;
 
-/// A folder holding `deck.yaml`: GRID_DECK with each `(from, to)` replacement made once.
+/// DECK on the [`QUICKGRID`] cube: a horizon of 3.05 spacings, the initial velocity on the
+/// points 1, 6, 11, 16, 21 (x = 0.1, z = 0.1).
+fn grid_deck() -> String {
+    let text_file = "    Type: \"Text File\"\n    Input Mesh File: \"mesh.txt\"\n";
+    assert!(
+        DECK.contains(text_file),
+        "test setup: DECK reads a text file"
+    );
+    DECK.replacen(text_file, QUICKGRID, 1)
+        .replacen("Horizon: 1.75", "Horizon: 0.61", 1)
+        .replacen("\"left.txt\"", "\"1 6 11 16 21\"", 1)
+}
+
+/// A folder holding `deck.yaml`: [`grid_deck`] with each `(from, to)` replacement made once.
 fn grid_folder(replacements: &[(&str, &str)]) -> tempfile::TempDir {
-    let mut deck = GRID_DECK.to_string();
+    let mut deck = grid_deck();
     for (from, to) in replacements {
-        assert!(deck.contains(from), "test setup: {from:?} not in GRID_DECK");
+        assert!(
+            deck.contains(from),
+            "test setup: {from:?} not in grid_deck()"
+        );
         deck = deck.replacen(from, to, 1);
     }
     let dir = tempfile::tempdir().unwrap();
@@ -585,9 +563,9 @@ fn the_size_guard_counts_at_most_n_minus_1_bonds_and_names_the_horizon() {
     ]);
     assert_refused_within_4_gib(
         dir.path(),
-        line_of(GRID_DECK, "Horizon: 0.61"),
+        line_of(&grid_deck(), "Horizon: 0.61"),
         &[
-            "Blocks → All → Horizon",
+            "Blocks → Everything → Horizon",
             "1000000 points with about 999999 bonds each",
             "about 3 spacings",
         ],
@@ -632,7 +610,7 @@ fn points_that_coincide_by_rounding_name_the_origin() {
     let dir = grid_folder(&[("Y Origin: 0.0", "Y Origin: -1e308")]);
     assert_refused_alike(
         dir.path(),
-        line_of(GRID_DECK, "Y Origin"),
+        line_of(&grid_deck(), "Y Origin"),
         &[
             "TensorProduct3DMeshGenerator → Y Origin",
             "the points coincide",
@@ -648,7 +626,7 @@ fn geometry_beyond_a_double_names_the_key() {
     let dir = grid_folder(&[("Y Length: 1.0", "Y Length: 1e308")]);
     assert_refused_alike(
         dir.path(),
-        line_of(GRID_DECK, "Y Length"),
+        line_of(&grid_deck(), "Y Length"),
         &[
             "TensorProduct3DMeshGenerator → Y Length",
             "beyond the lengths peridyn computes with",
@@ -659,9 +637,9 @@ fn geometry_beyond_a_double_names_the_key() {
     let dir = grid_folder(&[("Horizon: 0.61", "Horizon: 1e154")]);
     assert_refused_alike(
         dir.path(),
-        line_of(GRID_DECK, "Horizon: 0.61"),
+        line_of(&grid_deck(), "Horizon: 0.61"),
         &[
-            "Blocks → All → Horizon",
+            "Blocks → Everything → Horizon",
             "outside the lengths peridyn computes with",
         ],
     );

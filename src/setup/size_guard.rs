@@ -127,14 +127,16 @@ fn fits(estimate: Estimate) -> bool {
     crate::plan::physical_memory_bytes().is_none_or(|memory| estimate.bytes() <= u128::from(memory))
 }
 
-/// Refuses a QuickGrid box (`TensorProduct3DMeshGenerator`) beyond memory before generating it.
-pub(super) fn refuse_grid_beyond_memory(
+/// Refuses a lattice of `cells` cells of size `spacing` (a QuickGrid generator, in index
+/// space) beyond memory, at the largest constant horizon; `points_key` and `points_advice` say
+/// what to change when the points themselves are too many.
+fn refuse_lattice_beyond_memory(
     deck: &Deck,
-    length: &[f64; 3],
-    number_of_points: &[u64; 3],
+    cells: [u128; 3],
+    spacing: [f64; 3],
+    points_key: &[&str],
+    points_advice: &str,
 ) -> Result<(), DeckError> {
-    let cells = number_of_points.map(u128::from);
-    let spacing = [0, 1, 2].map(|k| length[k] / number_of_points[k] as f64);
     let smallest = spacing.iter().copied().fold(f64::INFINITY, f64::min);
     let horizon = largest_constant_horizon(deck);
     let estimate = Estimate {
@@ -145,19 +147,34 @@ pub(super) fn refuse_grid_beyond_memory(
         return Ok(());
     }
     let customary = lattice_family(CUSTOMARY_SPACINGS * smallest, spacing, cells);
-    let [nx, ny, nz] = number_of_points;
     Err(refusal(
         deck,
         estimate,
         customary,
         horizon.map(|(block, h)| (block, h, smallest)),
+        points_key,
+        points_advice,
+    ))
+}
+
+/// Refuses a QuickGrid box (`TensorProduct3DMeshGenerator`) beyond memory before generating it.
+pub(super) fn refuse_grid_beyond_memory(
+    deck: &Deck,
+    length: &[f64; 3],
+    number_of_points: &[u64; 3],
+) -> Result<(), DeckError> {
+    let [nx, ny, nz] = number_of_points;
+    refuse_lattice_beyond_memory(
+        deck,
+        number_of_points.map(u128::from),
+        [0, 1, 2].map(|k| length[k] / number_of_points[k] as f64),
         &[
             "Discretization",
             "TensorProduct3DMeshGenerator",
             "Number Points X",
         ],
         &format!("{nx} × {ny} × {nz} points are too many for this machine; use fewer points"),
-    ))
+    )
 }
 
 /// Refuses a QuickGrid cylinder (`TensorProductCylinderMeshGenerator`) beyond memory before
@@ -169,37 +186,20 @@ pub(super) fn refuse_cylinder_beyond_memory(
     let mean_radius = 0.5 * (grid.inner_radius + grid.outer_radius);
     let rays = grid.rays() as u128;
     let axial = grid.axial_cells() as u128;
-    let cells = [grid.rings as u128, rays, axial];
-    let spacing = [
-        grid.radial_spacing(),
-        2.0 * std::f64::consts::PI / rays as f64 * mean_radius,
-        grid.length / axial as f64,
-    ];
-    let smallest = spacing.iter().copied().fold(f64::INFINITY, f64::min);
-    let horizon = largest_constant_horizon(deck);
-    let estimate = Estimate {
-        points: cells.iter().product(),
-        family: horizon.map_or(0, |(_, h)| lattice_family(h, spacing, cells)),
-    };
-    if fits(estimate) {
-        return Ok(());
-    }
-    let customary = lattice_family(CUSTOMARY_SPACINGS * smallest, spacing, cells);
-    Err(refusal(
+    refuse_lattice_beyond_memory(
         deck,
-        estimate,
-        customary,
-        horizon.map(|(block, h)| (block, h, smallest)),
-        &[
-            "Discretization",
-            "TensorProductCylinderMeshGenerator",
-            "Number Points Radius",
+        [grid.rings as u128, rays, axial],
+        [
+            grid.radial_spacing(),
+            2.0 * std::f64::consts::PI / rays as f64 * mean_radius,
+            grid.length / axial as f64,
         ],
+        &["Discretization", "TensorProductCylinderMeshGenerator", "Number Points Radius"],
         &format!(
             "{} rings × {rays} rays × {axial} axial cells are too many for this machine; use fewer rings (Number Points Radius sets all three counts)",
             grid.rings
         ),
-    ))
+    )
 }
 
 /// Refuses a mesh (`Text File`, `Exodus`) whose bonds cannot fit in memory, before the
