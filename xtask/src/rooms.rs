@@ -75,7 +75,11 @@ pub fn main(args: &[String]) -> u8 {
         .iter()
         .flat_map(|root| breaches_under(root, &repository))
         .collect();
-    judge(&breaches, &allowed, &allow_file)
+    judge(
+        &breaches,
+        &allowed,
+        Path::new(&target_of(&allow_file, &repository)),
+    )
 }
 
 /// Prints the breaches the allow file does not excuse and the entries that excuse nothing.
