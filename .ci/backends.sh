@@ -33,7 +33,7 @@ if [ ! -d ../shared/peridigm ]; then
   echo "../shared/peridigm is absent: backend regression decks skipped"
   exit 0
 fi
-regression() { scripts/peridigm-regression ../shared/peridigm --peridyn target/release/peridyn "$@"; }
+regression() { cargo xtask peridigm-regression ../shared/peridigm --peridyn target/release/peridyn "$@"; }
 
 # The pass counts are those of this build on 2026-11-27 (the README lists the decks); fewer is a
 # regression. With hdf5 built in, the two restart decks pass on every one-rank backend.
