@@ -1,5 +1,6 @@
-//! The one internal-force path every solver calls (DESIGN §1.1): damage, then the per-point
-//! coefficient pass (LPS dilatation), then the force pass, block by block.
+//! The one internal-force path every solver calls, so that explicit and implicit runs share one
+//! residual: damage, then the per-point coefficient pass (LPS dilatation), then the force pass,
+//! block by block.
 
 use crate::damage::{point_damage, DamageModel};
 use crate::history::{History, NO_HISTORY};

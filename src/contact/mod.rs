@@ -1,4 +1,6 @@
-//! Short-range contact for explicit dynamics (Peridigm's `Contact` list, reference §1.5).
+//! Short-range contact for explicit dynamics (Peridigm's `Contact` list,
+//! `Peridigm_ContactManager.cpp`; Littlewood's "Roadmap for Software Implementation", 2016,
+//! Algorithm 4).
 //!
 //! Built only when the deck has a `Contact` section; without one nothing here is allocated or
 //! run.

@@ -6,7 +6,7 @@
 //! that requests only globals writes `<Output Filename>.h`, otherwise `<Output Filename>.e`;
 //! globals also go to `<Output Filename>.csv`. Frames are written when
 //! `(call − 1) % frequency == 0`, where call 1 is the initial state and every explicit step
-//! or accepted load step is one call (reference §1.11).
+//! or accepted load step is one call (Peridigm's `Peridigm_OutputManager_ExodusII.cpp`).
 
 use crate::io::exodus::{ExodusError, ExodusWriter, OutputBlock, OutputLayout, OutputNodeSet};
 use crate::io::history::{HistoryError, HistoryWriter};

@@ -1,7 +1,10 @@
 //! Per-point derivatives of the force state (analytic, forward-mode AD, central differences)
 //! and their deterministic parallel scatter into a [`BlockTangent`].
 //!
-//! # What a point contributes (Algorithm 3 of the roadmap chapter, Peridigm's scheme)
+//! # What a point contributes
+//! Peridigm's scheme (Algorithm 3 of Littlewood's "Roadmap for Software Implementation",
+//! 2016).
+//!
 //! The force state of point i, T[x_i], depends only on the current positions of i and its
 //! family: y₀ = Y_i, y_{n+1} = Y of the n-th neighbour j_n. Its bond vectors act as
 //! `g_n = V_i V_{j_n} T_n` on i and `−g_n` on j_n, so the residual force (force density × V)
@@ -243,7 +246,7 @@ enum Resolved {
 }
 
 /// Peridigm's default probe: 1e-6 × the smallest element radius (3V/4π)^(1/3) of all points
-/// (reference §1.10).
+/// (`Material::computeFiniteDifferenceJacobian`, `Peridigm_Material.cpp`).
 pub(crate) fn default_probe(volume: &[f64]) -> f64 {
     let smallest = volume
         .par_iter()

@@ -1,7 +1,7 @@
 //! `peridyn modulus`: Young's modulus from a tensile run's global outputs, as a tensile test
-//! reads it (implementation roadmap §18.8.2): a strain gauge (two points whose positions and
-//! displacements are `Nearest_Point_Data` compute classes) and a load cell (the reaction of a
-//! grip, a `Block_Data` sum of `Force`).
+//! reads it (Littlewood, "Roadmap for Software Implementation", 2016, §18.8.2): a strain
+//! gauge (two points whose positions and displacements are `Nearest_Point_Data` compute
+//! classes) and a load cell (the reaction of a grip, a `Block_Data` sum of `Force`).
 //!
 //! For every loaded output frame of the run's `<Output Filename>.csv`, along the pulling axis:
 //! * gauge length L₀ = y_top − y_bottom (initial positions),
@@ -68,7 +68,7 @@ pub struct ModulusArgs {
     /// The global-output CSV of a run (`<Output Filename>.csv`).
     pub csv: PathBuf,
     /// Initial cross-section of the gauge section (deck length units squared; 0.635 cm ×
-    /// 0.315 cm = 0.2 cm² for the roadmap's dog-bone).
+    /// 0.315 cm = 0.2 cm² for `peridyn dogbone`'s specimen).
     #[arg(long)]
     pub area: f64,
     /// The load cell: a vector global whose component along the axis is the grip reaction.
