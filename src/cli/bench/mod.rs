@@ -44,7 +44,7 @@ use peridyn::simulation;
 
 use bandwidth::{measure_bandwidth, Bandwidth, PMB_BYTES_PER_BOND};
 use lammps::{default_lammps_input, find_on_path, run_lammps, LammpsRun};
-use measure::{measure, Measurement};
+use measure::{measure, thread_pool, Measurement};
 use problem::{contact_supported, BenchModel};
 use table::{format_rate, table};
 
@@ -161,13 +161,7 @@ pub fn main(args: &BenchArgs) -> Result<(), BenchError> {
 
 /// The stream bandwidth on one thread and on `threads`, printed.
 fn measured_bandwidth(threads: usize) -> Result<Bandwidth, BenchError> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| BenchError::Pool {
-            threads,
-            message: e.to_string(),
-        })?;
+    let pool = thread_pool(threads)?;
     let bandwidth = pool.install(measure_bandwidth);
     println!(
         "memory bandwidth (triad over 3 × {} MiB, best of 5): {:.1} GB/s on 1 thread, {:.1} GB/s on {}; PMB bound at {PMB_BYTES_PER_BOND} B per directed bond: {} / {} evals/s",

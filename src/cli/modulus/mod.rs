@@ -62,6 +62,14 @@ impl Units {
     }
 }
 
+/// The default globals of the load cell and the strain gauge: those `peridyn dogbone`'s deck
+/// writes.
+const FORCE_LABEL: &str = "Top_Reaction_Force";
+const GAUGE_TOP_POSITION: &str = "Gage_Top_Initial_Position";
+const GAUGE_BOTTOM_POSITION: &str = "Gage_Bottom_Initial_Position";
+const GAUGE_TOP_DISPLACEMENT: &str = "Gage_Top_Displacement";
+const GAUGE_BOTTOM_DISPLACEMENT: &str = "Gage_Bottom_Displacement";
+
 /// Command-line options of `peridyn modulus`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ModulusArgs {
@@ -72,19 +80,19 @@ pub struct ModulusArgs {
     #[arg(long)]
     pub area: f64,
     /// The load cell: a vector global whose component along the axis is the grip reaction.
-    #[arg(long, default_value = "Top_Reaction_Force")]
+    #[arg(long, default_value = FORCE_LABEL)]
     pub force_label: String,
     /// Initial position of the upper gauge point (a vector global).
-    #[arg(long, default_value = "Gage_Top_Initial_Position")]
+    #[arg(long, default_value = GAUGE_TOP_POSITION)]
     pub gauge_top_position: String,
     /// Initial position of the lower gauge point.
-    #[arg(long, default_value = "Gage_Bottom_Initial_Position")]
+    #[arg(long, default_value = GAUGE_BOTTOM_POSITION)]
     pub gauge_bottom_position: String,
     /// Displacement of the upper gauge point.
-    #[arg(long, default_value = "Gage_Top_Displacement")]
+    #[arg(long, default_value = GAUGE_TOP_DISPLACEMENT)]
     pub gauge_top_displacement: String,
     /// Displacement of the lower gauge point.
-    #[arg(long, default_value = "Gage_Bottom_Displacement")]
+    #[arg(long, default_value = GAUGE_BOTTOM_DISPLACEMENT)]
     pub gauge_bottom_displacement: String,
     /// The pulling axis.
     #[arg(long, value_enum, default_value = "y")]
@@ -98,6 +106,27 @@ pub struct ModulusArgs {
     /// Write the stress–strain curve to this PNG file.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+}
+
+impl ModulusArgs {
+    /// The options with the default globals (see [`ModulusArgs::force_label`] and the gauge
+    /// labels) for `csv`, of gauge section `area`, pulled along `axis`: no expected modulus,
+    /// no units, no plot.
+    pub fn with_default_labels(csv: PathBuf, area: f64, axis: Axis) -> Self {
+        ModulusArgs {
+            csv,
+            area,
+            force_label: FORCE_LABEL.into(),
+            gauge_top_position: GAUGE_TOP_POSITION.into(),
+            gauge_bottom_position: GAUGE_BOTTOM_POSITION.into(),
+            gauge_top_displacement: GAUGE_TOP_DISPLACEMENT.into(),
+            gauge_bottom_displacement: GAUGE_BOTTOM_DISPLACEMENT.into(),
+            axis,
+            expected: None,
+            units: None,
+            plot: None,
+        }
+    }
 }
 
 /// Why no modulus could be computed.
@@ -310,17 +339,9 @@ mod tests {
 
     fn args(area: f64) -> ModulusArgs {
         ModulusArgs {
-            csv: PathBuf::from("run.csv"),
-            area,
-            force_label: "Top_Reaction_Force".into(),
-            gauge_top_position: "Gage_Top_Initial_Position".into(),
-            gauge_bottom_position: "Gage_Bottom_Initial_Position".into(),
-            gauge_top_displacement: "Gage_Top_Displacement".into(),
-            gauge_bottom_displacement: "Gage_Bottom_Displacement".into(),
-            axis: Axis::Y,
             expected: Some(2.0e12),
             units: Some(Units::Cgs),
-            plot: None,
+            ..ModulusArgs::with_default_labels(PathBuf::from("run.csv"), area, Axis::Y)
         }
     }
 
