@@ -322,6 +322,19 @@ fn write_fixed(
     Ok(())
 }
 
+/// Creates (truncating) `path` with `header` laid out and written, its fixed data zeroed.
+fn create_file(path: &Path, header: Header) -> Result<NcWriter, ExodusError> {
+    let file = File::create(path).map_err(|source| ExodusError::Io {
+        path: path.to_path_buf(),
+        action: "create",
+        source,
+    })?;
+    NcWriter::create(file, header).map_err(|source| ExodusError::NetCdf {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
 /// Writes `<prefix>_status` (1 for an entity with nodes), `<prefix>_prop1` (the ids) and
 /// `<prefix>_names` of the blocks (`eb`) or node sets (`ns`), given as (nodes, id, name).
 fn write_entities(
@@ -452,12 +465,7 @@ pub fn write_shell_mesh(
         path: path.to_path_buf(),
         source,
     };
-    let file = File::create(path).map_err(|source| ExodusError::Io {
-        path: path.to_path_buf(),
-        action: "create",
-        source,
-    })?;
-    let mut nc = NcWriter::create(file, b.header).map_err(nc_err)?;
+    let mut nc = create_file(path, b.header)?;
     let mut put = |name: &str, data: Vec<u8>| nc.put_fixed(name, &data).map_err(nc_err);
     put("eb_status", encode::ints([1]))?;
     put("eb_prop1", encode::ints([1]))?;
@@ -493,12 +501,7 @@ impl ExodusWriter {
         b.mesh_variables(&dims);
         b.result_variables(layout, &dims);
 
-        let file = File::create(path).map_err(|source| ExodusError::Io {
-            path: path.to_path_buf(),
-            action: "create",
-            source,
-        })?;
-        let mut nc = NcWriter::create(file, b.header).map_err(nc_err)?;
+        let mut nc = create_file(path, b.header)?;
         write_fixed(&mut nc, layout, &dims, name_len + 1).map_err(nc_err)?;
 
         Ok(ExodusWriter {
