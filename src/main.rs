@@ -92,7 +92,8 @@ enum Command {
     Bench(cli::bench::BenchArgs),
     /// Young's modulus of a tensile run from its gauge and grip-reaction globals (CSV).
     Modulus(cli::modulus::ModulusArgs),
-    /// Write the roadmap's dog-bone tensile specimen: points, node sets and a deck.
+    /// Write the dog-bone tensile specimen of Littlewood's roadmap chapter (2016, §18.8.2):
+    /// points, node sets and a deck.
     Dogbone(cli::dogbone::DogboneArgs),
     /// Run a deck over a grid of variations; report cost and error per variant (table, CSV,
     /// PNG plots of error against wall time).

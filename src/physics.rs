@@ -1,5 +1,6 @@
-//! The one internal-force path every solver calls (DESIGN §1.1): damage, then the per-point
-//! coefficient pass (LPS dilatation), then the force pass, block by block.
+//! The one internal-force path every solver calls, so that explicit and implicit runs share one
+//! residual: damage, then the per-point coefficient pass (LPS dilatation), then the force pass,
+//! block by block.
 
 use crate::damage::{point_damage, DamageModel};
 use crate::history::{History, NO_HISTORY};
@@ -220,8 +221,7 @@ impl Physics {
         points: &PointCloud,
         bond_damage: &mut [f32],
     ) {
-        let reference =
-            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
+        let reference = self.reference(bonds, points);
         for block in &self.blocks {
             if let Some(damage) = &block.damage {
                 damage.initialize(&reference, block.material.points(), bond_damage);
@@ -465,8 +465,7 @@ impl Physics {
         history: &History,
         energy_density: &mut [f64],
     ) {
-        let reference =
-            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
+        let reference = self.reference(bonds, points);
         let view = CurrentView {
             position: current,
             bond_damage,
@@ -494,8 +493,7 @@ impl Physics {
         history: &History,
         out: &mut [[f64; 9]],
     ) {
-        let reference =
-            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
+        let reference = self.reference(bonds, points);
         let view = CurrentView {
             position: current,
             bond_damage,
@@ -519,8 +517,7 @@ impl Physics {
         history: &History,
         out: &mut [[f64; 3]],
     ) {
-        let reference =
-            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
+        let reference = self.reference(bonds, points);
         let view = CurrentView {
             position: current,
             bond_damage,
@@ -546,8 +543,7 @@ impl Physics {
 
     /// Peridigm's critical time step over all blocks (`None` if no point has a neighbour).
     pub fn critical_time_step(&self, bonds: &BondList, points: &PointCloud) -> Option<f64> {
-        let reference =
-            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
+        let reference = self.reference(bonds, points);
         self.blocks
             .iter()
             .filter_map(|b| b.material.critical_time_step(&reference))
@@ -566,6 +562,17 @@ pub struct Configuration<'a> {
     /// The materials' history (the tangent differentiates the trial update from the
     /// committed values).
     pub history: &'a History,
+}
+
+impl<'a> Configuration<'a> {
+    /// The materials' view of this configuration.
+    fn view(self) -> CurrentView<'a> {
+        CurrentView {
+            position: self.position,
+            bond_damage: self.bond_damage,
+            history: self.history,
+        }
+    }
 }
 
 /// The tangent stiffness ∂(V f)/∂u for implicit solvers (see [`crate::tangent`]).
@@ -637,13 +644,8 @@ impl Physics {
         method: Option<TangentMethod>,
         tangent: &mut BlockTangent,
     ) -> Result<(), TangentError> {
-        let reference =
-            ReferenceView::of(bonds, points).with_bond_volume(self.bond_volume.as_deref());
-        let view = CurrentView {
-            position: configuration.position,
-            bond_damage: configuration.bond_damage,
-            history: configuration.history,
-        };
+        let reference = self.reference(bonds, points);
+        let view = configuration.view();
         tangent.fill_zero();
         for block in &self.blocks {
             let method = method.unwrap_or_else(|| block.material.tangent_method());

@@ -1,7 +1,7 @@
 //! The run plan: what a deck asks for, what will exist, and what it costs.
 //!
-//! `peridyn check` prints it; `peridyn run` builds exactly what it lists (DESIGN §1.3: no
-//! contact search, damage array, tangent, halo or output field unless the deck needs it).
+//! `peridyn check` prints it; `peridyn run` builds exactly what it lists, and nothing more: no
+//! contact search, damage array, tangent, halo or output field unless the deck needs it.
 
 use serde::Serialize;
 use std::fmt;

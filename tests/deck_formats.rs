@@ -188,7 +188,8 @@ fn twin_content_is_typed_as_written() {
     }
     let output = &deck.outputs[0];
     assert_eq!(output.frequency, 10);
-    // Peridigm's defaults: first step 1, last step INT_MAX − 1 (peridigm.md §1.11).
+    // Peridigm's defaults: first step 1, last step INT_MAX − 1 (Peridigm's
+    // `Peridigm_OutputManager_ExodusII.cpp`).
     assert_eq!(
         (output.initial_output_step, output.final_output_step),
         (1, 2147483646)

@@ -1,4 +1,6 @@
-//! Short-range contact for explicit dynamics (Peridigm's `Contact` list, reference §1.5).
+//! Short-range contact for explicit dynamics (Peridigm's `Contact` list,
+//! `Peridigm_ContactManager.cpp`; Littlewood's "Roadmap for Software Implementation", 2016,
+//! Algorithm 4).
 //!
 //! Built only when the deck has a `Contact` section; without one nothing here is allocated or
 //! run.
@@ -598,6 +600,15 @@ impl Contact {
                 > self.search_radius - self.max_contact_radius
     }
 
+    /// The contact models and which pair of blocks uses which.
+    fn laws(&self) -> PairLaws<'_> {
+        PairLaws {
+            models: &self.models,
+            pair_model: &self.pair_model,
+            blocks: self.blocks,
+        }
+    }
+
     /// Contact force density at positions `current` and velocities `velocity` (the mid-step
     /// velocity inside a Verlet step, as in Peridigm), after searching first if the skin rule
     /// asks for it. Returns the force density of every point.
@@ -620,11 +631,7 @@ impl Contact {
             state.statistics.early_searches += 1;
         }
         let candidates = state.candidates.as_ref().expect("searched above");
-        let laws = PairLaws {
-            models: &self.models,
-            pair_model: &self.pair_model,
-            blocks: self.blocks,
-        };
+        let laws = self.laws();
         let points = PointData {
             block: &model.points.block,
             horizon: &model.horizon,

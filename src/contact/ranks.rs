@@ -35,10 +35,10 @@
 //! points and their partners. A search against a halo of neighbouring subdomains' bounding
 //! boxes grown by R would make it O(N/P + surface).
 
+use super::PointData;
 use super::{
     find_candidates_for, force_on_point, max_displacement, Contact, ContactState, OneWayBonds,
 };
-use super::{PairLaws, PointData};
 use crate::model::BondList;
 use crate::model::Model;
 use crate::parallel::{Communicator, Partition, PartnerExchange};
@@ -356,11 +356,7 @@ impl Contact {
             exchange.velocity[p as usize] = [values[3], values[4], values[5]];
         }
         let candidates = state.candidates.as_ref().expect("searched above");
-        let laws = PairLaws {
-            models: &self.models,
-            pair_model: &self.pair_model,
-            blocks: self.blocks,
-        };
+        let laws = self.laws();
         let points = PointData {
             block: &ranks.block,
             horizon: &ranks.horizon,

@@ -2,7 +2,8 @@
 //! functions, time-dependent critical stretch and friction coefficients.
 //!
 //! Peridigm evaluates these strings with Trilinos' RTCompiler (`PG_RuntimeCompiler::Function`);
-//! this module accepts the same language (see `shared/reference/peridigm.md` §1.7):
+//! this module accepts the same language (Peridigm's `Peridigm_BoundaryCondition.cpp` hands
+//! each `Value` string to it):
 //!
 //! * the result is the variable `value`; text that never mentions `value` is a bare expression
 //!   and is read as `value = <text>` (so `"-0.1*t/0.00005"` and `"value = -0.1*t/0.00005;"` are

@@ -6,7 +6,7 @@
 //! that requests only globals writes `<Output Filename>.h`, otherwise `<Output Filename>.e`;
 //! globals also go to `<Output Filename>.csv`. Frames are written when
 //! `(call − 1) % frequency == 0`, where call 1 is the initial state and every explicit step
-//! or accepted load step is one call (reference §1.11).
+//! or accepted load step is one call (Peridigm's `Peridigm_OutputManager_ExodusII.cpp`).
 
 use crate::io::exodus::{ExodusError, ExodusWriter, OutputBlock, OutputLayout, OutputNodeSet};
 use crate::io::history::{HistoryError, HistoryWriter};
@@ -316,6 +316,31 @@ fn set_aside(path: &Path) -> Result<PathBuf, ExodusError> {
     Ok(aside)
 }
 
+/// What one results file holds and when it writes frames (one deck `Output` list).
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputRequest<'a> {
+    /// `Output Filename`: the files are `<base>.e` (or `.h`, see [`OutputFile::file_name`])
+    /// and, with globals, `<base>.csv`.
+    pub base: &'a str,
+    /// The Exodus title.
+    pub title: &'a str,
+    /// When frames are written.
+    pub schedule: Schedule,
+    /// The variables, in the deck's order.
+    pub variables: Vec<RequestedVariable>,
+}
+
+/// How far the files of an interrupted run had come, as its restart file records.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Progress {
+    /// Output calls counted.
+    pub calls: i64,
+    /// Exodus frames written.
+    pub frames: u64,
+    /// CSV rows written.
+    pub rows: usize,
+}
+
 /// One open results file (one deck `Output` list).
 pub struct OutputFile {
     path: PathBuf,
@@ -348,12 +373,15 @@ impl OutputFile {
     /// Creates `<dir>/<base>.e` (or `.h`) and, when globals are requested, `<dir>/<base>.csv`.
     pub fn create(
         dir: &Path,
-        base: &str,
-        title: &str,
-        schedule: Schedule,
-        variables: Vec<RequestedVariable>,
+        request: OutputRequest,
         geometry: &OutputGeometry,
     ) -> Result<Self, OutputError> {
+        let OutputRequest {
+            base,
+            title,
+            schedule,
+            variables,
+        } = request;
         let mut nodal = Vec::new();
         let mut element = Vec::new();
         let mut globals = Vec::new();
@@ -439,22 +467,24 @@ impl OutputFile {
     }
 
     /// [`OutputFile::create`] for a run that continues an interrupted one from a restart file:
-    /// the files written so far are set aside, created anew, given back their first `frames`
-    /// frames and `rows` CSV rows, and the call count is set to `calls`, so the continued file
-    /// is the one an uninterrupted run writes.
-    #[allow(clippy::too_many_arguments)]
+    /// the files written so far are set aside, created anew, given back their first
+    /// `progress.frames` frames and `progress.rows` CSV rows, and the call count is set to
+    /// `progress.calls`, so the continued file is the one an uninterrupted run writes.
     pub fn create_continuing(
         dir: &Path,
-        base: &str,
-        title: &str,
-        schedule: Schedule,
-        variables: Vec<RequestedVariable>,
+        request: OutputRequest,
         geometry: &OutputGeometry,
-        (calls, frames, rows): (i64, u64, usize),
+        progress: Progress,
     ) -> Result<Self, OutputError> {
-        let exodus_path = dir.join(Self::file_name(base, &variables));
-        let csv_path = dir.join(format!("{base}.csv"));
-        let has_globals = variables
+        let Progress {
+            calls,
+            frames,
+            rows,
+        } = progress;
+        let exodus_path = dir.join(Self::file_name(request.base, &request.variables));
+        let csv_path = dir.join(format!("{}.csv", request.base));
+        let has_globals = request
+            .variables
             .iter()
             .any(|v| matches!(v.kind, VariableKind::Global | VariableKind::GlobalVector));
         let exodus_prior = set_aside(&exodus_path)?;
@@ -463,7 +493,7 @@ impl OutputFile {
         } else {
             None
         };
-        let mut file = Self::create(dir, base, title, schedule, variables, geometry)?;
+        let mut file = Self::create(dir, request, geometry)?;
         file.exodus.adopt_frames(&exodus_prior, frames)?;
         if let (Some(history), Some(prior)) = (&mut file.history, &csv_prior) {
             history.adopt_rows(prior, rows)?;
@@ -529,7 +559,6 @@ impl OutputFile {
     }
 
     fn write_frame(&mut self, time: f64, source: &dyn FieldSource) -> Result<(), OutputError> {
-        let n = self.run_index.len();
         let mut nodal: Vec<Vec<f64>> = Vec::new();
         let mut element: Vec<Vec<f64>> = Vec::new();
         let mut globals: Vec<f64> = Vec::with_capacity(self.globals.len());
@@ -539,31 +568,19 @@ impl OutputFile {
                     let field = source
                         .vector(&v.name)
                         .ok_or_else(|| self.missing(&v.name))?;
-                    for c in 0..3 {
-                        nodal.push(
-                            (0..n)
-                                .map(|k| field[self.run_index[k] as usize][c])
-                                .collect(),
-                        );
-                    }
+                    push_columns(&mut nodal, &field, &self.run_index);
                 }
                 VariableKind::ElementScalar => {
                     let field = source
                         .scalar(&v.name)
                         .ok_or_else(|| self.missing(&v.name))?;
-                    element.push((0..n).map(|k| field[self.run_index[k] as usize]).collect());
+                    element.push(self.run_index.iter().map(|&r| field[r as usize]).collect());
                 }
                 VariableKind::ElementTensor => {
                     let field = source
                         .tensor(&v.name)
                         .ok_or_else(|| self.missing(&v.name))?;
-                    for c in 0..9 {
-                        element.push(
-                            (0..n)
-                                .map(|k| field[self.run_index[k] as usize][c])
-                                .collect(),
-                        );
-                    }
+                    push_columns(&mut element, &field, &self.run_index);
                 }
                 VariableKind::Global => globals.push(
                     source
@@ -595,6 +612,17 @@ impl OutputFile {
         }
         Ok(())
     }
+}
+
+/// Appends the `W` component columns of the point field `field` (run order) to `columns`,
+/// each in original order (`run_index[k]` is original point k's run index).
+fn push_columns<const W: usize>(
+    columns: &mut Vec<Vec<f64>>,
+    field: &[[f64; W]],
+    run_index: &[u32],
+) {
+    let column = |c: usize| run_index.iter().map(|&r| field[r as usize][c]).collect();
+    columns.extend((0..W).map(column));
 }
 
 #[cfg(test)]
@@ -670,8 +698,13 @@ mod tests {
             initial_step: 1,
             final_step: i64::MAX,
         };
-        let mut file =
-            OutputFile::create(dir.path(), "out", "test", schedule, variables, &geometry).unwrap();
+        let request = OutputRequest {
+            base: "out",
+            title: "test",
+            schedule,
+            variables,
+        };
+        let mut file = OutputFile::create(dir.path(), request, &geometry).unwrap();
         for step in 0..3 {
             file.call(step as f64, &Fixed).unwrap();
         }

@@ -2,7 +2,8 @@
 //!
 //! Points that are close in space get close indices, so a family's neighbours sit in a few
 //! nearby cache lines and the neighbour search, force loops and sparse matrices touch memory
-//! almost sequentially (DESIGN.md: renumber after reading, keep `original_id` for output).
+//! almost sequentially. Points are renumbered once, after reading; `original_id` keeps the
+//! input order, in which every output is written.
 
 use rayon::prelude::*;
 

@@ -35,10 +35,87 @@ impl HaloValue for [f64; 3] {
 
 /// The points one rank exchanges with one other rank.
 #[derive(Debug, Clone, PartialEq, Eq)]
-struct Neighbor {
-    rank: usize,
-    /// Local indices, in increasing global index (the order both sides agree on).
-    points: Vec<u32>,
+pub(super) struct Peer {
+    /// The other rank.
+    pub(super) rank: usize,
+    /// The points, in the order both sides agree on (the bond halo: local indices in
+    /// increasing global index; the partner exchange: global indices, ascending).
+    pub(super) points: Vec<u32>,
+}
+
+/// The messages of one kind of exchange: the points sent to and received from each other
+/// rank, with buffers for their numbers that later exchanges reuse. The bond halo
+/// ([`HaloPlan`]) and the contact partner exchange ([`super::PartnerExchange`]) both move their
+/// points this way.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(super) struct Messages {
+    /// Points sent, per rank.
+    pub(super) sends: Vec<Peer>,
+    /// Points received, per rank.
+    pub(super) receives: Vec<Peer>,
+    send_buffers: Vec<Vec<f64>>,
+    receive_buffers: Vec<Vec<f64>>,
+}
+
+impl Messages {
+    /// The messages of these send and receive lists.
+    pub(super) fn new(sends: Vec<Peer>, receives: Vec<Peer>) -> Self {
+        Self {
+            send_buffers: vec![Vec::new(); sends.len()],
+            receive_buffers: vec![Vec::new(); receives.len()],
+            sends,
+            receives,
+        }
+    }
+
+    /// Points and ranks one exchange involves.
+    pub(super) fn volume(&self) -> HaloVolume {
+        HaloVolume {
+            received_points: self.receives.iter().map(|n| n.points.len()).sum(),
+            sent_points: self.sends.iter().map(|n| n.points.len()).sum(),
+            neighbor_ranks: self.receives.len().max(self.sends.len()),
+        }
+    }
+
+    /// Sends `width` numbers per sent point, written by `pack(point, out)`, and receives those
+    /// of the received points (collective over the partner ranks: non-blocking messages waited
+    /// for together); [`Messages::received`] then reads them. Nothing happens on a rank that
+    /// exchanges with no other.
+    pub(super) fn swap(
+        &mut self,
+        comm: &dyn Communicator,
+        width: usize,
+        pack: impl Fn(u32, &mut [f64]),
+    ) {
+        if self.sends.is_empty() && self.receives.is_empty() {
+            return;
+        }
+        for (peer, buffer) in self.sends.iter().zip(&mut self.send_buffers) {
+            buffer.resize(peer.points.len() * width, 0.0);
+            for (k, &p) in peer.points.iter().enumerate() {
+                pack(p, &mut buffer[k * width..(k + 1) * width]);
+            }
+        }
+        for (peer, buffer) in self.receives.iter().zip(&mut self.receive_buffers) {
+            buffer.resize(peer.points.len() * width, 0.0);
+        }
+        swap_buffers(
+            comm,
+            self.sends.iter().map(|n| n.rank),
+            &self.send_buffers,
+            self.receives.iter().map(|n| n.rank),
+            &mut self.receive_buffers,
+        );
+    }
+
+    /// Every received point with its `width` numbers from the last [`Messages::swap`].
+    pub(super) fn received(&self, width: usize) -> impl Iterator<Item = (u32, &[f64])> {
+        let peers = self.receives.iter().zip(&self.receive_buffers);
+        peers.flat_map(move |(peer, buffer)| {
+            let numbers = (0..peer.points.len()).map(move |k| &buffer[k * width..(k + 1) * width]);
+            peer.points.iter().copied().zip(numbers)
+        })
+    }
 }
 
 /// Points and bytes one exchange moves, for the run log and the scaling report.
@@ -76,10 +153,7 @@ pub struct HaloPlan {
     layer: Vec<u8>,
     /// Local indices of the owned points, increasing.
     owned: Vec<u32>,
-    sends: Vec<Neighbor>,
-    receives: Vec<Neighbor>,
-    send_buffers: Vec<Vec<f64>>,
-    receive_buffers: Vec<Vec<f64>>,
+    messages: Messages,
 }
 
 /// The off-rank points in `rows` not marked yet, marked with `layer` and returned in
@@ -265,13 +339,13 @@ impl HaloPlan {
                 .map(|&(p, _)| local_of(p))
                 .collect();
             if !from_r.is_empty() {
-                receives.push(Neighbor {
+                receives.push(Peer {
                     rank: r,
                     points: from_r,
                 });
             }
         }
-        let sends: Vec<Neighbor> = held_elsewhere
+        let sends: Vec<Peer> = held_elsewhere
             .into_iter()
             .map(|(r, points)| {
                 assert!(
@@ -280,7 +354,7 @@ impl HaloPlan {
                         .all(|&p| partition.owner[p as usize] as usize == rank),
                     "rank {r} asked rank {rank} for points it does not own"
                 );
-                Neighbor {
+                Peer {
                     rank: r,
                     points: points.into_iter().map(local_of).collect(),
                 }
@@ -292,10 +366,7 @@ impl HaloPlan {
             global,
             layer,
             owned,
-            send_buffers: vec![Vec::new(); sends.len()],
-            receive_buffers: vec![Vec::new(); receives.len()],
-            sends,
-            receives,
+            messages: Messages::new(sends, receives),
         }
     }
 
@@ -336,11 +407,7 @@ impl HaloPlan {
 
     /// Points and ranks one exchange involves.
     pub fn volume(&self) -> HaloVolume {
-        HaloVolume {
-            received_points: self.receives.iter().map(|n| n.points.len()).sum(),
-            sent_points: self.sends.iter().map(|n| n.points.len()).sum(),
-            neighbor_ranks: self.receives.len().max(self.sends.len()),
-        }
+        self.messages.volume()
     }
 
     /// Owner → ghosts: copies every owned point's value of `field` (local numbering) into the
@@ -348,30 +415,10 @@ impl HaloPlan {
     /// the messages are posted non-blocking and waited for together.
     pub fn exchange<T: HaloValue>(&mut self, comm: &dyn Communicator, field: &mut [T]) {
         assert_eq!(field.len(), self.global.len());
-        if self.sends.is_empty() && self.receives.is_empty() {
-            return;
-        }
-        let w = T::WIDTH;
-        for (neighbor, buffer) in self.sends.iter().zip(&mut self.send_buffers) {
-            buffer.resize(neighbor.points.len() * w, 0.0);
-            for (k, &p) in neighbor.points.iter().enumerate() {
-                field[p as usize].pack(&mut buffer[k * w..(k + 1) * w]);
-            }
-        }
-        for (neighbor, buffer) in self.receives.iter().zip(&mut self.receive_buffers) {
-            buffer.resize(neighbor.points.len() * w, 0.0);
-        }
-        swap_buffers(
-            comm,
-            self.sends.iter().map(|n| n.rank),
-            &self.send_buffers,
-            self.receives.iter().map(|n| n.rank),
-            &mut self.receive_buffers,
-        );
-        for (neighbor, buffer) in self.receives.iter().zip(&self.receive_buffers) {
-            for (k, &p) in neighbor.points.iter().enumerate() {
-                field[p as usize] = T::unpack(&buffer[k * w..(k + 1) * w]);
-            }
+        self.messages
+            .swap(comm, T::WIDTH, |p, out| field[p as usize].pack(out));
+        for (p, numbers) in self.messages.received(T::WIDTH) {
+            field[p as usize] = T::unpack(numbers);
         }
     }
 }
@@ -477,7 +524,7 @@ mod tests {
         let w = 3;
         let mut mailbox: std::collections::BTreeMap<(usize, usize), Vec<f64>> = Default::default();
         for (plan, field) in plans.iter().zip(fields.iter()) {
-            for neighbor in &plan.sends {
+            for neighbor in &plan.messages.sends {
                 let mut buffer = vec![0.0; neighbor.points.len() * w];
                 for (k, &p) in neighbor.points.iter().enumerate() {
                     field[p as usize].pack(&mut buffer[k * w..(k + 1) * w]);
@@ -486,7 +533,7 @@ mod tests {
             }
         }
         for (plan, field) in plans.iter().zip(fields.iter_mut()) {
-            for neighbor in &plan.receives {
+            for neighbor in &plan.messages.receives {
                 let buffer = &mailbox[&(neighbor.rank, plan.rank)];
                 assert_eq!(buffer.len(), neighbor.points.len() * w);
                 for (k, &p) in neighbor.points.iter().enumerate() {

@@ -71,15 +71,7 @@ impl Communicator for MpiCommunicator {
             root.gather_varcount_into(local);
             return None;
         }
-        let counts_i: Vec<i32> = counts.iter().map(|&c| c as i32).collect();
-        let displacements: Vec<i32> = counts_i
-            .iter()
-            .scan(0, |acc, &c| {
-                let start = *acc;
-                *acc += c;
-                Some(start)
-            })
-            .collect();
+        let (counts_i, displacements) = counts_and_displacements(counts);
         let mut all = vec![0.0; counts.iter().sum()];
         {
             let mut partition = PartitionMut::new(&mut all[..], counts_i, displacements);
@@ -90,15 +82,7 @@ impl Communicator for MpiCommunicator {
 
     fn all_gather(&self, local: &[f64], counts: &[usize]) -> Vec<f64> {
         assert_eq!(counts[self.rank()], local.len());
-        let counts_i: Vec<i32> = counts.iter().map(|&c| c as i32).collect();
-        let displacements: Vec<i32> = counts_i
-            .iter()
-            .scan(0, |acc, &c| {
-                let start = *acc;
-                *acc += c;
-                Some(start)
-            })
-            .collect();
+        let (counts_i, displacements) = counts_and_displacements(counts);
         let mut all = vec![0.0; counts.iter().sum()];
         {
             let mut partition = PartitionMut::new(&mut all[..], counts_i, displacements);
@@ -110,4 +94,19 @@ impl Communicator for MpiCommunicator {
     fn abort(&self, code: i32) -> ! {
         self.world.abort(code)
     }
+}
+
+/// MPI's counts and displacements of a variable-count gather of `counts` numbers per rank,
+/// ranks one after the other.
+fn counts_and_displacements(counts: &[usize]) -> (Vec<i32>, Vec<i32>) {
+    let counts_i: Vec<i32> = counts.iter().map(|&c| c as i32).collect();
+    let displacements: Vec<i32> = counts_i
+        .iter()
+        .scan(0, |acc, &c| {
+            let start = *acc;
+            *acc += c;
+            Some(start)
+        })
+        .collect();
+    (counts_i, displacements)
 }

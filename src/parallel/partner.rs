@@ -5,16 +5,9 @@
 //! search, so the plan is rebuilt from the candidate rows of the owned points after each
 //! search and used at every force evaluation until the next one.
 
+use super::halo::{Messages, Peer};
 use super::{Communicator, HaloVolume};
 use std::collections::BTreeMap;
-
-/// The points one rank sends to, or receives from, one other rank.
-#[derive(Debug, Clone, PartialEq, Eq)]
-struct Peer {
-    rank: usize,
-    /// Global indices, ascending (the order both sides agree on).
-    points: Vec<u32>,
-}
 
 /// Send and receive lists of the partner exchange of one rank, over global point indices.
 ///
@@ -27,10 +20,8 @@ struct Peer {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct PartnerExchange {
     rank: usize,
-    sends: Vec<Peer>,
-    receives: Vec<Peer>,
-    send_buffers: Vec<Vec<f64>>,
-    receive_buffers: Vec<Vec<f64>>,
+    /// Global indices, ascending within each rank.
+    messages: Messages,
 }
 
 impl PartnerExchange {
@@ -69,10 +60,7 @@ impl PartnerExchange {
         let (sends, receives) = (peers(sends), peers(receives));
         Self {
             rank,
-            send_buffers: vec![Vec::new(); sends.len()],
-            receive_buffers: vec![Vec::new(); receives.len()],
-            sends,
-            receives,
+            messages: Messages::new(sends, receives),
         }
     }
 
@@ -83,16 +71,13 @@ impl PartnerExchange {
 
     /// Global indices of the points this rank receives (ascending within each sending rank).
     pub fn received_points(&self) -> impl Iterator<Item = u32> + '_ {
-        self.receives.iter().flat_map(|p| p.points.iter().copied())
+        let receives = self.messages.receives.iter();
+        receives.flat_map(|p| p.points.iter().copied())
     }
 
     /// Points and ranks one exchange involves.
     pub fn volume(&self) -> HaloVolume {
-        HaloVolume {
-            received_points: self.receives.iter().map(|p| p.points.len()).sum(),
-            sent_points: self.sends.iter().map(|p| p.points.len()).sum(),
-            neighbor_ranks: self.receives.len().max(self.sends.len()),
-        }
+        self.messages.volume()
     }
 
     /// Sends `width` numbers per sent point, written by `pack(global index, out)`, and hands
@@ -105,29 +90,9 @@ impl PartnerExchange {
         pack: impl Fn(u32, &mut [f64]),
         mut unpack: impl FnMut(u32, &[f64]),
     ) {
-        if self.sends.is_empty() && self.receives.is_empty() {
-            return;
-        }
-        for (peer, buffer) in self.sends.iter().zip(&mut self.send_buffers) {
-            buffer.resize(peer.points.len() * width, 0.0);
-            for (k, &p) in peer.points.iter().enumerate() {
-                pack(p, &mut buffer[k * width..(k + 1) * width]);
-            }
-        }
-        for (peer, buffer) in self.receives.iter().zip(&mut self.receive_buffers) {
-            buffer.resize(peer.points.len() * width, 0.0);
-        }
-        super::halo::swap_buffers(
-            comm,
-            self.sends.iter().map(|p| p.rank),
-            &self.send_buffers,
-            self.receives.iter().map(|p| p.rank),
-            &mut self.receive_buffers,
-        );
-        for (peer, buffer) in self.receives.iter().zip(&self.receive_buffers) {
-            for (k, &p) in peer.points.iter().enumerate() {
-                unpack(p, &buffer[k * width..(k + 1) * width]);
-            }
+        self.messages.swap(comm, width, pack);
+        for (p, numbers) in self.messages.received(width) {
+            unpack(p, numbers);
         }
     }
 }
@@ -187,9 +152,10 @@ mod tests {
         let (owner, rows) = setup();
         let plans = plans(&owner, &rows);
         for a in &plans {
-            for send in &a.sends {
+            for send in &a.messages.sends {
                 let b = &plans[send.rank];
                 let receive = b
+                    .messages
                     .receives
                     .iter()
                     .find(|p| p.rank == a.rank)
@@ -200,7 +166,7 @@ mod tests {
                 a.volume().sent_points,
                 plans
                     .iter()
-                    .flat_map(|b| &b.receives)
+                    .flat_map(|b| &b.messages.receives)
                     .filter(|p| p.rank == a.rank)
                     .map(|p| p.points.len())
                     .sum::<usize>()
@@ -216,7 +182,7 @@ mod tests {
         let plans = plans(&owner, &rows);
         let mut mailbox: BTreeMap<(usize, usize), Vec<f64>> = BTreeMap::new();
         for plan in &plans {
-            for peer in &plan.sends {
+            for peer in &plan.messages.sends {
                 let mut buffer = Vec::new();
                 for &p in &peer.points {
                     assert_eq!(owner[p as usize] as usize, plan.rank);
@@ -227,7 +193,7 @@ mod tests {
         }
         for plan in &plans {
             let mut seen = 0;
-            for peer in &plan.receives {
+            for peer in &plan.messages.receives {
                 let buffer = &mailbox[&(peer.rank, plan.rank)];
                 assert_eq!(buffer.len(), 2 * peer.points.len());
                 for (k, &p) in peer.points.iter().enumerate() {

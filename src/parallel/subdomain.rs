@@ -308,28 +308,16 @@ fn local_model(
     local_of: &[u32],
 ) -> Model {
     let local_points = plan.global();
+    fn pick<T: Copy>(values: &[T], points: &[u32]) -> Vec<T> {
+        points.iter().map(|&g| values[g as usize]).collect()
+    }
     let points = PointCloud {
-        position: local_points
-            .iter()
-            .map(|&g| global.points.position[g as usize])
-            .collect(),
-        volume: local_points
-            .iter()
-            .map(|&g| global.points.volume[g as usize])
-            .collect(),
-        block: local_points
-            .iter()
-            .map(|&g| global.points.block[g as usize])
-            .collect(),
-        original_id: local_points
-            .iter()
-            .map(|&g| global.points.original_id[g as usize])
-            .collect(),
+        position: pick(&global.points.position, local_points),
+        volume: pick(&global.points.volume, local_points),
+        block: pick(&global.points.block, local_points),
+        original_id: pick(&global.points.original_id, local_points),
     };
-    let horizon = local_points
-        .iter()
-        .map(|&g| global.horizon[g as usize])
-        .collect();
+    let horizon = pick(&global.horizon, local_points);
     let owned_local = |points: &[u32]| -> Vec<u32> {
         points
             .iter()

@@ -170,22 +170,48 @@ pub fn apply(
     state: &mut State,
 ) -> Result<Option<ContactRestore>, String> {
     let n = snapshot.bonds.family_size.len();
-    let check = |name: &str, len: usize, expected: usize| {
-        if len == expected {
-            Ok(())
-        } else {
-            Err(format!(
-                "{name} has {len} values in the restart file and {expected} were expected"
-            ))
-        }
-    };
-    let original = &model.points.original_id;
-    if let Some(&beyond) = original.iter().find(|&&id| id as usize >= n) {
+    if let Some(&beyond) = model
+        .points
+        .original_id
+        .iter()
+        .find(|&&id| id as usize >= n)
+    {
         return Err(format!(
             "the restart file has {n} points and this run's point {} is beyond them",
             beyond + 1
         ));
     }
+    apply_points(snapshot, model, state)?;
+    let source = bond_sources(&snapshot.bonds, model)?;
+    match (&snapshot.bond_damage, &mut state.bond_damage) {
+        (Some(from), Some(to)) => {
+            check("bond_damage", from.len(), snapshot.bonds.neighbor.len())?;
+            let run: Vec<f32> = source.iter().map(|&b| from[b]).collect();
+            to.set_accepted(&run);
+        }
+        (None, None) => {}
+        _ => return Err("bond damage is in only one of the restart file and this run".into()),
+    }
+    apply_history(snapshot, model, &source, state)?;
+    state.time = snapshot.time;
+    contact_restore(snapshot, model, owned, contact)
+}
+
+/// Ok when a field of the restart file has the `expected` number of values.
+fn check(name: &str, len: usize, expected: usize) -> Result<(), String> {
+    if len == expected {
+        Ok(())
+    } else {
+        Err(format!(
+            "{name} has {len} values in the restart file and {expected} were expected"
+        ))
+    }
+}
+
+/// The point vectors of [`apply`]: kinematics, force and body force.
+fn apply_points(snapshot: &Snapshot, model: &Model, state: &mut State) -> Result<(), String> {
+    let n = snapshot.bonds.family_size.len();
+    let original = &model.points.original_id;
     let put = |name: &str, from: &[[f64; 3]], to: &mut [[f64; 3]]| {
         check(name, from.len(), n)?;
         for (v, &id) in to.iter_mut().zip(original) {
@@ -218,20 +244,21 @@ pub fn apply(
         &snapshot.external_force_density,
         &mut state.external_force_density,
     ) {
-        (Some(from), Some(to)) => put("external_force_density", from, to)?,
-        (None, None) => {}
-        _ => return Err("the body force of the restart file and of this run differ".into()),
+        (Some(from), Some(to)) => put("external_force_density", from, to),
+        (None, None) => Ok(()),
+        _ => Err("the body force of the restart file and of this run differ".into()),
     }
-    let source = bond_sources(&snapshot.bonds, model)?;
-    match (&snapshot.bond_damage, &mut state.bond_damage) {
-        (Some(from), Some(to)) => {
-            check("bond_damage", from.len(), snapshot.bonds.neighbor.len())?;
-            let run: Vec<f32> = source.iter().map(|&b| from[b]).collect();
-            to.set_accepted(&run);
-        }
-        (None, None) => {}
-        _ => return Err("bond damage is in only one of the restart file and this run".into()),
-    }
+}
+
+/// The material history fields of [`apply`]: per point, or per bond through `source` (see
+/// [`bond_sources`]).
+fn apply_history(
+    snapshot: &Snapshot,
+    model: &Model,
+    source: &[usize],
+    state: &mut State,
+) -> Result<(), String> {
+    let n = snapshot.bonds.family_size.len();
     let declared: Vec<String> = state
         .history
         .declared()
@@ -252,8 +279,9 @@ pub fn apply(
             .expect("the names are equal");
         let w = field.width;
         let (count, picks): (usize, Vec<usize>) = if field.per_bond {
-            (snapshot.bonds.neighbor.len(), source.clone())
+            (snapshot.bonds.neighbor.len(), source.to_vec())
         } else {
+            let original = &model.points.original_id;
             (n, original.iter().map(|&id| id as usize).collect())
         };
         check(&field.name, field.values.len(), count * w)?;
@@ -267,7 +295,19 @@ pub fn apply(
     state
         .history
         .set_step_duration(snapshot.history_step_duration);
-    state.time = snapshot.time;
+    Ok(())
+}
+
+/// What [`restore_contact`] needs from the snapshot: the contact force of the owned points and
+/// the search positions of the contact points this rank searches.
+fn contact_restore(
+    snapshot: &Snapshot,
+    model: &Model,
+    owned: &[u32],
+    contact: Option<&Contact>,
+) -> Result<Option<ContactRestore>, String> {
+    let n = snapshot.bonds.family_size.len();
+    let original = &model.points.original_id;
     match (contact, &snapshot.contact) {
         (Some(contact), Some(stored)) => {
             check("contact_force_density", stored.force_density.len(), n)?;

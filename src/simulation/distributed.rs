@@ -46,6 +46,8 @@ use crate::parallel::{
     check_distributable, global_families_reason, halo_depth, outer_ghosts_need_physics,
     Communicator, Subdomain, SubdomainRanks,
 };
+use crate::physics::Physics;
+use crate::restart::Snapshot;
 use crate::setup;
 use crate::state::State;
 use std::path::Path;
@@ -110,42 +112,11 @@ pub fn run_distributed(
     dir: &Path,
     comm: &dyn Communicator,
 ) -> Result<RunSummary, RunError> {
-    check_distributable(deck, comm.size()).map_err(|e| collective(comm, e.into()))?;
-    if let Some((block, rule)) = setup::quadrature::widening_blocks(deck).first() {
-        return Err(collective(
-            comm,
-            RunError::Unsupported(format!(
-                "Blocks → {block} → Quadrature \"{}\" on {} ranks is not available: the rule widens the families past the horizon, beyond the ghost layer a rank holds; use \"Full Volume\" or \"PDLAMMPS\", or run on one rank",
-                rule.name(),
-                comm.size()
-            )),
-        ));
-    }
-    if let Some((block, correction)) = setup::surface_correction::corrected_blocks(deck).first() {
-        return Err(collective(
-            comm,
-            RunError::Unsupported(format!(
-                "Blocks → {block} → Surface Correction \"{}\" on {} ranks is not available: a bond's factor needs the whole families of both its ends, which a rank's ghost points do not have; remove the key or run on one rank",
-                correction.name(),
-                comm.size()
-            )),
-        ));
-    }
+    check_on_ranks(deck, comm)?;
     let compute_classes = prepare_compute_classes(&deck.compute_classes, global)
         .map_err(|e| collective(comm, RunError::Unsupported(e)))?;
     let rank = comm.rank();
-    let (depth, outer) = (halo_depth(deck), outer_ghosts_need_physics(deck));
-    let mut sub = match families {
-        GlobalFamilies::Built => Subdomain::new(global, comm.size(), rank, depth, outer),
-        GlobalFamilies::Searched(rule) => {
-            Subdomain::searched(global, comm, depth, outer, |points| {
-                agree(
-                    comm,
-                    setup::family_rows(deck, global, rule, points).map_err(RunError::from),
-                )
-            })?
-        }
-    };
+    let mut sub = subdomain(deck, global, families, comm)?;
     let mut bonds = [sub
         .owned()
         .iter()
@@ -153,53 +124,8 @@ pub fn run_distributed(
         .sum::<f64>()];
     comm.sum(&mut bonds);
     // From here on, failures may differ between ranks: every step agrees.
-    let prepared = (|| -> Result<_, RunError> {
-        let mut physics = build_physics(deck, &sub.model)?;
-        // Ghost forces are never used: only the owned points' are computed.
-        let ghost = sub.ghost_mask();
-        physics.restrict_forces(&|p| !ghost[p as usize]);
-        // Contact searches the deformed configuration of the whole model: it is built on the
-        // global model (global bonds decide who may touch) and keeps its own exchange.
-        if physics.contact.is_some() {
-            physics.contact = crate::contact::Contact::from_deck(deck, global)
-                .map_err(|e| RunError::Unsupported(e.to_string()))?
-                .map(|contact| contact.on_ranks(global, &sub.partition, rank, sub.plan.global()));
-        }
-        let state = initial_state(deck, &sub.model, &physics)?;
-        Ok((physics, state))
-    })();
-    let (mut physics, mut state) = agree(comm, prepared)?;
-    // Restart files hold every point in original order, whatever the partition: the run that
-    // wrote them may have had another number of ranks.
-    let (restarts, start) = match deck.restart {
-        Some(_) => {
-            let (restarts, start) =
-                Restarts::open(deck, global, &sub.model, sub.owned().to_vec(), comm, dir)?;
-            (Some(restarts), start)
-        }
-        None => (None, Start::Fresh),
-    };
-    let mut carried = RunSummary::default();
-    let (restarts, resume) = match (restarts, start) {
-        (Some(mut restarts), Start::Continue(snapshot)) => {
-            restarts.apply(&snapshot, &sub.model, &physics, comm, &mut state)?;
-            carried.steps = snapshot.steps;
-            carried.broken_bonds = snapshot.broken_bonds as usize;
-            restarts.count_broken_bonds(&sub.model, comm, &state, carried.broken_bonds);
-            (Some(restarts), Some(snapshot))
-        }
-        (Some(mut restarts), Start::FromState(snapshot)) => {
-            restarts.apply(&snapshot, &sub.model, &physics, comm, &mut state)?;
-            restarts.start_from_saved_state();
-            restarts.count_broken_bonds(&sub.model, comm, &state, 0);
-            (Some(restarts), None)
-        }
-        (Some(mut restarts), Start::Fresh) => {
-            restarts.count_broken_bonds(&sub.model, comm, &state, 0);
-            (Some(restarts), None)
-        }
-        (None, _) => (None, None),
-    };
+    let (mut physics, mut state) = agree(comm, rank_physics(deck, global, &sub, rank))?;
+    let (restarts, resume, carried) = restart(deck, global, &sub, &physics, comm, dir, &mut state)?;
     let outputs =
         DistributedOutputs::create(deck, global, dir, &compute_classes, rank, resume.as_ref());
     let outputs = agree(comm, outputs)?;
@@ -243,4 +169,125 @@ pub fn run_distributed(
     summary.broken_bonds =
         carried.broken_bonds + broken_bonds(comm, &sub, &state) - broken_at_start;
     Ok(summary)
+}
+
+/// Fails, on every rank alike, for what a deck asks that cannot run on `comm.size()` ranks.
+fn check_on_ranks(deck: &Deck, comm: &dyn Communicator) -> Result<(), RunError> {
+    check_distributable(deck, comm.size()).map_err(|e| collective(comm, e.into()))?;
+    if let Some((block, rule)) = setup::quadrature::widening_blocks(deck).first() {
+        return Err(collective(
+            comm,
+            RunError::Unsupported(format!(
+                "Blocks → {block} → Quadrature \"{}\" on {} ranks is not available: the rule widens the families past the horizon, beyond the ghost layer a rank holds; use \"Full Volume\" or \"PDLAMMPS\", or run on one rank",
+                rule.name(),
+                comm.size()
+            )),
+        ));
+    }
+    if let Some((block, correction)) = setup::surface_correction::corrected_blocks(deck).first() {
+        return Err(collective(
+            comm,
+            RunError::Unsupported(format!(
+                "Blocks → {block} → Surface Correction \"{}\" on {} ranks is not available: a bond's factor needs the whole families of both its ends, which a rank's ghost points do not have; remove the key or run on one rank",
+                correction.name(),
+                comm.size()
+            )),
+        ));
+    }
+    Ok(())
+}
+
+/// This rank's subdomain of `global`, its families taken from the global model or searched
+/// for its own points and ghosts (see [`GlobalFamilies`]). Collective.
+fn subdomain(
+    deck: &Deck,
+    global: &Model,
+    families: GlobalFamilies,
+    comm: &dyn Communicator,
+) -> Result<Subdomain, RunError> {
+    let (depth, outer) = (halo_depth(deck), outer_ghosts_need_physics(deck));
+    match families {
+        GlobalFamilies::Built => Ok(Subdomain::new(
+            global,
+            comm.size(),
+            comm.rank(),
+            depth,
+            outer,
+        )),
+        GlobalFamilies::Searched(rule) => {
+            Subdomain::searched(global, comm, depth, outer, |points| {
+                agree(
+                    comm,
+                    setup::family_rows(deck, global, rule, points).map_err(RunError::from),
+                )
+            })
+        }
+    }
+}
+
+/// The physics and initial state of this rank's subdomain: forces of the owned points only,
+/// and contact, when the deck has it, searched on the global model. Not collective: its
+/// failure may be this rank's alone.
+fn rank_physics(
+    deck: &Deck,
+    global: &Model,
+    sub: &Subdomain,
+    rank: usize,
+) -> Result<(Physics, State), RunError> {
+    let mut physics = build_physics(deck, &sub.model)?;
+    // Ghost forces are never used: only the owned points' are computed.
+    let ghost = sub.ghost_mask();
+    physics.restrict_forces(&|p| !ghost[p as usize]);
+    // Contact searches the deformed configuration of the whole model: it is built on the
+    // global model (global bonds decide who may touch) and keeps its own exchange.
+    if physics.contact.is_some() {
+        physics.contact = crate::contact::Contact::from_deck(deck, global)
+            .map_err(|e| RunError::Unsupported(e.to_string()))?
+            .map(|contact| contact.on_ranks(global, &sub.partition, rank, sub.plan.global()));
+    }
+    let state = initial_state(deck, &sub.model, &physics)?;
+    Ok((physics, state))
+}
+
+/// The restart files of a deck with a `Restart` entry, opened by all ranks together, with the
+/// newest file's values put into `state`: the files, the snapshot a continued run resumes its
+/// outputs from, and the steps and broken bonds it carries over. Collective.
+///
+/// Restart files hold every point in original order, whatever the partition: the run that
+/// wrote them may have had another number of ranks.
+fn restart(
+    deck: &Deck,
+    global: &Model,
+    sub: &Subdomain,
+    physics: &Physics,
+    comm: &dyn Communicator,
+    dir: &Path,
+    state: &mut State,
+) -> Result<(Option<Restarts>, Option<Snapshot>, RunSummary), RunError> {
+    let mut carried = RunSummary::default();
+    if deck.restart.is_none() {
+        return Ok((None, None, carried));
+    }
+    let (mut restarts, start) =
+        Restarts::open(deck, global, &sub.model, sub.owned().to_vec(), comm, dir)?;
+    let resume = match start {
+        Start::Continue(snapshot) => {
+            restarts.apply(&snapshot, &sub.model, physics, comm, state)?;
+            carried.steps = snapshot.steps;
+            carried.broken_bonds = snapshot.broken_bonds as usize;
+            restarts.count_broken_bonds(&sub.model, comm, state, carried.broken_bonds);
+            Some(snapshot)
+        }
+        Start::FromState(snapshot) => {
+            restarts.apply(&snapshot, &sub.model, physics, comm, state)?;
+            restarts.start_from_saved_state();
+            restarts.count_broken_bonds(&sub.model, comm, state, 0);
+            None
+        }
+        Start::Fresh => {
+            restarts.count_broken_bonds(&sub.model, comm, state, 0);
+            None
+        }
+    };
+    Ok((Some(restarts), resume, carried))
 }

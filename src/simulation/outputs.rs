@@ -8,7 +8,10 @@
 use super::{Fields, PreparedComputeClass, RunError};
 use crate::io::deck::Deck;
 use crate::io::history::HistoryWriter;
-use crate::io::output::{kind_of, FieldSource, OutputFile, OutputGeometry, Schedule, VariableKind};
+use crate::io::output::{
+    kind_of, FieldSource, OutputError, OutputFile, OutputGeometry, OutputRequest, Progress,
+    Schedule, VariableKind,
+};
 use crate::model::Model;
 use crate::parallel::{Communicator, Partition, Ranks};
 use crate::restart::{OutputPosition, Snapshot};
@@ -243,33 +246,22 @@ impl Outputs {
         for (k, output) in deck.outputs.iter().enumerate() {
             let variables = setup::report::requested_variables(deck, output)
                 .map_err(|e| RunError::Unsupported(e.to_string()))?;
-            let schedule = Schedule {
-                frequency: output.frequency,
-                initial_step: output.initial_output_step,
-                final_step: output.final_output_step,
+            let request = OutputRequest {
+                base: &output.filename,
+                title: "peridyn",
+                schedule: schedule(output),
+                variables,
             };
             let file = match resume {
-                Some(positions) => OutputFile::create_continuing(
-                    dir,
-                    &output.filename,
-                    "peridyn",
-                    schedule,
-                    variables,
-                    &geometry,
-                    (
-                        positions[k].calls,
-                        positions[k].frames,
-                        positions[k].rows as usize,
-                    ),
-                )?,
-                None => OutputFile::create(
-                    dir,
-                    &output.filename,
-                    "peridyn",
-                    schedule,
-                    variables,
-                    &geometry,
-                )?,
+                Some(positions) => {
+                    let progress = Progress {
+                        calls: positions[k].calls,
+                        frames: positions[k].frames,
+                        rows: positions[k].rows as usize,
+                    };
+                    OutputFile::create_continuing(dir, request, &geometry, progress)?
+                }
+                None => OutputFile::create(dir, request, &geometry)?,
             };
             files.push(file);
         }
@@ -281,31 +273,61 @@ impl Outputs {
 
     fn call(&mut self, fields: &Fields) -> Result<(), RunError> {
         let start = Instant::now();
-        let time = fields.state.time;
-        for file in &mut self.files {
-            file.call(time, fields)?;
-        }
+        write_files(&mut self.files, fields.state.time, fields, OutputFile::call)?;
         self.seconds += start.elapsed().as_secs_f64();
         Ok(())
     }
 
     fn last_frame(&mut self, fields: &Fields) -> Result<(), RunError> {
         let start = Instant::now();
-        let time = fields.state.time;
-        for file in &mut self.files {
-            file.write_last(time, fields)?;
-        }
+        write_files(
+            &mut self.files,
+            fields.state.time,
+            fields,
+            OutputFile::write_last,
+        )?;
         self.seconds += start.elapsed().as_secs_f64();
         Ok(())
     }
 
     fn finish(self) -> Result<Vec<PathBuf>, RunError> {
-        let mut paths = Vec::new();
-        for file in self.files {
-            paths.push(file.path().to_path_buf());
-            file.finish()?;
-        }
-        Ok(paths)
+        finish_files(self.files)
+    }
+}
+
+/// How a results file takes the state at a time: [`OutputFile::call`] or
+/// [`OutputFile::write_last`].
+type WriteFrame = fn(&mut OutputFile, f64, &dyn FieldSource) -> Result<bool, OutputError>;
+
+/// Has every file `write` the state of `source` at `time`; stops at the first failure.
+fn write_files(
+    files: &mut [OutputFile],
+    time: f64,
+    source: &dyn FieldSource,
+    write: WriteFrame,
+) -> Result<(), OutputError> {
+    for file in files {
+        write(file, time, source)?;
+    }
+    Ok(())
+}
+
+/// Closes every file; returns their paths.
+fn finish_files(files: Vec<OutputFile>) -> Result<Vec<PathBuf>, RunError> {
+    let mut paths = Vec::new();
+    for file in files {
+        paths.push(file.path().to_path_buf());
+        file.finish()?;
+    }
+    Ok(paths)
+}
+
+/// When the file of a deck `Output` list writes frames.
+fn schedule(output: &crate::io::deck::Output) -> Schedule {
+    Schedule {
+        frequency: output.frequency,
+        initial_step: output.initial_output_step,
+        final_step: output.final_output_step,
     }
 }
 
@@ -554,15 +576,7 @@ impl<'a> DistributedOutputs<'a> {
         resume: Option<&Snapshot>,
     ) -> Result<Self, RunError> {
         let fields = fields_to_gather(deck, classes)?;
-        let schedules = deck
-            .outputs
-            .iter()
-            .map(|output| Schedule {
-                frequency: output.frequency,
-                initial_step: output.initial_output_step,
-                final_step: output.final_output_step,
-            })
-            .collect();
+        let schedules = deck.outputs.iter().map(schedule).collect();
         let positions = resume.map(|s| &s.outputs[..]);
         let (files, solver_history) = if rank == 0 {
             let mut history = SolverHistory::new(deck, dir);
@@ -602,19 +616,17 @@ impl<'a> DistributedOutputs<'a> {
         local: &Fields<'_>,
     ) -> Result<(), RunError> {
         let start = Instant::now();
-        let time = local.state.time;
         self.calls += 1;
         let frame = self.schedules.iter().any(|s| s.writes(self.calls));
         let gathered = self.gather(comm, partition, owned, local, frame);
-        let mut result = Ok(());
-        for file in &mut self.files {
-            if let Err(error) = file.call(time, &gathered) {
-                result = Err(error.into());
-                break;
-            }
-        }
+        let written = write_files(
+            &mut self.files,
+            local.state.time,
+            &gathered,
+            OutputFile::call,
+        );
         self.seconds += start.elapsed().as_secs_f64();
-        result
+        written.map_err(RunError::from)
     }
 
     /// Adds a frame of the last call's state to every file whose schedule skipped that call
@@ -633,15 +645,10 @@ impl<'a> DistributedOutputs<'a> {
             .iter()
             .any(|s| s.needs_last_frame(self.calls));
         let gathered = self.gather(comm, partition, owned, local, frame);
-        let mut result = Ok(());
-        for file in &mut self.files {
-            if let Err(error) = file.write_last(local.state.time, &gathered) {
-                result = Err(error.into());
-                break;
-            }
-        }
+        let time = local.state.time;
+        let written = write_files(&mut self.files, time, &gathered, OutputFile::write_last);
         self.seconds += start.elapsed().as_secs_f64();
-        result
+        written.map_err(RunError::from)
     }
 
     /// The point fields of a frame gathered on rank 0 when `frame` (collective then; every
@@ -695,12 +702,7 @@ impl<'a> DistributedOutputs<'a> {
         if let Some(history) = self.solver_history {
             history.finish()?;
         }
-        let mut paths = Vec::new();
-        for file in self.files {
-            paths.push(file.path().to_path_buf());
-            file.finish()?;
-        }
-        Ok(paths)
+        finish_files(self.files)
     }
 }
 

@@ -1,5 +1,5 @@
 //! ∂f/∂u: the tangent stiffness in 3×3 blocks per point pair, its sparsity pattern and its
-//! conversion to the scalar [`Csr`](crate::backend::Csr) the backends solve with (DESIGN §5).
+//! conversion to the scalar [`Csr`](crate::backend::Csr) the backends solve with.
 //!
 //! # What is assembled
 //! The residual of point i is `r_i = V_i (f_i + b_i)` (force); the tangent is its Jacobian
@@ -17,7 +17,8 @@
 //! * [`TangentMethod::AutomaticDifferentiation`] differentiates it exactly (3 dual evaluations
 //!   per family point, `num-dual`);
 //! * [`TangentMethod::FiniteDifference`] perturbs each family dof by ±ε (central differences,
-//!   Algorithm 3 of the roadmap chapter; Peridigm's default probe ε = 1e-6 × the smallest
+//!   Algorithm 3 of Littlewood's "Roadmap for Software Implementation", 2016; Peridigm's
+//!   default probe ε = 1e-6 × the smallest
 //!   element radius (3V/4π)^(1/3));
 //! * [`TangentMethod::Analytic`] uses the closed form the material writes out (PMB and LPS).
 //!

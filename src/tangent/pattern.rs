@@ -43,7 +43,7 @@ impl BlockPattern {
     /// Row i = every point that shares a family with i: ⋃ over j ∈ {i} ∪ family(i) of
     /// {j} ∪ family(j). A state-based force state T⟨x_j⟩ (LPS: through the dilatation θ_j)
     /// depends on all of j's family and acts on all of it, so every two points of one closed
-    /// family are coupled (Peridigm's `FULL_MATRIX` pattern, reference §1.10).
+    /// family are coupled (Peridigm's `FULL_MATRIX` Jacobian, `Peridigm_Material.hpp`).
     pub fn two_hop(bonds: &BondList) -> Self {
         let n = bonds.num_points();
         let rows = (0..n)

@@ -16,7 +16,8 @@ use crate::model::test_support::{brute_force_bonds, lattice, random_cloud, Rng};
 use crate::model::{BondList, PointCloud};
 use crate::physics::{BlockPhysics, Configuration, Physics};
 
-/// δ = 3.015 lattice spacings: Peridigm's usual m = 3 horizon (reference §1.9).
+/// δ = 3.015 lattice spacings: the m = 3 horizon of Peridigm's example decks, a little over
+/// three so that rounding keeps the points at three spacings.
 const HORIZON: f64 = 3.015;
 
 #[derive(Debug, Clone, Copy)]

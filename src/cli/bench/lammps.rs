@@ -115,7 +115,8 @@ pub fn run_lammps(
     })
 }
 
-/// The default LAMMPS input: `../shared/bench/lammps/in.pdcheck` relative to the repository.
+/// The default LAMMPS input: `in.pdcheck` in `../shared/bench/lammps` beside the checkout, where
+/// the development machines keep it.
 pub fn default_lammps_input() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/bench/lammps/in.pdcheck")
 }

@@ -131,6 +131,17 @@ fn process_cpu_seconds() -> Option<f64> {
     Some((user + system) / 100.0)
 }
 
+/// A fresh pool of `threads` rayon threads.
+pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, BenchError> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| BenchError::Pool {
+            threads,
+            message: e.to_string(),
+        })
+}
+
 /// Runs the benchmark deck once on a fresh pool of `threads` rayon threads, exactly as
 /// `peridyn run` would (no output files are requested, so nothing is written).
 pub fn measure(
@@ -140,13 +151,7 @@ pub fn measure(
     contact: bool,
     threads: usize,
 ) -> Result<Measurement, BenchError> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| BenchError::Pool {
-            threads,
-            message: e.to_string(),
-        })?;
+    let pool = thread_pool(threads)?;
     pool.install(|| {
         release_freed_memory();
         let rss_before_bytes = status_bytes("VmRSS");

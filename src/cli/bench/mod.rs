@@ -1,8 +1,8 @@
 //! `peridyn bench`: the explicit-dynamics speed check against LAMMPS's PERI package.
 //!
-//! The problem is the one of `shared/bench/lammps/in.pdcheck`: a 30 × 30 × 30 simple-cubic
-//! block (spacing 1 mm, cell-centred QuickGrid points), horizon δ = 3.015 mm with spherical
-//! QuickGrid families (122-point interior family, 2 929 168 directed bonds, LAMMPS's
+//! The problem is the one of the LAMMPS input `in.pdcheck` (`--lammps-input`): a 30 × 30 × 30
+//! simple-cubic block (spacing 1 mm, cell-centred QuickGrid points), horizon δ = 3.015 mm with
+//! spherical QuickGrid families (122-point interior family, 2 929 168 directed bonds, LAMMPS's
 //! `total # of bonds`), glass-like constants E = 72 GPa, ν = 0.25 (K = 48 GPa), ρ = 2440 kg/m³,
 //! `Critical Stretch` 5e-4, the third of the block with x index < 10 launched at −30 m/s in x,
 //! Δt = 5e-8 s, 100 steps, no output.
@@ -44,7 +44,7 @@ use peridyn::simulation;
 
 use bandwidth::{measure_bandwidth, Bandwidth, PMB_BYTES_PER_BOND};
 use lammps::{default_lammps_input, find_on_path, run_lammps, LammpsRun};
-use measure::{measure, Measurement};
+use measure::{measure, thread_pool, Measurement};
 use problem::{contact_supported, BenchModel};
 use table::{format_rate, table};
 
@@ -90,7 +90,8 @@ pub struct BenchArgs {
     /// Also run LAMMPS (`lmp` on PATH), alternating with peridyn.
     #[arg(long)]
     pub lammps: bool,
-    /// The LAMMPS input (default: `../shared/bench/lammps/in.pdcheck` next to the repository).
+    /// The LAMMPS input (default: `in.pdcheck` in `../shared/bench/lammps` beside the
+    /// checkout, where the development machines keep it).
     #[arg(long)]
     pub lammps_input: Option<PathBuf>,
 }
@@ -160,13 +161,7 @@ pub fn main(args: &BenchArgs) -> Result<(), BenchError> {
 
 /// The stream bandwidth on one thread and on `threads`, printed.
 fn measured_bandwidth(threads: usize) -> Result<Bandwidth, BenchError> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| BenchError::Pool {
-            threads,
-            message: e.to_string(),
-        })?;
+    let pool = thread_pool(threads)?;
     let bandwidth = pool.install(measure_bandwidth);
     println!(
         "memory bandwidth (triad over 3 × {} MiB, best of 5): {:.1} GB/s on 1 thread, {:.1} GB/s on {}; PMB bound at {PMB_BYTES_PER_BOND} B per directed bond: {} / {} evals/s",

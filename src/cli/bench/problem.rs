@@ -160,7 +160,7 @@ mod tests {
     fn deck_reproduces_the_lammps_lattice_and_launch() {
         // 30³ block: LAMMPS reports `total # of bonds = 2929168` for in.pdcheck, and the
         // interior family of a sphere of radius 3.015 spacings on a cubic lattice has 122
-        // points (README of shared/bench/lammps).
+        // points (the lattice points within 3.015 spacings of a point, itself excluded).
         let text = deck_yaml(BenchModel::Pmb, 30, 100, false);
         let deck = deck::parse_str(&text, DeckFormat::Yaml, Path::new("<test>")).unwrap();
         assert!(setup::unsupported_features(&deck).is_empty());

@@ -1,13 +1,13 @@
-//! The roadmap's dog-bone (implementation roadmap §18.8.2): length 10.16 cm, grip width
-//! 1.27 cm, gauge width 0.635 cm, thickness 0.315 cm, along y, centred on the origin, width
-//! along x, thickness along z.
+//! The dog-bone of Littlewood's "Roadmap for Software Implementation" (2016, §18.8.2; "the
+//! roadmap chapter" below): length 10.16 cm, grip width 1.27 cm, gauge width 0.635 cm,
+//! thickness 0.315 cm, along y, centred on the origin, width along x, thickness along z.
 //!
 //! The paper gives no fillet or grip length; these follow Peridigm's `tensile_test` mesh: a
 //! straight reduced section 3.81 cm long (|y| ≤ 1.905 cm), circular fillets of radius
 //! 0.635 cm tangent to it, reaching the grip width at |y| = 1.905 + √(2Rd − d²) ≈ 2.455 cm
 //! (d = 0.3175 cm, the step in half-width), and loaded grip blocks 0.381 cm long at each end.
 
-/// Dimensions of a flat dog-bone specimen (length units of the deck; cm for the roadmap's).
+/// Dimensions of a flat dog-bone specimen (length units of the deck; cm for the chapter's).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DogBone {
     /// Overall length along y.
@@ -41,7 +41,7 @@ pub struct Clipped {
 }
 
 impl DogBone {
-    /// The roadmap's specimen in cm, with the fillet and grips of Peridigm's example.
+    /// The roadmap chapter's specimen in cm, with the fillet and grips of Peridigm's example.
     pub const ROADMAP: DogBone = DogBone {
         length: 10.16,
         grip_width: 1.27,

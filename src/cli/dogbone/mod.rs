@@ -1,5 +1,6 @@
-//! `peridyn dogbone`: the roadmap's tensile-test specimen (§18.8.2) as a `Text File`
-//! discretization with node sets and a deck, at a chosen approximate point count.
+//! `peridyn dogbone`: the tensile-test specimen of Littlewood's "Roadmap for Software
+//! Implementation" (2016, §18.8.2) as a `Text File` discretization with node sets and a deck,
+//! at a chosen approximate point count.
 //!
 //! `peridyn dogbone --points 99000 --output-dir big` writes the paper's size. The output is a
 //! function of the arguments alone (no randomness, no clock), so the same command gives the

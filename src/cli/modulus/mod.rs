@@ -1,7 +1,7 @@
 //! `peridyn modulus`: Young's modulus from a tensile run's global outputs, as a tensile test
-//! reads it (implementation roadmap §18.8.2): a strain gauge (two points whose positions and
-//! displacements are `Nearest_Point_Data` compute classes) and a load cell (the reaction of a
-//! grip, a `Block_Data` sum of `Force`).
+//! reads it (Littlewood, "Roadmap for Software Implementation", 2016, §18.8.2): a strain
+//! gauge (two points whose positions and displacements are `Nearest_Point_Data` compute
+//! classes) and a load cell (the reaction of a grip, a `Block_Data` sum of `Force`).
 //!
 //! For every loaded output frame of the run's `<Output Filename>.csv`, along the pulling axis:
 //! * gauge length L₀ = y_top − y_bottom (initial positions),
@@ -62,29 +62,37 @@ impl Units {
     }
 }
 
+/// The default globals of the load cell and the strain gauge: those `peridyn dogbone`'s deck
+/// writes.
+const FORCE_LABEL: &str = "Top_Reaction_Force";
+const GAUGE_TOP_POSITION: &str = "Gage_Top_Initial_Position";
+const GAUGE_BOTTOM_POSITION: &str = "Gage_Bottom_Initial_Position";
+const GAUGE_TOP_DISPLACEMENT: &str = "Gage_Top_Displacement";
+const GAUGE_BOTTOM_DISPLACEMENT: &str = "Gage_Bottom_Displacement";
+
 /// Command-line options of `peridyn modulus`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ModulusArgs {
     /// The global-output CSV of a run (`<Output Filename>.csv`).
     pub csv: PathBuf,
     /// Initial cross-section of the gauge section (deck length units squared; 0.635 cm ×
-    /// 0.315 cm = 0.2 cm² for the roadmap's dog-bone).
+    /// 0.315 cm = 0.2 cm² for `peridyn dogbone`'s specimen).
     #[arg(long)]
     pub area: f64,
     /// The load cell: a vector global whose component along the axis is the grip reaction.
-    #[arg(long, default_value = "Top_Reaction_Force")]
+    #[arg(long, default_value = FORCE_LABEL)]
     pub force_label: String,
     /// Initial position of the upper gauge point (a vector global).
-    #[arg(long, default_value = "Gage_Top_Initial_Position")]
+    #[arg(long, default_value = GAUGE_TOP_POSITION)]
     pub gauge_top_position: String,
     /// Initial position of the lower gauge point.
-    #[arg(long, default_value = "Gage_Bottom_Initial_Position")]
+    #[arg(long, default_value = GAUGE_BOTTOM_POSITION)]
     pub gauge_bottom_position: String,
     /// Displacement of the upper gauge point.
-    #[arg(long, default_value = "Gage_Top_Displacement")]
+    #[arg(long, default_value = GAUGE_TOP_DISPLACEMENT)]
     pub gauge_top_displacement: String,
     /// Displacement of the lower gauge point.
-    #[arg(long, default_value = "Gage_Bottom_Displacement")]
+    #[arg(long, default_value = GAUGE_BOTTOM_DISPLACEMENT)]
     pub gauge_bottom_displacement: String,
     /// The pulling axis.
     #[arg(long, value_enum, default_value = "y")]
@@ -98,6 +106,27 @@ pub struct ModulusArgs {
     /// Write the stress–strain curve to this PNG file.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+}
+
+impl ModulusArgs {
+    /// The options with the default globals (see [`ModulusArgs::force_label`] and the gauge
+    /// labels) for `csv`, of gauge section `area`, pulled along `axis`: no expected modulus,
+    /// no units, no plot.
+    pub fn with_default_labels(csv: PathBuf, area: f64, axis: Axis) -> Self {
+        ModulusArgs {
+            csv,
+            area,
+            force_label: FORCE_LABEL.into(),
+            gauge_top_position: GAUGE_TOP_POSITION.into(),
+            gauge_bottom_position: GAUGE_BOTTOM_POSITION.into(),
+            gauge_top_displacement: GAUGE_TOP_DISPLACEMENT.into(),
+            gauge_bottom_displacement: GAUGE_BOTTOM_DISPLACEMENT.into(),
+            axis,
+            expected: None,
+            units: None,
+            plot: None,
+        }
+    }
 }
 
 /// Why no modulus could be computed.
@@ -310,17 +339,9 @@ mod tests {
 
     fn args(area: f64) -> ModulusArgs {
         ModulusArgs {
-            csv: PathBuf::from("run.csv"),
-            area,
-            force_label: "Top_Reaction_Force".into(),
-            gauge_top_position: "Gage_Top_Initial_Position".into(),
-            gauge_bottom_position: "Gage_Bottom_Initial_Position".into(),
-            gauge_top_displacement: "Gage_Top_Displacement".into(),
-            gauge_bottom_displacement: "Gage_Bottom_Displacement".into(),
-            axis: Axis::Y,
             expected: Some(2.0e12),
             units: Some(Units::Cgs),
-            plot: None,
+            ..ModulusArgs::with_default_labels(PathBuf::from("run.csv"), area, Axis::Y)
         }
     }
 

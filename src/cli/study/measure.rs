@@ -214,19 +214,7 @@ fn modulus_at_last_frame(file: &ExodusFile, area: f64, axis: Axis) -> Result<f64
         names,
         rows,
     };
-    let args = ModulusArgs {
-        csv: PathBuf::from(&file.path),
-        area,
-        force_label: "Top_Reaction_Force".into(),
-        gauge_top_position: "Gage_Top_Initial_Position".into(),
-        gauge_bottom_position: "Gage_Bottom_Initial_Position".into(),
-        gauge_top_displacement: "Gage_Top_Displacement".into(),
-        gauge_bottom_displacement: "Gage_Bottom_Displacement".into(),
-        axis,
-        expected: None,
-        units: None,
-        plot: None,
-    };
+    let args = ModulusArgs::with_default_labels(PathBuf::from(&file.path), area, axis);
     let samples = modulus::samples(&history, &args).map_err(|e| e.to_string())?;
     samples
         .last()

@@ -28,7 +28,7 @@ mod runner;
 mod stable;
 mod table;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use peridyn::io::deck::{self, Variation};
 
@@ -91,55 +91,10 @@ pub fn main(args: &StudyArgs) -> Result<String, StudyError> {
         return stable_dt(args, &deck);
     }
     let section = deck.study.clone().unwrap_or_default();
-    let mut variations = section.variations.clone();
-    let mut given = Vec::new();
-    for text in &args.vary {
-        let variation = Variation::parse(text).map_err(|e| input(format!("--vary {e}")))?;
-        if given.contains(&variation.path) {
-            return Err(input(format!(
-                "--vary: the key path \"{}\" is varied twice; give all its values in one --vary",
-                variation.name()
-            )));
-        }
-        given.push(variation.path.clone());
-        // The command line replaces the deck's variation of the same key.
-        match variations.iter_mut().find(|v| v.path == variation.path) {
-            Some(from_deck) => *from_deck = variation,
-            None => variations.push(variation),
-        }
-    }
-    for (k, variation) in variations.iter().enumerate() {
-        if variations[..k].iter().any(|v| v.path == variation.path) {
-            return Err(input(format!(
-                "{}: Study → Vary: the key path \"{}\" is varied twice; give all its values in one entry",
-                args.deck.display(),
-                variation.name()
-            )));
-        }
-    }
-    let mut measures = Vec::new();
-    for (label, text) in &section.measures {
-        measures.push(Measure::parse(label, text).map_err(|e| {
-            input(format!(
-                "{}: Study → Measure → {label}: {e}",
-                args.deck.display()
-            ))
-        })?);
-    }
-    for text in &args.measure {
-        let label = text.split('=').next().unwrap_or(text).trim();
-        measures.push(Measure::parse(label, text).map_err(|e| input(format!("--measure {e}")))?);
-    }
+    let variations = variations(args, &section)?;
+    let measures = measures(args, &section)?;
     grid::check(&args.deck, &variations).map_err(input)?;
-    let threads = args.threads.or(section.threads).unwrap_or(1);
-    let cores = std::thread::available_parallelism().map_or(1, usize::from);
-    let jobs = args
-        .jobs
-        .or(section.jobs)
-        .unwrap_or((cores / threads.max(1)).max(1));
-    if threads == 0 || jobs == 0 {
-        return Err(input("--threads and --jobs must be at least 1".to_string()));
-    }
+    let (threads, jobs) = workers(args, &section)?;
     let (folder, executable) = prepare(args)?;
     let variants = grid::product(&variations);
     eprintln!(
@@ -167,55 +122,147 @@ pub fn main(args: &StudyArgs) -> Result<String, StudyError> {
         })
         .collect();
     let table = build_table(&variations, &measures, &outcomes, &references);
-    let csv = folder.join("study.csv");
-    std::fs::write(&csv, table.csv())
-        .map_err(|e| StudyError::Output(format!("{}: cannot write: {e}", csv.display())))?;
+    let csv = write_csv(&folder, "study.csv", &table)?;
     let mut report = table.render();
     report.push('\n');
     for (measure, reference) in measures.iter().zip(&references) {
-        report.push_str(&match reference {
-            Some(Reference::Exact(value)) => {
-                format!(
-                    "{}: error against the exact value {value:e}\n",
-                    measure.label
-                )
-            }
-            Some(Reference::Finest { value, run }) => format!(
-                "{}: error against the finest run, variant {} ({} points): {value:e}\n",
-                measure.label,
-                outcomes[*run].variant.index,
-                outcomes[*run]
-                    .points
-                    .map_or_else(|| "?".to_string(), |p| p.to_string())
-            ),
-            None => format!("{}: no run gave a value\n", measure.label),
-        });
+        report.push_str(&describe_reference(measure, reference.as_ref(), &outcomes));
     }
     report.push_str(&format!("wrote {}\n", csv.display()));
     for (m, measure) in measures.iter().enumerate() {
-        let Some(reference) = references[m] else {
-            continue;
-        };
-        let points: Vec<(f64, f64)> = outcomes
-            .iter()
-            .filter_map(|o| {
-                value(o, m).map(|v| (o.cost.wall_seconds, measure::error(v, reference.value())))
-            })
-            .collect();
-        let path = folder.join(format!("error_{}.png", slug(&measure.label)));
-        let drawn = plot::error_against_time(&path, &points).map_err(|e| {
-            StudyError::Output(format!("{}: cannot write the plot: {e}", path.display()))
-        })?;
-        if drawn > 0 {
-            report.push_str(&format!("wrote {}\n", path.display()));
-        } else {
-            report.push_str(&format!(
-                "{}: no run with a positive error, no plot\n",
-                measure.label
-            ));
+        if let Some(reference) = references[m] {
+            report.push_str(&plot_errors(&folder, m, measure, reference, &outcomes)?);
         }
     }
     Ok(report)
+}
+
+/// The deck's `Study → Vary` entries with the command line's `--vary` ones: a `--vary` of a
+/// key path the deck varies too replaces the deck's; a key path varied twice is invalid input.
+fn variations(args: &StudyArgs, section: &deck::Study) -> Result<Vec<Variation>, StudyError> {
+    let input = StudyError::Input;
+    let mut variations = section.variations.clone();
+    let mut given = Vec::new();
+    for text in &args.vary {
+        let variation = Variation::parse(text).map_err(|e| input(format!("--vary {e}")))?;
+        if given.contains(&variation.path) {
+            return Err(input(format!(
+                "--vary: the key path \"{}\" is varied twice; give all its values in one --vary",
+                variation.name()
+            )));
+        }
+        given.push(variation.path.clone());
+        // The command line replaces the deck's variation of the same key.
+        match variations.iter_mut().find(|v| v.path == variation.path) {
+            Some(from_deck) => *from_deck = variation,
+            None => variations.push(variation),
+        }
+    }
+    for (k, variation) in variations.iter().enumerate() {
+        if variations[..k].iter().any(|v| v.path == variation.path) {
+            return Err(input(format!(
+                "{}: Study → Vary: the key path \"{}\" is varied twice; give all its values in one entry",
+                args.deck.display(),
+                variation.name()
+            )));
+        }
+    }
+    Ok(variations)
+}
+
+/// The deck's `Study → Measure` entries, then the command line's `--measure` ones.
+fn measures(args: &StudyArgs, section: &deck::Study) -> Result<Vec<Measure>, StudyError> {
+    let input = StudyError::Input;
+    let mut measures = Vec::new();
+    for (label, text) in &section.measures {
+        measures.push(Measure::parse(label, text).map_err(|e| {
+            input(format!(
+                "{}: Study → Measure → {label}: {e}",
+                args.deck.display()
+            ))
+        })?);
+    }
+    for text in &args.measure {
+        let label = text.split('=').next().unwrap_or(text).trim();
+        measures.push(Measure::parse(label, text).map_err(|e| input(format!("--measure {e}")))?);
+    }
+    Ok(measures)
+}
+
+/// Threads per run and runs at once: the command line's, else the deck's, else one thread per
+/// run and as many runs as the cores hold.
+fn workers(args: &StudyArgs, section: &deck::Study) -> Result<(usize, usize), StudyError> {
+    let threads = args.threads.or(section.threads).unwrap_or(1);
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let jobs = args
+        .jobs
+        .or(section.jobs)
+        .unwrap_or((cores / threads.max(1)).max(1));
+    if threads == 0 || jobs == 0 {
+        return Err(StudyError::Input(
+            "--threads and --jobs must be at least 1".to_string(),
+        ));
+    }
+    Ok((threads, jobs))
+}
+
+/// `<folder>/<name>`, written with the table's CSV.
+fn write_csv(folder: &Path, name: &str, table: &Table) -> Result<PathBuf, StudyError> {
+    let csv = folder.join(name);
+    std::fs::write(&csv, table.csv())
+        .map_err(|e| StudyError::Output(format!("{}: cannot write: {e}", csv.display())))?;
+    Ok(csv)
+}
+
+/// The report's line on what `measure`'s errors are measured against.
+fn describe_reference(
+    measure: &Measure,
+    reference: Option<&Reference>,
+    outcomes: &[Outcome],
+) -> String {
+    match reference {
+        Some(Reference::Exact(value)) => {
+            format!(
+                "{}: error against the exact value {value:e}\n",
+                measure.label
+            )
+        }
+        Some(Reference::Finest { value, run }) => format!(
+            "{}: error against the finest run, variant {} ({} points): {value:e}\n",
+            measure.label,
+            outcomes[*run].variant.index,
+            outcomes[*run]
+                .points
+                .map_or_else(|| "?".to_string(), |p| p.to_string())
+        ),
+        None => format!("{}: no run gave a value\n", measure.label),
+    }
+}
+
+/// Draws `<folder>/error_<measure>.png`, the error of measure `m` against wall time, and
+/// returns the report's line on it.
+fn plot_errors(
+    folder: &Path,
+    m: usize,
+    measure: &Measure,
+    reference: Reference,
+    outcomes: &[Outcome],
+) -> Result<String, StudyError> {
+    let points: Vec<(f64, f64)> = outcomes
+        .iter()
+        .filter_map(|o| {
+            value(o, m).map(|v| (o.cost.wall_seconds, measure::error(v, reference.value())))
+        })
+        .collect();
+    let path = folder.join(format!("error_{}.png", slug(&measure.label)));
+    let drawn = plot::error_against_time(&path, &points).map_err(|e| {
+        StudyError::Output(format!("{}: cannot write the plot: {e}", path.display()))
+    })?;
+    Ok(if drawn > 0 {
+        format!("wrote {}\n", path.display())
+    } else {
+        format!("{}: no run with a positive error, no plot\n", measure.label)
+    })
 }
 
 /// The study's folder (created) and the `peridyn` executable the variants run.
@@ -271,9 +318,7 @@ fn stable_dt(args: &StudyArgs, deck: &deck::Deck) -> Result<String, StudyError> 
     };
     let trials = stable::search(&setup, &path, args.tolerance)?;
     let table = stable::table(&trials);
-    let csv = folder.join("stable_dt.csv");
-    std::fs::write(&csv, table.csv())
-        .map_err(|e| StudyError::Output(format!("{}: cannot write: {e}", csv.display())))?;
+    let csv = write_csv(&folder, "stable_dt.csv", &table)?;
     let mut report = table.render();
     report.push('\n');
     report.push_str(&stable::summary(&trials));

@@ -311,9 +311,13 @@ fn reader_errors_name_the_file_and_the_problem() {
 // Peridigm's files
 // ---------------------------------------------------------------------------------------------
 
-/// `../shared/peridigm` beside the checkout (CI layout), if present.
+/// Peridigm's decks and gold results (its `examples` and `test/regression` folders), if present:
+/// `$PERIDIGM_DATA`, else `../shared/peridigm` beside the checkout, where CI puts them.
 fn peridigm_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/peridigm");
+    let dir = std::env::var_os("PERIDIGM_DATA").map_or_else(
+        || Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/peridigm"),
+        PathBuf::from,
+    );
     if dir.is_dir() {
         Some(dir)
     } else {

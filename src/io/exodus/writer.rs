@@ -56,6 +56,11 @@ impl HeaderBuilder {
         self.header.dims.len() - 1
     }
 
+    /// A variable without attributes.
+    fn plain(&mut self, name: impl Into<String>, dims: Vec<usize>, nc_type: NcType) {
+        self.var(name.into(), dims, nc_type, Vec::new());
+    }
+
     fn var(&mut self, name: String, dims: Vec<usize>, nc_type: NcType, attrs: Vec<Attribute>) {
         self.header.vars.push(Variable {
             name,
@@ -87,28 +92,35 @@ struct Dims {
 }
 
 impl HeaderBuilder {
-    /// An Offset64 header with the global attributes of an Exodus file.
+    /// An Offset64 header with the global attributes of an Exodus results file.
     fn new(layout: &OutputLayout, name_len: usize) -> Self {
+        let title = truncate(&layout.title, LEN_LINE as usize - 1);
+        Self::with_attributes([
+            attr("int64_status", AttrValue::Ints(vec![0])),
+            attr("title", AttrValue::Text(title.into())),
+            attr(
+                "maximum_name_length",
+                AttrValue::Ints(vec![name_len as i32]),
+            ),
+        ])
+    }
+
+    /// An empty Offset64 header whose global attributes are the Exodus version and word sizes
+    /// followed by `more`.
+    fn with_attributes(more: impl IntoIterator<Item = Attribute>) -> Self {
+        let mut attrs = vec![
+            attr("api_version", AttrValue::Floats(vec![EXODUS_VERSION])),
+            attr("version", AttrValue::Floats(vec![EXODUS_VERSION])),
+            attr("floating_point_word_size", AttrValue::Ints(vec![8])),
+            attr("file_size", AttrValue::Ints(vec![1])),
+        ];
+        attrs.extend(more);
         HeaderBuilder {
             header: Header {
                 format: NcFormat::Offset64,
                 numrecs: 0,
                 dims: Vec::new(),
-                attrs: vec![
-                    attr("api_version", AttrValue::Floats(vec![EXODUS_VERSION])),
-                    attr("version", AttrValue::Floats(vec![EXODUS_VERSION])),
-                    attr("floating_point_word_size", AttrValue::Ints(vec![8])),
-                    attr("file_size", AttrValue::Ints(vec![1])),
-                    attr("int64_status", AttrValue::Ints(vec![0])),
-                    attr(
-                        "title",
-                        AttrValue::Text(truncate(&layout.title, LEN_LINE as usize - 1).into()),
-                    ),
-                    attr(
-                        "maximum_name_length",
-                        AttrValue::Ints(vec![name_len as i32]),
-                    ),
-                ],
+                attrs,
                 vars: Vec::new(),
             },
         }
@@ -170,38 +182,28 @@ impl HeaderBuilder {
     /// node sets, connectivity and maps), in the order the Exodus API writes them.
     fn mesh_variables(&mut self, d: &Dims) {
         let id_attr = || vec![attr("name", AttrValue::Text(b"ID".to_vec()))];
-        self.var("time_whole".into(), vec![d.time], NcType::Double, vec![]);
+        self.plain("time_whole", vec![d.time], NcType::Double);
         if let Some(blocks) = d.blocks {
-            self.var("eb_status".into(), vec![blocks], NcType::Int, vec![]);
+            self.plain("eb_status", vec![blocks], NcType::Int);
             self.var("eb_prop1".into(), vec![blocks], NcType::Int, id_attr());
         }
         if let Some(sets) = d.node_sets {
-            self.var("ns_status".into(), vec![sets], NcType::Int, vec![]);
+            self.plain("ns_status", vec![sets], NcType::Int);
             self.var("ns_prop1".into(), vec![sets], NcType::Int, id_attr());
         }
         for axis in ["coordx", "coordy", "coordz"] {
-            self.var(axis.into(), vec![d.nodes], NcType::Double, vec![]);
+            self.plain(axis, vec![d.nodes], NcType::Double);
         }
         if let Some(blocks) = d.blocks {
-            self.var(
-                "eb_names".into(),
-                vec![blocks, d.name],
-                NcType::Char,
-                vec![],
-            );
+            self.plain("eb_names", vec![blocks, d.name], NcType::Char);
         }
         if let Some(sets) = d.node_sets {
-            self.var("ns_names".into(), vec![sets, d.name], NcType::Char, vec![]);
+            self.plain("ns_names", vec![sets, d.name], NcType::Char);
         }
-        self.var(
-            "coor_names".into(),
-            vec![d.num_dim, d.name],
-            NcType::Char,
-            vec![],
-        );
+        self.plain("coor_names", vec![d.num_dim, d.name], NcType::Char);
         for (k, len) in d.node_set_len.iter().enumerate() {
             if let Some(len) = *len {
-                self.var(format!("node_ns{}", k + 1), vec![len], NcType::Int, vec![]);
+                self.plain(format!("node_ns{}", k + 1), vec![len], NcType::Int);
             }
         }
         for (i, len) in d.block_len.iter().enumerate() {
@@ -215,71 +217,48 @@ impl HeaderBuilder {
                 );
             }
         }
-        self.var("node_num_map".into(), vec![d.nodes], NcType::Int, vec![]);
+        self.plain("node_num_map", vec![d.nodes], NcType::Int);
         if let Some(elem) = d.elem {
-            self.var("elem_num_map".into(), vec![elem], NcType::Int, vec![]);
+            self.plain("elem_num_map", vec![elem], NcType::Int);
         }
     }
 
     /// Declares the result variables (global, nodal, element per block) and their names.
     fn result_variables(&mut self, layout: &OutputLayout, d: &Dims) {
         if let Some(glo) = d.global_vars {
-            self.var(
-                "name_glo_var".into(),
-                vec![glo, d.name],
-                NcType::Char,
-                vec![],
-            );
-            self.var(
-                "vals_glo_var".into(),
-                vec![d.time, glo],
-                NcType::Double,
-                vec![],
-            );
+            self.plain("name_glo_var", vec![glo, d.name], NcType::Char);
+            self.plain("vals_glo_var", vec![d.time, glo], NcType::Double);
         }
         for k in 0..layout.nodal_variables.len() {
-            self.var(
+            self.plain(
                 format!("vals_nod_var{}", k + 1),
                 vec![d.time, d.nodes],
                 NcType::Double,
-                vec![],
             );
         }
         if let Some(nod) = d.nodal_vars {
-            self.var(
-                "name_nod_var".into(),
-                vec![nod, d.name],
-                NcType::Char,
-                vec![],
-            );
+            self.plain("name_nod_var", vec![nod, d.name], NcType::Char);
         }
         if let Some(d_var) = d.element_vars {
-            self.var(
-                "name_elem_var".into(),
-                vec![d_var, d.name],
-                NcType::Char,
-                vec![],
-            );
+            self.plain("name_elem_var", vec![d_var, d.name], NcType::Char);
             for (i, len) in d.block_len.iter().enumerate() {
                 if let Some((n, _)) = *len {
                     for (k, name) in layout.element_variables.iter().enumerate() {
                         if !layout.blocks[i].defines(name) {
                             continue;
                         }
-                        self.var(
+                        self.plain(
                             format!("vals_elem_var{}eb{}", k + 1, i + 1),
                             vec![d.time, n],
                             NcType::Double,
-                            vec![],
                         );
                     }
                 }
             }
-            self.var(
-                "elem_var_tab".into(),
+            self.plain(
+                "elem_var_tab",
                 vec![d.blocks.expect("element variables need blocks"), d_var],
                 NcType::Int,
-                vec![],
             );
         }
     }
@@ -343,6 +322,35 @@ fn write_fixed(
     Ok(())
 }
 
+/// Creates (truncating) `path` with `header` laid out and written, its fixed data zeroed.
+fn create_file(path: &Path, header: Header) -> Result<NcWriter, ExodusError> {
+    let file = File::create(path).map_err(|source| ExodusError::Io {
+        path: path.to_path_buf(),
+        action: "create",
+        source,
+    })?;
+    NcWriter::create(file, header).map_err(|source| ExodusError::NetCdf {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Writes `<prefix>_status` (1 for an entity with nodes), `<prefix>_prop1` (the ids) and
+/// `<prefix>_names` of the blocks (`eb`) or node sets (`ns`), given as (nodes, id, name).
+fn write_entities(
+    nc: &mut NcWriter,
+    prefix: &str,
+    entities: Vec<(&[u32], i64, &str)>,
+    width: usize,
+) -> Result<(), NcError> {
+    let status = entities.iter().map(|e| i32::from(!e.0.is_empty()));
+    nc.put_fixed(&format!("{prefix}_status"), &encode::ints(status))?;
+    let ids = entities.iter().map(|e| e.1 as i32);
+    nc.put_fixed(&format!("{prefix}_prop1"), &encode::ints(ids))?;
+    let names: Vec<String> = entities.iter().map(|e| e.2.to_string()).collect();
+    nc.put_fixed(&format!("{prefix}_names"), &encode::names(&names, width))
+}
+
 /// Writes the mesh: block and node set status, ids and names, coordinates, node sets,
 /// connectivity and the node and element maps.
 fn write_mesh(
@@ -351,30 +359,17 @@ fn write_mesh(
     d: &Dims,
     width: usize,
 ) -> Result<(), NcError> {
-    let mut put = |name: &str, data: Vec<u8>| nc.put_fixed(name, &data);
     if d.blocks.is_some() {
-        let status = layout.blocks.iter().map(|b| i32::from(!b.nodes.is_empty()));
-        put("eb_status", encode::ints(status))?;
-        put(
-            "eb_prop1",
-            encode::ints(layout.blocks.iter().map(|b| b.id as i32)),
-        )?;
-        let names: Vec<String> = layout.blocks.iter().map(|b| b.name.clone()).collect();
-        put("eb_names", encode::names(&names, width))?;
+        let blocks = layout.blocks.iter();
+        let entities = blocks.map(|b| (&b.nodes[..], b.id, &b.name[..]));
+        write_entities(nc, "eb", entities.collect(), width)?;
     }
     if d.node_sets.is_some() {
-        let status = layout
-            .node_sets
-            .iter()
-            .map(|s| i32::from(!s.nodes.is_empty()));
-        put("ns_status", encode::ints(status))?;
-        put(
-            "ns_prop1",
-            encode::ints(layout.node_sets.iter().map(|s| s.id as i32)),
-        )?;
-        let names: Vec<String> = layout.node_sets.iter().map(|s| s.name.clone()).collect();
-        put("ns_names", encode::names(&names, width))?;
+        let sets = layout.node_sets.iter();
+        let entities = sets.map(|s| (&s.nodes[..], s.id, &s.name[..]));
+        write_entities(nc, "ns", entities.collect(), width)?;
     }
+    let mut put = |name: &str, data: Vec<u8>| nc.put_fixed(name, &data);
     for (axis, name) in ["coordx", "coordy", "coordz"].iter().enumerate() {
         put(
             name,
@@ -441,21 +436,8 @@ pub fn write_shell_mesh(
         )));
     }
     let faces = (connectivity.len() / nodes_per_face) as u64;
-    let mut b = HeaderBuilder {
-        header: Header {
-            format: NcFormat::Offset64,
-            numrecs: 0,
-            dims: Vec::new(),
-            attrs: vec![
-                attr("api_version", AttrValue::Floats(vec![EXODUS_VERSION])),
-                attr("version", AttrValue::Floats(vec![EXODUS_VERSION])),
-                attr("floating_point_word_size", AttrValue::Ints(vec![8])),
-                attr("file_size", AttrValue::Ints(vec![1])),
-                attr("title", AttrValue::Text(b"shell mesh".to_vec())),
-            ],
-            vars: Vec::new(),
-        },
-    };
+    let mut b =
+        HeaderBuilder::with_attributes([attr("title", AttrValue::Text(b"shell mesh".to_vec()))]);
     b.dim("len_string", LEN_STRING);
     b.dim("len_line", LEN_LINE);
     b.dim("four", 4);
@@ -483,12 +465,7 @@ pub fn write_shell_mesh(
         path: path.to_path_buf(),
         source,
     };
-    let file = File::create(path).map_err(|source| ExodusError::Io {
-        path: path.to_path_buf(),
-        action: "create",
-        source,
-    })?;
-    let mut nc = NcWriter::create(file, b.header).map_err(nc_err)?;
+    let mut nc = create_file(path, b.header)?;
     let mut put = |name: &str, data: Vec<u8>| nc.put_fixed(name, &data).map_err(nc_err);
     put("eb_status", encode::ints([1]))?;
     put("eb_prop1", encode::ints([1]))?;
@@ -524,12 +501,7 @@ impl ExodusWriter {
         b.mesh_variables(&dims);
         b.result_variables(layout, &dims);
 
-        let file = File::create(path).map_err(|source| ExodusError::Io {
-            path: path.to_path_buf(),
-            action: "create",
-            source,
-        })?;
-        let mut nc = NcWriter::create(file, b.header).map_err(nc_err)?;
+        let mut nc = create_file(path, b.header)?;
         write_fixed(&mut nc, layout, &dims, name_len + 1).map_err(nc_err)?;
 
         Ok(ExodusWriter {
@@ -666,6 +638,30 @@ fn truncate(text: &str, max: usize) -> &str {
     &text[..end]
 }
 
+/// Checks the blocks or node sets (`kind`) of a layout of `n` nodes, given as (id, the name
+/// messages give it, nodes): ids distinct and 32-bit, nodes within range.
+fn validate_groups<'a>(
+    kind: &str,
+    groups: impl Iterator<Item = (i64, String, &'a [u32])>,
+    n: usize,
+) -> Result<(), String> {
+    let mut ids = HashSet::new();
+    for (id, label, nodes) in groups {
+        if !ids.insert(id) {
+            return Err(format!("{kind} id {id} is used twice"));
+        }
+        if id < i64::from(i32::MIN) || id > i64::from(i32::MAX) {
+            return Err(format!("{kind} id {id} does not fit in 32 bits"));
+        }
+        if let Some(k) = nodes.iter().find(|&&k| k as usize >= n) {
+            return Err(format!(
+                "{kind} {label} lists node {k} but there are {n} nodes"
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Checks the layout; the message says what to fix.
 fn validate(layout: &OutputLayout) -> Result<(), String> {
     let n = layout.coordinates.len();
@@ -688,37 +684,18 @@ fn validate(layout: &OutputLayout) -> Result<(), String> {
     {
         return Err(format!("node id {id} is outside 1..=2147483647"));
     }
-    let in_range = |nodes: &[u32]| nodes.iter().find(|&&k| k as usize >= n).copied();
-    let mut ids = HashSet::new();
-    for block in &layout.blocks {
-        if !ids.insert(block.id) {
-            return Err(format!("block id {} is used twice", block.id));
-        }
-        if block.id < i64::from(i32::MIN) || block.id > i64::from(i32::MAX) {
-            return Err(format!("block id {} does not fit in 32 bits", block.id));
-        }
-        if let Some(k) = in_range(&block.nodes) {
-            return Err(format!(
-                "block {} lists node {k} but there are {n} nodes",
-                block.id
-            ));
-        }
-    }
-    let mut ids = HashSet::new();
-    for set in &layout.node_sets {
-        if !ids.insert(set.id) {
-            return Err(format!("node set id {} is used twice", set.id));
-        }
-        if set.id < i64::from(i32::MIN) || set.id > i64::from(i32::MAX) {
-            return Err(format!("node set id {} does not fit in 32 bits", set.id));
-        }
-        if let Some(k) = in_range(&set.nodes) {
-            return Err(format!(
-                "node set '{}' lists node {k} but there are {n} nodes",
-                set.name
-            ));
-        }
-    }
+    let blocks = layout.blocks.iter();
+    validate_groups(
+        "block",
+        blocks.map(|b| (b.id, b.id.to_string(), b.nodes.as_slice())),
+        n,
+    )?;
+    let sets = layout.node_sets.iter();
+    validate_groups(
+        "node set",
+        sets.map(|s| (s.id, format!("'{}'", s.name), s.nodes.as_slice())),
+        n,
+    )?;
     for (kind, names) in [
         ("nodal", &layout.nodal_variables),
         ("element", &layout.element_variables),

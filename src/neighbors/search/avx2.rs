@@ -14,7 +14,8 @@
 //! **The reference lengths** of the filled rows ([`reference_lengths_wide`]): four bonds per
 //! square root instruction instead of one, the same operations per bond, so the same lengths.
 
-use super::{reference_lengths_from, CellGrid, Half, PACKED_LANES};
+use super::grid::{CellGrid, Half, PACKED_LANES};
+use super::shape::reference_lengths_from;
 use std::arch::x86_64::{
     __m256d, __m256i, _mm256_add_pd, _mm256_castsi256_ps, _mm256_cmp_pd, _mm256_cmpgt_epi32,
     _mm256_loadu_pd, _mm256_loadu_si256, _mm256_movemask_pd, _mm256_movemask_ps, _mm256_mul_pd,
@@ -154,6 +155,9 @@ pub(super) unsafe fn reference_lengths_wide(
 ///
 /// # Safety
 /// The CPU supports AVX2; the three arrays hold `at + 4` entries.
+// A SIMD kernel inlined into the packing loop of `append_run_packed`: its eight arguments are
+// that loop's three coordinate pointers, its slot and the query's four broadcast registers,
+// which a struct would only carry under another name (and the loop is kept as it was measured).
 #[allow(clippy::too_many_arguments)]
 #[target_feature(enable = "avx2")]
 #[inline]
