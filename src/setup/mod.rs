@@ -10,6 +10,7 @@ mod node_sets;
 mod physics;
 pub mod quadrature;
 pub mod report;
+pub mod solvers;
 pub mod surface_correction;
 mod validate;
 

@@ -110,7 +110,9 @@ pub fn run_distributed(
     dir: &Path,
     comm: &dyn Communicator,
 ) -> Result<RunSummary, RunError> {
-    check_distributable(deck, comm.size()).map_err(|e| collective(comm, e.into()))?;
+    crate::setup::solvers::check_ranks(deck, comm.size())
+        .and_then(|()| check_distributable(deck, comm.size()))
+        .map_err(|e| collective(comm, e.into()))?;
     if let Some((block, rule)) = setup::quadrature::widening_blocks(deck).first() {
         return Err(collective(
             comm,
