@@ -324,8 +324,9 @@ fn newton_converges_quadratically_on_a_large_stretch_and_shear() {
         DofMap::new(model.points.len(), &constrained, &[]),
         &mut state,
     );
-    let mut linear =
-        peridyn::solver::linear::strategy(&deck.solvers[0], model.points.len()).unwrap();
+    let list = peridyn::setup::solvers::solver_list(&deck.solvers[0], false);
+    let solve = list.integrator.solve().expect("an implicit list");
+    let mut linear = peridyn::solver::linear::strategy(solve, model.points.len()).unwrap();
     let settings = NewtonSettings {
         max_iterations: 25,
         tolerance: 0.0,

@@ -10,8 +10,8 @@ use peridyn::backend::native::KrylovSettings;
 use peridyn::backend::petsc::snes::{self, SnesJacobian, SnesSettings};
 use peridyn::backend::petsc::{DeckOptions, KspMethod, PetscLinearSolver, PetscSettings};
 use peridyn::backend::problem::{Evaluation, NonlinearProblem};
+use peridyn::backend::settings::PetscPreconditioner;
 use peridyn::backend::{Csr, LinearSolver, SolveError};
-use peridyn::io::deck::PetscPreconditioner;
 use quasi_static_bar::{final_displacement, run_deck};
 use std::process::Command;
 

@@ -422,7 +422,7 @@ fn deck_choices_the_trilinos_backend_cannot_honour_are_refused() {
 
 #[test]
 fn a_belos_parameter_replaces_the_setting_peridyn_derives() {
-    use peridyn::io::deck::ParameterValue;
+    use peridyn::backend::parameters::ParameterValue;
     let (matrix, rhs, _) = laplacian_problem(N);
     let mut solver = TrilinosLinearSolver::new(TrilinosSettings {
         belos_parameters: vec![

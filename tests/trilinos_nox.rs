@@ -5,11 +5,11 @@
 
 mod quasi_static_bar;
 
+use peridyn::backend::parameters::ParameterValue;
 use peridyn::backend::trilinos::nox::{
     self, NonlinearCallbacks, NoxLayout, Pattern, PreconditionerMatrix,
 };
 use peridyn::backend::SolveError;
-use peridyn::io::deck::ParameterValue;
 use peridyn::io::exodus::ExodusFile;
 use quasi_static_bar::{final_displacement, run_deck};
 

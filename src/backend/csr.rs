@@ -81,6 +81,18 @@ impl Csr {
             });
     }
 
+    /// The true residual norm ‖b − A x‖₂ of `x` ([`Csr::multiply_parallel`], summed in row
+    /// order), what solvers that work with an updated estimate report instead of it.
+    pub fn residual_norm(&self, x: &[f64], b: &[f64]) -> f64 {
+        let mut ax = vec![0.0; self.nrows];
+        self.multiply_parallel(x, &mut ax);
+        b.iter()
+            .zip(&ax)
+            .map(|(b, a)| (b - a) * (b - a))
+            .sum::<f64>()
+            .sqrt()
+    }
+
     /// Row count from which [`Csr::multiply_parallel`] uses more than one thread.
     pub const PARALLEL_ROWS: usize = 4096;
 

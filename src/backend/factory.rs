@@ -1,6 +1,6 @@
-//! What runs where: the one place that maps a deck's solver list (its keys, with
-//! `peridyn run --backend` already applied) and the rank count to a backend, and says in one
-//! message what this build or rank count cannot run.
+//! What runs where: the one place that maps an implicit solver list's settings
+//! ([`ImplicitSolve`], from its deck keys with `peridyn run --backend` already applied) and the
+//! rank count to a backend, and says in one message what this build or rank count cannot run.
 //!
 //! | solver list                     | `Backend: "Native"`             | `Backend: "Trilinos"`        | `Backend: "PETSc"`             |
 //! |---------------------------------|---------------------------------|------------------------------|--------------------------------|
@@ -15,11 +15,12 @@
 //! process. The Trilinos backend has no direct linear solver. The solver modules build the
 //! objects ([`crate::solver::linear`]); this module only decides.
 
-use super::Unsupported;
-use crate::io::deck::{
-    Integrator, LinearBackend, LinearMethod, LinearPreconditioner, NonlinearMethod, ParameterValue,
-    PeridigmPreconditioner, Solver,
+use super::parameters::{string_at, value_at, ParameterValue};
+use super::settings::{
+    ImplicitSolve, LinearBackend, LinearMethod, LinearPreconditioner, Nonlinear, NonlinearMethod,
+    NoxParameters, PeridigmPreconditioner,
 };
+use super::Unsupported;
 
 /// Which nonlinear backend solves an implicit solver list.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -32,142 +33,135 @@ pub enum NonlinearBackend {
     Snes,
 }
 
-/// The nonlinear backend of `solver`: NOX for `NOXQuasiStatic` on the Trilinos backend, SNES
+/// The nonlinear backend of `solve`: NOX for `NOXQuasiStatic` on the Trilinos backend, SNES
 /// for `NOXQuasiStatic` on the PETSc backend and for `QuasiStatic` and `Implicit` lists with
 /// `Nonlinear Solver: "SNES"`, otherwise peridyn's Newton. Fails when the choice needs a
 /// feature this build lacks, or SNES is asked for on another backend.
-pub fn nonlinear_backend(solver: &Solver) -> Result<NonlinearBackend, Unsupported> {
-    let on_petsc = matches!(solver.linear_solve.backend, LinearBackend::Petsc { .. });
-    let snes_asked = solver.linear_solve.nonlinear_method == NonlinearMethod::Snes
-        && matches!(
-            solver.integrator,
-            Integrator::QuasiStatic(_) | Integrator::Implicit(_)
-        );
+pub fn nonlinear_backend(solve: &ImplicitSolve) -> Result<NonlinearBackend, Unsupported> {
+    let on_petsc = matches!(solve.linear.backend, LinearBackend::Petsc { .. });
+    let nox = matches!(solve.nonlinear, Nonlinear::Nox(_));
+    let snes_asked = solve.linear.nonlinear_method == NonlinearMethod::Snes && !nox;
     if snes_asked && !on_petsc {
         return Err(Unsupported(format!(
             "solver \"{}\": Nonlinear Solver \"SNES\" is PETSc's: give Backend \"PETSc\" (or `peridyn run --backend petsc`), or remove the key for peridyn's Newton",
-            solver.name
+            solve.list
         )));
     }
-    if snes_asked || (matches!(solver.integrator, Integrator::NoxQuasiStatic(_)) && on_petsc) {
+    if snes_asked || (nox && on_petsc) {
         if !cfg!(feature = "petsc") {
-            return Err(petsc_not_built(solver));
+            return Err(petsc_not_built(&solve.list));
         }
         return Ok(NonlinearBackend::Snes);
     }
-    if !runs_on_nox(solver) {
+    if !runs_on_nox(solve) {
         return Ok(NonlinearBackend::Newton);
     }
     if !cfg!(feature = "trilinos") {
-        return Err(trilinos_not_built(solver));
+        return Err(trilinos_not_built(&solve.list));
     }
     Ok(NonlinearBackend::Nox)
 }
 
-/// True when `solver` is a `NOXQuasiStatic` list on the Trilinos backend (solved by NOX).
-pub fn runs_on_nox(solver: &Solver) -> bool {
-    matches!(solver.integrator, Integrator::NoxQuasiStatic(_))
-        && on_trilinos(&solver.linear_solve.backend)
+/// The NOX parameters of a `NOXQuasiStatic` list, `None` for other lists.
+pub fn nox_parameters(solve: &ImplicitSolve) -> Option<&NoxParameters> {
+    match &solve.nonlinear {
+        Nonlinear::Nox(nox) => Some(nox),
+        Nonlinear::Newton { .. } => None,
+    }
+}
+
+/// True when `solve` is a `NOXQuasiStatic` list on the Trilinos backend (solved by NOX).
+pub fn runs_on_nox(solve: &ImplicitSolve) -> bool {
+    nox_parameters(solve).is_some() && on_trilinos(&solve.linear.backend)
 }
 
 fn on_trilinos(backend: &LinearBackend) -> bool {
     matches!(backend, LinearBackend::Trilinos { .. })
 }
 
-/// The refusal of `Backend "Trilinos"` in a build without the feature.
-pub fn trilinos_not_built(solver: &Solver) -> Unsupported {
+/// The refusal of `Backend "Trilinos"` in a build without the feature, for solver list `list`.
+pub fn trilinos_not_built(list: &str) -> Unsupported {
     Unsupported(format!(
-        "solver \"{}\": Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
-         (cargo build --release --features trilinos; see .ci/trilinos.sh)",
-        solver.name
+        "solver \"{list}\": Backend \"Trilinos\" needs a peridyn built with the Cargo feature `trilinos` \
+         (cargo build --release --features trilinos; see .ci/trilinos.sh)"
     ))
 }
 
-/// The refusal of `Backend "PETSc"` in a build without the feature.
-pub fn petsc_not_built(solver: &Solver) -> Unsupported {
+/// The refusal of `Backend "PETSc"` in a build without the feature, for solver list `list`.
+pub fn petsc_not_built(list: &str) -> Unsupported {
     Unsupported(format!(
-        "solver \"{}\": Backend \"PETSc\" needs a peridyn built with the Cargo feature `petsc` \
-         (cargo build --release --features petsc; see .ci/petsc.sh)",
-        solver.name
+        "solver \"{list}\": Backend \"PETSc\" needs a peridyn built with the Cargo feature `petsc` \
+         (cargo build --release --features petsc; see .ci/petsc.sh)"
     ))
 }
 
 /// Refuses a direct linear method on the Trilinos backend (Belos is CG or GMRES).
-pub fn check_trilinos_method(solver: &Solver) -> Result<(), Unsupported> {
-    match solver.linear_solve.method {
-        LinearMethod::Direct | LinearMethod::Cholesky | LinearMethod::Lu => Err(Unsupported(format!(
+pub fn check_trilinos_method(solve: &ImplicitSolve) -> Result<(), Unsupported> {
+    if solve.linear.method.is_direct() {
+        return Err(Unsupported(format!(
             "solver \"{}\": Backend \"Trilinos\" solves with Belos CG or GMRES, not a direct method",
-            solver.name
-        ))),
-        LinearMethod::Automatic | LinearMethod::Cg | LinearMethod::Gmres => Ok(()),
+            solve.list
+        )));
     }
+    Ok(())
 }
 
-/// Refuses an implicit list on `ranks` > 1 ranks unless the Trilinos or PETSc backend, built
-/// in, solves it; `Verlet` runs on any number of ranks.
-pub fn check_ranks(solver: &Solver, ranks: usize) -> Result<(), Unsupported> {
-    let backend = &solver.linear_solve.backend;
-    let distributable = match solver.integrator {
-        Integrator::Verlet(_) => true,
-        Integrator::QuasiStatic(_) | Integrator::NoxQuasiStatic(_) | Integrator::Implicit(_) => {
-            (on_trilinos(backend) && cfg!(feature = "trilinos"))
-                || (matches!(backend, LinearBackend::Petsc { .. }) && cfg!(feature = "petsc"))
-        }
-        Integrator::ImplicitDiffusion(_) => false,
-    };
+/// Refuses the implicit list `solve` on `ranks` > 1 ranks unless the Trilinos or PETSc
+/// backend, built in, solves it.
+pub fn check_ranks(solve: &ImplicitSolve, ranks: usize) -> Result<(), Unsupported> {
+    let backend = &solve.linear.backend;
+    let distributable = (on_trilinos(backend) && cfg!(feature = "trilinos"))
+        || (matches!(backend, LinearBackend::Petsc { .. }) && cfg!(feature = "petsc"));
     if ranks <= 1 || distributable {
         return Ok(());
     }
-    Err(Unsupported(format!(
-        "solver \"{}\": {} on {ranks} ranks needs the Trilinos or PETSc backend (QuasiStatic, NOXQuasiStatic or Implicit with Backend \"Trilinos\" or \"PETSc\", \
-         or `peridyn run --backend trilinos` or `--backend petsc`, in a build with the feature mpi and that backend's feature); the native backend runs on one rank",
-        solver.name,
-        solver.integrator.deck_name()
-    )))
+    Err(not_on_ranks(&solve.list, solve.integrator, ranks))
+}
+
+/// The refusal of an implicit list (solver list `list`, integrator `integrator`) on `ranks`
+/// ranks without a distributed backend.
+pub fn not_on_ranks(list: &str, integrator: &str, ranks: usize) -> Unsupported {
+    Unsupported(format!(
+        "solver \"{list}\": {integrator} on {ranks} ranks needs the Trilinos or PETSc backend (QuasiStatic, NOXQuasiStatic or Implicit with Backend \"Trilinos\" or \"PETSc\", \
+         or `peridyn run --backend trilinos` or `--backend petsc`, in a build with the feature mpi and that backend's feature); the native backend runs on one rank"
+    ))
 }
 
 /// NOX's name of the deck's `Direction → Method` (`Newton` or `Nonlinear CG`), which is also
 /// the sublist holding its linear-solver keys.
-pub fn nox_direction(solver: &Solver, method: &str) -> Result<&'static str, Unsupported> {
+pub fn nox_direction(solve: &ImplicitSolve, method: &str) -> Result<&'static str, Unsupported> {
     match method {
         "Newton" => Ok("Newton"),
         "NonlinearCG" => Ok("Nonlinear CG"),
         other => Err(Unsupported(format!(
             "solver \"{}\": NOXQuasiStatic → Direction → Method \"{other}\": use \"Newton\" or \"NonlinearCG\" (Peridigm's two)",
-            solver.name
+            solve.list
         ))),
     }
 }
 
-/// What of `solver` the native backend cannot run, for `peridyn check` (a `NOXQuasiStatic`
+/// What of `solve` the native backend cannot run, for `peridyn check` (a `NOXQuasiStatic`
 /// direction other than Newton needs NOX itself or PETSc's SNESNCG).
-pub fn native_limitation(solver: &Solver) -> Option<String> {
-    let Integrator::NoxQuasiStatic(nox) = &solver.integrator else {
-        return None;
-    };
-    (nox.direction_method != "Newton" && solver.linear_solve.backend == LinearBackend::Native)
-        .then(|| {
-            format!(
-                "NOXQuasiStatic Direction Method \"{}\" on the native backend (it needs Trilinos NOX or PETSc's SNESNCG: Backend \"Trilinos\" or \"PETSc\" in a build with that feature)",
-                nox.direction_method
-            )
-        })
+pub fn native_limitation(solve: &ImplicitSolve) -> Option<String> {
+    let nox = nox_parameters(solve)?;
+    (nox.direction_method != "Newton" && solve.linear.backend == LinearBackend::Native).then(|| {
+        format!(
+            "NOXQuasiStatic Direction Method \"{}\" on the native backend (it needs Trilinos NOX or PETSc's SNESNCG: Backend \"Trilinos\" or \"PETSc\" in a build with that feature)",
+            nox.direction_method
+        )
+    })
 }
 
-/// The preconditioner of a Jacobian-free Newton–Krylov solve when `solver` asks for one
+/// The preconditioner of a Jacobian-free Newton–Krylov solve when `solve` asks for one
 /// (`NOXQuasiStatic` with `Jacobian Operator: "Matrix-Free"` and `Peridigm Preconditioner`
-/// `Block 3x3`, `AMG` or `None`, Peridigm's rule, reference §4.2: `Matrix-Free` with `Full Tangent`
-/// still assembles), `None` when the solver assembles its tangent.
-pub fn matrix_free_preconditioner(solver: &Solver) -> Option<LinearPreconditioner> {
-    let Integrator::NoxQuasiStatic(nox) = &solver.integrator else {
-        return None;
-    };
-    let matrix_free = nox_string(
-        &nox.nox,
-        &["Direction", "Newton", "Linear Solver", "Jacobian Operator"],
-    )
-    .is_some_and(|s| s == "Matrix-Free");
-    match (matrix_free, solver.peridigm_preconditioner) {
+/// `Block 3x3`, `AMG` or `None`; Peridigm's rule in `executeNOXQuasiStatic`,
+/// `src/core/Peridigm.cpp`: `Matrix-Free` with `Full Tangent` still assembles), `None` when
+/// the solver assembles its tangent.
+pub fn matrix_free_preconditioner(solve: &ImplicitSolve) -> Option<LinearPreconditioner> {
+    let nox = nox_parameters(solve)?;
+    let matrix_free =
+        string_at(&nox.nox, &NoxParameters::JACOBIAN_OPERATOR).is_some_and(|s| s == "Matrix-Free");
+    match (matrix_free, solve.peridigm_preconditioner) {
         (true, PeridigmPreconditioner::Block3x3) => Some(LinearPreconditioner::Block3x3),
         (true, PeridigmPreconditioner::None) => Some(LinearPreconditioner::None),
         (true, PeridigmPreconditioner::Amg) => Some(LinearPreconditioner::Amg),
@@ -175,7 +169,7 @@ pub fn matrix_free_preconditioner(solver: &Solver) -> Option<LinearPreconditione
     }
 }
 
-/// True when `Linear Solver: "Automatic"` makes the quasi-static `solver` over `points`
+/// True when `Linear Solver: "Automatic"` makes the quasi-static `solve` over `points`
 /// points (all ranks together) Jacobian-free Newton–Krylov with AMG: a `QuasiStatic` list, or
 /// a `NOXQuasiStatic` list on peridyn's Newton without a `Jacobian Operator` key, on the native
 /// backend with peridyn's Newton, `Automatic` above [`LinearMethod::AUTOMATIC_DIRECT_LIMIT`]
@@ -185,19 +179,14 @@ pub fn matrix_free_preconditioner(solver: &Solver) -> Option<LinearPreconditione
 /// (on the 20,000-point LPS tension block 4.7 s and 0.35 GB against 42.8 s and 2.8 GB for
 /// assembled CG + block 3×3, the former `Automatic`). A deck that names its linear solver,
 /// its preconditioner or NOX's Jacobian operator gets what it names.
-pub fn automatic_jacobian_free(solver: &Solver, points: usize) -> bool {
-    let settings = &solver.linear_solve;
-    let quasi_static = match &solver.integrator {
-        Integrator::QuasiStatic(_) => true,
-        Integrator::NoxQuasiStatic(nox) => {
-            nox_value(
-                &nox.nox,
-                &["Direction", "Newton", "Linear Solver", "Jacobian Operator"],
-            )
-            .is_none()
+pub fn automatic_jacobian_free(solve: &ImplicitSolve, points: usize) -> bool {
+    let settings = &solve.linear;
+    let quasi_static = match &solve.nonlinear {
+        Nonlinear::Newton { quasi_static } => *quasi_static,
+        Nonlinear::Nox(nox) => {
+            value_at(&nox.nox, &NoxParameters::JACOBIAN_OPERATOR).is_none()
                 && nox.direction_method == "Newton"
         }
-        _ => false,
     };
     quasi_static
         && settings.backend == LinearBackend::Native
@@ -205,35 +194,32 @@ pub fn automatic_jacobian_free(solver: &Solver, points: usize) -> bool {
         && settings.method == LinearMethod::Automatic
         && !settings.preconditioner_given
         && 3 * points > LinearMethod::AUTOMATIC_DIRECT_LIMIT
-        && nonlinear_backend(solver) == Ok(NonlinearBackend::Newton)
+        && nonlinear_backend(solve) == Ok(NonlinearBackend::Newton)
 }
 
-/// The preconditioner of the Jacobian-free Newton–Krylov solve of `solver` over `points`
+/// The preconditioner of the Jacobian-free Newton–Krylov solve of `solve` over `points`
 /// points (all ranks together): the deck's ([`matrix_free_preconditioner`]), or AMG when
 /// `Automatic` chooses it ([`automatic_jacobian_free`]); `None` when the solver assembles its
 /// tangent.
 pub fn jacobian_free_preconditioner(
-    solver: &Solver,
+    solve: &ImplicitSolve,
     points: usize,
 ) -> Option<LinearPreconditioner> {
-    matrix_free_preconditioner(solver)
-        .or_else(|| automatic_jacobian_free(solver, points).then_some(LinearPreconditioner::Amg))
+    matrix_free_preconditioner(solve)
+        .or_else(|| automatic_jacobian_free(solve, points).then_some(LinearPreconditioner::Amg))
 }
 
-/// True when `solver` preconditions with peridyn's AMG on the one-hop operator (so that
+/// True when `solve` preconditions with peridyn's AMG on the one-hop operator (so that
 /// `peridyn check` plans its memory): Jacobian-free with `Peridigm Preconditioner: "AMG"` or
 /// by [`automatic_jacobian_free`], or `Linear Solver Preconditioner: "AMG"` on the native
 /// backend with a Krylov method (`CG`, `GMRES`, or `Automatic` above
 /// [`LinearMethod::AUTOMATIC_DIRECT_LIMIT`] dofs, `points` the model's points, all ranks
 /// together), the choice [`crate::solver::linear::strategy`] makes.
-pub fn uses_multigrid(solver: &Solver, points: usize) -> bool {
-    if !solver.integrator.is_implicit() {
-        return false;
-    }
-    if let Some(preconditioner) = jacobian_free_preconditioner(solver, points) {
+pub fn uses_multigrid(solve: &ImplicitSolve, points: usize) -> bool {
+    if let Some(preconditioner) = jacobian_free_preconditioner(solve, points) {
         return preconditioner == LinearPreconditioner::Amg;
     }
-    let settings = &solver.linear_solve;
+    let settings = &solve.linear;
     settings.backend == LinearBackend::Native
         && settings.preconditioner == LinearPreconditioner::Amg
         && match settings.method {
@@ -257,11 +243,7 @@ pub fn nox_gmres_restart(
     nox: &[(String, ParameterValue)],
     linear_solver_path: &[&str],
 ) -> Option<usize> {
-    let key = |name: &str| {
-        let mut full = linear_solver_path.to_vec();
-        full.push(name);
-        nox_value(nox, &full)
-    };
+    let key = |name: &str| value_at(nox, &[linear_solver_path, &[name]].concat());
     match key("Aztec Solver") {
         None => {}
         Some(ParameterValue::String(s)) if s == "GMRES" => {}
@@ -273,147 +255,29 @@ pub fn nox_gmres_restart(
     }
 }
 
-/// The GMRES of the Jacobian-free Newton–Krylov solve of `solver` over `unknowns` unknowns,
-/// as (restart, iteration limit), for planning its basis; `None` when `solver` is not
+/// The GMRES of the Jacobian-free Newton–Krylov solve of `solve` over `unknowns` unknowns,
+/// as (restart, iteration limit), for planning its basis; `None` when `solve` is not
 /// Jacobian-free or its Krylov method is not GMRES. NOX (`NOXQuasiStatic` on Trilinos) runs
 /// AztecOO with its linear solver list's `Size of Krylov Subspace` and `Max Iterations`
 /// (NOX's defaults 300 and 400); peridyn's own JFNK and the other backends restart at
 /// [`super::native::KrylovSettings`]' default with `Linear Solver Maximum Iterations` (default
 /// `unknowns`) as the limit.
-pub fn matrix_free_gmres(solver: &Solver, unknowns: usize) -> Option<(usize, usize)> {
-    jacobian_free_preconditioner(solver, unknowns / 3)?;
-    if runs_on_nox(solver) {
-        let Integrator::NoxQuasiStatic(nox) = &solver.integrator else {
-            return None;
-        };
+pub fn matrix_free_gmres(solve: &ImplicitSolve, unknowns: usize) -> Option<(usize, usize)> {
+    jacobian_free_preconditioner(solve, unknowns / 3)?;
+    if let (true, Some(nox)) = (runs_on_nox(solve), nox_parameters(solve)) {
         // Jacobian-free solves are Newton's (`matrix_free_preconditioner` reads this path).
         let path = ["Direction", "Newton", "Linear Solver"];
         let restart = nox_gmres_restart(&nox.nox, &path)?;
-        let mut full = path.to_vec();
-        full.push("Max Iterations");
-        let limit = match nox_value(&nox.nox, &full) {
+        let limit = match value_at(&nox.nox, &[&path[..], &["Max Iterations"]].concat()) {
             Some(ParameterValue::Int(n)) if *n > 0 => usize::try_from(*n).unwrap_or(usize::MAX),
             _ => NOX_MAX_LINEAR_ITERATIONS,
         };
         return Some((restart, limit));
     }
     let restart = super::native::KrylovSettings::default().restart;
-    let limit = solver
-        .linear_solve
+    let limit = solve
+        .linear
         .maximum_iterations
         .map_or(unknowns, |m| usize::try_from(m).unwrap_or(usize::MAX));
     Some((restart, limit))
-}
-
-/// A string parameter at `path` in a NOX parameter tree.
-fn nox_string<'a>(tree: &'a [(String, ParameterValue)], path: &[&str]) -> Option<&'a str> {
-    match nox_value(tree, path)? {
-        ParameterValue::String(s) => Some(s),
-        _ => None,
-    }
-}
-
-/// The parameter (or sublist) at `path` in a NOX parameter tree.
-pub fn nox_value<'a>(
-    tree: &'a [(String, ParameterValue)],
-    path: &[&str],
-) -> Option<&'a ParameterValue> {
-    let (first, rest) = path.split_first()?;
-    let (_, value) = tree.iter().find(|(k, _)| k == first)?;
-    match (value, rest.is_empty()) {
-        (value, true) => Some(value),
-        (ParameterValue::List(children), false) => nox_value(children, rest),
-        _ => None,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn nox_string_follows_the_path() {
-        let tree = vec![(
-            "Direction".to_string(),
-            ParameterValue::List(vec![(
-                "Newton".to_string(),
-                ParameterValue::List(vec![(
-                    "Linear Solver".to_string(),
-                    ParameterValue::List(vec![(
-                        "Jacobian Operator".to_string(),
-                        ParameterValue::String("Matrix-Free".into()),
-                    )]),
-                )]),
-            )]),
-        )];
-        let path = ["Direction", "Newton", "Linear Solver", "Jacobian Operator"];
-        assert_eq!(nox_string(&tree, &path), Some("Matrix-Free"));
-        assert_eq!(nox_string(&tree, &["Direction", "Method"]), None);
-    }
-
-    /// The first solver list of a three-point bar deck whose `Solver` list holds the lines
-    /// `solver_keys` besides `Final Time`.
-    fn solver(solver_keys: &str) -> Solver {
-        let text =
-            crate::io::deck::three_point_bar_text(&format!("    Final Time: 1.0\n{solver_keys}"));
-        let deck = crate::io::deck::parse_str(
-            &text,
-            crate::io::deck::DeckFormat::Yaml,
-            std::path::Path::new("automatic.yaml"),
-        )
-        .unwrap();
-        deck.solvers.into_iter().next().unwrap()
-    }
-
-    /// Points whose unknowns are just above and at `Automatic`'s direct-solve limit.
-    const LARGE: usize = LinearMethod::AUTOMATIC_DIRECT_LIMIT / 3 + 1;
-    const AT_LIMIT: usize = LinearMethod::AUTOMATIC_DIRECT_LIMIT / 3;
-
-    #[test]
-    fn automatic_makes_a_large_quasi_static_deck_jacobian_free_with_amg() {
-        let quasi_static = solver("    QuasiStatic:\n      Number of Load Steps: 2");
-        assert!(automatic_jacobian_free(&quasi_static, LARGE));
-        assert_eq!(
-            jacobian_free_preconditioner(&quasi_static, LARGE),
-            Some(LinearPreconditioner::Amg)
-        );
-        assert!(uses_multigrid(&quasi_static, LARGE));
-        // At the limit a factorization still runs, with the assembled tangent.
-        assert!(!automatic_jacobian_free(&quasi_static, AT_LIMIT));
-        assert_eq!(jacobian_free_preconditioner(&quasi_static, AT_LIMIT), None);
-        // A native NOXQuasiStatic list that names no Jacobian operator is treated alike.
-        let nox = solver(
-            "    Backend: \"Native\"\n    NOXQuasiStatic:\n      Number of Load Steps: 2\n      Direction: {Method: \"Newton\"}",
-        );
-        assert!(automatic_jacobian_free(&nox, LARGE));
-    }
-
-    #[test]
-    fn a_deck_that_names_its_solver_keeps_the_assembled_tangent() {
-        let named = [
-            "    Linear Solver: \"CG\"\n    QuasiStatic:\n      Number of Load Steps: 2",
-            "    Linear Solver Preconditioner: \"Block 3x3\"\n    QuasiStatic:\n      Number of Load Steps: 2",
-            "    Linear Solver Preconditioner: \"AMG\"\n    QuasiStatic:\n      Number of Load Steps: 2",
-            "    Backend: \"Native\"\n    NOXQuasiStatic:\n      Number of Load Steps: 2\n      Direction: {Method: \"Newton\", Newton: {Linear Solver: {Jacobian Operator: \"Full Tangent\"}}}",
-            // Newmark-β dynamics is not quasi-static: its mass term keeps block 3×3 CG cheap.
-            "    Implicit:\n      Fixed dt: 0.1",
-        ];
-        for keys in named {
-            let list = solver(keys);
-            assert!(!automatic_jacobian_free(&list, LARGE), "{keys}");
-        }
-        // The AMG the deck names runs on the assembled tangent (CG + AMG), not Jacobian-free.
-        let assembled_amg = solver(named[2]);
-        assert_eq!(jacobian_free_preconditioner(&assembled_amg, LARGE), None);
-        assert!(uses_multigrid(&assembled_amg, LARGE));
-        // An explicit Jacobian-free request keeps its own preconditioner.
-        let block = solver(
-            "    Backend: \"Native\"\n    Peridigm Preconditioner: \"Block 3x3\"\n    NOXQuasiStatic:\n      Number of Load Steps: 2\n      Direction: {Method: \"Newton\", Newton: {Linear Solver: {Jacobian Operator: \"Matrix-Free\"}}}",
-        );
-        assert!(!automatic_jacobian_free(&block, LARGE));
-        assert_eq!(
-            jacobian_free_preconditioner(&block, LARGE),
-            Some(LinearPreconditioner::Block3x3)
-        );
-    }
 }

@@ -1,14 +1,17 @@
 //! Who does the linear algebra: the traits every backend implements and the matrix form they
-//! receive (DESIGN §7). Backends never see physics: they get a [`Csr`] matrix and vectors, or
-//! a residual callback, and return a solution with a report.
+//! receive. Backends never see physics: they get a [`Csr`] matrix and vectors, or a residual
+//! callback, and return a solution with a report; what an implicit solver list asks of them
+//! comes as [`settings::ImplicitSolve`], never as deck types.
 
 mod csr;
 pub mod factory;
 pub(crate) mod fingerprint;
 pub mod native;
+pub mod parameters;
 #[cfg(feature = "petsc")]
 pub mod petsc;
 pub mod problem;
+pub mod settings;
 #[cfg(feature = "trilinos")]
 pub mod trilinos;
 
@@ -61,6 +64,18 @@ pub enum SolveError {
 #[error("{0}")]
 pub struct Unsupported(pub String);
 
+/// This rank's rows of a matrix distributed over the MPI ranks.
+#[derive(Debug, Clone, Copy)]
+pub struct RankRows<'a> {
+    /// The rows' global ids.
+    pub rows: &'a [usize],
+    /// One row per id; its columns are global ids.
+    pub matrix: &'a Csr,
+}
+
+/// A linear solve's report, or why it produced no answer.
+pub type LinearResult = Result<KrylovReport, SolveError>;
+
 /// What a linear solve did, for the log and the CSV history.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct KrylovReport {
@@ -99,12 +114,7 @@ pub trait LinearSolver {
 
     /// Solves `matrix · x = rhs`; `x` holds the initial guess on entry (iterative methods) and
     /// the solution on return.
-    fn solve(
-        &mut self,
-        matrix: &Csr,
-        rhs: &[f64],
-        x: &mut [f64],
-    ) -> Result<KrylovReport, SolveError>;
+    fn solve(&mut self, matrix: &Csr, rhs: &[f64], x: &mut [f64]) -> LinearResult;
     /// What building preconditioners cost since the last call, and the shape of the last
     /// multigrid hierarchy; the counters start again at zero. The default reports nothing
     /// (solvers whose preconditioner setup is part of their solve, unseparated).
@@ -128,16 +138,10 @@ pub trait LinearSolver {
     }
 
     /// Solves a system distributed over the MPI ranks (collective): this rank holds the rows
-    /// with global ids `rows` (`matrix` has one row per id, its columns are global ids) and
-    /// the matching entries of `rhs` and `x`. Solvers that run on one process only say so.
-    fn solve_distributed(
-        &mut self,
-        rows: &[usize],
-        matrix: &Csr,
-        rhs: &[f64],
-        x: &mut [f64],
-    ) -> Result<KrylovReport, SolveError> {
-        let _ = (rows, matrix, rhs, x);
+    /// `part` and the matching entries of `rhs` and `x`. Solvers that run on one process
+    /// only say so.
+    fn solve_distributed(&mut self, part: RankRows, rhs: &[f64], x: &mut [f64]) -> LinearResult {
+        let _ = (part, rhs, x);
         Err(SolveError::Breakdown {
             method: "linear solver",
             reason: format!(

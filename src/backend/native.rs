@@ -1,4 +1,4 @@
-//! The native backend, always built (DESIGN §7): faer's sparse Cholesky and LU, and our own
+//! The native backend, always built: faer's sparse Cholesky and LU, and our own
 //! CG and restarted GMRES over [`Csr`] or over an operator callback for JFNK, with none,
 //! Jacobi or block-Jacobi preconditioning. It is the reference the Trilinos and PETSc
 //! backends are compared with.
@@ -38,7 +38,7 @@ pub use preconditioner::{
     invert_dense, Preconditioner, PreconditionerKind, PreconditionerOperator,
 };
 
-use super::{Csr, KrylovReport, LinearSolver, SolveError};
+use super::{Csr, LinearResult, LinearSolver, SolveError};
 
 /// A deck named a solver or preconditioner this backend does not have.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -204,12 +204,7 @@ impl NativeLinearSolver {
 }
 
 impl LinearSolver for NativeLinearSolver {
-    fn solve(
-        &mut self,
-        matrix: &Csr,
-        rhs: &[f64],
-        x: &mut [f64],
-    ) -> Result<KrylovReport, SolveError> {
+    fn solve(&mut self, matrix: &Csr, rhs: &[f64], x: &mut [f64]) -> LinearResult {
         match self {
             Self::Cholesky(solver) => solver.solve(matrix, rhs, x),
             Self::Lu(solver) => solver.solve(matrix, rhs, x),

@@ -2,19 +2,15 @@
 //! applies before any message is sent and `peridyn check` reports in its run plan.
 
 use crate::backend::Unsupported;
-use crate::io::deck::{Deck, Integrator, PointSource, QuickGridGenerator};
+use crate::io::deck::{Deck, PointSource, QuickGridGenerator};
 
-/// Refuses, before any message is sent, what a distributed run cannot do yet: implicit
-/// solvers on the native backend (the distributed linear and nonlinear solves are
-/// Trilinos'), and contact in a deck with an implicit
-/// solver (contact acts only in `Verlet` steps, where [`crate::contact::Contact::on_ranks`]
+/// Refuses, before any message is sent, what a distributed run cannot do yet besides its
+/// solver lists (whose integrators say, `crate::setup::solvers::check_ranks`): contact in a
+/// deck with an implicit solver (contact acts only in `Verlet` steps, where [`crate::contact::Contact::on_ranks`]
 /// gives every rank the one-rank candidates and forces), materials with history (its
 /// staged fields are not exchanged between ranks), and `Pals` (its per-point influence
 /// functions need whole families).
 pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), Unsupported> {
-    for solver in &deck.solvers {
-        crate::backend::factory::check_ranks(solver, ranks)?;
-    }
     for material in &deck.materials {
         let declared = crate::material::material_entry(material.model.deck_name())
             .map(|entry| entry.declaration);
@@ -32,11 +28,7 @@ pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), Unsupported>
         }
     }
     if deck.contact.is_some() {
-        if let Some(solver) = deck
-            .solvers
-            .iter()
-            .find(|s| !matches!(s.integrator, Integrator::Verlet(_)))
-        {
+        if let Some(solver) = deck.solvers.iter().find(|s| s.integrator.is_implicit()) {
             return Err(Unsupported(format!(
                 "Contact with solver \"{}\" ({}) on {ranks} ranks is not available (contact on several ranks runs in Verlet steps only); run on one rank",
                 solver.name,

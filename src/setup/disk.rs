@@ -15,7 +15,7 @@
 //! restart files of the state's size (the fields the run allocates) can exist at once: the two
 //! kept and the one being written.
 
-use crate::io::deck::{Deck, Integrator, LoadSteps};
+use crate::io::deck::Deck;
 use crate::io::output::{RequestedVariable, Schedule, VariableKind};
 use crate::io::output_folder;
 use crate::model::Model;
@@ -72,28 +72,13 @@ pub fn warning(disk: &DiskPlan) -> Option<String> {
 fn output_calls(deck: &Deck, model: &Model) -> u64 {
     let estimate = super::report::critical_time_step(deck, model);
     let mut calls = 1u64;
-    for solver in &deck.solvers {
-        let span = solver.final_time - solver.initial_time;
-        let steps = match &solver.integrator {
-            Integrator::Verlet(verlet) => verlet
-                .fixed_dt
-                .or(estimate)
-                .and_then(|dt| crate::solver::step_count(span, verlet.safety_factor * dt)),
-            Integrator::QuasiStatic(q) => Some(load_steps(&q.load_steps)),
-            Integrator::NoxQuasiStatic(q) => Some(load_steps(&q.load_steps)),
-            Integrator::ImplicitDiffusion(d) => Some(load_steps(&d.load_steps)),
-            Integrator::Implicit(newmark) => crate::solver::step_count(span, newmark.fixed_dt),
-        };
+    for list in super::solvers::solver_lists(deck) {
+        let steps = list
+            .integrator
+            .planned_steps(list.settings.span(), estimate);
         calls = calls.saturating_add(steps.unwrap_or(0));
     }
     calls
-}
-
-fn load_steps(steps: &LoadSteps) -> u64 {
-    match steps {
-        LoadSteps::Count(n) => *n,
-        LoadSteps::Times(times) => times.len() as u64,
-    }
 }
 
 /// Frames of `output` over output calls 1..=`calls` (Peridigm's schedule: call c writes when

@@ -13,6 +13,7 @@ mod physics;
 pub mod quadrature;
 pub mod report;
 mod size_guard;
+pub mod solvers;
 pub mod surface_correction;
 mod validate;
 

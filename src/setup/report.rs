@@ -1,9 +1,10 @@
 //! The run plan `peridyn check` prints: sizes, physics, fields, memory, Δt, and what this
 //! build cannot run yet.
 
+use super::solvers::solver_lists;
+use crate::backend::settings::{ImplicitSolve, LinearBackend, LinearPreconditioner};
 use crate::io::deck::{
-    BoundaryConditionKind, ComputeClassKind, Deck, DeckError, Horizon, Integrator, PointSource,
-    Solver,
+    BoundaryConditionKind, ComputeClassKind, Deck, DeckError, Horizon, PointSource,
 };
 use crate::io::output::{closest_name, kind_of, OutputFile, RequestedVariable, VariableKind};
 use crate::model::Model;
@@ -12,9 +13,8 @@ use crate::plan::{
     BlockPlan, FieldPlan, MemoryPlan, NodeSetPlan, OutputPlan, ParallelPlan, PhysicsPlan, RunPlan,
     SolverPlan, TimeStepPlan,
 };
+use crate::solver::integrator::TimeStep;
 
-/// Integrators this build runs.
-const SUPPORTED_INTEGRATORS: &[&str] = &["Verlet", "QuasiStatic", "NOXQuasiStatic", "Implicit"];
 /// Output variables this build computes for every model (the models' own outputs are declared
 /// in their registry entries, see [`model_outputs`]).
 const SUPPORTED_OUTPUTS: &[&str] = &[
@@ -179,13 +179,9 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
             missing.push(item);
         }
     };
-    for solver in &deck.solvers {
-        let name = solver.integrator.deck_name();
-        if !SUPPORTED_INTEGRATORS.contains(&name) {
-            note(format!("solver {name}"));
-        }
-        if let Some(limitation) = crate::backend::factory::native_limitation(solver) {
-            note(limitation);
+    for list in solver_lists(deck) {
+        if let Some(unavailable) = list.integrator.unavailable() {
+            note(unavailable);
         }
     }
     for material in &deck.materials {
@@ -342,14 +338,15 @@ fn parallel_plan(deck: &Deck, model: &Model, explicit: bool, implicit: bool) -> 
         ghost_depth: crate::parallel::halo_depth(deck),
         exchanged,
         families,
-        refused: crate::parallel::check_distributable(deck, 2)
+        refused: super::solvers::check_ranks(deck, 2)
+            .and_then(|()| crate::parallel::check_distributable(deck, 2))
             .err()
             .map(|e| e.to_string()),
-        solvers: deck
-            .solvers
+        solvers: solver_lists(deck)
             .iter()
-            .filter_map(|solver| {
-                petsc_on_ranks(solver, model).map(|how| format!("{}: {how}", solver.name))
+            .filter_map(|list| {
+                let how = petsc_on_ranks(list.integrator.solve()?, model)?;
+                Some(format!("{}: {how}", list.settings.name))
             })
             .collect(),
     }
@@ -358,12 +355,12 @@ fn parallel_plan(deck: &Deck, model: &Model, explicit: bool, implicit: bool) -> 
 /// How a `Backend: "PETSc"` list runs on several ranks (`None` for other lists, or when PETSc
 /// refuses its settings, which the solver section reports).
 #[cfg(feature = "petsc")]
-fn petsc_on_ranks(solver: &crate::io::deck::Solver, model: &Model) -> Option<String> {
-    crate::backend::petsc::deck::on_ranks(solver, 3 * model.points.len())
+fn petsc_on_ranks(solve: &ImplicitSolve, model: &Model) -> Option<String> {
+    crate::backend::petsc::list::on_ranks(solve, 3 * model.points.len())
 }
 
 #[cfg(not(feature = "petsc"))]
-fn petsc_on_ranks(_solver: &crate::io::deck::Solver, _model: &Model) -> Option<String> {
+fn petsc_on_ranks(_solve: &ImplicitSolve, _model: &Model) -> Option<String> {
     None
 }
 
@@ -408,16 +405,17 @@ pub(super) fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
         memory_total: memory.iter().map(|m| m.bytes).sum(),
         bytes_per_bond: bytes_per_bond(memory.iter().map(|m| m.bytes).sum(), model),
         memory,
-        solvers: deck
-            .solvers
+        solvers: solver_lists(deck)
             .iter()
-            .map(|solver| SolverPlan {
-                name: solver.name.clone(),
-                kind: solver.integrator.deck_name().into(),
-                initial_time: solver.initial_time,
-                final_time: solver.final_time,
-                resolved: petsc_resolution(solver, model)
-                    .or_else(|| newton_resolution(solver, model.points.len())),
+            .map(|list| SolverPlan {
+                name: list.settings.name.clone(),
+                kind: list.integrator.name().into(),
+                initial_time: list.settings.initial_time,
+                final_time: list.settings.final_time,
+                resolved: list.integrator.solve().and_then(|solve| {
+                    petsc_resolution(solve, model)
+                        .or_else(|| newton_resolution(solve, model.points.len()))
+                }),
             })
             .collect(),
         time_step: time_step_plan(deck, model),
@@ -429,33 +427,27 @@ pub(super) fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
 /// What the PETSc backend makes of a `Backend: "PETSc"` list (its error when PETSc refuses
 /// the options; validation reports that as an input error first).
 #[cfg(feature = "petsc")]
-fn petsc_resolution(solver: &crate::io::deck::Solver, model: &Model) -> Option<String> {
-    crate::backend::petsc::deck::resolve(solver, 3 * model.points.len())
+fn petsc_resolution(solve: &ImplicitSolve, model: &Model) -> Option<String> {
+    crate::backend::petsc::list::resolve(solve, 3 * model.points.len())
         .map(|r| r.unwrap_or_else(|e| format!("PETSc refuses the settings: {e}")))
 }
 
 #[cfg(not(feature = "petsc"))]
-fn petsc_resolution(_solver: &crate::io::deck::Solver, _model: &Model) -> Option<String> {
+fn petsc_resolution(_solve: &ImplicitSolve, _model: &Model) -> Option<String> {
     None
 }
 
-/// The linear strategy peridyn's Newton runs for a `QuasiStatic`, `NOXQuasiStatic` or
-/// `Implicit` list on the native backend over `points` points (what `Linear Solver:
-/// "Automatic"` chose, for instance); `None` for other lists and backends.
-fn newton_resolution(solver: &crate::io::deck::Solver, points: usize) -> Option<String> {
+/// The linear strategy peridyn's Newton runs for an implicit list solving as `solve` on the
+/// native backend over `points` points (what `Linear Solver: "Automatic"` chose, for
+/// instance); `None` on other backends.
+fn newton_resolution(solve: &ImplicitSolve, points: usize) -> Option<String> {
     use crate::backend::factory::{nonlinear_backend, NonlinearBackend};
-    use crate::io::deck::{Integrator, LinearBackend};
-    let newton_list = matches!(
-        solver.integrator,
-        Integrator::QuasiStatic(_) | Integrator::NoxQuasiStatic(_) | Integrator::Implicit(_)
-    );
-    if !newton_list
-        || solver.linear_solve.backend != LinearBackend::Native
-        || nonlinear_backend(solver) != Ok(NonlinearBackend::Newton)
+    if solve.linear.backend != LinearBackend::Native
+        || nonlinear_backend(solve) != Ok(NonlinearBackend::Newton)
     {
         return None;
     }
-    crate::solver::linear::strategy(solver, points)
+    crate::solver::linear::strategy(solve, points)
         .ok()
         .map(|strategy| format!("peridyn Newton, {}", strategy.describe()))
 }
@@ -607,12 +599,13 @@ fn physics_plan(deck: &Deck, model: &Model, used: &UsedModels) -> PhysicsPlan {
         .blocks
         .iter()
         .any(|b| deck.blocks[b.deck_block].damage_model.is_some());
-    let implicit = deck.solvers.iter().any(|s| s.integrator.is_implicit());
+    let lists = solver_lists(deck);
+    let implicit = lists.iter().any(|l| l.integrator.is_implicit());
     PhysicsPlan {
         state_based: reach == Reach::TwoHop,
         damage,
         contact: deck.contact.is_some(),
-        explicit: deck.solvers.iter().any(|s| !s.integrator.is_implicit()),
+        explicit: lists.iter().any(|l| !l.integrator.is_implicit()),
         implicit,
         tangent_pattern: implicit.then(|| reach.pattern_name().to_string()),
     }
@@ -690,9 +683,13 @@ fn memory_plans(
         ("bonds", total("bond")),
     ];
     let points = model.points.len();
-    let assembled = deck.solvers.iter().any(|s| {
-        s.integrator.is_implicit()
-            && crate::backend::factory::jacobian_free_preconditioner(s, points).is_none()
+    let lists = solver_lists(deck);
+    let solves = || lists.iter().filter_map(|l| l.integrator.solve());
+    let assembled = lists.iter().any(|l| {
+        l.integrator.is_implicit()
+            && l.integrator.solve().is_none_or(|s| {
+                crate::backend::factory::jacobian_free_preconditioner(s, points).is_none()
+            })
     });
     if assembled {
         let blocks = if state_based {
@@ -707,29 +704,20 @@ fn memory_plans(
             "tangent matrix (blocks + CSR)",
             blocks * (9 * 8 + 4) + blocks * 9 * 16 + 8 * (4 * n + 2),
         ));
-    } else if deck.solvers.iter().any(|s| {
+    } else if solves().any(|s| {
         crate::backend::factory::jacobian_free_preconditioner(s, points)
-            .is_some_and(|p| p != crate::io::deck::LinearPreconditioner::Amg)
+            .is_some_and(|p| p != LinearPreconditioner::Amg)
     }) {
         // Jacobian-free Newton–Krylov with block 3×3 keeps only the 3×3 diagonal blocks (with
         // AMG the hierarchy below holds its own).
         memory.push(("block-diagonal tangent (Jacobian-free)", n * 9 * 8));
     }
-    if let Some(vectors) = deck
-        .solvers
-        .iter()
-        .filter_map(|s| gmres_basis_vectors(s, 3 * n))
-        .max()
-    {
+    if let Some(vectors) = solves().filter_map(|s| gmres_basis_vectors(s, 3 * n)).max() {
         // The GMRES basis grows one vector of the unknowns per iteration up to the restart
         // length, so this is its largest size; a solve that converges sooner holds less.
         memory.push(("GMRES basis (at most)", vectors * 3 * n * 8));
     }
-    if deck
-        .solvers
-        .iter()
-        .any(|s| crate::backend::factory::uses_multigrid(s, model.points.len()))
-    {
+    if solves().any(|s| crate::backend::factory::uses_multigrid(s, model.points.len())) {
         let amg = crate::backend::native::multigrid_memory_estimate(n, bonds);
         memory.push(("one-hop operator (AMG setup)", amg.operator));
         memory.push(("AMG setup products", amg.setup_products));
@@ -744,12 +732,12 @@ fn memory_plans(
         .collect()
 }
 
-/// Vectors of `unknowns` entries the GMRES basis of the Jacobian-free solve of `solver` holds
+/// Vectors of `unknowns` entries the GMRES basis of the Jacobian-free solve `solve` holds
 /// at most: the restart length that solve runs + 1, or its iteration limit + 1 when that is
 /// smaller ([`crate::backend::factory::matrix_free_gmres`]); `None` without such a solve.
-fn gmres_basis_vectors(solver: &Solver, unknowns: u64) -> Option<u64> {
+fn gmres_basis_vectors(solve: &ImplicitSolve, unknowns: u64) -> Option<u64> {
     let unknowns = usize::try_from(unknowns).unwrap_or(usize::MAX);
-    let (restart, limit) = crate::backend::factory::matrix_free_gmres(solver, unknowns)?;
+    let (restart, limit) = crate::backend::factory::matrix_free_gmres(solve, unknowns)?;
     Some(restart.min(limit) as u64 + 1)
 }
 
@@ -759,20 +747,27 @@ fn bytes_per_bond(total: u64, model: &Model) -> Option<f64> {
     (bonds > 0).then(|| total as f64 / bonds as f64)
 }
 
-/// The time step of the first `Verlet` solver: the stable estimate, the safety factor and the
-/// steps it gives (none without a Verlet solver or an estimate).
+/// The time step of the first explicit solver (whose time step scales the stable estimate):
+/// the estimate, the safety factor and the steps it gives (none without such a solver or an
+/// estimate).
 fn time_step_plan(deck: &Deck, model: &Model) -> Option<TimeStepPlan> {
-    let (solver, verlet) = deck.solvers.iter().find_map(|s| match &s.integrator {
-        Integrator::Verlet(v) => Some((s, v)),
-        _ => None,
-    })?;
+    let (list, fixed, safety_factor) =
+        solver_lists(deck)
+            .into_iter()
+            .find_map(|list| match list.integrator.time_step()? {
+                TimeStep::Stable {
+                    fixed,
+                    safety_factor,
+                } => Some((list, fixed, safety_factor)),
+                TimeStep::Fixed(_) => None,
+            })?;
     let estimate = critical_time_step(deck, model)?;
-    let used = verlet.safety_factor * verlet.fixed_dt.unwrap_or(estimate);
+    let used = safety_factor * fixed.unwrap_or(estimate);
     Some(TimeStepPlan {
         estimate,
-        safety_factor: verlet.safety_factor,
-        fixed: verlet.fixed_dt,
+        safety_factor,
+        fixed,
         used,
-        steps: crate::solver::step_count(solver.final_time - solver.initial_time, used)?,
+        steps: crate::solver::step_count(list.settings.span(), used)?,
     })
 }

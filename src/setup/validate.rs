@@ -3,7 +3,7 @@
 //! refuses the other refuses alike (exit code 2, file, key path and line).
 
 use crate::compute::prepare_compute_classes;
-use crate::io::deck::{Deck, DeckError, Integrator};
+use crate::io::deck::{Deck, DeckError};
 use crate::model::Model;
 use crate::solver::{step_count, MAX_STEPS};
 
@@ -22,21 +22,24 @@ pub fn validate(deck: &Deck, model: &Model) -> Result<(), DeckError> {
 /// key before anything runs.
 #[cfg(feature = "petsc")]
 fn validate_petsc_options(deck: &Deck, model: &Model) -> Result<(), DeckError> {
-    for solver in &deck.solvers {
+    use crate::backend::petsc::list;
+    for list in super::solvers::solver_lists(deck) {
+        let Some(solve) = list.integrator.solve() else {
+            continue;
+        };
         let on_petsc = matches!(
-            solver.linear_solve.backend,
-            crate::io::deck::LinearBackend::Petsc { .. }
+            solve.linear.backend,
+            crate::backend::settings::LinearBackend::Petsc { .. }
         );
-        if let (true, Err(e)) = (on_petsc, crate::backend::petsc::deck::ncg(solver)) {
-            let mut path = vec![solver.name.as_str()];
+        let name = list.settings.name.as_str();
+        if let (true, Err(e)) = (on_petsc, list::ncg(solve)) {
+            let mut path = vec![name];
             path.extend(e.path.iter().copied());
             return Err(deck.error_at(&path, e.message));
         }
-        if let Some(Err(message)) =
-            crate::backend::petsc::deck::resolve(solver, 3 * model.points.len())
-        {
+        if let Some(Err(message)) = list::resolve(solve, 3 * model.points.len()) {
             return Err(deck.error_at(
-                &[&solver.name, "PETSc Options"],
+                &[name, "PETSc Options"],
                 format!("PETSc refused the solver settings: {message}; fix or remove the option (PETSc's -help lists them)"),
             ));
         }
@@ -86,26 +89,25 @@ fn validate_restart(deck: &Deck) -> Result<(), DeckError> {
     Ok(())
 }
 
-/// Every `Verlet` and `Implicit` list must have a time step and a step count within
-/// [`MAX_STEPS`].
+/// Every list that advances by a time step (`Verlet`, `Implicit`) must have one and a step
+/// count within [`MAX_STEPS`].
 fn validate_time_steps(deck: &Deck, model: &Model) -> Result<(), DeckError> {
     // Computed once, and only if a list needs it (one pass over the bonds).
     let mut estimate: Option<Option<f64>> = None;
-    for solver in &deck.solvers {
-        let span = solver.final_time - solver.initial_time;
-        let (time_step, step_key) = match &solver.integrator {
-            Integrator::Verlet(verlet) => match verlet.fixed_dt {
-                Some(dt) => (verlet.safety_factor * dt, "Fixed dt"),
-                None => {
-                    let base = estimate
-                        .get_or_insert_with(|| critical_time_step(deck, model))
-                        .ok_or_else(|| no_neighbours(deck, model, &solver.name))?;
-                    (verlet.safety_factor * base, "Safety Factor")
-                }
-            },
-            Integrator::Implicit(implicit) => (implicit.fixed_dt, "Fixed dt"),
-            _ => continue,
+    for list in super::solvers::solver_lists(deck) {
+        let Some(step) = list.integrator.time_step() else {
+            continue;
         };
+        let solver = &list.settings;
+        let span = solver.span();
+        let step_key = step.deck_key();
+        let stable_estimate = match step.needs_estimate() {
+            true => *estimate.get_or_insert_with(|| critical_time_step(deck, model)),
+            false => None,
+        };
+        let time_step = step
+            .with_estimate(stable_estimate)
+            .ok_or_else(|| no_neighbours(deck, model, &solver.name))?;
         if step_count(span, time_step).is_some() {
             continue;
         }
@@ -120,7 +122,7 @@ fn validate_time_steps(deck: &Deck, model: &Model) -> Result<(), DeckError> {
             "solver \"{}\": {span:e} s at a time step of {time_step:e} s is not a step count peridyn can run (more than {MAX_STEPS:e} steps, or a zero time step); ",
             solver.name
         );
-        let list = solver.integrator.deck_name();
+        let list = list.integrator.name();
         let error = match stable {
             Some(stable) if step_at_fault => deck.error_at(
                 &[&solver.name, list, step_key],

@@ -173,7 +173,9 @@ pub fn run_distributed(
 
 /// Fails, on every rank alike, for what a deck asks that cannot run on `comm.size()` ranks.
 fn check_on_ranks(deck: &Deck, comm: &dyn Communicator) -> Result<(), RunError> {
-    check_distributable(deck, comm.size()).map_err(|e| collective(comm, e.into()))?;
+    crate::setup::solvers::check_ranks(deck, comm.size())
+        .and_then(|()| check_distributable(deck, comm.size()))
+        .map_err(|e| collective(comm, e.into()))?;
     if let Some((block, rule)) = setup::quadrature::widening_blocks(deck).first() {
         return Err(collective(
             comm,

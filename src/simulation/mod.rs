@@ -9,7 +9,6 @@ mod distributed;
 mod driver;
 mod fields;
 mod outputs;
-mod progress;
 mod restarts;
 
 /// The run error lives in [`crate::error`] (reachable from every module); re-exported here

@@ -22,13 +22,13 @@
 //! wrote the file (see [`crate::restart`]).
 
 use super::agreement::{agree, collective};
-use super::outputs::RunOutputs;
 use super::{RunError, RunSummary};
 use crate::io::deck::Deck;
 use crate::model::Model;
 use crate::parallel::Communicator;
 use crate::physics::Physics;
-use crate::restart::{self, LoadSchedule, Position, Snapshot};
+use crate::restart::{self, LoadSchedule, OutputPosition, Position, Snapshot};
+use crate::solver::list_run::{Inside, Resume};
 use crate::solver::quasistatic::LoadStepPosition;
 use crate::state::State;
 use std::path::{Path, PathBuf};
@@ -299,21 +299,16 @@ impl Restarts {
         elapsed[0] >= interval
     }
 
-    /// Writes the next restart directory: `state` at `position`, with the output counters of
-    /// `outputs`, the summary so far, and inside a list its load schedule or monitor. Every
-    /// rank's points are gathered on rank 0, which writes; every rank returns the directory,
-    /// and rank 0 alone a failure to write (the caller agrees on it). Collective.
-    #[allow(clippy::too_many_arguments)]
+    /// Writes the next restart directory: `state` with where the run stands (`record`).
+    /// Every rank's points are gathered on rank 0, which writes; every rank returns the
+    /// directory, and rank 0 alone a failure to write (the caller agrees on it). Collective.
     pub fn write(
         &mut self,
         comm: &dyn Communicator,
         model: &Model,
         physics: &Physics,
         state: &State,
-        outputs: &RunOutputs,
-        summary: &RunSummary,
-        position: Position,
-        inside: Inside,
+        record: Record,
     ) -> Result<PathBuf, RunError> {
         let broken = self.broken_offset.map(|offset| {
             let mut now = [broken_in(model, &self.owned, state) as f64];
@@ -330,19 +325,17 @@ impl Restarts {
         };
         snapshot.model_hash = self.model_hash;
         snapshot.solvers_hash = self.solvers_hash;
-        snapshot.position = position;
-        let (outputs, solver_rows) = outputs.positions();
-        snapshot.outputs = outputs;
-        snapshot.solver_rows = solver_rows;
-        snapshot.steps = summary.steps;
-        snapshot.broken_bonds = broken.unwrap_or(summary.broken_bonds as u64);
-        match inside {
+        snapshot.position = record.position;
+        (snapshot.outputs, snapshot.solver_rows) = record.outputs;
+        snapshot.steps = record.summary.steps;
+        snapshot.broken_bonds = broken.unwrap_or(record.summary.broken_bonds as u64);
+        match record.inside {
             Inside::Boundary => {}
             Inside::Explicit { monitor, steps } => {
                 snapshot.monitor = Some(monitor);
                 snapshot.steps += steps;
             }
-            Inside::QuasiStatic(position) => {
+            Inside::LoadSteps(position) => {
                 snapshot.load_schedule = Some(LoadSchedule {
                     times: position.times.clone(),
                     next: position.next,
@@ -356,29 +349,32 @@ impl Restarts {
     }
 }
 
-/// Where in a solver list a restart file is written.
-pub(super) enum Inside<'a> {
-    /// Between two lists, or after a step of an `Implicit` (Newmark-β) list, whose position
-    /// is its step alone.
-    Boundary,
-    /// After a step of an explicit list: the monitor's energies and the steps of the list
-    /// so far (not yet in the summary).
-    Explicit {
-        /// [`crate::solver::EnergyMonitor::energies`].
-        monitor: [f64; 2],
-        /// Steps of this list so far.
-        steps: u64,
-    },
-    /// After an accepted load step of a quasi-static list.
-    QuasiStatic(&'a LoadStepPosition),
+/// Where the run stands when a restart file is written, besides its state.
+pub(super) struct Record<'a> {
+    /// The solver list and step.
+    pub position: Position,
+    /// Where inside the list.
+    pub inside: Inside<'a>,
+    /// The results files' positions and the solver CSV's rows
+    /// ([`super::outputs::RunOutputs::positions`]).
+    pub outputs: (Vec<OutputPosition>, u64),
+    /// The run's counts so far.
+    pub summary: &'a RunSummary,
 }
 
-/// The quasi-static position of a snapshot written inside a list.
-pub(super) fn load_step_position(schedule: &LoadSchedule) -> LoadStepPosition {
-    LoadStepPosition {
-        times: schedule.times.clone(),
-        next: schedule.next,
-        total_cuts: schedule.total_cuts,
-        accepted: schedule.accepted,
+/// Where a snapshot written inside a list resumes it.
+pub(super) fn resume_of(snapshot: &Snapshot) -> Resume {
+    Resume {
+        step: snapshot.position.step,
+        monitor: snapshot.monitor,
+        load_steps: snapshot
+            .load_schedule
+            .as_ref()
+            .map(|schedule| LoadStepPosition {
+                times: schedule.times.clone(),
+                next: schedule.next,
+                total_cuts: schedule.total_cuts,
+                accepted: schedule.accepted,
+            }),
     }
 }

@@ -1,4 +1,5 @@
-//! Explicit velocity-Verlet time integration in Peridigm's step order (DESIGN §4).
+//! Explicit velocity-Verlet time integration in Peridigm's step order (`executeExplicit` in
+//! `src/core/Peridigm.cpp`).
 //!
 //! One step from t_n to t_{n+1} = t_n + Δt:
 //! 1. half kick `v += ½Δt a`;
@@ -355,6 +356,20 @@ fn contact_state(contact: &mut Option<ContactState>) -> &mut ContactState {
         .expect("the state of a run with contact carries its contact state (State::with_contact)")
 }
 
+/// The internal force density at the current positions into `state.force_density`, bond
+/// damage and material history updated as trial values (what every solver evaluates);
+/// returns the bonds broken in the evaluation.
+pub(crate) fn internal_force(model: &Model, physics: &mut Physics, state: &mut State) -> usize {
+    physics.internal_force(
+        &model.bonds,
+        &model.points,
+        &state.current_position,
+        state.bond_damage.as_mut().map(Staged::trial_mut),
+        &mut state.history,
+        &mut state.force_density,
+    )
+}
+
 /// Internal force density at `state.current_position` into `state.force_density`, then the
 /// contact force (if any, kept by the contact model). Returns broken bonds.
 fn internal_and_contact_force(
@@ -363,14 +378,7 @@ fn internal_and_contact_force(
     state: &mut State,
     ranks: &dyn Ranks,
 ) -> usize {
-    let broken = physics.internal_force(
-        &model.bonds,
-        &model.points,
-        &state.current_position,
-        state.bond_damage.as_mut().map(Staged::trial_mut),
-        &mut state.history,
-        &mut state.force_density,
-    );
+    let broken = internal_force(model, physics, state);
     if let Some(contact) = &physics.contact {
         let contact_state = contact_state(&mut state.contact);
         let (current, velocity) = (&state.current_position, &state.velocity);

@@ -1,5 +1,5 @@
 //! What every implicit solver shares: which dofs are unknowns, the one residual built on the
-//! internal-force path, and the stiffness matrix over the unknowns (DESIGN §5).
+//! internal-force path, and the stiffness matrix over the unknowns.
 //!
 //! # Kinematic dofs are eliminated
 //! Prescribed displacements are set in the displacement field before a solve and their rows
@@ -11,8 +11,8 @@
 //! # Units
 //! The residual is in force units, `r_k = V_i (f_i + b_i − ρ a_i)_k` (the inertia term only for
 //! Newmark-β), and the stiffness is `K = −∂r/∂u` in force/length, so residual and matrix agree
-//! (Peridigm's Newmark mixes force density in the residual with force in the Jacobian, its
-//! reference §5.2). Multiplying rows by V keeps K symmetric.
+//! (Peridigm's Newmark, `executeImplicit` in `src/core/Peridigm.cpp`, mixes force density in
+//! the residual with force in the Jacobian). Multiplying rows by V keeps K symmetric.
 
 use crate::backend::{Csr, SolveError};
 use crate::boundary::BoundaryError;
@@ -107,7 +107,8 @@ pub struct Inertia {
 /// The state's staged fields (bond damage, material history) keep their committed values
 /// from the start of the step: every residual evaluation starts from them, so bonds broken by
 /// an unconverged iterate heal until the step is accepted and the driver commits the state
-/// (Peridigm's rule, reference §1.4).
+/// (Peridigm's rule: `src/core/Peridigm_ModelEvaluator.cpp` resets bond damage to the step's
+/// start before every evaluation).
 pub struct ImplicitSystem {
     /// Unknowns.
     pub dofs: DofMap,
@@ -163,14 +164,7 @@ impl ImplicitSystem {
         self.residual_evaluations += 1;
         state.update_current_position(&model.points.position);
         let broken = if update_damage {
-            physics.internal_force(
-                &model.bonds,
-                &model.points,
-                &state.current_position,
-                state.bond_damage.as_mut().map(Staged::trial_mut),
-                &mut state.history,
-                &mut state.force_density,
-            )
+            super::explicit::internal_force(model, physics, state)
         } else {
             physics.internal_force_with_damage_fixed(
                 &model.bonds,

@@ -9,8 +9,8 @@ use crate::backend::native::{
     gmres_matrix_free, KrylovSettings, Preconditioner, PreconditionerOperator,
 };
 use crate::backend::problem::{Evaluation, NonlinearProblem};
-use crate::backend::{block_diagonal_csr, KrylovReport, SolveError};
-use crate::io::deck::LinearPreconditioner;
+use crate::backend::settings::LinearPreconditioner;
+use crate::backend::{block_diagonal_csr, LinearResult, SolveError};
 use crate::solver::multigrid::MultigridCache;
 use std::time::Instant;
 
@@ -26,7 +26,7 @@ pub fn solve(
     x: &[f64],
     rhs: &[f64],
     correction: &mut [f64],
-) -> Result<KrylovReport, SolveError> {
+) -> LinearResult {
     const LAMBDA: f64 = 1e-7;
     let n = problem.len();
     let operator = match preconditioner {

@@ -9,8 +9,8 @@
 //!   ([`factory::automatic_jacobian_free`]).
 //! * `NOXQuasiStatic` on the native backend: `Direction → Newton → Linear Solver → Jacobian
 //!   Operator: "Matrix-Free"` together with `Peridigm Preconditioner: "Block 3x3"`, `"AMG"` or
-//!   `"None"` selects Jacobian-free Newton–Krylov (Peridigm's rule, reference §4.2: `Matrix-Free` with
-//!   `Full Tangent` still assembles); anything else is Newton with the assembled tangent and the
+//!   `"None"` selects Jacobian-free Newton–Krylov ([`factory::matrix_free_preconditioner`]:
+//!   `Matrix-Free` with `Full Tangent` still assembles); anything else is Newton with the assembled tangent and the
 //!   `Linear Solver` keys.
 //! * `Backend: "Trilinos"` (feature `trilinos`): `NOXQuasiStatic` is solved by NOX itself
 //!   ([`super::nox_newton`]; the default for `NOXQuasiStatic` in a build with the feature);
@@ -25,10 +25,11 @@ use crate::backend::factory::{self, jacobian_free_preconditioner, NonlinearBacke
 use crate::backend::native::{
     KrylovSettings, NativeLinearSolver, NativeMethod, NativeSolverSettings, PreconditionerKind,
 };
-use crate::backend::Unsupported;
-use crate::io::deck::{
-    AlgebraicPreconditioner, LinearBackend, LinearMethod, LinearPreconditioner, LinearSolve, Solver,
+use crate::backend::settings::{
+    AlgebraicPreconditioner, ImplicitSolve, LinearBackend, LinearMethod, LinearPreconditioner,
+    LinearSolve,
 };
+use crate::backend::Unsupported;
 use crate::solver::multigrid::MultigridCache;
 use crate::solver::newton::{LinearStrategy, NonlinearSolver};
 
@@ -37,76 +38,85 @@ use crate::solver::newton::{LinearStrategy, NonlinearSolver};
 /// iterations.
 pub const MATRIX_FREE_TOLERANCE_FLOOR: f64 = 1e-7;
 
-/// The nonlinear solver of a quasi-static `solver` list: NOX for `NOXQuasiStatic` on the
+/// The nonlinear solver of a quasi-static solver list `solve`: NOX for `NOXQuasiStatic` on the
 /// Trilinos backend, otherwise peridyn's Newton with [`strategy`]. `global_points` counts the
 /// points of all ranks: the choices `Automatic` makes by the size of the system must be the
 /// same on every rank and the same as on one.
 pub fn nonlinear_solver(
-    solver: &Solver,
+    solve: &ImplicitSolve,
     global_points: usize,
 ) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
-    match factory::nonlinear_backend(solver)? {
-        NonlinearBackend::Nox => nox_solver(solver),
-        NonlinearBackend::Snes => snes_solver(solver, global_points),
-        NonlinearBackend::Newton => Ok(Box::new(strategy(solver, global_points)?)),
+    match factory::nonlinear_backend(solve)? {
+        NonlinearBackend::Nox => nox_solver(solve),
+        NonlinearBackend::Snes => snes_solver(solve, global_points),
+        NonlinearBackend::Newton => Ok(Box::new(strategy(solve, global_points)?)),
     }
 }
 
 #[cfg(feature = "trilinos")]
-fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
-    Ok(Box::new(super::nox_newton::NoxNewton::from_deck(solver)?))
+fn nox_solver(solve: &ImplicitSolve) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
+    Ok(Box::new(super::nox_newton::NoxNewton::new(solve)?))
 }
 
 #[cfg(not(feature = "trilinos"))]
-fn nox_solver(solver: &Solver) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
-    Err(factory::trilinos_not_built(solver))
+fn nox_solver(solve: &ImplicitSolve) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
+    Err(factory::trilinos_not_built(&solve.list))
 }
 
 #[cfg(feature = "petsc")]
 fn snes_solver(
-    solver: &Solver,
+    solve: &ImplicitSolve,
     global_points: usize,
 ) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
-    Ok(Box::new(super::snes_newton::SnesNewton::from_deck(
-        solver,
+    Ok(Box::new(super::snes_newton::SnesNewton::new(
+        solve,
         3 * global_points,
     )?))
 }
 
 #[cfg(not(feature = "petsc"))]
 fn snes_solver(
-    solver: &Solver,
+    solve: &ImplicitSolve,
     _global_points: usize,
 ) -> Result<Box<dyn NonlinearSolver>, Unsupported> {
-    Err(factory::petsc_not_built(solver))
+    Err(factory::petsc_not_built(&solve.list))
 }
 
 /// KSP through the PETSc bindings with the deck's keys and `PETSc Options`.
 #[cfg(feature = "petsc")]
-fn petsc_strategy(solver: &Solver, global_points: usize) -> Result<LinearStrategy, Unsupported> {
-    use crate::backend::petsc::{deck, PetscLinearSolver};
-    let settings = deck::settings(solver, 3 * global_points)
-        .ok_or_else(|| factory::petsc_not_built(solver))?;
+fn petsc_strategy(
+    solve: &ImplicitSolve,
+    global_points: usize,
+) -> Result<LinearStrategy, Unsupported> {
+    use crate::backend::petsc::{list, PetscLinearSolver};
+    let settings = list::settings(solve, 3 * global_points)
+        .ok_or_else(|| factory::petsc_not_built(&solve.list))?;
     Ok(LinearStrategy::Assembled(Box::new(PetscLinearSolver::new(
         settings,
     ))))
 }
 
 #[cfg(not(feature = "petsc"))]
-fn petsc_strategy(solver: &Solver, _global_points: usize) -> Result<LinearStrategy, Unsupported> {
-    Err(factory::petsc_not_built(solver))
+fn petsc_strategy(
+    solve: &ImplicitSolve,
+    _global_points: usize,
+) -> Result<LinearStrategy, Unsupported> {
+    Err(factory::petsc_not_built(&solve.list))
 }
 
-/// The linear strategy of `solver` (see the module docs) for a model of `global_points`
+/// The linear strategy of `solve` (see the module docs) for a model of `global_points`
 /// points on all ranks together.
-pub fn strategy(solver: &Solver, global_points: usize) -> Result<LinearStrategy, Unsupported> {
-    let settings = &solver.linear_solve;
+pub fn strategy(
+    solve: &ImplicitSolve,
+    global_points: usize,
+) -> Result<LinearStrategy, Unsupported> {
+    let settings = &solve.linear;
     let krylov = KrylovSettings {
         relative_tolerance: settings.relative_tolerance,
         max_iterations: settings.maximum_iterations.map(|m| m as usize),
         ..KrylovSettings::default()
     };
-    if let Some(preconditioner) = jacobian_free_preconditioner(solver, global_points) {
+    if let Some(preconditioner) = jacobian_free_preconditioner(solve, global_points) {
         return Ok(LinearStrategy::MatrixFree {
             krylov: KrylovSettings {
                 relative_tolerance: krylov.relative_tolerance.max(MATRIX_FREE_TOLERANCE_FLOOR),
@@ -114,18 +124,18 @@ pub fn strategy(solver: &Solver, global_points: usize) -> Result<LinearStrategy,
             },
             preconditioner,
             multigrid: MultigridCache::default(),
-            automatic: factory::matrix_free_preconditioner(solver).is_none(),
+            automatic: factory::matrix_free_preconditioner(solve).is_none(),
         });
     }
     if let LinearBackend::Petsc { .. } = settings.backend {
-        return petsc_strategy(solver, global_points);
+        return petsc_strategy(solve, global_points);
     }
     if let LinearBackend::Trilinos {
         preconditioner,
         ilu_fill_level,
     } = settings.backend
     {
-        return trilinos_strategy(solver, settings, krylov, preconditioner, ilu_fill_level);
+        return trilinos_strategy(solve, settings, krylov, preconditioner, ilu_fill_level);
     }
     let preconditioner = match settings.preconditioner {
         LinearPreconditioner::Block3x3 => PreconditionerKind::BlockJacobi,
@@ -164,28 +174,19 @@ pub fn strategy(solver: &Solver, global_points: usize) -> Result<LinearStrategy,
             });
         }
     }
-    Ok(match method {
+    // `Direct` is Cholesky with LU taking over for good once the stiffness is found not
+    // positive definite.
+    let (method, fallback) = match method {
         LinearMethod::Automatic => unreachable!("resolved above"),
-        LinearMethod::Direct => LinearStrategy::Native {
-            solver: native(NativeMethod::Cholesky),
-            fallback: Some(native(NativeMethod::Lu)),
-        },
-        LinearMethod::Cholesky => LinearStrategy::Native {
-            solver: native(NativeMethod::Cholesky),
-            fallback: None,
-        },
-        LinearMethod::Lu => LinearStrategy::Native {
-            solver: native(NativeMethod::Lu),
-            fallback: None,
-        },
-        LinearMethod::Cg => LinearStrategy::Native {
-            solver: native(NativeMethod::Cg),
-            fallback: None,
-        },
-        LinearMethod::Gmres => LinearStrategy::Native {
-            solver: native(NativeMethod::Gmres),
-            fallback: None,
-        },
+        LinearMethod::Direct => (NativeMethod::Cholesky, Some(NativeMethod::Lu)),
+        LinearMethod::Cholesky => (NativeMethod::Cholesky, None),
+        LinearMethod::Lu => (NativeMethod::Lu, None),
+        LinearMethod::Cg => (NativeMethod::Cg, None),
+        LinearMethod::Gmres => (NativeMethod::Gmres, None),
+    };
+    Ok(LinearStrategy::Native {
+        solver: native(method),
+        fallback: fallback.map(native),
     })
 }
 
@@ -195,7 +196,7 @@ pub fn strategy(solver: &Solver, global_points: usize) -> Result<LinearStrategy,
 /// reduced system drops prescribed components, so points carry one to three unknowns).
 #[cfg(feature = "trilinos")]
 fn trilinos_strategy(
-    solver: &Solver,
+    solve: &ImplicitSolve,
     settings: &LinearSolve,
     krylov: KrylovSettings,
     preconditioner: AlgebraicPreconditioner,
@@ -204,7 +205,7 @@ fn trilinos_strategy(
     use crate::backend::trilinos::{
         BelosMethod, Communicator, TrilinosLinearSolver, TrilinosPreconditioner, TrilinosSettings,
     };
-    factory::check_trilinos_method(solver)?;
+    factory::check_trilinos_method(solve)?;
     let method = match settings.method {
         LinearMethod::Gmres => BelosMethod::BlockGmres,
         _ => BelosMethod::BlockCg,
@@ -233,11 +234,11 @@ fn trilinos_strategy(
 /// the key; this covers settings built in code).
 #[cfg(not(feature = "trilinos"))]
 fn trilinos_strategy(
-    solver: &Solver,
+    solve: &ImplicitSolve,
     _settings: &LinearSolve,
     _krylov: KrylovSettings,
     _preconditioner: AlgebraicPreconditioner,
     _ilu_fill_level: u32,
 ) -> Result<LinearStrategy, Unsupported> {
-    Err(factory::trilinos_not_built(solver))
+    Err(factory::trilinos_not_built(&solve.list))
 }

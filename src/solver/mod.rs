@@ -1,10 +1,18 @@
 //! How time advances. Every solver calls the one internal-force path in [`crate::physics`].
+//!
+//! A solver list runs through its [`Integrator`] ([`integrator`]): [`verlet::Verlet`],
+//! [`load_stepped::QuasiStatic`] (`QuasiStatic`, `NOXQuasiStatic`),
+//! [`implicit_dynamics::Newmark`] (`Implicit`); the driver gives it a [`list_run::ListRun`].
 
 pub mod collective;
 pub mod explicit;
 pub mod implicit;
+pub mod implicit_dynamics;
+pub mod integrator;
 pub mod jfnk;
 pub mod linear;
+pub mod list_run;
+pub mod load_stepped;
 pub mod measure;
 pub mod monitor;
 pub mod multigrid;
@@ -13,12 +21,15 @@ pub mod newton;
 #[cfg(feature = "trilinos")]
 pub mod nox_newton;
 pub mod problem;
+pub mod progress;
 pub mod quasistatic;
 #[cfg(feature = "petsc")]
 pub mod snes_newton;
 pub mod stability;
+pub mod verlet;
 
 pub use explicit::{VelocityVerlet, VerletSettings};
+pub use integrator::{Integrator, ListSettings, SolverList};
 pub use monitor::{EnergyMonitor, Instability};
 
 /// Most time steps a `Verlet` or `Implicit` solver list may take: 10¹² (at a microsecond a

@@ -1,4 +1,5 @@
-//! Implicit dynamics with the Newmark-β method (`Implicit`, reference §1.6).
+//! Implicit dynamics with the Newmark-β method (`Implicit`; Peridigm's `executeImplicit` in
+//! `src/core/Peridigm.cpp`, with the differences noted).
 //!
 //! One step from t_n to t_{n+1} = t_n + Δt:
 //! * predictors `ũ = u_n + Δt v_n + ½Δt²(1 − 2β) a_n`, `ṽ = v_n + Δt(1 − γ) a_n`;
@@ -7,8 +8,8 @@
 //!   t = 0, its issue #23), so at those dofs a and v follow from the prescribed motion;
 //! * equilibrium `V(f_int(u) + b − ρ a) = 0` over the free dofs by Newton (peridyn's, or
 //!   PETSc's SNES with `Nonlinear Solver: "SNES"`), with the consistent
-//!   stiffness `K = K_int + Vρ/(βΔt²) I` (force units in residual and matrix alike; Peridigm
-//!   mixes force density and force, reference §5.2);
+//!   stiffness `K = K_int + Vρ/(βΔt²) I` (force units in residual and matrix alike; Peridigm's
+//!   `executeImplicit` mixes force density and force);
 //! * convergence: Peridigm's measure `βΔt²·‖f + b − ρa‖₂` (force density) ≤ `Absolute
 //!   Tolerance`.
 //!

@@ -12,8 +12,8 @@ use crate::backend::native::{
     cg_matrix_free, gmres_matrix_free, KrylovSettings, NativeLinearSolver, NativeMethod,
 };
 use crate::backend::problem::{Evaluation, NonlinearProblem};
-use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
-use crate::io::deck::LinearPreconditioner;
+use crate::backend::settings::LinearPreconditioner;
+use crate::backend::{Csr, KrylovReport, LinearResult, LinearSolver, RankRows, SolveError};
 use crate::solver::jfnk;
 pub use crate::solver::measure::{norm2, ConvergenceMeasure};
 use crate::solver::multigrid::{MultigridCache, PreconditionerReport};
@@ -169,7 +169,7 @@ impl LinearStrategy {
                 if *automatic {
                     format!(
                         ", chosen by Linear Solver \"Automatic\" above {} unknowns (name a Linear Solver or its preconditioner for an assembled tangent)",
-                        crate::io::deck::LinearMethod::AUTOMATIC_DIRECT_LIMIT
+                        crate::backend::settings::LinearMethod::AUTOMATIC_DIRECT_LIMIT
                     )
                 } else {
                     String::new()
@@ -182,7 +182,7 @@ impl LinearStrategy {
 /// A Krylov solve that stopped at its iteration limit having reduced the residual by at least
 /// [`INEXACT_ACCEPTANCE`] still gives a descent direction for the line search (inexact
 /// Newton), so it is used with a note instead of failing the step.
-fn accept_inexact(result: Result<KrylovReport, SolveError>) -> Result<KrylovReport, SolveError> {
+fn accept_inexact(result: LinearResult) -> LinearResult {
     match result {
         Err(SolveError::NotConverged {
             method,
@@ -215,7 +215,7 @@ fn solve_native(
     matrix: &Csr,
     rhs: &[f64],
     x: &mut [f64],
-) -> Result<KrylovReport, SolveError> {
+) -> LinearResult {
     solver.set_groups(groups.to_vec());
     match solver.solve(matrix, rhs, x) {
         Err(SolveError::Breakdown { method, reason }) if fallback.is_some() => {
@@ -368,7 +368,7 @@ fn correct(
     x: &[f64],
     residual: &[f64],
     correction: &mut [f64],
-) -> Result<KrylovReport, SolveError> {
+) -> LinearResult {
     let rhs: Vec<f64> = residual.iter().map(|f| -f).collect();
     match linear {
         LinearStrategy::Native { solver, fallback } => {
@@ -384,7 +384,13 @@ fn correct(
             }
             solver.set_point_groups(problem.groups());
             let result = match problem.global_ids() {
-                Some(rows) => solver.solve_distributed(rows, &matrix, &rhs, correction),
+                Some(rows) => {
+                    let part = RankRows {
+                        rows,
+                        matrix: &matrix,
+                    };
+                    solver.solve_distributed(part, &rhs, correction)
+                }
                 None => solver.solve(&matrix, &rhs, correction),
             };
             accept_inexact(result)

@@ -1,8 +1,9 @@
 //! `NOXQuasiStatic` through Trilinos NOX (feature `trilinos`): each load step is solved by
 //! NOX's Newton or nonlinear-CG solver with the deck's NOX parameter list, on the same
-//! residual the native solvers use (the one-residual rule, DESIGN §5).
+//! residual the native solvers use (every solver evaluates [`crate::physics`]' one residual).
 //!
-//! What NOX sees (Peridigm's configuration, reference §4.2, with the differences noted):
+//! What NOX sees (Peridigm's configuration in `executeNOXQuasiStatic`,
+//! `src/core/Peridigm.cpp`, with the differences noted):
 //! * unknowns: the current coordinates y = X + u of the free dofs (the first guess has the
 //!   prescribed increments and the predictor applied); prescribed dofs are eliminated rather
 //!   than zeroed rows. Peridigm's unknowns are the increments of the load step, which start at
@@ -41,11 +42,12 @@
 //!   restart.
 
 use crate::backend::factory;
+use crate::backend::parameters::{set_at, value_at as lookup, ParameterValue};
 use crate::backend::problem::NonlinearProblem;
+use crate::backend::settings::{ImplicitSolve, PeridigmPreconditioner};
 use crate::backend::trilinos::nox_problem::{self, KeptMultigrid, NoxSettings};
 pub use crate::backend::trilinos::nox_problem::{MatrixFreePreconditioner, NoxJacobian};
 use crate::backend::{SolveError, Unsupported};
-use crate::io::deck::{Integrator, ParameterValue, PeridigmPreconditioner, Solver};
 use crate::solver::multigrid::PreconditionerReport;
 use crate::solver::newton::{NewtonReport, NewtonSettings, NonlinearSolver};
 use crate::solver::problem::{Origin, Physical, PhysicsProblem};
@@ -63,14 +65,14 @@ pub struct NoxNewton {
 
 impl NoxNewton {
     /// The NOX solver of a `NOXQuasiStatic` list (see the module docs for the rules).
-    pub fn from_deck(solver: &Solver) -> Result<Self, Unsupported> {
-        let Integrator::NoxQuasiStatic(deck) = &solver.integrator else {
+    pub fn new(solve: &ImplicitSolve) -> Result<Self, Unsupported> {
+        let Some(deck) = factory::nox_parameters(solve) else {
             return Err(Unsupported(format!(
                 "solver \"{}\": NOX runs NOXQuasiStatic lists only",
-                solver.name
+                solve.list
             )));
         };
-        let direction = factory::nox_direction(solver, &deck.direction_method)?;
+        let direction = factory::nox_direction(solve, &deck.direction_method)?;
         let linear_solver_path: Vec<String> = ["Direction", direction, "Linear Solver"]
             .map(String::from)
             .to_vec();
@@ -85,13 +87,13 @@ impl NoxNewton {
             _ => None,
         };
         let matrix_free = text(linear_key("Jacobian Operator")).as_deref() == Some("Matrix-Free")
-            && solver.peridigm_preconditioner != PeridigmPreconditioner::FullTangent;
-        if solver.peridigm_preconditioner == PeridigmPreconditioner::Amg && !matrix_free {
+            && solve.peridigm_preconditioner != PeridigmPreconditioner::FullTangent;
+        if solve.peridigm_preconditioner == PeridigmPreconditioner::Amg && !matrix_free {
             return Err(Unsupported(format!(
                 "solver \"{}\": Peridigm Preconditioner \"AMG\" on NOX preconditions the Jacobian-free Newton–Krylov solve: \
                  add Jacobian Operator: \"Matrix-Free\" to NOXQuasiStatic → Direction → {direction} → Linear Solver, \
                  or choose \"Full Tangent\", \"Block 3x3\" or \"None\"",
-                solver.name
+                solve.list
             )));
         }
         let jacobian = if matrix_free {
@@ -99,21 +101,21 @@ impl NoxNewton {
                 // peridyn's multigrid on NOX: ML on the one-hop operator, whatever NOX's own
                 // preconditioner key would have been (only ML, or nothing, is consistent).
                 None | Some("ML" | "User Defined")
-                    if solver.peridigm_preconditioner == PeridigmPreconditioner::Amg =>
+                    if solve.peridigm_preconditioner == PeridigmPreconditioner::Amg =>
                 {
                     MatrixFreePreconditioner::Multigrid
                 }
-                Some(other) if solver.peridigm_preconditioner == PeridigmPreconditioner::Amg => {
+                Some(other) if solve.peridigm_preconditioner == PeridigmPreconditioner::Amg => {
                     return Err(Unsupported(format!(
                         "solver \"{}\": Peridigm Preconditioner \"AMG\" is ML on the one-hop operator, but NOXQuasiStatic → Direction → {direction} → Linear Solver → Preconditioner is \"{other}\": \
                          remove that key (or set it to \"ML\"), or choose another Peridigm Preconditioner",
-                        solver.name
+                        solve.list
                     )))
                 }
                 // Without the key NOX would run unpreconditioned, which stalls on anything
                 // real (ffi.md gotcha 9); `Block 3x3` then means what it says, as on the
                 // native backend.
-                None if solver.peridigm_preconditioner == PeridigmPreconditioner::Block3x3 => {
+                None if solve.peridigm_preconditioner == PeridigmPreconditioner::Block3x3 => {
                     MatrixFreePreconditioner::InvertedBlocks
                 }
                 None | Some("None") => MatrixFreePreconditioner::None,
@@ -125,7 +127,7 @@ impl NoxNewton {
                     return Err(Unsupported(format!(
                         "solver \"{}\": NOXQuasiStatic → Direction → {direction} → Linear Solver → Preconditioner \"{other}\": \
                          use \"None\", \"User Defined\" (the inverted 3×3 blocks), \"AztecOO\", \"Ifpack\", \"New Ifpack\" or \"ML\"",
-                        solver.name
+                        solve.list
                     )))
                 }
             };
@@ -158,7 +160,7 @@ impl NoxNewton {
             );
         }
         if lookup(&parameters, &["Printing", "Output Information"]).is_none() {
-            set_printing(&mut parameters, solver.verbose || deck.verbose);
+            set_printing(&mut parameters, solve.verbose || deck.verbose);
         }
         Ok(Self {
             parameters,
@@ -182,34 +184,6 @@ impl NoxNewton {
     }
 }
 
-/// Sets `name = value` in the sublist at `path`, creating the sublists that are missing.
-fn set_at(
-    tree: &mut Vec<(String, ParameterValue)>,
-    path: &[&str],
-    (name, value): (&str, ParameterValue),
-) {
-    let Some((first, rest)) = path.split_first() else {
-        match tree.iter_mut().find(|(k, _)| k == name) {
-            Some((_, slot)) => *slot = value,
-            None => tree.push((name.to_string(), value)),
-        }
-        return;
-    };
-    let index = match tree
-        .iter()
-        .position(|(k, v)| k == first && matches!(v, ParameterValue::List(_)))
-    {
-        Some(i) => i,
-        None => {
-            tree.push((first.to_string(), ParameterValue::List(Vec::new())));
-            tree.len() - 1
-        }
-    };
-    if let ParameterValue::List(children) = &mut tree[index].1 {
-        set_at(children, rest, (name, value));
-    }
-}
-
 /// NOX's `Printing → Output Information` when the deck gives none: errors only, or with
 /// `Verbose` the iterations, their status tests, the linear solves and warnings (bits of
 /// `NOX::Utils::MsgType`: Warning 1, OuterIteration 2, InnerIteration 4,
@@ -221,17 +195,6 @@ fn set_printing(parameters: &mut Vec<(String, ParameterValue)>, verbose: bool) {
         &["Printing"],
         ("Output Information", ParameterValue::Int(level)),
     );
-}
-
-/// The value at `path` in a NOX parameter tree.
-fn lookup<'a>(tree: &'a [(String, ParameterValue)], path: &[&str]) -> Option<&'a ParameterValue> {
-    let (first, rest) = path.split_first()?;
-    let (_, value) = tree.iter().find(|(k, _)| k == first)?;
-    match (value, rest.is_empty()) {
-        (v, true) => Some(v),
-        (ParameterValue::List(children), false) => lookup(children, rest),
-        _ => None,
-    }
 }
 
 impl NonlinearSolver for NoxNewton {
@@ -314,8 +277,6 @@ impl NonlinearSolver for NoxNewton {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::deck::{parse_str, DeckFormat};
-    use std::path::Path;
 
     /// The NOX solver of a one-block deck whose `Solver` list has `solver_keys` and whose
     /// NOXQuasiStatic `Linear Solver` list has `linear_keys`.
@@ -346,8 +307,7 @@ Solver:
 {linear_keys}
 "#
         );
-        let deck = parse_str(&text, DeckFormat::Yaml, Path::new("nox.yaml")).expect("deck");
-        NoxNewton::from_deck(&deck.solvers[0])
+        NoxNewton::new(&crate::setup::solvers::first_implicit_solve(&text))
     }
 
     #[test]
@@ -388,7 +348,7 @@ Solver:
 
     #[test]
     fn peridigm_rules_choose_matrix_free_only_with_a_block_preconditioner() {
-        // Reference §4.2: Matrix-Free with Full Tangent still assembles.
+        // Peridigm's `executeNOXQuasiStatic`: Matrix-Free with Full Tangent still assembles.
         let full = nox_of(
             "  Peridigm Preconditioner: \"Full Tangent\"",
             "          Jacobian Operator: \"Matrix-Free\"",

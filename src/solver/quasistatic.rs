@@ -2,7 +2,8 @@
 //! the prescribed displacements and body forces are applied in load steps, and each step is
 //! solved for equilibrium `V ⊙ (f_int(u) + b) = 0` over the free dofs by Newton's method.
 //!
-//! One load step from t_n to t_{n+1} (reference §4.1, with our own Newton):
+//! One load step from t_n to t_{n+1} (Peridigm's `executeQuasiStatic` in
+//! `src/core/Peridigm.cpp`, with our own Newton):
 //! 1. u = u_n plus the prescribed increments g(t_{n+1}) − g(t_n); the free dofs get the
 //!    predictor `v_prev·Δt` (the last accepted step's velocity; not on the first step unless
 //!    `Initialize Predictor From Previous Solver`, never with `Disable Heuristics`);
@@ -25,7 +26,6 @@
 
 use crate::backend::SolveError;
 use crate::boundary::BoundaryError;
-use crate::io::deck::{AdaptiveLoadStepping, LoadSteps};
 use crate::model::Model;
 use crate::physics::Physics;
 use crate::solver::collective::{any_failed, Collective};
@@ -42,6 +42,27 @@ pub const ACCEPTANCE_FACTOR: f64 = 100.0;
 /// Default bound on halvings of one load step when `Maximum load step reductions in one step`
 /// is not given.
 pub const DEFAULT_REDUCTIONS_IN_ONE_STEP: u64 = 10;
+
+/// How a quasi-static list divides its time into load steps.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LoadSteps {
+    /// `Number of Load Steps` (≥ 1): equal increments from the initial to the final time.
+    Count(u64),
+    /// `Time Steps`: the load steps' end times, increasing, the first the list's start.
+    Times(Vec<f64>),
+}
+
+/// `Adaptive Load-Stepping`: how a load step that does not converge is cut.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdaptiveLoadStepping {
+    /// `Maximum load step reductions in one step` (default
+    /// [`DEFAULT_REDUCTIONS_IN_ONE_STEP`]).
+    pub max_reductions_in_one_step: Option<u64>,
+    /// `Maximum total load step reductions` (default unbounded).
+    pub max_total_reductions: Option<u64>,
+    /// `Reduce all remaining load steps`: a cut halves every later step too.
+    pub reduce_all_remaining_load_steps: bool,
+}
 
 /// Settings of one quasi-static solver list.
 #[derive(Debug, Clone, PartialEq)]
@@ -588,8 +609,6 @@ mod tests {
                 max_reductions_in_one_step: Some(2),
                 max_total_reductions: Some(3),
                 reduce_all_remaining_load_steps: all,
-                adaptive_output_frequency: false,
-                switch_to_verlet: None,
             }),
         }
     }

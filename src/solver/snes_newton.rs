@@ -4,7 +4,7 @@
 //! line search (or Jacobian-free, `-snes_mf_operator`, for `NOXQuasiStatic` with
 //! `Jacobian Operator: "Matrix-Free"`; by SNES's nonlinear CG for `Direction → Method:
 //! "NonlinearCG"`) on the same residual the native and NOX solvers use (the
-//! one-residual rule, DESIGN §5), the Newmark inertia included; see
+//! one residual of [`crate::physics`]), the Newmark inertia included; see
 //! [`crate::backend::petsc::snes`] for what SNES sees. On several ranks the SNES runs on
 //! `MPI_COMM_WORLD` over the owned unknowns, the ghosts refreshed inside every residual.
 //!
@@ -14,12 +14,12 @@
 //! solve (SNES cannot change its unknowns mid-solve). The convergence test is peridyn's own
 //! measure against the load step's tolerance.
 
-use crate::backend::petsc::deck;
+use crate::backend::petsc::list;
 use crate::backend::petsc::snes::{self, NcgSettings, SnesJacobian, SnesSettings};
 use crate::backend::petsc::PetscSettings;
 use crate::backend::problem::NonlinearProblem;
+use crate::backend::settings::ImplicitSolve;
 use crate::backend::{SolveError, Unsupported};
-use crate::io::deck::Solver;
 use crate::solver::newton::{NewtonReport, NewtonSettings, NonlinearSolver};
 use crate::solver::problem::{Origin, Physical, PhysicsProblem};
 use std::time::Instant;
@@ -35,32 +35,32 @@ pub struct SnesNewton {
 }
 
 impl SnesNewton {
-    /// The SNES solver of a list PETSc's SNES runs ([`deck::runs_on_snes`]) over a model of
+    /// The SNES solver of a list PETSc's SNES runs ([`list::runs_on_snes`]) over a model of
     /// `unknowns` dofs.
-    pub fn from_deck(solver: &Solver, unknowns: usize) -> Result<Self, Unsupported> {
-        if !deck::runs_on_snes(solver) {
+    pub fn new(solve: &ImplicitSolve, unknowns: usize) -> Result<Self, Unsupported> {
+        if !list::runs_on_snes(solve) {
             return Err(Unsupported(format!(
                 "solver \"{}\": SNES runs NOXQuasiStatic lists on Backend \"PETSc\", and QuasiStatic or Implicit lists there with Nonlinear Solver \"SNES\"",
-                solver.name
+                solve.list
             )));
         }
-        let linear = deck::settings(solver, unknowns).ok_or_else(|| {
+        let linear = list::settings(solve, unknowns).ok_or_else(|| {
             Unsupported(format!(
                 "solver \"{}\": SNES needs Backend \"PETSc\"",
-                solver.name
+                solve.list
             ))
         })?;
-        let ncg = deck::ncg(solver).map_err(|e| {
+        let ncg = list::ncg(solve).map_err(|e| {
             Unsupported(format!(
                 "solver \"{}\": {}: {}",
-                solver.name,
+                solve.list,
                 e.path.join(" → "),
                 e.message
             ))
         })?;
         Ok(Self {
             linear,
-            jacobian: deck::snes_jacobian(solver),
+            jacobian: list::snes_jacobian(solve),
             ncg,
             method: None,
         })

@@ -141,7 +141,6 @@ fn normalise(vector: &mut [[f64; 3]], mass: &dyn Fn(usize) -> f64) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::deck::{parse_str, DeckFormat};
 
     /// A `nx`×1×1 row of unit cells (ρ = 2, K = 3, μ = 1.8 for LPS, δ = 1.5) of material
     /// `model`, with its physics and initial history.
@@ -178,7 +177,7 @@ mod tests {
     Verlet: {{Safety Factor: 0.8}}
 "#
         );
-        let deck = parse_str(&text, DeckFormat::Yaml, std::path::Path::new("deck.yaml")).unwrap();
+        let deck = crate::setup::solvers::deck_from_yaml(&text);
         let model = crate::setup::build(&deck).unwrap();
         let physics = crate::setup::build_physics(&deck, &model).unwrap();
         let history = History::allocate(

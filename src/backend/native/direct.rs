@@ -12,7 +12,7 @@ use faer::sparse::linalg::{LltError, LuError};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::MatMut;
 
-use super::super::{Csr, KrylovReport, LinearSolver, SolveError};
+use super::super::{Csr, KrylovReport, LinearResult, LinearSolver, SolveError};
 use super::check_matrix;
 
 /// The sparsity pattern a symbolic analysis was made for.
@@ -53,14 +53,7 @@ fn transpose_view(matrix: &Csr) -> SparseColMatRef<'_, usize, f64> {
 
 /// ‖b − A x‖/‖b‖ for the report (0 when b = 0).
 fn relative_residual(matrix: &Csr, rhs: &[f64], x: &[f64]) -> f64 {
-    let mut ax = vec![0.0; rhs.len()];
-    matrix.multiply_parallel(x, &mut ax);
-    let residual: f64 = ax
-        .iter()
-        .zip(rhs)
-        .map(|(a, b)| (b - a) * (b - a))
-        .sum::<f64>()
-        .sqrt();
+    let residual = matrix.residual_norm(x, rhs);
     let rhs_norm = rhs.iter().map(|b| b * b).sum::<f64>().sqrt();
     if rhs_norm == 0.0 {
         0.0
@@ -102,12 +95,7 @@ impl SparseCholesky {
 }
 
 impl LinearSolver for SparseCholesky {
-    fn solve(
-        &mut self,
-        matrix: &Csr,
-        rhs: &[f64],
-        x: &mut [f64],
-    ) -> Result<KrylovReport, SolveError> {
+    fn solve(&mut self, matrix: &Csr, rhs: &[f64], x: &mut [f64]) -> LinearResult {
         const METHOD: &str = "sparse Cholesky";
         check_matrix(METHOD, matrix, rhs, x)?;
         super::check_finite(rhs, "the right-hand side")?;
@@ -169,12 +157,7 @@ impl SparseLu {
 }
 
 impl LinearSolver for SparseLu {
-    fn solve(
-        &mut self,
-        matrix: &Csr,
-        rhs: &[f64],
-        x: &mut [f64],
-    ) -> Result<KrylovReport, SolveError> {
+    fn solve(&mut self, matrix: &Csr, rhs: &[f64], x: &mut [f64]) -> LinearResult {
         const METHOD: &str = "sparse LU";
         check_matrix(METHOD, matrix, rhs, x)?;
         super::check_finite(rhs, "the right-hand side")?;

@@ -7,7 +7,7 @@
 //! success is reported, so the figure in the report is the true one and does not depend on the
 //! preconditioner's scaling. A zero right-hand side returns x = 0 at once.
 
-use super::super::{Csr, KrylovReport, SolveError};
+use super::super::{Csr, KrylovReport, LinearResult, SolveError};
 use super::preconditioner::{Preconditioner, PreconditionerOperator};
 use super::{check_finite, check_matrix};
 
@@ -60,7 +60,7 @@ type KrylovMethod = fn(
     &[f64],
     &mut [f64],
     &KrylovSettings,
-) -> Result<KrylovReport, SolveError>;
+) -> LinearResult;
 
 /// aᵀb with eight independent partial sums: a single running sum is limited by the latency
 /// of one floating-point add per element, eight let the adds pipeline and vectorise. The
@@ -153,7 +153,7 @@ pub fn cg_matrix_free(
     rhs: &[f64],
     x: &mut [f64],
     settings: &KrylovSettings,
-) -> Result<KrylovReport, SolveError> {
+) -> LinearResult {
     const METHOD: &str = "CG";
     let Some(rhs_norm) = start(METHOD, rhs, x)? else {
         return Ok(converged_zero_rhs(METHOD));
@@ -267,7 +267,7 @@ pub fn gmres_matrix_free(
     rhs: &[f64],
     x: &mut [f64],
     settings: &KrylovSettings,
-) -> Result<KrylovReport, SolveError> {
+) -> LinearResult {
     const METHOD: &str = "GMRES";
     let Some(rhs_norm) = start(METHOD, rhs, x)? else {
         return Ok(converged_zero_rhs(METHOD));
@@ -457,7 +457,7 @@ fn solve_assembled(
     x: &mut [f64],
     settings: &KrylovSettings,
     notes: &mut Vec<String>,
-) -> Result<KrylovReport, SolveError> {
+) -> LinearResult {
     check_matrix(name, matrix, rhs, x)?;
     let operator = PreconditionerOperator::build(preconditioner, matrix)?;
     notes.clear();
@@ -513,12 +513,7 @@ impl ConjugateGradient {
 }
 
 impl super::super::LinearSolver for ConjugateGradient {
-    fn solve(
-        &mut self,
-        matrix: &Csr,
-        rhs: &[f64],
-        x: &mut [f64],
-    ) -> Result<KrylovReport, SolveError> {
+    fn solve(&mut self, matrix: &Csr, rhs: &[f64], x: &mut [f64]) -> LinearResult {
         solve_assembled(
             (cg_matrix_free, "CG"),
             &self.preconditioner,
@@ -559,12 +554,7 @@ impl Gmres {
 }
 
 impl super::super::LinearSolver for Gmres {
-    fn solve(
-        &mut self,
-        matrix: &Csr,
-        rhs: &[f64],
-        x: &mut [f64],
-    ) -> Result<KrylovReport, SolveError> {
+    fn solve(&mut self, matrix: &Csr, rhs: &[f64], x: &mut [f64]) -> LinearResult {
         solve_assembled(
             (gmres_matrix_free, "GMRES"),
             &self.preconditioner,

@@ -1,8 +1,8 @@
 //! PETSc backend (feature `petsc`): KSP/PC solves of our assembled [`Csr`](super::Csr)
 //! matrices behind the [`LinearSolver`](super::LinearSolver) seam ([`linear`]), and SNES
 //! Newton (line search, or Jacobian-free with `-snes_mf_operator`) on a
-//! [`NonlinearProblem`](super::problem::NonlinearProblem) ([`snes`]), configured by the deck's
-//! keys and its `PETSc Options` string ([`options`]).
+//! [`NonlinearProblem`](super::problem::NonlinearProblem) ([`snes`]), configured by a solver
+//! list's keys ([`list`]) and its `PETSc Options` string ([`options`]).
 //!
 //! **Why bindgen and not the `cxx` shim of the Trilinos backend.** PETSc is a C library: its
 //! API is plain functions on opaque handles returning an error code, with no exceptions,
@@ -23,9 +23,9 @@
 //! a `MATMPIAIJ` of every rank's rows ([`layout`]), and KSP ([`linear`]) and SNES ([`snes`])
 //! run across the ranks, SNES calling the residual that refreshes the ghosts.
 
-pub mod deck;
 pub mod layout;
 pub mod linear;
+pub mod list;
 pub mod options;
 pub mod runtime;
 pub mod snes;

@@ -47,7 +47,6 @@ thread_local! {
 /// The PETSc error handler: keeps the first message of an error (PETSc calls the handler again
 /// at every level the error passes through) and returns the code without printing. The
 /// signature is PETSc's `PetscErrorHandler`.
-#[allow(clippy::too_many_arguments)]
 unsafe extern "C" fn error_handler(
     _comm: sys::MPI_Comm,
     _line: c_int,

@@ -1,6 +1,6 @@
 //! Trilinos backend (feature `trilinos`): Belos Krylov solves of our assembled [`Csr`]
 //! matrices, preconditioned by Ifpack or ML, through the `cxx` bridge in [`ffi`] and the shim
-//! in `cpp/src/trilinos_linear.cpp` (DESIGN §7–8).
+//! in `cpp/src/trilinos_linear.cpp`.
 //!
 //! The first [`TrilinosLinearSolver::solve`] builds an Epetra row map, the graph of the CSR
 //! with each row's exact length and an `Epetra_FECrsMatrix` on it; the solver keeps them, and
@@ -42,8 +42,10 @@ mod parameters;
 use self::ffi::bridge;
 use super::fingerprint::Fingerprint;
 use super::native::KrylovSettings;
-use super::{Csr, KrylovReport, LinearSolver, PreconditionerSetup, SolveError};
-use crate::io::deck::ParameterValue;
+use super::{
+    Csr, KrylovReport, LinearResult, LinearSolver, PreconditionerSetup, RankRows, SolveError,
+};
+use crate::backend::parameters::ParameterValue;
 use crate::mpi_session::{fortran_handle, CommScope};
 use std::time::Instant;
 
@@ -512,13 +514,8 @@ impl LinearSolver for TrilinosLinearSolver {
 
     /// Belos on `MPI_COMM_WORLD` with this rank's rows. The relative residual reported is
     /// Belos' own (the true residual would need the other ranks' parts).
-    fn solve_distributed(
-        &mut self,
-        rows: &[usize],
-        matrix: &Csr,
-        rhs: &[f64],
-        x: &mut [f64],
-    ) -> Result<KrylovReport, SolveError> {
+    fn solve_distributed(&mut self, part: RankRows, rhs: &[f64], x: &mut [f64]) -> LinearResult {
+        let RankRows { rows, matrix } = part;
         let n = rows.len();
         if matrix.nrows != n || rhs.len() != n || x.len() != n {
             return Err(self.breakdown(format!(
@@ -555,12 +552,7 @@ impl LinearSolver for TrilinosLinearSolver {
         })
     }
 
-    fn solve(
-        &mut self,
-        matrix: &Csr,
-        rhs: &[f64],
-        x: &mut [f64],
-    ) -> Result<KrylovReport, SolveError> {
+    fn solve(&mut self, matrix: &Csr, rhs: &[f64], x: &mut [f64]) -> LinearResult {
         let n = matrix.nrows;
         if matrix.ncols != n || rhs.len() != n || x.len() != n {
             return Err(self.breakdown(format!(
@@ -606,15 +598,7 @@ impl LinearSolver for TrilinosLinearSolver {
         }
         // The residual reported is the true one, ‖b − A x‖/‖b‖, computed here rather than
         // Belos' recursively updated estimate.
-        let mut ax = vec![0.0; n];
-        matrix.multiply_parallel(x, &mut ax);
-        let residual = rhs
-            .iter()
-            .zip(&ax)
-            .map(|(b, a)| (b - a) * (b - a))
-            .sum::<f64>()
-            .sqrt();
-        let relative_residual = residual / rhs_norm;
+        let relative_residual = matrix.residual_norm(x, rhs) / rhs_norm;
         let iterations = usize::try_from(outcome.iterations).unwrap_or(0);
         if !outcome.converged {
             return Err(SolveError::NotConverged {

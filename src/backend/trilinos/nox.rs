@@ -12,8 +12,8 @@ pub use super::nox_ffi::NonlinearCallbacks;
 use super::nox_ffi::{bridge, NoxProblem};
 use super::parameters::flatten;
 use super::MPI_TURN;
+use crate::backend::parameters::ParameterValue;
 use crate::backend::SolveError;
-use crate::io::deck::ParameterValue;
 use crate::mpi_session::{fortran_handle, CommScope};
 
 /// A CSR sparsity pattern over the unknowns (global column ids).
@@ -185,25 +185,7 @@ pub fn solve_keeping(
         None => narrow(&(0..n).collect::<Vec<_>>(), "the unknowns")?,
     };
     let distributed = layout.global_rows.is_some();
-    let csr = |pattern: &Pattern, what: &str| -> Result<(Vec<i32>, Vec<i32>), SolveError> {
-        if pattern.offsets.len() != n + 1 || pattern.offsets.last() != Some(&pattern.columns.len())
-        {
-            return Err(failure(format!(
-                "the {what} pattern has {} row offsets and {} entries for {n} unknowns",
-                pattern.offsets.len(),
-                pattern.columns.len()
-            )));
-        }
-        if !distributed && pattern.columns.iter().any(|&c| c >= n) {
-            return Err(failure(format!(
-                "the {what} pattern has a column beyond {n}"
-            )));
-        }
-        Ok((
-            narrow(&pattern.offsets, "the entries")?,
-            narrow(&pattern.columns, "the columns")?,
-        ))
-    };
+    let csr = |pattern: &Pattern, what: &str| narrow_pattern(pattern, what, n, distributed);
     let (jacobian_offsets, jacobian_columns) = match &layout.jacobian {
         Some(p) => csr(p, "Jacobian")?,
         None => Default::default(),
@@ -224,25 +206,6 @@ pub fn solve_keeping(
         .preconditioner
         .as_ref()
         .and_then(|p| p.multigrid.as_ref());
-    let null_space = match multigrid {
-        Some(space) if space.modes > 0 && space.vectors.len() == n * space.modes => {
-            let mut columns = vec![0.0; space.vectors.len()];
-            for (row, values) in space.vectors.chunks_exact(space.modes).enumerate() {
-                for (mode, value) in values.iter().enumerate() {
-                    columns[mode * n + row] = *value;
-                }
-            }
-            columns
-        }
-        Some(space) => {
-            return Err(failure(format!(
-                "a near-null space of {} values for {n} unknowns and {} modes",
-                space.vectors.len(),
-                space.modes
-            )))
-        }
-        None => Vec::new(),
-    };
     let bridge_layout = bridge::NoxLayout {
         communicator: communicator.handle,
         linear_solver_path: layout.linear_solver_path.clone(),
@@ -260,7 +223,7 @@ pub fn solve_keeping(
         } else {
             1
         },
-        null_space,
+        null_space: multigrid.map_or(Ok(Vec::new()), |space| null_space_columns(space, n))?,
         tolerance: layout.tolerance,
         max_iterations: i32::try_from(layout.max_iterations).unwrap_or(i32::MAX),
     };
@@ -289,4 +252,48 @@ pub fn solve_keeping(
         multigrid_levels: usize::try_from(outcome.multigrid_levels).unwrap_or(0),
         operator_complexity: outcome.operator_complexity,
     })
+}
+
+/// A pattern over `n` unknowns (its columns global ids when `distributed`) as Epetra's 32-bit
+/// offsets and columns, or what is wrong with it (`what` names it).
+fn narrow_pattern(
+    pattern: &Pattern,
+    what: &str,
+    n: usize,
+    distributed: bool,
+) -> Result<(Vec<i32>, Vec<i32>), SolveError> {
+    if pattern.offsets.len() != n + 1 || pattern.offsets.last() != Some(&pattern.columns.len()) {
+        return Err(failure(format!(
+            "the {what} pattern has {} row offsets and {} entries for {n} unknowns",
+            pattern.offsets.len(),
+            pattern.columns.len()
+        )));
+    }
+    if !distributed && pattern.columns.iter().any(|&c| c >= n) {
+        return Err(failure(format!(
+            "the {what} pattern has a column beyond {n}"
+        )));
+    }
+    Ok((
+        narrow(&pattern.offsets, "the entries")?,
+        narrow(&pattern.columns, "the columns")?,
+    ))
+}
+
+/// The near-null space of `n` unknowns column by column (mode after mode), as ML takes it.
+fn null_space_columns(space: &NearNullSpace, n: usize) -> Result<Vec<f64>, SolveError> {
+    if space.modes == 0 || space.vectors.len() != n * space.modes {
+        return Err(failure(format!(
+            "a near-null space of {} values for {n} unknowns and {} modes",
+            space.vectors.len(),
+            space.modes
+        )));
+    }
+    let mut columns = vec![0.0; space.vectors.len()];
+    for (row, values) in space.vectors.chunks_exact(space.modes).enumerate() {
+        for (mode, value) in values.iter().enumerate() {
+            columns[mode * n + row] = *value;
+        }
+    }
+    Ok(columns)
 }

@@ -18,10 +18,10 @@ use super::nox::{
     PreconditionerMatrix,
 };
 use crate::backend::native::invert_dense;
+use crate::backend::parameters::ParameterValue;
 use crate::backend::problem::{agree_over, Evaluation, NonlinearProblem};
 use crate::backend::Csr;
 use crate::backend::{block_diagonal_csr, SolveError};
-use crate::io::deck::ParameterValue;
 
 /// The preconditioner of a matrix-free NOX solve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

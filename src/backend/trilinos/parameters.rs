@@ -1,8 +1,8 @@
-//! Deck parameter trees ([`ParameterValue`]) as the flat, typed entries the C++ side turns
+//! Parameter trees ([`ParameterValue`]) as the flat, typed entries the C++ side turns
 //! into a Teuchos `ParameterList` (NOX's and Belos' lists alike).
 
 use super::ffi::bridge;
-use crate::io::deck::ParameterValue;
+use crate::backend::parameters::ParameterValue;
 
 /// A parameter tree as flat entries (sublist path, name, typed value), in tree order.
 pub(super) fn flatten(tree: &[(String, ParameterValue)]) -> Vec<bridge::Parameter> {

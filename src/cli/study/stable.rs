@@ -10,7 +10,9 @@
 //! is only watched up to the deck's `Final Time`: a step just above the limit grows slowly and
 //! may not trip the monitor in a short run, so the bracket's unstable end is the sound bound.
 
-use peridyn::io::deck::{Deck, Integrator, Variation};
+use peridyn::io::deck::{Deck, Variation};
+use peridyn::setup::solvers::solver_lists;
+use peridyn::solver::integrator::TimeStep;
 
 use super::grid::Variant;
 use super::runner::{self, Outcome, Setup};
@@ -36,30 +38,31 @@ impl Trial {
     }
 }
 
-/// The key path of the first Verlet list's `Safety Factor`, or why the deck has none to vary.
+/// The key path of the first explicit list's `Safety Factor` (the list whose time step
+/// scales the stable estimate), or why the deck has none to vary.
 pub fn safety_factor_path(deck: &Deck) -> Result<Vec<String>, String> {
-    let solver = deck
-        .solvers
-        .iter()
-        .find(|s| matches!(s.integrator, Integrator::Verlet(_)))
+    let (list, fixed) = solver_lists(deck)
+        .into_iter()
+        .find_map(|list| match list.integrator.time_step()? {
+            TimeStep::Stable { fixed, .. } => Some((list, fixed)),
+            TimeStep::Fixed(_) => None,
+        })
         .ok_or_else(|| {
             format!(
                 "{}: --stable-dt needs an explicit deck (a solver list with a Verlet sublist)",
                 deck.path.display()
             )
         })?;
-    if let Integrator::Verlet(verlet) = &solver.integrator {
-        if verlet.fixed_dt.is_some() {
-            return Err(format!(
-                "{}: {} → Verlet → Fixed dt: --stable-dt scales the stable estimate; remove Fixed dt",
-                deck.path.display(),
-                solver.name
-            ));
-        }
+    let (name, integrator) = (&list.settings.name, list.integrator.name());
+    if fixed.is_some() {
+        return Err(format!(
+            "{}: {name} → {integrator} → Fixed dt: --stable-dt scales the stable estimate; remove Fixed dt",
+            deck.path.display(),
+        ));
     }
     Ok(vec![
-        solver.name.clone(),
-        "Verlet".to_string(),
+        name.clone(),
+        integrator.to_string(),
         "Safety Factor".to_string(),
     ])
 }

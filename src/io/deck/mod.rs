@@ -20,6 +20,8 @@ mod contact;
 mod damage;
 mod discretization;
 mod error;
+mod integrators;
+mod linear_solve;
 mod materials;
 mod output;
 mod overrides;
@@ -27,7 +29,7 @@ mod parameters;
 mod reader;
 mod solver;
 #[cfg(test)]
-pub(crate) use solver::linear_solve_tests::three_point_bar_text;
+pub(crate) use linear_solve::tests::three_point_bar_text;
 mod study;
 mod tree;
 mod xml;
@@ -48,6 +50,14 @@ pub use discretization::{
     OmitBonds, PointSource, QuickGridGenerator,
 };
 pub use error::{DeckError, KeyPath};
+pub use integrators::{
+    AdaptiveLoadStepping, Implicit, ImplicitDiffusion, Integrator, LoadSteps, NoxQuasiStatic,
+    QuasiStatic, SwitchToVerlet, Verlet,
+};
+pub use linear_solve::{
+    parse_petsc_options, AlgebraicPreconditioner, BelosSettings, BelosSolver, LinearBackend,
+    LinearMethod, LinearPreconditioner, LinearSolve, NonlinearMethod, PetscPreconditioner,
+};
 pub use materials::{
     BondAssociatedPlasticity, BondBasedModulus, CorrespondencePlasticity, ElasticConstants, Flaw,
     Material, MaterialModel, PalsInfluence, PlanarKind,
@@ -55,12 +65,7 @@ pub use materials::{
 pub use output::{CalculationType, ComputeClass, ComputeClassKind, Output};
 pub use overrides::{split_key_path, Override};
 pub use parameters::ParameterValue;
-pub use solver::{
-    parse_petsc_options, AdaptiveLoadStepping, AlgebraicPreconditioner, BelosSettings, BelosSolver,
-    Implicit, ImplicitDiffusion, Integrator, LinearBackend, LinearMethod, LinearPreconditioner,
-    LinearSolve, LoadSteps, NonlinearMethod, NoxQuasiStatic, PeridigmPreconditioner,
-    PetscPreconditioner, QuasiStatic, SolveFor, Solver, SwitchToVerlet, Verlet,
-};
+pub use solver::{PeridigmPreconditioner, SolveFor, Solver};
 pub use study::{split_values, Study, Variation};
 
 use reader::{suggest, Ctx, Field, ListReader};

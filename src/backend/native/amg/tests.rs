@@ -4,7 +4,7 @@
 use super::{one_hop_operator, rigid_body_modes, OneHopInput, Stencil};
 use super::{Amg, Cycle};
 use crate::backend::native::{cg_matrix_free, KrylovSettings, SparseCholesky};
-use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
+use crate::backend::{Csr, KrylovReport, LinearResult, LinearSolver};
 use crate::model::BondList;
 
 /// An n×n×n lattice with its family lists.
@@ -120,7 +120,7 @@ fn clamped_system(n: usize, modes: usize, cycle: Cycle) -> (Csr, Amg, Vec<f64>) 
     (matrix, amg, rhs)
 }
 
-fn amg_cg(matrix: &Csr, amg: &Amg, rhs: &[f64], x: &mut [f64]) -> Result<KrylovReport, SolveError> {
+fn amg_cg(matrix: &Csr, amg: &Amg, rhs: &[f64], x: &mut [f64]) -> LinearResult {
     let mut apply = |v: &[f64], y: &mut [f64]| {
         matrix.multiply(v, y);
         Ok(())

@@ -21,11 +21,8 @@ use mpi::topology::{Communicator as _, SimpleCommunicator};
 use super::super::layout::{sum_over_ranks, Columns, DistributedMatrix, Layout};
 use super::super::runtime::{check, PetscError, Turn};
 use super::super::sys;
-use super::{
-    diverged_reason, petsc_failure, resolved_types, set_near_null_space, KspMethod,
-    PetscLinearSolver,
-};
-use crate::backend::{Csr, KrylovReport, SolveError};
+use super::{indefinite, petsc_failure, set_near_null_space, KspMethod, PetscLinearSolver};
+use crate::backend::{Csr, KrylovReport, LinearResult, RankRows, SolveError};
 
 /// The PETSc objects of one distributed sparsity pattern.
 pub(in crate::backend::petsc) struct DistributedSystem {
@@ -78,11 +75,10 @@ impl PetscLinearSolver {
     /// [`crate::backend::LinearSolver::solve_distributed`] (see the module docs).
     pub(super) fn solve_on_ranks(
         &mut self,
-        rows: &[usize],
-        matrix: &Csr,
+        RankRows { rows, matrix }: RankRows,
         rhs: &[f64],
         x: &mut [f64],
-    ) -> Result<KrylovReport, SolveError> {
+    ) -> LinearResult {
         let n = rows.len();
         let turn = Turn::take().map_err(|e| petsc_failure("starting PETSc", e))?;
         let mut local_error = None;
@@ -97,16 +93,8 @@ impl PetscLinearSolver {
                 ),
             });
         }
-        for (what, values) in [
-            ("the matrix", &matrix.values[..]),
-            ("the right-hand side", rhs),
-            ("the initial guess", &x[..]),
-        ] {
-            if local_error.is_none() && !values.iter().all(|v| v.is_finite()) {
-                local_error = Some(SolveError::NonFinite {
-                    what: format!("{what} given to {}", self.method_name()),
-                });
-            }
+        if local_error.is_none() {
+            local_error = self.non_finite(matrix, rhs, x);
         }
         if on_any_rank(local_error.is_some()) {
             return Err(local_error.unwrap_or(SolveError::OtherRank));
@@ -139,32 +127,10 @@ impl PetscLinearSolver {
         let guess = x.to_vec();
         let (mut reason, mut iterations, mut residual) =
             run(system, rhs, x).map_err(|e| petsc_failure("KSPSolve", e))?;
-        let indefinite = matches!(
-            reason,
-            sys::KSPConvergedReason_KSP_DIVERGED_INDEFINITE_PC
-                | sys::KSPConvergedReason_KSP_DIVERGED_INDEFINITE_MAT
-                | sys::KSPConvergedReason_KSP_DIVERGED_BREAKDOWN
-        );
         // The converged reason follows from global inner products: every rank switches alike.
-        if indefinite && self.settings.method == KspMethod::Cg {
-            if is_rank_zero() {
-                eprintln!(
-                    "  note: {}: {}; switching to GMRES",
-                    self.method_name(),
-                    diverged_reason(reason)
-                );
-            }
-            self.settings.method = KspMethod::Gmres;
-            let ksp = system.ksp;
-            // SAFETY: a live KSP; the type change keeps operators and PC.
-            check(unsafe { sys::KSPSetType(ksp, c"gmres".as_ptr()) })
-                .and_then(|()| {
-                    // SAFETY: as above.
-                    check(unsafe { sys::KSPSetNormType(ksp, sys::KSPNormType_KSP_NORM_DEFAULT) })
-                })
-                .and_then(|()| resolved_types(ksp))
-                .map(|r| self.resolved = Some(r))
-                .map_err(|e| petsc_failure("switching to GMRES", e))?;
+        if indefinite(reason) && self.settings.method == KspMethod::Cg {
+            self.switch_to_gmres(system.ksp, reason, is_rank_zero())?;
+            let system = self.distributed.as_ref().expect("built above");
             x.copy_from_slice(&guess);
             (reason, iterations, residual) =
                 run(system, rhs, x).map_err(|e| petsc_failure("KSPSolve", e))?;
@@ -176,30 +142,7 @@ impl PetscLinearSolver {
             }
         }
         drop(turn);
-        let relative_residual = residual / rhs_norm;
-        if reason == sys::KSPConvergedReason_KSP_DIVERGED_ITS {
-            return Err(SolveError::NotConverged {
-                method: "PETSc KSP",
-                iterations,
-                relative_residual,
-                tolerance: self.settings.krylov.relative_tolerance,
-            });
-        }
-        if reason < 0 || !relative_residual.is_finite() {
-            return Err(SolveError::Breakdown {
-                method: "PETSc KSP",
-                reason: format!(
-                    "{} stopped with {} after {iterations} iterations (relative residual {relative_residual:.3e})",
-                    self.method_name(),
-                    diverged_reason(reason)
-                ),
-            });
-        }
-        Ok(KrylovReport {
-            method: self.method_name(),
-            iterations: iterations.max(1),
-            relative_residual,
-        })
+        self.outcome((reason, iterations), residual / rhs_norm)
     }
 
     /// Builds the distributed objects for this pattern (collective).

@@ -30,8 +30,8 @@ use super::options::DeckOptions;
 use super::runtime::{check, owned_string, PetscError, Turn};
 use super::sys;
 use crate::backend::native::KrylovSettings;
-use crate::backend::{Csr, KrylovReport, LinearSolver, SolveError};
-use crate::io::deck::PetscPreconditioner;
+use crate::backend::settings::PetscPreconditioner;
+use crate::backend::{Csr, KrylovReport, LinearResult, LinearSolver, RankRows, SolveError};
 
 /// The KSP method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -551,14 +551,8 @@ impl LinearSolver for PetscLinearSolver {
     }
 
     /// KSP on `MPI_COMM_WORLD` over every rank's rows (see [`distributed`]).
-    fn solve_distributed(
-        &mut self,
-        rows: &[usize],
-        matrix: &Csr,
-        rhs: &[f64],
-        x: &mut [f64],
-    ) -> Result<KrylovReport, SolveError> {
-        self.solve_on_ranks(rows, matrix, rhs, x)
+    fn solve_distributed(&mut self, part: RankRows, rhs: &[f64], x: &mut [f64]) -> LinearResult {
+        self.solve_on_ranks(part, rhs, x)
     }
 
     fn set_near_null_space(&mut self, modes: &[f64], count: usize) {
@@ -585,12 +579,40 @@ impl LinearSolver for PetscLinearSolver {
         }
     }
 
-    fn solve(
-        &mut self,
-        matrix: &Csr,
-        rhs: &[f64],
-        x: &mut [f64],
-    ) -> Result<KrylovReport, SolveError> {
+    fn solve(&mut self, matrix: &Csr, rhs: &[f64], x: &mut [f64]) -> LinearResult {
+        self.check_system(matrix, rhs, x)?;
+        let rhs_norm = norm(rhs);
+        if rhs_norm == 0.0 {
+            x.fill(0.0);
+            return Ok(KrylovReport {
+                method: self.method_name(),
+                iterations: 0,
+                relative_residual: 0.0,
+            });
+        }
+        let turn = Turn::take().map_err(|e| petsc_failure("starting PETSc", e))?;
+        self.prepare(&turn, matrix)?;
+        let guess = x.to_vec();
+        let (mut reason, mut iterations) = self
+            .run_ksp(&turn, rhs, x)
+            .map_err(|e| petsc_failure("KSPSolve", e))?;
+        if indefinite(reason) && self.settings.method == KspMethod::Cg {
+            let ksp = self.system.as_ref().expect("built above").ksp;
+            self.switch_to_gmres(ksp, reason, true)?;
+            x.copy_from_slice(&guess);
+            (reason, iterations) = self
+                .run_ksp(&turn, rhs, x)
+                .map_err(|e| petsc_failure("KSPSolve", e))?;
+        }
+        drop(turn);
+        self.report(matrix, rhs, x, rhs_norm, (reason, iterations))
+    }
+}
+
+impl PetscLinearSolver {
+    /// Refuses a system that is not square with matching vectors, or holds a non-finite
+    /// value.
+    fn check_system(&self, matrix: &Csr, rhs: &[f64], x: &[f64]) -> Result<(), SolveError> {
         let n = matrix.nrows;
         if matrix.ncols != n || rhs.len() != n || x.len() != n {
             return Err(SolveError::Breakdown {
@@ -604,27 +626,28 @@ impl LinearSolver for PetscLinearSolver {
                 ),
             });
         }
-        for (what, values) in [
+        self.non_finite(matrix, rhs, x).map_or(Ok(()), Err)
+    }
+
+    /// The first of the matrix, the right-hand side and the initial guess that holds a
+    /// non-finite value, as the error that names it.
+    fn non_finite(&self, matrix: &Csr, rhs: &[f64], x: &[f64]) -> Option<SolveError> {
+        let parts = [
             ("the matrix", &matrix.values[..]),
             ("the right-hand side", rhs),
-            ("the initial guess", &x[..]),
-        ] {
-            if !values.iter().all(|v| v.is_finite()) {
-                return Err(SolveError::NonFinite {
-                    what: format!("{what} given to {}", self.method_name()),
-                });
-            }
-        }
-        let rhs_norm = norm(rhs);
-        if rhs_norm == 0.0 {
-            x.fill(0.0);
-            return Ok(KrylovReport {
-                method: self.method_name(),
-                iterations: 0,
-                relative_residual: 0.0,
-            });
-        }
-        let turn = Turn::take().map_err(|e| petsc_failure("starting PETSc", e))?;
+            ("the initial guess", x),
+        ];
+        let (what, _) = parts
+            .into_iter()
+            .find(|(_, values)| !values.iter().all(|v| v.is_finite()))?;
+        Some(SolveError::NonFinite {
+            what: format!("{what} given to {}", self.method_name()),
+        })
+    }
+
+    /// The PETSc matrix and KSP for `matrix`: kept from the last solve on the same pattern,
+    /// else built and configured; the values copied in.
+    fn prepare(&mut self, turn: &Turn, matrix: &Csr) -> Result<(), SolveError> {
         if self
             .system
             .as_ref()
@@ -636,71 +659,78 @@ impl LinearSolver for PetscLinearSolver {
         }
         if self.system.is_none() {
             let system = self
-                .build(&turn, matrix)
+                .build(turn, matrix)
                 .map_err(|e| petsc_failure("building the matrix and KSP", e))?;
             let ksp = system.ksp;
             self.system = Some(system);
             let resolved = self
                 .settings
-                .configure(&turn, ksp, n, true)
+                .configure(turn, ksp, matrix.nrows, true)
                 .map_err(|e| petsc_failure("setting up the KSP", e))?;
             self.resolved = Some(resolved);
         }
-        {
-            let system = self.system.as_mut().expect("built above");
-            for (slot, &k) in system.petsc_values.iter_mut().zip(&system.order) {
-                *slot = matrix.values[k];
-            }
+        let system = self.system.as_mut().expect("built above");
+        for (slot, &k) in system.petsc_values.iter_mut().zip(&system.order) {
+            *slot = matrix.values[k];
         }
-        let guess = x.to_vec();
-        let (mut reason, mut iterations) = self
-            .run_ksp(&turn, rhs, x)
-            .map_err(|e| petsc_failure("KSPSolve", e))?;
-        let indefinite = matches!(
-            reason,
-            sys::KSPConvergedReason_KSP_DIVERGED_INDEFINITE_PC
-                | sys::KSPConvergedReason_KSP_DIVERGED_INDEFINITE_MAT
-                | sys::KSPConvergedReason_KSP_DIVERGED_BREAKDOWN
-        );
-        if indefinite && self.settings.method == KspMethod::Cg {
+        Ok(())
+    }
+
+    /// CG met an indefinite operator (`reason`): the KSP `ksp` becomes GMRES for this and
+    /// every later solve; `announce` prints why (rank 0 of several).
+    pub(super) fn switch_to_gmres(
+        &mut self,
+        ksp: sys::KSP,
+        reason: sys::KSPConvergedReason,
+        announce: bool,
+    ) -> Result<(), SolveError> {
+        if announce {
             eprintln!(
                 "  note: {}: {}; switching to GMRES",
                 self.method_name(),
                 diverged_reason(reason)
             );
-            self.settings.method = KspMethod::Gmres;
-            let ksp = self.system.as_ref().expect("built above").ksp;
-            // SAFETY: a live KSP; the type change keeps operators and PC.
-            check(unsafe { sys::KSPSetType(ksp, c"gmres".as_ptr()) })
-                // GMRES with a left preconditioner measures the preconditioned residual.
-                .and_then(|()| {
-                    // SAFETY: as above.
-                    check(unsafe { sys::KSPSetNormType(ksp, sys::KSPNormType_KSP_NORM_DEFAULT) })
-                })
-                .and_then(|()| resolved_types(ksp))
-                .map(|r| self.resolved = Some(r))
-                .map_err(|e| petsc_failure("switching to GMRES", e))?;
-            x.copy_from_slice(&guess);
-            (reason, iterations) = self
-                .run_ksp(&turn, rhs, x)
-                .map_err(|e| petsc_failure("KSPSolve", e))?;
         }
-        drop(turn);
+        self.settings.method = KspMethod::Gmres;
+        // SAFETY: a live KSP; the type change keeps operators and PC.
+        check(unsafe { sys::KSPSetType(ksp, c"gmres".as_ptr()) })
+            // GMRES with a left preconditioner measures the preconditioned residual.
+            .and_then(|()| {
+                // SAFETY: as above.
+                check(unsafe { sys::KSPSetNormType(ksp, sys::KSPNormType_KSP_NORM_DEFAULT) })
+            })
+            .and_then(|()| resolved_types(ksp))
+            .map(|r| self.resolved = Some(r))
+            .map_err(|e| petsc_failure("switching to GMRES", e))
+    }
+
+    /// The report of a solve that stopped with `reason` after `iterations`: the true
+    /// relative residual ‖b − A x‖/‖b‖, or the failure.
+    fn report(
+        &self,
+        matrix: &Csr,
+        rhs: &[f64],
+        x: &[f64],
+        rhs_norm: f64,
+        (reason, iterations): (sys::KSPConvergedReason, usize),
+    ) -> LinearResult {
         if !x.iter().all(|v| v.is_finite()) {
             return Err(SolveError::NonFinite {
                 what: format!("the solution of {}", self.method_name()),
             });
         }
-        // The residual reported is the true one, ‖b − A x‖/‖b‖.
-        let mut ax = vec![0.0; n];
-        matrix.multiply_parallel(x, &mut ax);
-        let residual = rhs
-            .iter()
-            .zip(&ax)
-            .map(|(b, a)| (b - a) * (b - a))
-            .sum::<f64>()
-            .sqrt();
-        let relative_residual = residual / rhs_norm;
+        let residual = matrix.residual_norm(x, rhs);
+        self.outcome((reason, iterations), residual / rhs_norm)
+    }
+
+    /// The report of a solve that stopped with `reason` after `iterations` at the true
+    /// relative residual `relative_residual`, or its failure: the iteration limit, another
+    /// reason of PETSc's, or a non-finite residual.
+    pub(super) fn outcome(
+        &self,
+        (reason, iterations): (sys::KSPConvergedReason, usize),
+        relative_residual: f64,
+    ) -> LinearResult {
         if reason == sys::KSPConvergedReason_KSP_DIVERGED_ITS {
             return Err(SolveError::NotConverged {
                 method: "PETSc KSP",
@@ -709,7 +739,7 @@ impl LinearSolver for PetscLinearSolver {
                 tolerance: self.settings.krylov.relative_tolerance,
             });
         }
-        if reason < 0 {
+        if reason < 0 || !relative_residual.is_finite() {
             return Err(SolveError::Breakdown {
                 method: "PETSc KSP",
                 reason: format!(
@@ -725,4 +755,15 @@ impl LinearSolver for PetscLinearSolver {
             relative_residual,
         })
     }
+}
+
+/// True when CG stopped on an operator or preconditioner that is not positive definite (or a
+/// breakdown), which GMRES may still solve.
+pub(super) fn indefinite(reason: sys::KSPConvergedReason) -> bool {
+    matches!(
+        reason,
+        sys::KSPConvergedReason_KSP_DIVERGED_INDEFINITE_PC
+            | sys::KSPConvergedReason_KSP_DIVERGED_INDEFINITE_MAT
+            | sys::KSPConvergedReason_KSP_DIVERGED_BREAKDOWN
+    )
 }

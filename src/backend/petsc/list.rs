@@ -1,4 +1,5 @@
-//! The PETSc settings of a deck's solver list, and what `peridyn check` shows of them.
+//! The PETSc settings of an implicit solver list ([`ImplicitSolve`]), and what `peridyn check`
+//! shows of them.
 //!
 //! | solver list | PETSc |
 //! |---|---|
@@ -40,33 +41,34 @@
 use super::linear::{KspMethod, PetscLinearSolver, PetscSettings};
 use super::options::DeckOptions;
 use super::snes::{self, NcgBeta, NcgPreconditioner, NcgSettings, SnesJacobian};
-use crate::backend::factory::{matrix_free_preconditioner, nox_value};
+use crate::backend::factory::{matrix_free_preconditioner, nox_parameters};
 use crate::backend::native::KrylovSettings;
-use crate::io::deck::{
-    Integrator, LinearBackend, LinearMethod, LinearPreconditioner, NonlinearMethod, ParameterValue,
-    PetscPreconditioner, Solver,
+use crate::backend::parameters::{value_at, ParameterValue};
+use crate::backend::settings::{
+    ImplicitSolve, LinearBackend, LinearMethod, LinearPreconditioner, Nonlinear, NonlinearMethod,
+    PetscPreconditioner,
 };
 
-/// The PETSc settings of `solver` (a list with `Backend: "PETSc"`) for a system of `unknowns`
+/// The PETSc settings of `solve` (a list with `Backend: "PETSc"`) for a system of `unknowns`
 /// unknowns (which decides `Automatic`); `None` for a list on another backend.
-pub fn settings(solver: &Solver, unknowns: usize) -> Option<PetscSettings> {
+pub fn settings(solve: &ImplicitSolve, unknowns: usize) -> Option<PetscSettings> {
     let LinearBackend::Petsc {
         preconditioner,
         ilu_fill_level,
-    } = solver.linear_solve.backend
+    } = solve.linear.backend
     else {
         return None;
     };
-    let linear = &solver.linear_solve;
+    let linear = &solve.linear;
     // The Jacobian-free operator exists only as products: a direct solve could only factor
     // the preconditioning matrix, which is not the Newton operator (its "solution" is one
     // block-Jacobi sweep, on which Newton stalls). Its linear solve is GMRES, as NOX's
     // matrix-free Newton uses, preconditioned by the factored or approximated matrix.
-    let matrix_free = runs_on_snes(solver) && snes_jacobian(solver) != SnesJacobian::Assembled;
+    let matrix_free = runs_on_snes(solve) && snes_jacobian(solve) != SnesJacobian::Assembled;
     // `Peridigm Preconditioner: "None"` with the Jacobian-free operator is no preconditioner,
     // as on the native and Trilinos backends, unless the list names a PC.
     let preconditioner = if matrix_free
-        && matrix_free_preconditioner(solver) == Some(LinearPreconditioner::None)
+        && matrix_free_preconditioner(solve) == Some(LinearPreconditioner::None)
         && !linear.preconditioner_given
     {
         PetscPreconditioner::None
@@ -100,7 +102,7 @@ pub fn settings(solver: &Solver, unknowns: usize) -> Option<PetscSettings> {
             max_iterations: linear.maximum_iterations.map(|m| m as usize),
             ..KrylovSettings::default()
         },
-        options: DeckOptions::new(&solver.name, linear.petsc_options.clone()),
+        options: DeckOptions::new(&solve.list, linear.petsc_options.clone()),
     })
 }
 
@@ -116,8 +118,8 @@ pub struct NcgKeyError {
 
 /// The nonlinear CG of a `NOXQuasiStatic` list with `Direction → Method: "NonlinearCG"`
 /// (see the module docs for the keys), `Ok(None)` for any other list.
-pub fn ncg(solver: &Solver) -> Result<Option<NcgSettings>, NcgKeyError> {
-    let Integrator::NoxQuasiStatic(nox) = &solver.integrator else {
+pub fn ncg(solve: &ImplicitSolve) -> Result<Option<NcgSettings>, NcgKeyError> {
+    let Some(nox) = nox_parameters(solve) else {
         return Ok(None);
     };
     if nox.direction_method != "NonlinearCG" {
@@ -128,7 +130,7 @@ pub fn ncg(solver: &Solver) -> Result<Option<NcgSettings>, NcgKeyError> {
     let at = |keys: &[&'static str]| {
         let mut path: Vec<&'static str> = LIST[1..].to_vec();
         path.extend_from_slice(keys);
-        nox_value(tree, &path)
+        value_at(tree, &path)
     };
     let error = |keys: &[&'static str], message: String| {
         let mut path = LIST.to_vec();
@@ -225,44 +227,40 @@ pub fn ncg(solver: &Solver) -> Result<Option<NcgSettings>, NcgKeyError> {
 
 /// How SNES forms the Newton operator of a `NOXQuasiStatic` list on PETSc (nonlinear CG
 /// always assembles: its preconditioner works on the tangent).
-pub fn snes_jacobian(solver: &Solver) -> SnesJacobian {
-    if matches!(&solver.integrator, Integrator::NoxQuasiStatic(nox) if nox.direction_method == "NonlinearCG")
-    {
+pub fn snes_jacobian(solve: &ImplicitSolve) -> SnesJacobian {
+    if nox_parameters(solve).is_some_and(|nox| nox.direction_method == "NonlinearCG") {
         return SnesJacobian::Assembled;
     }
-    match matrix_free_preconditioner(solver) {
+    match matrix_free_preconditioner(solve) {
         Some(LinearPreconditioner::Amg) => SnesJacobian::MatrixFreeMultigrid,
         Some(_) => SnesJacobian::MatrixFree,
         None => SnesJacobian::Assembled,
     }
 }
 
-/// True when PETSc's SNES solves `solver`: a `NOXQuasiStatic` list on PETSc, or a
+/// True when PETSc's SNES solves `solve`: a `NOXQuasiStatic` list on PETSc, or a
 /// `QuasiStatic` or `Implicit` list on PETSc with `Nonlinear Solver: "SNES"`.
-pub fn runs_on_snes(solver: &Solver) -> bool {
-    matches!(solver.linear_solve.backend, LinearBackend::Petsc { .. })
-        && match solver.integrator {
-            Integrator::NoxQuasiStatic(_) => true,
-            Integrator::QuasiStatic(_) | Integrator::Implicit(_) => {
-                solver.linear_solve.nonlinear_method == NonlinearMethod::Snes
-            }
-            _ => false,
+pub fn runs_on_snes(solve: &ImplicitSolve) -> bool {
+    matches!(solve.linear.backend, LinearBackend::Petsc { .. })
+        && match solve.nonlinear {
+            Nonlinear::Nox(_) => true,
+            Nonlinear::Newton { .. } => solve.linear.nonlinear_method == NonlinearMethod::Snes,
         }
 }
 
-/// Sets up `solver`'s PETSc objects with its options, without a matrix: their description
+/// Sets up `solve`'s PETSc objects with its options, without a matrix: their description
 /// (`PETSc KSP cg + PC gamg`, or the SNES with its KSP), or PETSc's refusal of an option, for
 /// `peridyn check` and the validation `peridyn run` shares with it. `None` for a list on
 /// another backend.
-pub fn resolve(solver: &Solver, unknowns: usize) -> Option<Result<String, String>> {
-    let settings = settings(solver, unknowns)?;
-    let ncg = match ncg(solver) {
+pub fn resolve(solve: &ImplicitSolve, unknowns: usize) -> Option<Result<String, String>> {
+    let settings = settings(solve, unknowns)?;
+    let ncg = match ncg(solve) {
         Ok(ncg) => ncg,
         Err(e) => return Some(Err(format!("{}: {}", e.path.join(" → "), e.message))),
     };
-    let result = if runs_on_snes(solver) {
-        let line_search = !solver.disable_heuristics;
-        let jacobian = snes_jacobian(solver);
+    let result = if runs_on_snes(solve) {
+        let line_search = solve.line_search;
+        let jacobian = snes_jacobian(solve);
         snes::resolve(&settings, jacobian, line_search, ncg.as_ref()).map(|resolved| match jacobian {
             SnesJacobian::Assembled => resolved,
             SnesJacobian::MatrixFree => {
@@ -278,15 +276,15 @@ pub fn resolve(solver: &Solver, unknowns: usize) -> Option<Result<String, String
     Some(result.map_err(|e| e.message))
 }
 
-/// How `solver` runs on several MPI ranks, for `peridyn check`: the solver PETSc resolves (as
+/// How `solve` runs on several MPI ranks, for `peridyn check`: the solver PETSc resolves (as
 /// [`resolve`]) on `MPI_COMM_WORLD` over a `MATMPIAIJ` of each rank's rows, and what its
 /// preconditioner does with them (block Jacobi: one ILU block per rank; the one-hop operator of
 /// `Peridigm Preconditioner: "AMG"`: every rank's rows with their couplings to other ranks).
 /// `None` for a list on another backend or one whose options PETSc refuses.
-pub fn on_ranks(solver: &Solver, unknowns: usize) -> Option<String> {
-    let resolved = resolve(solver, unknowns)?.ok()?;
+pub fn on_ranks(solve: &ImplicitSolve, unknowns: usize) -> Option<String> {
+    let resolved = resolve(solve, unknowns)?.ok()?;
     let multigrid_operator =
-        runs_on_snes(solver) && snes_jacobian(solver) == SnesJacobian::MatrixFreeMultigrid;
+        runs_on_snes(solve) && snes_jacobian(solve) == SnesJacobian::MatrixFreeMultigrid;
     let pc = resolved
         .split(" + PC ")
         .nth(1)

@@ -3,14 +3,15 @@
 use std::io::IsTerminal;
 
 /// Prints progress on a terminal as a bar, otherwise as plain lines every 10 %.
-pub(super) struct Progress {
+pub struct Progress {
     bar: Option<indicatif::ProgressBar>,
     total: u64,
     next_report: u64,
 }
 
 impl Progress {
-    pub(super) fn new(label: &str, total: u64) -> Self {
+    /// Progress of `total` steps of the list `label`, nothing done yet.
+    pub fn new(label: &str, total: u64) -> Self {
         let bar = std::io::stderr().is_terminal().then(|| {
             let bar = indicatif::ProgressBar::new(total);
             if let Ok(style) = indicatif::ProgressStyle::with_template(
@@ -28,7 +29,8 @@ impl Progress {
         }
     }
 
-    pub(super) fn update(&mut self, step: u64) {
+    /// Step `step` is done.
+    pub fn update(&mut self, step: u64) {
         if let Some(bar) = &self.bar {
             bar.set_position(step);
         } else if self.total > 0 && step * 10 >= self.next_report * self.total {
@@ -41,7 +43,8 @@ impl Progress {
         }
     }
 
-    pub(super) fn finish(self) {
+    /// The list ended (or stopped): the bar is closed.
+    pub fn finish(self) {
         if let Some(bar) = self.bar {
             bar.finish();
         }
