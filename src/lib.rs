@@ -25,6 +25,7 @@
 //! | module | question it answers |
 //! |---|---|
 //! | [`io::deck`] | what did the user ask for? (Peridigm YAML/XML decks, validated once) |
+//! | `parameter_list` | how is one list of a deck read? (the key tree with its lines, typed reading with "did you mean" errors), for the deck and for the models that read their own keys |
 //! | [`discretization`] | where are the points? (QuickGrid generators, text files, Exodus meshes) |
 //! | [`neighbors`] | who bonds with whom? (family search, bond filters, space-filling-curve order) |
 //! | [`setup`] | deck → [`model::Model`] and the blocks' physics; the run plan `peridyn check` prints |
@@ -102,6 +103,7 @@ pub mod model;
 #[cfg(any(feature = "mpi", feature = "trilinos", feature = "petsc"))]
 pub mod mpi_session;
 pub mod neighbors;
+mod parameter_list;
 pub mod parallel;
 pub mod physics;
 pub mod plan;

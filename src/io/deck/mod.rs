@@ -19,21 +19,20 @@ mod boundary;
 mod contact;
 mod damage;
 mod discretization;
-mod error;
 mod materials;
 mod output;
 mod overrides;
 mod parameters;
-mod reader;
 mod solver;
 #[cfg(test)]
 pub(crate) use solver::linear_solve_tests::three_point_bar_text;
 mod study;
-mod tree;
 mod xml;
 mod yaml;
 
 use std::collections::HashMap;
+
+use crate::parameter_list::{error, reader, tree};
 use std::path::{Path, PathBuf};
 
 pub use blocks::{Block, Horizon};
