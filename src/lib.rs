@@ -103,8 +103,8 @@ pub mod model;
 #[cfg(any(feature = "mpi", feature = "trilinos", feature = "petsc"))]
 pub mod mpi_session;
 pub mod neighbors;
-mod parameter_list;
 pub mod parallel;
+mod parameter_list;
 pub mod physics;
 pub mod plan;
 pub mod restart;

@@ -28,7 +28,16 @@ use super::stretch_kernel::{
 };
 use super::{DamageError, DamageModel};
 use crate::model::ReferenceView;
-use crate::model::{ModelDeclaration, Reach};
+use crate::model::{KeyDoc, ModelDeclaration, Reach, TangentSupport};
+
+/// `Critical Energy Release Rate` (peridyn's key).
+const CRITICAL_ENERGY_RELEASE_RATE: KeyDoc = KeyDoc {
+    key: "Critical Energy Release Rate",
+    meaning: "G₀, instead of `Critical Stretch`: each block gets s_c = √(5G₀/(9Kδ)) with its \
+              own K and δ (Silling & Askari 2005)",
+    unit: "energy/area",
+    default: "one of the two",
+};
 
 /// Critical stretch from the critical energy release rate G₀ (Silling & Askari 2005, "A
 /// meshfree method based on the peridynamic model of solid mechanics", Computers & Structures
@@ -58,14 +67,17 @@ impl CriticalStretch {
     /// `Critical Stretch`: a bond breaks on its own stretch alone, so the rule reaches one hop.
     pub const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Critical Stretch",
+        aliases: &[],
         deck_keys: &[
-            "Critical Stretch",
-            "Critical Energy Release Rate",
-            "Thermal Expansion Coefficient",
+            super::keys::CRITICAL_STRETCH,
+            CRITICAL_ENERGY_RELEASE_RATE,
+            super::keys::THERMAL_EXPANSION,
         ],
         reach: Reach::OneHop,
         fields: &[BOND_DAMAGE],
         outputs: &["Damage"],
+        tangent: TangentSupport::None,
+        thermal_strain: true,
     };
 
     /// Model with critical stretch s_c (`Critical Stretch`, positive and finite).

@@ -15,8 +15,17 @@ use super::registry::BOND_DAMAGE;
 use super::DamageModel;
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::ReferenceView;
-use crate::model::{ModelDeclaration, Reach};
+use crate::model::{KeyDoc, ModelDeclaration, Reach, TangentSupport};
 use crate::neighbors::BondFilter;
+
+/// `Bond Filters`.
+const BOND_FILTERS: KeyDoc = KeyDoc {
+    key: "Bond Filters",
+    meaning: "a list of `Rectangular_Plane` or `Exodus Mesh` filters: every bond crossing one \
+              starts broken",
+    unit: "a list",
+    default: "required (at least one)",
+};
 
 /// The `Initial Damage` model of one block.
 #[derive(Debug, Clone)]
@@ -28,10 +37,13 @@ impl InitialDamage {
     /// `Initial Damage`: a bond's damage depends on its own segment alone: one hop.
     pub const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Initial Damage",
-        deck_keys: &["Bond Filters"],
+        aliases: &[],
+        deck_keys: &[BOND_FILTERS],
         reach: Reach::OneHop,
         fields: &[BOND_DAMAGE],
         outputs: &["Damage"],
+        tangent: TangentSupport::None,
+        thermal_strain: false,
     };
 
     /// The model breaking the bonds that cross any of `filters` (in the reference

@@ -31,7 +31,7 @@ use super::stretch_kernel::{
 use super::{DamageError, DamageModel};
 use crate::model::BondList;
 use crate::model::ReferenceView;
-use crate::model::{ModelDeclaration, Reach};
+use crate::model::{ModelDeclaration, Reach, TangentSupport};
 
 /// The `Interface Aware` damage model of one block.
 #[derive(Debug, Clone)]
@@ -49,10 +49,16 @@ impl InterfaceAware {
     /// `Interface Aware`: a bond's limit reads the critical stretch of both ends, and the rank-deficient rule breaks all bonds of a point from its family's damage: two hops.
     pub const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Interface Aware",
-        deck_keys: &["Critical Stretch", "Thermal Expansion Coefficient"],
+        aliases: &[],
+        deck_keys: &[
+            super::keys::CRITICAL_STRETCH,
+            super::keys::THERMAL_EXPANSION,
+        ],
         reach: Reach::TwoHop,
         fields: &[BOND_DAMAGE, POINT_CRITICAL_STRETCH],
         outputs: &["Damage"],
+        tangent: TangentSupport::None,
+        thermal_strain: true,
     };
 
     /// The model of one block with critical stretch `critical_stretch` (`Critical Stretch`,

@@ -13,6 +13,7 @@
 mod critical_stretch;
 mod initial_damage;
 mod interface_aware;
+pub(crate) mod keys;
 mod registry;
 mod stretch_kernel;
 mod time_dependent_critical_stretch;

@@ -4,7 +4,15 @@ use super::registry::BOND_DAMAGE;
 use super::{CriticalStretch, DamageError, DamageModel};
 use crate::expression::Expression;
 use crate::model::ReferenceView;
-use crate::model::{ModelDeclaration, Reach};
+use crate::model::{KeyDoc, ModelDeclaration, Reach, TangentSupport};
+
+/// `Time Dependent Critical Stretch`.
+const TIME_DEPENDENT_CRITICAL_STRETCH: KeyDoc = KeyDoc {
+    key: "Time Dependent Critical Stretch",
+    meaning: "s_c(t), an expression in t evaluated once per step",
+    unit: "an expression",
+    default: "required",
+};
 
 /// Critical stretch as a function of time, e.g. `if(t < 7e-5) { value = 50; } else { value =
 /// 0.015; }` (Peridigm's `BondBreakingInitialVelocity_TimeDependentCS`). The expression (in
@@ -20,13 +28,16 @@ impl TimeDependentCriticalStretch {
     /// `Time Dependent Critical Stretch`: as `Critical Stretch`, one bond at a time: one hop.
     pub const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Time Dependent Critical Stretch",
+        aliases: &[],
         deck_keys: &[
-            "Time Dependent Critical Stretch",
-            "Thermal Expansion Coefficient",
+            TIME_DEPENDENT_CRITICAL_STRETCH,
+            super::keys::THERMAL_EXPANSION,
         ],
         reach: Reach::OneHop,
         fields: &[BOND_DAMAGE],
         outputs: &["Damage"],
+        tangent: TangentSupport::None,
+        thermal_strain: true,
     };
 
     /// The model at time `t0`; errors when s_c(t0) is not a positive number.

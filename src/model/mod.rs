@@ -18,7 +18,9 @@ pub(crate) mod test_support;
 mod views;
 
 pub use bonds::BondList;
-pub use declaration::{FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
+pub use declaration::{
+    FieldCarrier, FieldDeclaration, KeyDoc, ModelDeclaration, Reach, TangentSupport,
+};
 pub use node_sets::{normalize_name, NodeSets};
 pub use points::{BlockInfo, PointCloud};
 pub(crate) use views::with_volume_rule;

@@ -12,9 +12,7 @@ use crate::expression::{INFLUENCE, TIME};
 use crate::io::deck::{
     Block, DamageKind, Deck, Horizon, InfluenceFunction as DeckInfluence, StretchLimit,
 };
-use crate::material::{
-    material_entry, InfluenceFunction, Material, MaterialError, MaterialInput, ReferenceView,
-};
+use crate::material::{BlockInput, InfluenceFunction, Material, MaterialError, ReferenceView};
 use crate::physics::{BlockPhysics, Physics};
 
 fn influence(deck: &Deck) -> Result<InfluenceFunction, SetupError> {
@@ -175,7 +173,12 @@ fn build_material(
     let density = material
         .density
         .ok_or_else(|| deck.error_at(&key_material, "this material needs a Density"))?;
-    let Some(registered) = material_entry(material.model.deck_name()) else {
+    let input = BlockInput {
+        density,
+        horizon,
+        influence: influence.clone(),
+    };
+    let Some(built) = material.model.build(&input, &*material.parameters) else {
         return Err(deck
             .error_at(
                 &[&key_material[..], &["Material Model"]].concat(),
@@ -186,26 +189,7 @@ fn build_material(
             )
             .into());
     };
-    let bulk_modulus = material
-        .bulk_modulus()
-        .ok_or_else(|| deck.error_at(&key_material, "this material needs elastic constants"))?;
-    let input = MaterialInput {
-        density,
-        horizon,
-        bulk_modulus,
-        shear_modulus: material.shear_modulus(),
-        planar_thickness: material.planar_thickness(),
-        plasticity: material.model.plasticity_input(),
-        shear_correction: material.model.shear_correction(),
-        viscoelastic: material.model.viscoelastic_input(),
-        influence: influence.clone(),
-        correspondence: material.model.correspondence_input(),
-        pals: material.model.pals_input(),
-        yield_stretch: material.model.yield_stretch(),
-        analytic_weighted_volume: material.model.analytic_weighted_volume(),
-    };
-    let mut built =
-        (registered.build)(&input).map_err(|e| deck.error_at(&key_material, e.to_string()))?;
+    let mut built = built.map_err(|e| deck.error_at(&key_material, e.to_string()))?;
     built.input_numbering(&model.points.original_id);
     built
         .setup(reference, block.points.clone())

@@ -47,10 +47,7 @@ pub use discretization::{
     OmitBonds, PointSource, QuickGridGenerator,
 };
 pub use error::{DeckError, KeyPath};
-pub use materials::{
-    BondAssociatedPlasticity, BondBasedModulus, CorrespondencePlasticity, ElasticConstants, Flaw,
-    Material, MaterialModel, PalsInfluence, PlanarKind,
-};
+pub use materials::{Flaw, Material};
 pub use output::{CalculationType, ComputeClass, ComputeClassKind, Output};
 pub use overrides::{split_key_path, Override};
 pub use parameters::ParameterValue;
@@ -564,9 +561,7 @@ fn check_block_material(ctx: &Ctx, deck: &Deck, block: &Block) -> Result<(), Dec
             ))
         }
         Some(material) => {
-            if matches!(material.model, MaterialModel::MultiphysicsElastic { .. })
-                && !deck.multiphysics
-            {
+            if material.parameters.requires_multiphysics() && !deck.multiphysics {
                 let path = ["Materials", material.name.as_str(), "Material Model"];
                 return Err(ctx.error(
                     deck.line_of(&path),
