@@ -5,10 +5,11 @@ mod deck_common;
 use std::path::Path;
 
 use deck_common::*;
+use peridyn::damage::{CriticalStretchLimit, CriticalStretchParameters};
 use peridyn::io::deck::{
     self, BondFilterShape, BoundaryConditionKind, ComputeClassKind, ContactInteraction, Coordinate,
-    DamageKind, Friction, Horizon, InfluenceFunction, Integrator, LoadSteps, NodeSetSource,
-    OmitBonds, ParameterValue, PeridigmPreconditioner, PointSource, StretchLimit,
+    Friction, Horizon, InfluenceFunction, Integrator, LoadSteps, NodeSetSource, OmitBonds,
+    ParameterValue, PeridigmPreconditioner, PointSource,
 };
 use peridyn::material::{LinearPeridynamicSolidParameters, PlasticityInput};
 
@@ -81,12 +82,14 @@ fn twin_content_is_typed_as_written() {
     assert_eq!(plastic.yield_stress, 2.5e8);
     assert!(!plastic.disabled && plastic.planar_thickness.is_none());
     assert_eq!(soft.tangent, None);
+    let brittle = deck.damage_model("Brittle").unwrap();
+    assert_eq!(brittle.model.deck_name(), "Critical Stretch");
     assert_eq!(
-        deck.damage_model("Brittle").unwrap().kind,
-        DamageKind::CriticalStretch {
-            critical_stretch: StretchLimit::Stretch(0.001),
+        brittle.parameters::<CriticalStretchParameters>(),
+        Some(&CriticalStretchParameters {
+            limit: CriticalStretchLimit::Stretch(0.001),
             thermal_expansion_coefficient: None
-        }
+        })
     );
 
     // `Horizon: 2` (an int) is 2.0; a string horizon is kept as an expression.

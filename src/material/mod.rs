@@ -72,8 +72,8 @@ pub use microplastic::{
 };
 pub use pals::{Multipliers, Pals, PalsInfluence, PalsParameters, MULTIPLIERS};
 pub use registry::{
-    deck_model, deck_model_names, deck_models, material_entry, BlockInput, ErasedParameters,
-    MaterialEntry, MaterialParameters, MATERIALS,
+    deck_model, deck_model_names, deck_models, material_entry, BlockInput, MaterialEntry,
+    MaterialParameters, MATERIALS,
 };
 pub(crate) use registry::{MaterialKeys, MaterialModel};
 pub use shear_correction::PROBE_SHEAR;

@@ -8,8 +8,8 @@
 //! tables ask this list, and the conformance suite (`conformance_tests.rs`) runs it. Nothing
 //! else names a model. Adding a model is its file and one line in [`MATERIALS`].
 
-use std::any::Any;
 use std::fmt;
+use std::sync::Arc;
 
 use super::{
     BondBased, ElasticCorrespondence, ElasticHypoelasticCorrespondence, ElasticPlastic,
@@ -21,6 +21,7 @@ use super::{
 use crate::model::ModelDeclaration;
 use crate::parameter_list::error::DeckError;
 use crate::parameter_list::reader::{Ctx, ListReader};
+use crate::parameter_list::TypedParameters;
 
 /// What the set-up gives every model's builder for one block, besides the model's own
 /// parameters.
@@ -36,7 +37,7 @@ pub struct BlockInput {
 
 /// The parameters of one material model, read from its deck list by its reader and kept in
 /// the deck (typed by the model, seen through this trait elsewhere).
-pub trait MaterialParameters: ErasedParameters + fmt::Debug + Send + Sync + 'static {
+pub trait MaterialParameters: TypedParameters {
     /// Bulk modulus K (pressure) the parameters give, `None` for a model without one.
     fn bulk_modulus(&self) -> Option<f64>;
 
@@ -54,43 +55,6 @@ pub trait MaterialParameters: ErasedParameters + fmt::Debug + Send + Sync + 'sta
     /// True when the model needs the deck's top-level `Multiphysics: 1`. Default false.
     fn requires_multiphysics(&self) -> bool {
         false
-    }
-}
-
-/// The operations every typed parameter set has through `dyn` (a blanket implementation for
-/// every `Clone + PartialEq` [`MaterialParameters`]).
-pub trait ErasedParameters {
-    /// The parameters as `Any`, to get the typed value back.
-    fn as_any(&self) -> &dyn Any;
-    /// A boxed copy.
-    fn clone_box(&self) -> Box<dyn MaterialParameters>;
-    /// True when `other` holds the same type and value.
-    fn same_as(&self, other: &dyn MaterialParameters) -> bool;
-}
-
-impl<T: MaterialParameters + Clone + PartialEq> ErasedParameters for T {
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
-
-    fn clone_box(&self) -> Box<dyn MaterialParameters> {
-        Box::new(self.clone())
-    }
-
-    fn same_as(&self, other: &dyn MaterialParameters) -> bool {
-        other.as_any().downcast_ref::<T>() == Some(self)
-    }
-}
-
-impl Clone for Box<dyn MaterialParameters> {
-    fn clone(&self) -> Self {
-        self.clone_box()
-    }
-}
-
-impl PartialEq for dyn MaterialParameters {
-    fn eq(&self, other: &Self) -> bool {
-        self.same_as(other)
     }
 }
 
@@ -123,7 +87,7 @@ pub(crate) trait MaterialModel: MaterialKeys {
 
 /// Reads the parameters of a model from its deck list.
 type ReadParameters =
-    fn(&mut Ctx, &mut ListReader) -> Result<Box<dyn MaterialParameters>, DeckError>;
+    fn(&mut Ctx, &mut ListReader) -> Result<Arc<dyn MaterialParameters>, DeckError>;
 
 /// Builds one block's material from its parameters.
 type Build = fn(&BlockInput, &dyn MaterialParameters) -> Result<Box<dyn Material>, MaterialError>;
@@ -140,8 +104,8 @@ pub struct MaterialEntry {
 fn read_erased<M: MaterialKeys>(
     ctx: &mut Ctx,
     list: &mut ListReader,
-) -> Result<Box<dyn MaterialParameters>, DeckError> {
-    Ok(Box::new(M::read(ctx, list)?))
+) -> Result<Arc<dyn MaterialParameters>, DeckError> {
+    Ok(Arc::new(M::read(ctx, list)?))
 }
 
 fn build_erased<M: MaterialModel>(
@@ -189,7 +153,7 @@ impl MaterialEntry {
         &self,
         ctx: &mut Ctx,
         list: &mut ListReader,
-    ) -> Result<Box<dyn MaterialParameters>, DeckError> {
+    ) -> Result<Arc<dyn MaterialParameters>, DeckError> {
         (self.read)(ctx, list)
     }
 

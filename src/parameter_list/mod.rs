@@ -10,3 +10,27 @@
 pub(crate) mod error;
 pub(crate) mod reader;
 pub(crate) mod tree;
+
+use std::any::Any;
+use std::fmt;
+
+/// A model's typed parameters seen through a trait object (the deck keeps each model's own
+/// parameter type behind its registry's trait): compared and given back as their type. Every
+/// `PartialEq` type with the other bounds has it.
+pub trait TypedParameters: Any + fmt::Debug + Send + Sync {
+    /// The parameters as `Any`, to get the typed value back.
+    fn as_any(&self) -> &dyn Any;
+
+    /// True when `other` holds the same type and value.
+    fn same_as(&self, other: &dyn Any) -> bool;
+}
+
+impl<T: Any + fmt::Debug + Send + Sync + PartialEq> TypedParameters for T {
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+
+    fn same_as(&self, other: &dyn Any) -> bool {
+        other.downcast_ref::<T>() == Some(self)
+    }
+}

@@ -12,6 +12,7 @@ use super::reader::{Ctx, Field};
 use crate::material::keys::{SharedKeys, DENSITY, ELASTIC};
 use crate::material::{deck_model, deck_model_names, MaterialEntry, MaterialParameters};
 use crate::tangent::TangentMethod;
+use std::sync::Arc;
 
 pub use crate::material::Flaw;
 
@@ -25,7 +26,7 @@ pub struct Material {
     pub model: &'static MaterialEntry,
     /// The model's own parameters, typed by the model ([`Material::parameters`] gets them
     /// back).
-    pub parameters: Box<dyn MaterialParameters>,
+    pub parameters: Arc<dyn MaterialParameters>,
     /// `Density` ρ (mass per volume, > 0); required by every mechanical model, absent for
     /// `Diffusion` and `Vector Poisson`.
     pub density: Option<f64>,
@@ -49,7 +50,7 @@ impl PartialEq for Material {
     fn eq(&self, other: &Self) -> bool {
         self.name == other.name
             && self.model == other.model
-            && self.parameters.same_as(&*other.parameters)
+            && self.parameters.same_as(other.parameters.as_any())
             && self.density == other.density
             && self.thermal_expansion_coefficient == other.thermal_expansion_coefficient
             && self.finite_difference_probe_length == other.finite_difference_probe_length

@@ -41,7 +41,7 @@ pub use boundary::{
     NodeSetDefinition, NodeSetSource,
 };
 pub use contact::{Contact, ContactInteraction, ContactModel, Friction};
-pub use damage::{DamageKind, DamageModel, StretchLimit};
+pub use damage::DamageModel;
 pub use discretization::{
     BondFilter, BondFilterShape, Discretization, ElementHorizonIntersections, InfluenceFunction,
     OmitBonds, PointSource, QuickGridGenerator,
