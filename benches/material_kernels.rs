@@ -12,8 +12,8 @@ use std::time::Instant;
 
 use peridyn::damage::{CriticalStretch, DamageModel};
 use peridyn::material::{
-    BondBased, BondBasedParameters, CurrentView, InfluenceFunction, LinearPeridynamicSolid,
-    LinearPeridynamicSolidParameters, Material, PointCoefficients, ReferenceView,
+    BlockInput, BondBased, BondBasedParameters, CurrentView, ElasticConstants, InfluenceFunction,
+    LinearPeridynamicSolid, Material, PointCoefficients, ReferenceView,
 };
 mod common;
 
@@ -96,24 +96,33 @@ fn main() {
     let (bulk, shear, density) = (48e9, 28.8e9, 2440.0);
     let make_pmb = || -> Box<dyn Material> {
         Box::new(
-            BondBased::new(BondBasedParameters {
-                density,
-                bulk_modulus: bulk,
-                horizon: HORIZON,
-                planar_thickness: None,
-            })
+            BondBased::new(
+                &BlockInput {
+                    density,
+                    horizon: HORIZON,
+                    influence: InfluenceFunction::One,
+                },
+                &BondBasedParameters {
+                    bulk_modulus: bulk,
+                    planar_thickness: None,
+                },
+            )
             .unwrap(),
         )
     };
     let make_lps = |influence: InfluenceFunction| -> Box<dyn Material> {
         Box::new(
-            LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-                density,
-                bulk_modulus: bulk,
-                shear_modulus: shear,
-                horizon: HORIZON,
-                influence,
-            })
+            LinearPeridynamicSolid::new(
+                &BlockInput {
+                    density,
+                    horizon: HORIZON,
+                    influence,
+                },
+                &ElasticConstants {
+                    bulk_modulus: bulk,
+                    shear_modulus: shear,
+                },
+            )
             .unwrap(),
         )
     };

@@ -25,6 +25,7 @@
 //! | module | question it answers |
 //! |---|---|
 //! | [`io::deck`] | what did the user ask for? (Peridigm YAML/XML decks, validated once) |
+//! | `parameter_list` | how is one list of a deck read? (the key tree with its lines, typed reading with "did you mean" errors), for the deck and for the models that read their own keys |
 //! | [`discretization`] | where are the points? (QuickGrid generators, text files, Exodus meshes) |
 //! | [`neighbors`] | who bonds with whom? (family search, bond filters, space-filling-curve order) |
 //! | [`setup`] | deck → [`model::Model`] and the blocks' physics; the run plan `peridyn check` prints |
@@ -103,6 +104,7 @@ pub mod model;
 pub mod mpi_session;
 pub mod neighbors;
 pub mod parallel;
+mod parameter_list;
 pub mod physics;
 pub mod plan;
 pub mod restart;

@@ -668,9 +668,7 @@ impl Physics {
 mod tests {
     use super::*;
     use crate::damage::CriticalStretch;
-    use crate::material::{
-        InfluenceFunction, LinearPeridynamicSolid, LinearPeridynamicSolidParameters,
-    };
+    use crate::material::{InfluenceFunction, LinearPeridynamicSolid};
     use crate::model::test_support::{brute_force_bonds, lattice};
 
     /// Physics of a 5³ lattice (spacing 1, δ = 1.8) whose points `block_of` labels, every
@@ -689,18 +687,22 @@ mod tests {
         let reference = ReferenceView::of(&bonds, &points);
         let blocks = (0..blocks)
             .map(|b| {
-                let mut material = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-                    density: 1.0,
-                    bulk_modulus: 1.0,
-                    shear_modulus: 0.5,
-                    horizon: 1.8,
-                    influence: InfluenceFunction::One,
-                })
+                let mut material = LinearPeridynamicSolid::new(
+                    &crate::material::BlockInput {
+                        density: 1.0,
+                        horizon: 1.8,
+                        influence: InfluenceFunction::One,
+                    },
+                    &crate::material::ElasticConstants {
+                        bulk_modulus: 1.0,
+                        shear_modulus: 0.5,
+                    },
+                )
                 .unwrap();
                 let members = (0..x.len() as u32)
                     .filter(|&i| points.block[i as usize] == b && listed(x[i as usize]))
                     .collect();
-                material.setup(&reference, members).unwrap();
+                crate::material::set_up(&mut material, &reference, members);
                 BlockPhysics {
                     material: Box::new(material),
                     damage: Some(Box::new(CriticalStretch::new(0.01).unwrap())),

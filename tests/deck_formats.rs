@@ -5,11 +5,13 @@ mod deck_common;
 use std::path::Path;
 
 use deck_common::*;
+use peridyn::damage::{CriticalStretchLimit, CriticalStretchParameters};
 use peridyn::io::deck::{
     self, BondFilterShape, BoundaryConditionKind, ComputeClassKind, ContactInteraction, Coordinate,
-    DamageKind, Friction, Horizon, InfluenceFunction, Integrator, LoadSteps, MaterialModel,
-    NodeSetSource, OmitBonds, ParameterValue, PeridigmPreconditioner, PointSource, StretchLimit,
+    Friction, Horizon, InfluenceFunction, Integrator, LoadSteps, NodeSetSource, OmitBonds,
+    ParameterValue, PeridigmPreconditioner, PointSource,
 };
+use peridyn::material::{LinearPeridynamicSolidParameters, PlasticityInput};
 
 #[test]
 fn yaml_and_xml_twins_load_to_equal_decks() {
@@ -61,38 +63,33 @@ fn twin_content_is_typed_as_written() {
     }
 
     let steel = deck.material("Steel").unwrap();
-    let elastic = steel.elastic.unwrap();
-    // K = E/(3(1 − 2ν)) = 200e9/(3·0.5); μ = E/(2(1 + ν)) = 200e9/2.5 (peridigm.md §1.2).
-    assert!((elastic.bulk_modulus() - 200.0e9 / 1.5).abs() < 1.0);
-    assert!((elastic.shear_modulus() - 80.0e9).abs() < 1.0);
+    assert_eq!(steel.model.deck_name(), "Elastic");
+    let elastic = steel
+        .parameters::<LinearPeridynamicSolidParameters>()
+        .unwrap();
+    // K = E/(3(1 − 2ν)) = 200e9/(3·0.5); μ = E/(2(1 + ν)) = 200e9/2.5 (Peridigm's
+    // `Material::calculateBulkModulus`, `calculateShearModulus`).
+    assert!((elastic.elastic.bulk_modulus - 200.0e9 / 1.5).abs() < 1.0);
+    assert!((elastic.elastic.shear_modulus - 80.0e9).abs() < 1.0);
     assert_eq!(steel.thermal_expansion_coefficient, Some(1.2e-5));
-    // Defaults of the Elastic model: AD tangent on, partial stress off (peridigm.md §1.3).
+    // Defaults of the Elastic model: the model's own tangent, partial stress and shear
+    // correction off (Peridigm's `Peridigm_ElasticMaterial.cpp`).
+    assert_eq!(steel.tangent, None);
+    assert!(!elastic.compute_partial_stress && !elastic.shear_correction);
+    let soft = deck.material("Soft").unwrap();
+    assert_eq!(soft.model.deck_name(), "Elastic Plastic");
+    let plastic = soft.parameters::<PlasticityInput>().unwrap();
+    assert_eq!(plastic.yield_stress, 2.5e8);
+    assert!(!plastic.disabled && plastic.planar_thickness.is_none());
+    assert_eq!(soft.tangent, None);
+    let brittle = deck.damage_model("Brittle").unwrap();
+    assert_eq!(brittle.model.deck_name(), "Critical Stretch");
     assert_eq!(
-        steel.model,
-        MaterialModel::Elastic {
-            automatic_differentiation: true,
-            compute_partial_stress: false,
-            shear_correction: false
-        }
-    );
-    match deck.material("Soft").unwrap().model {
-        MaterialModel::ElasticPlastic {
-            yield_stress,
-            disable_plasticity,
-            automatic_differentiation,
-            planar_thickness,
-        } => {
-            assert_eq!(yield_stress, 2.5e8);
-            assert!(!disable_plasticity && automatic_differentiation && planar_thickness.is_none());
-        }
-        ref other => panic!("expected Elastic Plastic, got {other:?}"),
-    }
-    assert_eq!(
-        deck.damage_model("Brittle").unwrap().kind,
-        DamageKind::CriticalStretch {
-            critical_stretch: StretchLimit::Stretch(0.001),
+        brittle.parameters::<CriticalStretchParameters>(),
+        Some(&CriticalStretchParameters {
+            limit: CriticalStretchLimit::Stretch(0.001),
             thermal_expansion_coefficient: None
-        }
+        })
     );
 
     // `Horizon: 2` (an int) is 2.0; a string horizon is kept as an expression.
@@ -290,7 +287,7 @@ fn the_shear_correction_on_elastic_is_applied_with_a_warning_and_off_by_default(
     );
     let deck = yaml(&text).expect("Peridigm's decks use this key on Elastic; it must load");
     let line = line_containing(&text, "Apply Shear Correction Factor");
-    assert!(deck.material("Steel").unwrap().model.shear_correction());
+    assert!(shear_correction(&deck));
     assert_eq!(deck.warnings.len(), 1, "{:?}", deck.warnings);
     let w = &deck.warnings[0];
     assert!(
@@ -308,14 +305,18 @@ fn the_shear_correction_on_elastic_is_applied_with_a_warning_and_off_by_default(
         "Density: 7800.0\n      Apply Shear Correction Factor: false",
     );
     let deck = yaml(&off).unwrap();
-    assert!(!deck.material("Steel").unwrap().model.shear_correction());
+    assert!(!shear_correction(&deck));
     assert!(deck.warnings.is_empty(), "{:?}", deck.warnings);
-    assert!(!yaml(BASE_YAML)
+    assert!(!shear_correction(&yaml(BASE_YAML).unwrap()));
+}
+
+/// `Apply Shear Correction Factor` of the `Elastic` material `Steel`.
+fn shear_correction(deck: &deck::Deck) -> bool {
+    deck.material("Steel")
         .unwrap()
-        .material("Steel")
+        .parameters::<LinearPeridynamicSolidParameters>()
         .unwrap()
-        .model
-        .shear_correction());
+        .shear_correction
 }
 
 #[test]

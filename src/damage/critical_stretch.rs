@@ -22,13 +22,25 @@
 
 use std::sync::Arc;
 
+use super::keys::{CRITICAL_STRETCH, THERMAL_EXPANSION};
 use super::registry::BOND_DAMAGE;
 use super::stretch_kernel::{
     update_stretch_damage, update_thermal_stretch_damage, PairPlan, StretchLimit,
 };
-use super::{DamageError, DamageModel};
+use super::{DamageBlock, DamageBuild, DamageError, DamageKeys, DamageModel, DamageParameters};
 use crate::model::ReferenceView;
-use crate::model::{ModelDeclaration, Reach};
+use crate::model::{KeyDoc, ModelDeclaration, Reach, TangentSupport};
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
+
+/// `Critical Energy Release Rate` (peridyn's key).
+const CRITICAL_ENERGY_RELEASE_RATE: KeyDoc = KeyDoc {
+    key: "Critical Energy Release Rate",
+    meaning: "G₀, instead of `Critical Stretch`: each block gets s_c = √(5G₀/(9Kδ)) with its \
+              own K and δ (Silling & Askari 2005)",
+    unit: "energy/area",
+    default: "one of the two",
+};
 
 /// Critical stretch from the critical energy release rate G₀ (Silling & Askari 2005, "A
 /// meshfree method based on the peridynamic model of solid mechanics", Computers & Structures
@@ -44,6 +56,35 @@ pub fn critical_stretch_from_energy_release_rate(
     (5.0 * energy_release_rate / (9.0 * bulk_modulus * horizon)).sqrt()
 }
 
+/// How a deck gives the limit of `Critical Stretch`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CriticalStretchLimit {
+    /// `Critical Stretch` s_c (dimensionless).
+    Stretch(f64),
+    /// `Critical Energy Release Rate` G₀ (energy/area), a peridyn key: each block using the
+    /// model gets s_c = √(5G₀/(9Kδ)) with its own bulk modulus K and horizon δ
+    /// ([`critical_stretch_from_energy_release_rate`]).
+    EnergyReleaseRate(f64),
+}
+
+/// The deck parameters of `Critical Stretch`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CriticalStretchParameters {
+    /// The limit: exactly one of `Critical Stretch` and `Critical Energy Release Rate` (> 0).
+    pub limit: CriticalStretchLimit,
+    /// `Thermal Expansion Coefficient` α; default none (no thermal stretch).
+    pub thermal_expansion_coefficient: Option<f64>,
+}
+
+impl DamageParameters for CriticalStretchParameters {
+    fn critical_stretch(&self) -> Option<f64> {
+        match self.limit {
+            CriticalStretchLimit::Stretch(s_c) => Some(s_c),
+            CriticalStretchLimit::EnergyReleaseRate(_) => None,
+        }
+    }
+}
+
 /// The `Critical Stretch` damage model of one block.
 #[derive(Debug, Clone)]
 pub struct CriticalStretch {
@@ -54,20 +95,68 @@ pub struct CriticalStretch {
     thermal_expansion: Option<f64>,
 }
 
-impl CriticalStretch {
+impl DamageKeys for CriticalStretch {
+    type Parameters = CriticalStretchParameters;
+
     /// `Critical Stretch`: a bond breaks on its own stretch alone, so the rule reaches one hop.
-    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Critical Stretch",
+        aliases: &[],
         deck_keys: &[
-            "Critical Stretch",
-            "Critical Energy Release Rate",
-            "Thermal Expansion Coefficient",
+            CRITICAL_STRETCH,
+            CRITICAL_ENERGY_RELEASE_RATE,
+            THERMAL_EXPANSION,
         ],
         reach: Reach::OneHop,
         fields: &[BOND_DAMAGE],
         outputs: &["Damage"],
+        tangent: TangentSupport::None,
+        thermal_strain: true,
     };
 
+    /// Exactly one of `Critical Stretch` and `Critical Energy Release Rate`.
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<CriticalStretchParameters, DeckError> {
+        let stretch = list.positive_opt(ctx, CRITICAL_STRETCH.key)?;
+        let energy = list.positive_opt(ctx, CRITICAL_ENERGY_RELEASE_RATE.key)?;
+        let limit = match (stretch, energy) {
+            (Some(s), None) => CriticalStretchLimit::Stretch(s),
+            (None, Some(g)) => CriticalStretchLimit::EnergyReleaseRate(g),
+            _ => {
+                return Err(ctx.error(
+                    Some(list.line),
+                    &list.path,
+                    "give exactly one of \"Critical Stretch\" and \"Critical Energy Release \
+                     Rate\" (the second derives s_c = sqrt(5 G0 / (9 K horizon)) for each block)",
+                ))
+            }
+        };
+        Ok(CriticalStretchParameters {
+            limit,
+            thermal_expansion_coefficient: list.f64_opt(ctx, THERMAL_EXPANSION.key)?,
+        })
+    }
+}
+
+impl DamageBuild for CriticalStretch {
+    fn build(
+        block: &DamageBlock,
+        parameters: &CriticalStretchParameters,
+    ) -> Result<Box<dyn DamageModel>, DamageError> {
+        let s_c = match parameters.limit {
+            CriticalStretchLimit::Stretch(s_c) => s_c,
+            CriticalStretchLimit::EnergyReleaseRate(g0) => {
+                critical_stretch_from_energy_release_rate(g0, block.bulk_modulus, block.horizon)
+            }
+        };
+        let mut model = Self::new(s_c)?;
+        if let Some(alpha) = parameters.thermal_expansion_coefficient {
+            model.set_thermal_expansion(alpha)?;
+        }
+        Ok(Box::new(model))
+    }
+}
+
+impl CriticalStretch {
     /// Model with critical stretch s_c (`Critical Stretch`, positive and finite).
     pub fn new(critical_stretch: f64) -> Result<Self, DamageError> {
         if critical_stretch.is_finite() && critical_stretch > 0.0 {

@@ -12,11 +12,35 @@
 //! breaks from both ends (see [`crate::physics::Physics`]).
 
 use super::registry::BOND_DAMAGE;
-use super::DamageModel;
+use super::{DamageBlock, DamageBuild, DamageError, DamageKeys, DamageModel, DamageParameters};
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::ReferenceView;
-use crate::model::{ModelDeclaration, Reach};
+use crate::model::{read_bond_filter, ReferenceView};
+use crate::model::{KeyDoc, ModelDeclaration, Reach, TangentSupport};
 use crate::neighbors::BondFilter;
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
+
+/// `Bond Filters`.
+const BOND_FILTERS: KeyDoc = KeyDoc {
+    key: "Bond Filters",
+    meaning: "a list of `Rectangular_Plane` or `Exodus Mesh` filters: every bond crossing one \
+              starts broken",
+    unit: "a list",
+    default: "required (at least one)",
+};
+
+/// The deck parameters of `Initial Damage`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InitialDamageParameters {
+    /// `Bond Filters`: `Rectangular_Plane` or `Exodus Mesh` entries (at least one).
+    pub bond_filters: Vec<crate::model::BondFilter>,
+}
+
+impl DamageParameters for InitialDamageParameters {
+    fn bond_filters(&self) -> &[crate::model::BondFilter] {
+        &self.bond_filters
+    }
+}
 
 /// The `Initial Damage` model of one block.
 #[derive(Debug, Clone)]
@@ -24,16 +48,59 @@ pub struct InitialDamage {
     filters: Vec<BondFilter>,
 }
 
-impl InitialDamage {
+impl DamageKeys for InitialDamage {
+    type Parameters = InitialDamageParameters;
+
     /// `Initial Damage`: a bond's damage depends on its own segment alone: one hop.
-    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Initial Damage",
-        deck_keys: &["Bond Filters"],
+        aliases: &[],
+        deck_keys: &[BOND_FILTERS],
         reach: Reach::OneHop,
         fields: &[BOND_DAMAGE],
         outputs: &["Damage"],
+        tangent: TangentSupport::None,
+        thermal_strain: false,
     };
 
+    /// At least one `Rectangular_Plane` or `Exodus Mesh` bond filter.
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<InitialDamageParameters, DeckError> {
+        let mut filters = list.list_req(ctx, BOND_FILTERS.key)?;
+        let mut bond_filters = Vec::new();
+        for f in filters.all() {
+            bond_filters.push(read_bond_filter(
+                ctx,
+                &f,
+                &["Rectangular_Plane", "Exodus Mesh"],
+            )?);
+        }
+        if bond_filters.is_empty() {
+            return Err(ctx.error(
+                Some(filters.line),
+                &filters.path,
+                "Initial Damage needs at least one bond filter",
+            ));
+        }
+        Ok(InitialDamageParameters { bond_filters })
+    }
+}
+
+impl DamageBuild for InitialDamage {
+    /// With the geometry of its bond filters, which the set-up builds from the parameters.
+    fn build(
+        block: &DamageBlock,
+        _parameters: &InitialDamageParameters,
+    ) -> Result<Box<dyn DamageModel>, DamageError> {
+        if block.bond_filters.is_empty() {
+            return Err(DamageError::Missing {
+                key: BOND_FILTERS.key,
+            });
+        }
+        Ok(Box::new(Self::new(block.bond_filters.clone())))
+    }
+}
+
+impl InitialDamage {
     /// The model breaking the bonds that cross any of `filters` (in the reference
     /// configuration).
     pub fn new(filters: Vec<BondFilter>) -> Self {

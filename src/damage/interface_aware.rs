@@ -24,14 +24,32 @@
 
 use std::sync::Arc;
 
+use super::keys::{CRITICAL_STRETCH, THERMAL_EXPANSION};
 use super::registry::{BOND_DAMAGE, POINT_CRITICAL_STRETCH};
 use super::stretch_kernel::{
     update_stretch_damage, update_thermal_stretch_damage, BondLimit, PairPlan, StretchLimit,
 };
-use super::{DamageError, DamageModel};
+use super::{DamageBlock, DamageBuild, DamageError, DamageKeys, DamageModel, DamageParameters};
 use crate::model::BondList;
 use crate::model::ReferenceView;
-use crate::model::{ModelDeclaration, Reach};
+use crate::model::{ModelDeclaration, Reach, TangentSupport};
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
+
+/// The deck parameters of `Interface Aware`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InterfaceAwareParameters {
+    /// `Critical Stretch` s_c of the block's points (> 0).
+    pub critical_stretch: f64,
+    /// `Thermal Expansion Coefficient` α; default none.
+    pub thermal_expansion_coefficient: Option<f64>,
+}
+
+impl DamageParameters for InterfaceAwareParameters {
+    fn critical_stretch(&self) -> Option<f64> {
+        Some(self.critical_stretch)
+    }
+}
 
 /// The `Interface Aware` damage model of one block.
 #[derive(Debug, Clone)]
@@ -45,16 +63,51 @@ pub struct InterfaceAware {
     thermal_expansion: Option<f64>,
 }
 
-impl InterfaceAware {
+impl DamageKeys for InterfaceAware {
+    type Parameters = InterfaceAwareParameters;
+
     /// `Interface Aware`: a bond's limit reads the critical stretch of both ends, and the rank-deficient rule breaks all bonds of a point from its family's damage: two hops.
-    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Interface Aware",
-        deck_keys: &["Critical Stretch", "Thermal Expansion Coefficient"],
+        aliases: &[],
+        deck_keys: &[CRITICAL_STRETCH, THERMAL_EXPANSION],
         reach: Reach::TwoHop,
         fields: &[BOND_DAMAGE, POINT_CRITICAL_STRETCH],
         outputs: &["Damage"],
+        tangent: TangentSupport::None,
+        thermal_strain: true,
     };
 
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<InterfaceAwareParameters, DeckError> {
+        Ok(InterfaceAwareParameters {
+            critical_stretch: list.positive_req(ctx, CRITICAL_STRETCH.key)?,
+            thermal_expansion_coefficient: list.f64_opt(ctx, THERMAL_EXPANSION.key)?,
+        })
+    }
+}
+
+impl DamageBuild for InterfaceAware {
+    /// With the block's [`POINT_CRITICAL_STRETCH`] field, which the set-up fills for the
+    /// models that declare it.
+    fn build(
+        block: &DamageBlock,
+        parameters: &InterfaceAwareParameters,
+    ) -> Result<Box<dyn DamageModel>, DamageError> {
+        let field = block
+            .point_critical_stretch
+            .clone()
+            .ok_or(DamageError::Missing {
+                key: CRITICAL_STRETCH.key,
+            })?;
+        let mut model = Self::new(parameters.critical_stretch, field)?;
+        if let Some(alpha) = parameters.thermal_expansion_coefficient {
+            model.set_thermal_expansion(alpha)?;
+        }
+        Ok(Box::new(model))
+    }
+}
+
+impl InterfaceAware {
     /// The model of one block with critical stretch `critical_stretch` (`Critical Stretch`,
     /// positive and finite), and the field `point_critical_stretch` of every point of the
     /// model (see [`InterfaceAware::field`]), shared by the blocks that use this model; it

@@ -5,7 +5,7 @@
 //! other models — von Mises, Johnson–Cook — ramp d continuously; the benchmark
 //! `material_kernels` measures what reading it costs the force loops).
 //!
-//! Ordering (Peridigm, reference §1.4): the damage update runs **before** the force in every
+//! Ordering (Peridigm's `Peridigm::computeInternalForce`): the damage update runs **before** the force in every
 //! evaluation, so a bond that exceeds its limit carries no force in the same evaluation.
 //! Implicit solvers that let bonds broken in an unconverged iterate heal keep a copy of the
 //! array at the start of the step and restore it; the models themselves only ever increase d.
@@ -13,18 +13,25 @@
 mod critical_stretch;
 mod initial_damage;
 mod interface_aware;
+pub(crate) mod keys;
 mod registry;
 mod stretch_kernel;
 mod time_dependent_critical_stretch;
+mod unbuilt;
 
-pub use critical_stretch::{critical_stretch_from_energy_release_rate, CriticalStretch};
-pub use initial_damage::InitialDamage;
-pub use interface_aware::{rank_deficient_points, InterfaceAware};
-pub use registry::{
-    damage_entry, DamageConstructor, DamageEntry, DamageInput, BOND_DAMAGE, DAMAGE_MODELS,
-    POINT_CRITICAL_STRETCH,
+pub use critical_stretch::{
+    critical_stretch_from_energy_release_rate, CriticalStretch, CriticalStretchLimit,
+    CriticalStretchParameters,
 };
-pub use time_dependent_critical_stretch::TimeDependentCriticalStretch;
+pub use initial_damage::{InitialDamage, InitialDamageParameters};
+pub use interface_aware::{rank_deficient_points, InterfaceAware, InterfaceAwareParameters};
+pub use registry::{
+    damage_entry, deck_damage_model, deck_damage_models, DamageBlock, DamageEntry,
+    DamageParameters, BOND_DAMAGE, DAMAGE_MODELS, POINT_CRITICAL_STRETCH,
+};
+pub(crate) use registry::{DamageBuild, DamageKeys};
+pub use time_dependent_critical_stretch::{TimeDependentCriticalStretch, TimeDependentParameters};
+pub use unbuilt::{JohnsonCookParameters, VonMisesStressParameters, UNBUILT_DAMAGE_MODELS};
 
 pub(crate) use stretch_kernel::{break_stretched_rows, StretchLimit};
 
@@ -84,6 +91,17 @@ pub enum DamageError {
         /// Deck key, e.g. `Critical Stretch`.
         key: &'static str,
     },
+}
+
+impl DamageError {
+    /// The deck key of the model's list the error is about, when the set-up places it there
+    /// rather than at the list (an expression's evaluation, at the expression).
+    pub fn key(&self) -> Option<&'static str> {
+        match self {
+            DamageError::Expression { .. } => Some("Time Dependent Critical Stretch"),
+            _ => None,
+        }
+    }
 }
 
 /// A damage model for one block. Object-safe; one instance per block.

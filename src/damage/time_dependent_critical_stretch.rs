@@ -1,10 +1,35 @@
 //! Peridigm's `Time Dependent Critical Stretch`: critical stretch s_c(t) from an expression.
 
+use super::keys::THERMAL_EXPANSION;
 use super::registry::BOND_DAMAGE;
-use super::{CriticalStretch, DamageError, DamageModel};
-use crate::expression::Expression;
+use super::{
+    CriticalStretch, DamageBlock, DamageBuild, DamageError, DamageKeys, DamageModel,
+    DamageParameters,
+};
+use crate::expression::{Expression, TIME};
 use crate::model::ReferenceView;
-use crate::model::{ModelDeclaration, Reach};
+use crate::model::{KeyDoc, ModelDeclaration, Reach, TangentSupport};
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
+
+/// `Time Dependent Critical Stretch`.
+const TIME_DEPENDENT_CRITICAL_STRETCH: KeyDoc = KeyDoc {
+    key: "Time Dependent Critical Stretch",
+    meaning: "s_c(t), an expression in t evaluated once per step",
+    unit: "an expression",
+    default: "required",
+};
+
+/// The deck parameters of `Time Dependent Critical Stretch`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimeDependentParameters {
+    /// `Time Dependent Critical Stretch`: an expression in `t` (checked when read).
+    pub critical_stretch: String,
+    /// `Thermal Expansion Coefficient` α; default none.
+    pub thermal_expansion_coefficient: Option<f64>,
+}
+
+impl DamageParameters for TimeDependentParameters {}
 
 /// Critical stretch as a function of time, e.g. `if(t < 7e-5) { value = 50; } else { value =
 /// 0.015; }` (Peridigm's `BondBreakingInitialVelocity_TimeDependentCS`). The expression (in
@@ -16,19 +41,57 @@ pub struct TimeDependentCriticalStretch {
     current: CriticalStretch,
 }
 
-impl TimeDependentCriticalStretch {
+impl DamageKeys for TimeDependentCriticalStretch {
+    type Parameters = TimeDependentParameters;
+
     /// `Time Dependent Critical Stretch`: as `Critical Stretch`, one bond at a time: one hop.
-    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Time Dependent Critical Stretch",
-        deck_keys: &[
-            "Time Dependent Critical Stretch",
-            "Thermal Expansion Coefficient",
-        ],
+        aliases: &[],
+        deck_keys: &[TIME_DEPENDENT_CRITICAL_STRETCH, THERMAL_EXPANSION],
         reach: Reach::OneHop,
         fields: &[BOND_DAMAGE],
         outputs: &["Damage"],
+        tangent: TangentSupport::None,
+        thermal_strain: true,
     };
 
+    /// The expression, parsed here so that a typo is named at its line when the deck loads.
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<TimeDependentParameters, DeckError> {
+        let field = list.require(
+            ctx,
+            TIME_DEPENDENT_CRITICAL_STRETCH.key,
+            "an expression in t",
+        )?;
+        let critical_stretch = field.name(ctx)?;
+        Expression::parse(&critical_stretch, TIME).map_err(|e| field.err(ctx, e.to_string()))?;
+        Ok(TimeDependentParameters {
+            critical_stretch,
+            thermal_expansion_coefficient: list.f64_opt(ctx, THERMAL_EXPANSION.key)?,
+        })
+    }
+}
+
+impl DamageBuild for TimeDependentCriticalStretch {
+    fn build(
+        block: &DamageBlock,
+        parameters: &TimeDependentParameters,
+    ) -> Result<Box<dyn DamageModel>, DamageError> {
+        let expression = Expression::parse(&parameters.critical_stretch, TIME).map_err(|e| {
+            DamageError::Expression {
+                time: block.initial_time,
+                message: e.to_string(),
+            }
+        })?;
+        let mut model = Self::new(expression, block.initial_time)?;
+        if let Some(alpha) = parameters.thermal_expansion_coefficient {
+            model.set_thermal_expansion(alpha)?;
+        }
+        Ok(Box::new(model))
+    }
+}
+
+impl TimeDependentCriticalStretch {
     /// The model at time `t0`; errors when s_c(t0) is not a positive number.
     pub fn new(expression: Expression, t0: f64) -> Result<Self, DamageError> {
         let current = Self::evaluate(&expression, t0)?;

@@ -57,15 +57,19 @@
 //! `W_i = Σ_j ¼·c·s²·ζ·(1−d)·V_j` makes `Σ_i W_i V_i = E` exactly. (The `(1−d)` factor is
 //! exact for 0/1 damage; for fractional damage it is the energy of the softened spring.)
 
+use super::keys::DENSITY;
+use super::keys::{PROBE_LENGTH, TANGENT};
 use super::{
-    assert_point_set, checked_row, checked_tangent_method, gather_bound, kept_points, positive,
-    CurrentView, Damaged, Integrity, Material, MaterialError, MaterialInput, PointCoefficients,
-    ReferenceView, Undamaged,
+    checked_row, gather_bound, BlockData, BlockInput, CurrentView, Damaged, Integrity, Material,
+    MaterialError, MaterialKeys, MaterialModel, MaterialParameters, MaterialTangent,
+    PointCoefficients, ReferenceView, Undamaged,
 };
 use super::{BreakingForcePass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::{break_stretched_rows, StretchLimit};
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{with_volume_rule, ModelDeclaration, Reach, VolumeRule};
+use crate::model::{with_volume_rule, KeyDoc, ModelDeclaration, Reach, TangentSupport, VolumeRule};
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -75,90 +79,214 @@ use crate::vector_width::wide_vectors_available;
 #[cfg(target_arch = "x86_64")]
 mod closed_row_avx2;
 
-/// Deck parameters of `Elastic Bond Based`.
+/// `Bulk Modulus` of the PMB models.
+const BULK_MODULUS: KeyDoc = KeyDoc {
+    key: "Bulk Modulus",
+    meaning: "bulk modulus K; give exactly one of K and E (ν is fixed by the model)",
+    unit: "pressure",
+    default: "one of two",
+};
+
+/// `Young's Modulus` of the PMB models.
+const YOUNGS_MODULUS: KeyDoc = KeyDoc {
+    key: "Young's Modulus",
+    meaning: "Young's modulus E, giving K with ν = ¼ (3D, plane strain) or ⅓ (plane stress)",
+    unit: "pressure",
+    default: "one of two",
+};
+
+/// `Plane Strain`.
+const PLANE_STRAIN: KeyDoc = KeyDoc {
+    key: "Plane Strain",
+    meaning: "a plane-strain body of thickness `Height`: c = 12K/(π h δ³)",
+    unit: "true/false",
+    default: "false",
+};
+
+/// `Plane Stress`.
+const PLANE_STRESS: KeyDoc = KeyDoc {
+    key: "Plane Stress",
+    meaning: "a plane-stress body of thickness `Height`: c = 12K/(π h δ³), ν = ⅓",
+    unit: "true/false",
+    default: "false",
+};
+
+/// `Height`.
+const HEIGHT: KeyDoc = KeyDoc {
+    key: "Height",
+    meaning: "thickness h of a plane-strain or plane-stress body",
+    unit: "length",
+    default: "required when planar",
+};
+
+/// The keys of the PMB constants, shared by `Microplastic Bond Based`.
+pub(super) const PMB_KEYS: [KeyDoc; 6] = [
+    DENSITY,
+    BULK_MODULUS,
+    YOUNGS_MODULUS,
+    PLANE_STRAIN,
+    PLANE_STRESS,
+    HEIGHT,
+];
+
+/// Deck parameters of `Elastic Bond Based` (the PMB constants, which `Microplastic Bond Based`
+/// shares).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BondBasedParameters {
-    /// `Density` ρ (mass/length³).
-    pub density: f64,
     /// Bulk modulus K (pressure), from `Bulk Modulus` or `Young's Modulus` with ν forced to ¼
     /// (3D, plane strain) or ⅓ (plane stress) as Peridigm does.
     pub bulk_modulus: f64,
-    /// Horizon δ of the block (length).
-    pub horizon: f64,
     /// `Height` h for `Plane Strain`/`Plane Stress` (then c = 12K/(π h δ³)); `None` in 3D.
     pub planar_thickness: Option<f64>,
+}
+
+impl MaterialParameters for BondBasedParameters {
+    fn bulk_modulus(&self) -> Option<f64> {
+        Some(self.bulk_modulus)
+    }
+
+    fn planar_thickness(&self) -> Option<f64> {
+        self.planar_thickness
+    }
+}
+
+impl BondBasedParameters {
+    /// The PMB constants of the list of the model `model`: exactly one modulus, optionally
+    /// planar with a `Height`.
+    pub(super) fn read(ctx: &Ctx, list: &mut ListReader, model: &str) -> Result<Self, DeckError> {
+        use super::elastic_constants::{ElasticConstants, ElasticInput, PlanarAssumption};
+        let k = list.get(BULK_MODULUS.key);
+        let e = list.get(YOUNGS_MODULUS.key);
+        let modulus = match (k, e) {
+            (Some(k), None) => Ok(k.positive(ctx)?),
+            (None, Some(e)) => Err(e.positive(ctx)?),
+            (Some(_), Some(e)) => {
+                return Err(e.err(ctx, format!("{model} takes exactly one of \"Bulk Modulus\" and \"Young's Modulus\" (Poisson's ratio is fixed by the model); remove one")))
+            }
+            (None, None) => return Err(list.missing(ctx, BULK_MODULUS.key, "or \"Young's Modulus\"; exactly one of them")),
+        };
+        for key in ["Shear Modulus", "Poisson's Ratio"] {
+            if let Some(f) = list.get(key) {
+                return Err(f.err(ctx, format!("\"{key}\" cannot be set for {model}: Poisson's ratio is fixed (1/4 in 3D and plane strain, 1/3 in plane stress); give only \"Bulk Modulus\" or \"Young's Modulus\"")));
+            }
+        }
+        let strain = list.bool_or(ctx, PLANE_STRAIN.key, false)?;
+        let stress = list.bool_or(ctx, PLANE_STRESS.key, false)?;
+        let (assumption, nu) = match (strain, stress) {
+            (true, true) => {
+                let f = list.get(PLANE_STRESS.key).expect("just read");
+                return Err(f.err(ctx, "Plane Strain and Plane Stress cannot both be true"));
+            }
+            (true, false) => (PlanarAssumption::PlaneStrain, 0.25),
+            (false, true) => (PlanarAssumption::PlaneStress, 1.0 / 3.0),
+            (false, false) => (PlanarAssumption::None, 0.25),
+        };
+        let planar_thickness = match assumption {
+            PlanarAssumption::None => None,
+            _ => Some(list.positive_req(ctx, HEIGHT.key)?),
+        };
+        // K from E with the model's fixed ν and the planar formulas of `from_pair`.
+        let bulk_modulus = match modulus {
+            Ok(k) => k,
+            Err(e) => {
+                let input = ElasticInput {
+                    youngs_modulus: Some(e),
+                    poissons_ratio: Some(nu),
+                    ..Default::default()
+                };
+                ElasticConstants::from_pair(input, assumption)
+                    .map(|c| c.bulk_modulus)
+                    .unwrap_or_else(|e| unreachable!("E > 0 and ν fixed below ½: {e}"))
+            }
+        };
+        Ok(Self {
+            bulk_modulus,
+            planar_thickness,
+        })
+    }
+
+    /// Micromodulus c (force/length⁶ in 3D) of a block of horizon δ: 18K/(πδ⁴), or
+    /// 12K/(π h δ³) when planar (the height must be a positive finite number).
+    pub(super) fn micromodulus(&self, horizon: f64) -> Result<f64, MaterialError> {
+        let k = self.bulk_modulus;
+        let delta = horizon;
+        Ok(match self.planar_thickness {
+            None => 18.0 * k / (std::f64::consts::PI * delta.powi(4)),
+            Some(h) => {
+                12.0 * k / (std::f64::consts::PI * super::positive("Height", h)? * delta.powi(3))
+            }
+        })
+    }
 }
 
 /// The PMB material of one block (see the module docs for the formulas).
 #[derive(Debug, Clone)]
 pub struct BondBased {
-    parameters: BondBasedParameters,
+    block: BlockData,
     micromodulus: f64,
-    points: Vec<u32>,
     /// Every neighbour of every block point is itself a block point, so every bond's
-    /// micromodulus is this block's c (decided in `setup`): the block then runs the
+    /// micromodulus is this block's c (decided in `prepare`): the block then runs the
     /// closed-block loop ([`ClosedRows`]), which also breaks bonds
     /// ([`Material::critical_stretch_fast_path`]).
     closed: bool,
-    /// How the tangent is computed (default analytic).
-    tangent: TangentMethod,
-    /// The points whose force is computed, when fewer than `points`
-    /// ([`Material::restrict_forces`]).
-    force_points: Option<Vec<u32>>,
-    /// The block's other points, whose bonds the fused pass still breaks (empty unless
-    /// `force_points` is set).
-    unforced_points: Vec<u32>,
 }
 
-impl BondBased {
+impl MaterialKeys for BondBased {
+    type Parameters = BondBasedParameters;
+
     /// `Elastic Bond Based`: a bond's force depends on its two ends only; no fields beyond
     /// the reference data, no outputs of its own.
-    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Elastic Bond Based",
+        aliases: &[],
         deck_keys: &[
-            "Density",
-            "Bulk Modulus",
-            "Young's Modulus",
-            "Plane Strain",
-            "Plane Stress",
-            "Height",
-            "Tangent",
-            "Finite Difference Probe Length",
+            PMB_KEYS[0],
+            PMB_KEYS[1],
+            PMB_KEYS[2],
+            PMB_KEYS[3],
+            PMB_KEYS[4],
+            PMB_KEYS[5],
+            TANGENT,
+            PROBE_LENGTH,
         ],
         reach: Reach::OneHop,
         fields: &[],
         outputs: &[],
+        tangent: TangentSupport::Analytic,
+        thermal_strain: false,
     };
 
-    /// The registry's constructor: ρ, K, δ and the planar height from `input`.
-    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        Ok(Box::new(Self::new(BondBasedParameters {
-            density: input.density,
-            bulk_modulus: input.bulk_modulus,
-            horizon: input.horizon,
-            planar_thickness: input.planar_thickness,
-        })?))
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<BondBasedParameters, DeckError> {
+        BondBasedParameters::read(ctx, list, Self::DECLARATION.deck_name)
     }
+}
 
-    /// Validates the parameters (all positive and finite) and computes the micromodulus.
-    pub fn new(parameters: BondBasedParameters) -> Result<Self, MaterialError> {
-        positive("Density", parameters.density)?;
-        positive("Bulk Modulus", parameters.bulk_modulus)?;
-        positive("Horizon", parameters.horizon)?;
-        let k = parameters.bulk_modulus;
-        let delta = parameters.horizon;
-        let micromodulus = match parameters.planar_thickness {
-            None => 18.0 * k / (std::f64::consts::PI * delta.powi(4)),
-            Some(h) => 12.0 * k / (std::f64::consts::PI * positive("Height", h)? * delta.powi(3)),
-        };
+impl MaterialModel for BondBased {
+    fn build(
+        block: &BlockInput,
+        parameters: &BondBasedParameters,
+    ) -> Result<Box<dyn Material>, MaterialError> {
+        Ok(Box::new(Self::new(block, parameters)?))
+    }
+}
+
+impl BondBased {
+    /// Validates the parameters (ρ, K, δ and the height positive and finite) and computes the
+    /// micromodulus.
+    pub fn new(
+        block: &BlockInput,
+        parameters: &BondBasedParameters,
+    ) -> Result<Self, MaterialError> {
+        let data = BlockData::new(
+            &Self::DECLARATION,
+            block.density,
+            parameters.bulk_modulus,
+            block.horizon,
+        )?;
         Ok(Self {
-            parameters,
-            micromodulus,
-            points: Vec::new(),
+            micromodulus: parameters.micromodulus(data.horizon())?,
+            block: data,
             closed: false,
-            force_points: None,
-            unforced_points: Vec::new(),
-            tangent: TangentMethod::Analytic,
         })
     }
 
@@ -169,11 +297,6 @@ impl BondBased {
 
     fn half(&self) -> f64 {
         0.5 * self.micromodulus
-    }
-
-    /// The points whose force is computed.
-    fn forced_points(&self) -> &[u32] {
-        self.force_points.as_deref().unwrap_or(&self.points)
     }
 
     /// Adds the force density of the forced points of this closed block to `force_density`,
@@ -203,7 +326,12 @@ impl BondBased {
                 let n = unsafe { rows.chunk_dispatch(chunk, base, out, v, damage, breaker) };
                 broken.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
             };
-            for_each_chunk(self.forced_points(), force_density, &|i| i as usize, &run)
+            for_each_chunk(
+                self.block.force_points(),
+                force_density,
+                &|i| i as usize,
+                &run,
+            )
         });
         broken.into_inner()
     }
@@ -798,52 +926,25 @@ impl<D: Integrity> ForceState for PmbForceState<'_, D> {
 }
 
 impl Material for BondBased {
-    fn declaration(&self) -> &'static ModelDeclaration {
-        &Self::DECLARATION
+    fn block(&self) -> &BlockData {
+        &self.block
     }
 
-    fn density(&self) -> f64 {
-        self.parameters.density
+    fn block_mut(&mut self) -> &mut BlockData {
+        &mut self.block
     }
 
-    fn bulk_modulus(&self) -> f64 {
-        self.parameters.bulk_modulus
-    }
-
-    fn horizon(&self) -> f64 {
-        self.parameters.horizon
-    }
-
-    fn setup(
-        &mut self,
-        reference: &ReferenceView<'_>,
-        points: Vec<u32>,
-    ) -> Result<(), MaterialError> {
-        assert_point_set(&points, reference.bonds.num_points());
+    fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError> {
         let bonds = reference.bonds;
+        let points = self.block.points();
         let mut member = vec![false; bonds.num_points()];
-        for &i in &points {
+        for &i in points {
             member[i as usize] = true;
         }
         self.closed = points
             .iter()
             .all(|&i| bonds.family(i as usize).iter().all(|&j| member[j as usize]));
-        self.points = points;
-        self.force_points = None;
-        self.unforced_points.clear();
         Ok(())
-    }
-
-    fn points(&self) -> &[u32] {
-        &self.points
-    }
-
-    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        self.force_points = kept_points(&self.points, keep);
-        self.unforced_points = match &self.force_points {
-            Some(_) => self.points.iter().copied().filter(|&p| !keep(p)).collect(),
-            None => Vec::new(),
-        };
     }
 
     fn compute_point_coefficients(
@@ -857,7 +958,7 @@ impl Material for BondBased {
             isotropic: self.half(),
             deviatoric: 0.0,
         };
-        for &i in &self.points {
+        for &i in self.block.points() {
             coefficients[i as usize] = published;
         }
     }
@@ -900,7 +1001,12 @@ impl Material for BondBased {
                 None => rows.add_force_dispatch(chunk, base, out, v, Undamaged, wide),
                 Some(d) => rows.add_force_dispatch(chunk, base, out, v, Damaged(d), wide),
             };
-            for_each_chunk(self.forced_points(), force_density, &|i| i as usize, &run)
+            for_each_chunk(
+                self.block.force_points(),
+                force_density,
+                &|i| i as usize,
+                &run,
+            )
         })
     }
 
@@ -910,58 +1016,8 @@ impl Material for BondBased {
         self.closed.then_some(CriticalStretchFastPath::Force(self))
     }
 
-    fn tangent_method(&self) -> TangentMethod {
-        self.tangent
-    }
-
-    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
-        self.tangent = checked_tangent_method(method)?;
-        Ok(())
-    }
-
-    fn add_tangent(
-        &self,
-        reference: &ReferenceView<'_>,
-        current: &CurrentView<'_>,
-        method: TangentMethod,
-        tangent: &mut BlockTangent,
-    ) -> Result<(), TangentError> {
-        let model = self.model_name();
-        let (bonds, half) = (reference.bonds, self.half());
-        match current.bond_damage {
-            None => {
-                let kernel = PmbForceState {
-                    bonds,
-                    half,
-                    damage: Undamaged,
-                };
-                assemble(
-                    &kernel,
-                    model,
-                    &self.points,
-                    reference,
-                    current,
-                    method,
-                    tangent,
-                )
-            }
-            Some(d) => {
-                let kernel = PmbForceState {
-                    bonds,
-                    half,
-                    damage: Damaged(d),
-                };
-                assemble(
-                    &kernel,
-                    model,
-                    &self.points,
-                    reference,
-                    current,
-                    method,
-                    tangent,
-                )
-            }
-        }
+    fn tangent(&self) -> Option<&dyn MaterialTangent> {
+        Some(self)
     }
 
     fn stored_energy_density(
@@ -981,7 +1037,54 @@ impl Material for BondBased {
             None => rows.energy(chunk, base, out, Undamaged),
             Some(d) => rows.energy(chunk, base, out, Damaged(d)),
         };
-        for_each_chunk(&self.points, energy_density, &|i| i as usize, &run);
+        for_each_chunk(self.block.points(), energy_density, &|i| i as usize, &run);
+    }
+}
+
+impl MaterialTangent for BondBased {
+    fn add_tangent(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        method: TangentMethod,
+        tangent: &mut BlockTangent,
+    ) -> Result<(), TangentError> {
+        let model = Self::DECLARATION.deck_name;
+        let (bonds, half) = (reference.bonds, self.half());
+        match current.bond_damage {
+            None => {
+                let kernel = PmbForceState {
+                    bonds,
+                    half,
+                    damage: Undamaged,
+                };
+                assemble(
+                    &kernel,
+                    model,
+                    self.block.points(),
+                    reference,
+                    current,
+                    method,
+                    tangent,
+                )
+            }
+            Some(d) => {
+                let kernel = PmbForceState {
+                    bonds,
+                    half,
+                    damage: Damaged(d),
+                };
+                assemble(
+                    &kernel,
+                    model,
+                    self.block.points(),
+                    reference,
+                    current,
+                    method,
+                    tangent,
+                )
+            }
+        }
     }
 }
 
@@ -1018,7 +1121,7 @@ impl BreakingForcePass for BondBased {
             + break_stretched_rows(
                 reference,
                 position,
-                &self.unforced_points,
+                self.block.unforced_points(),
                 bond_damage,
                 limit,
             )
@@ -1047,14 +1150,19 @@ mod tests {
     }
 
     fn material() -> BondBased {
-        BondBased::new(BondBasedParameters {
+        let block = BlockInput {
             density: 2.0,
-            bulk_modulus: 3.0,
             horizon: 1.6,
+            influence: crate::material::InfluenceFunction::One,
+        };
+        let parameters = BondBasedParameters {
+            bulk_modulus: 3.0,
             planar_thickness: None,
-        })
-        .unwrap()
+        };
+        BondBased::new(&block, &parameters).unwrap()
     }
+
+    use crate::material::set_up;
 
     /// Reference positions, volumes, bonds, current positions, bond damage.
     type Body = (Vec<[f64; 3]>, Vec<f64>, BondList, Vec<[f64; 3]>, Vec<f32>);
@@ -1067,7 +1175,7 @@ mod tests {
         let reference = reference_view(&bonds, &x, &v);
         let all: Vec<u32> = (0..x.len() as u32).collect();
         let mut m = material();
-        m.setup(&reference, all.clone()).unwrap();
+        set_up(&mut m, &reference, all.clone());
         let current = CurrentView {
             position: &y,
             bond_damage: Some(&damage),
@@ -1168,16 +1276,14 @@ mod tests {
         let (x, v, bonds, y, damage) = body();
         let reference = reference_view(&bonds, &x, &v);
         let mut whole = material();
-        whole
-            .setup(&reference, (0..x.len() as u32).collect())
-            .unwrap();
+        set_up(&mut whole, &reference, (0..x.len() as u32).collect());
         assert!(whole.closed);
         let (left, right): (Vec<u32>, Vec<u32>) =
             (0..x.len() as u32).partition(|&i| x[i as usize][0] < 3.5);
         let mut a = material();
         let mut b = material();
-        a.setup(&reference, left).unwrap();
-        b.setup(&reference, right).unwrap();
+        set_up(&mut a, &reference, left);
+        set_up(&mut b, &reference, right);
         assert!(!a.closed && !b.closed);
         let closed = force(&[&whole], &reference, &y, &damage);
         let gathered = force(&[&a, &b], &reference, &y, &damage);
@@ -1199,7 +1305,7 @@ mod tests {
         let (x, v, bonds, y, damage) = body();
         let reference = reference_view(&bonds, &x, &v);
         let mut m = material();
-        m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
+        set_up(&mut m, &reference, (0..x.len() as u32).collect());
         let run = |threads: usize| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
@@ -1253,7 +1359,7 @@ mod tests {
         }
         let reference = reference_view(&bonds, &x, &v);
         let mut m = material();
-        m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
+        set_up(&mut m, &reference, (0..x.len() as u32).collect());
         assert!(m.closed);
         let expected = row_ordered_reference(&bonds, &v, &y, &damage, m.micromodulus());
         assert_eq!(force(&[&m], &reference, &y, &damage), expected);
@@ -1320,12 +1426,9 @@ mod tests {
         let whole_reference = reference_view(&bonds, &x, &v);
         let sub_reference = reference_view(&sub_bonds, &sub_x, &sub_v);
         let mut whole = material();
-        whole
-            .setup(&whole_reference, (0..x.len() as u32).collect())
-            .unwrap();
+        set_up(&mut whole, &whole_reference, (0..x.len() as u32).collect());
         let mut sub = material();
-        sub.setup(&sub_reference, (0..points.len() as u32).collect())
-            .unwrap();
+        set_up(&mut sub, &sub_reference, (0..points.len() as u32).collect());
         assert!(
             whole.critical_stretch_fast_path().is_some()
                 && sub.critical_stretch_fast_path().is_some()
@@ -1336,7 +1439,7 @@ mod tests {
         // left alone.
         let kept = |l: usize| owned[l] && l % 2 == 0;
         let mut owned_only = sub.clone();
-        owned_only.restrict_forces(&|l| kept(l as usize));
+        (&mut owned_only as &mut dyn Material).restrict_forces(&|l| kept(l as usize));
         let mut owned_only_damage = vec![0.0f32; sub_bonds.num_bonds()];
         let coefficients = vec![PointCoefficients::default(); x.len()];
         let mut whole_damage = vec![0.0f32; bonds.num_bonds()];
@@ -1414,7 +1517,7 @@ mod tests {
         let damage = vec![0.0f32; 5];
         let reference = reference_view(&bonds, &x, &v);
         let mut m = material();
-        m.setup(&reference, vec![0, 1, 2]).unwrap();
+        set_up(&mut m, &reference, vec![0, 1, 2]);
         assert!(m.closed);
         let expected = row_ordered_reference(&bonds, &v, &y, &damage, m.micromodulus());
         assert!(expected.iter().all(|f| f.iter().any(|&c| c != 0.0)));
@@ -1430,7 +1533,7 @@ mod tests {
         let (x, v, bonds, y, _) = body();
         let reference = reference_view(&bonds, &x, &v);
         let mut m = material();
-        m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
+        set_up(&mut m, &reference, (0..x.len() as u32).collect());
         assert!(m.critical_stretch_fast_path().is_some());
         let all: Vec<u32> = (0..x.len() as u32).collect();
         let model = CriticalStretch::new(0.02).unwrap();
@@ -1543,7 +1646,7 @@ mod tests {
             .filter(|&i| x[i as usize][0] < 3.5)
             .collect();
         let mut m = material();
-        m.setup(&reference, left).unwrap();
+        set_up(&mut m, &reference, left);
         assert!(m.critical_stretch_fast_path().is_none());
     }
 }

@@ -1,4 +1,8 @@
-//! Isotropic elastic constants from any two of K, μ, E, ν (Peridigm's conversion table).
+//! Isotropic elastic constants from any two of K, μ, E, ν (Peridigm's conversion table), and
+//! the reader of the pair in a model's deck list.
+
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 
 /// The elastic constants a deck may give; exactly two must be `Some` (bond-based: one).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -36,7 +40,7 @@ pub struct ElasticConstants {
 
 impl ElasticConstants {
     /// K and μ from exactly two given constants, with Peridigm's formulas
-    /// (`Material::calculateBulkModulus/ShearModulus`, reference §1.2):
+    /// (`Material::calculateBulkModulus/ShearModulus` in Peridigm's `Peridigm_Material.cpp`):
     ///
     /// | given | K | μ |
     /// |---|---|---|
@@ -90,6 +94,56 @@ impl ElasticConstants {
             shear_modulus: shear,
         })
     }
+}
+
+/// The elastic pair of a model's deck list: exactly two of `Bulk Modulus`, `Shear Modulus`,
+/// `Young's Modulus`, `Poisson's Ratio` ([`super::keys::ELASTIC`]), as K and μ by Peridigm's
+/// 3D conversions ([`ElasticConstants::from_pair`]). Errors name the offending key and line.
+pub(crate) fn read(ctx: &Ctx, list: &mut ListReader) -> Result<ElasticConstants, DeckError> {
+    let mut given = Vec::new();
+    let mut values = [None; 4];
+    for (i, key) in super::keys::ELASTIC.iter().enumerate() {
+        if let Some(f) = list.get(key.key) {
+            let v = if i == 3 {
+                let nu = f.f64(ctx)?;
+                if !(nu > -1.0 && nu < 0.5) {
+                    return Err(f.err(
+                        ctx,
+                        format!("Poisson's ratio must lie strictly between -1 and 0.5, found {nu}"),
+                    ));
+                }
+                nu
+            } else {
+                f.positive(ctx)?
+            };
+            values[i] = Some(v);
+            given.push(f);
+        }
+    }
+    if given.len() != 2 {
+        let names = given
+            .iter()
+            .map(|f| format!("\"{}\"", f.key()))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let message = format!(
+            "exactly two of \"Bulk Modulus\", \"Shear Modulus\", \"Young's Modulus\", \"Poisson's Ratio\" must be given, found {}{}",
+            given.len(),
+            if given.is_empty() { String::new() } else { format!(" ({names})") }
+        );
+        return Err(match given.get(2) {
+            Some(third) => third.err(ctx, message),
+            None => ctx.error(Some(list.line), &list.path, message),
+        });
+    }
+    let input = ElasticInput {
+        bulk_modulus: values[0],
+        shear_modulus: values[1],
+        youngs_modulus: values[2],
+        poissons_ratio: values[3],
+    };
+    ElasticConstants::from_pair(input, PlanarAssumption::None)
+        .map_err(|message| given[1].err(ctx, message))
 }
 
 #[cfg(test)]

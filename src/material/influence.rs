@@ -47,6 +47,17 @@ impl fmt::Debug for InfluenceFunction {
     }
 }
 
+/// Two built-in functions are equal when they are the same function; two user functions when
+/// they are the same closure.
+impl PartialEq for InfluenceFunction {
+    fn eq(&self, other: &Self) -> bool {
+        match (self, other) {
+            (Self::User(a), Self::User(b)) => Arc::ptr_eq(a, b),
+            _ => std::mem::discriminant(self) == std::mem::discriminant(other),
+        }
+    }
+}
+
 impl InfluenceFunction {
     /// The built-in function named by a deck string (`"One"`, `"Parabolic Decay"`,
     /// `"Gaussian"`, spelled exactly as Peridigm spells them), or `None` for any other string,

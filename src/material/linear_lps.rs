@@ -38,54 +38,104 @@
 //! with this model's linearized extension and reference direction.
 
 use super::influence::InfluenceFunction;
+use super::keys::{DENSITY, ELASTIC, PROBE_LENGTH, TANGENT};
 use super::{
-    assert_point_set, checked_tangent_method, influence_weighted_volumes, kept_points,
-    local_offsets, positive, CurrentView, Material, MaterialError, MaterialInput,
-    PointCoefficients, ReferenceView,
+    influence_weighted_volumes, local_offsets, BlockData, BlockInput, CurrentView,
+    ElasticConstants, Material, MaterialError, MaterialKeys, MaterialModel, MaterialOutputs,
+    MaterialParameters, MaterialTangent, PointCoefficients, ReferenceView,
 };
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::{
-    BondList, BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach,
+    BondList, BondVolumes, FieldCarrier, FieldDeclaration, KeyDoc, ModelDeclaration, Reach,
+    TangentSupport,
 };
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
 };
 
-/// Deck parameters of `Linear LPS Partial Volume`.
-#[derive(Debug, Clone)]
+/// `Use Partial Volume`.
+const USE_PARTIAL_VOLUME: KeyDoc = KeyDoc {
+    key: "Use Partial Volume",
+    meaning: "weigh bonds by the neighbour's cell volume inside the horizon: a block without \
+              its own `Quadrature` uses the `Exact` rule",
+    unit: "true/false",
+    default: "false",
+};
+
+/// `Use Improved Quadrature`.
+const USE_IMPROVED_QUADRATURE: KeyDoc = KeyDoc {
+    key: "Use Improved Quadrature",
+    meaning: "as `Use Partial Volume`",
+    unit: "true/false",
+    default: "false",
+};
+
+/// `Use Analytic Weighted Volume`.
+const USE_ANALYTIC_WEIGHTED_VOLUME: KeyDoc = KeyDoc {
+    key: "Use Analytic Weighted Volume",
+    meaning: "use `Analytic Weighted Volume` as m at every point instead of the family sum",
+    unit: "true/false",
+    default: "false",
+};
+
+/// `Analytic Weighted Volume`.
+const ANALYTIC_WEIGHTED_VOLUME: KeyDoc = KeyDoc {
+    key: "Analytic Weighted Volume",
+    meaning: "m of every point with `Use Analytic Weighted Volume`",
+    unit: "length⁵",
+    default: "required with `Use Analytic Weighted Volume`",
+};
+
+/// `Verbose`.
+const VERBOSE: KeyDoc = KeyDoc {
+    key: "Verbose",
+    meaning: "Peridigm's diagnostic printing; no effect here",
+    unit: "true/false",
+    default: "false",
+};
+
+/// Deck parameters of `Linear LPS Partial Volume` besides the keys every model shares.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LinearLpsParameters {
-    /// `Density` ρ (mass/length³).
-    pub density: f64,
-    /// Bulk modulus K (pressure).
-    pub bulk_modulus: f64,
-    /// Shear modulus μ (pressure).
-    pub shear_modulus: f64,
-    /// Horizon δ of the block (length).
-    pub horizon: f64,
-    /// `Discretization → Influence Function` (default `One`).
-    pub influence: InfluenceFunction,
+    /// K and μ from the elastic pair.
+    pub elastic: ElasticConstants,
+    /// `Use Partial Volume`.
+    pub use_partial_volume: bool,
+    /// `Use Improved Quadrature`.
+    pub use_improved_quadrature: bool,
     /// `Analytic Weighted Volume` m (length⁵) used for every point in place of the family sum,
     /// when the deck sets `Use Analytic Weighted Volume: true`; default `None`.
     pub analytic_weighted_volume: Option<f64>,
+    /// `Verbose` (no effect).
+    pub verbose: bool,
+}
+
+impl MaterialParameters for LinearLpsParameters {
+    fn bulk_modulus(&self) -> Option<f64> {
+        Some(self.elastic.bulk_modulus)
+    }
+
+    fn asks_for_partial_volumes(&self) -> bool {
+        self.use_partial_volume || self.use_improved_quadrature
+    }
 }
 
 /// The small-displacement LPS of one block (see the module docs for the formulas).
 #[derive(Debug, Clone)]
 pub struct LinearLps {
-    parameters: LinearLpsParameters,
-    points: Vec<u32>,
+    block: BlockData,
+    shear_modulus: f64,
+    influence: InfluenceFunction,
+    analytic_weighted_volume: Option<f64>,
     /// Block-local row starts into `weights`.
     local_offsets: Vec<usize>,
     /// ω per block bond (block-local numbering).
     weights: Vec<f64>,
-    /// m per block point (same order as `points`).
+    /// m per block point (same order as the block's points).
     weighted_volume: Vec<f64>,
-    /// How the tangent is computed (default analytic).
-    tangent: TangentMethod,
-    /// The points whose force is computed, when fewer than `points`
-    /// ([`Material::restrict_forces`]).
-    force_points: Option<Vec<u32>>,
 }
 
 /// `ξ·(u_j − u_i)/|ξ|` and `ξ/|ξ|` of a bond from `i` to `j` (reference `x`, current `y`).
@@ -106,24 +156,27 @@ fn bond_vector(x: &[[f64; 3]], i: usize, j: usize) -> [f64; 3] {
     [0, 1, 2].map(|k| x[j][k] - x[i][k])
 }
 
-impl LinearLps {
+impl MaterialKeys for LinearLps {
+    type Parameters = LinearLpsParameters;
+
     /// `Linear LPS Partial Volume`: state-based (both ends' dilatations enter every bond force,
     /// so the force reaches two hops); keeps m and θ per point.
-    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Linear LPS Partial Volume",
+        aliases: &[],
         deck_keys: &[
-            "Density",
-            "Bulk Modulus",
-            "Shear Modulus",
-            "Young's Modulus",
-            "Poisson's Ratio",
-            "Use Partial Volume",
-            "Use Improved Quadrature",
-            "Use Analytic Weighted Volume",
-            "Analytic Weighted Volume",
-            "Verbose",
-            "Tangent",
-            "Finite Difference Probe Length",
+            DENSITY,
+            ELASTIC[0],
+            ELASTIC[1],
+            ELASTIC[2],
+            ELASTIC[3],
+            USE_PARTIAL_VOLUME,
+            USE_IMPROVED_QUADRATURE,
+            USE_ANALYTIC_WEIGHTED_VOLUME,
+            ANALYTIC_WEIGHTED_VOLUME,
+            VERBOSE,
+            TANGENT,
+            PROBE_LENGTH,
         ],
         reach: Reach::TwoHop,
         fields: &[
@@ -141,37 +194,66 @@ impl LinearLps {
             },
         ],
         outputs: &["Weighted_Volume", "Dilatation"],
+        tangent: TangentSupport::Analytic,
+        thermal_strain: false,
     };
 
-    /// The registry's constructor: ρ, K, μ, δ, ω and the analytic m from `input`.
-    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        Ok(Box::new(Self::new(LinearLpsParameters {
-            density: input.density,
-            bulk_modulus: input.bulk_modulus,
-            shear_modulus: input.required_shear_modulus()?,
-            horizon: input.horizon,
-            influence: input.influence.clone(),
-            analytic_weighted_volume: input.analytic_weighted_volume,
-        })?))
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<LinearLpsParameters, DeckError> {
+        let elastic = super::elastic_constants::read(ctx, list)?;
+        let analytic = list.bool_or(ctx, USE_ANALYTIC_WEIGHTED_VOLUME.key, false)?;
+        Ok(LinearLpsParameters {
+            elastic,
+            use_partial_volume: list.bool_or(ctx, USE_PARTIAL_VOLUME.key, false)?,
+            use_improved_quadrature: list.bool_or(ctx, USE_IMPROVED_QUADRATURE.key, false)?,
+            analytic_weighted_volume: if analytic {
+                Some(list.positive_req(ctx, ANALYTIC_WEIGHTED_VOLUME.key)?)
+            } else {
+                None
+            },
+            verbose: list.bool_or(ctx, VERBOSE.key, false)?,
+        })
     }
+}
 
-    /// Validates the parameters (ρ, K, μ, δ and an analytic m positive and finite).
-    pub fn new(parameters: LinearLpsParameters) -> Result<Self, MaterialError> {
-        positive("Density", parameters.density)?;
-        positive("Bulk Modulus", parameters.bulk_modulus)?;
-        positive("Shear Modulus", parameters.shear_modulus)?;
-        positive("Horizon", parameters.horizon)?;
-        if let Some(m) = parameters.analytic_weighted_volume {
-            positive("Analytic Weighted Volume", m)?;
+impl MaterialModel for LinearLps {
+    fn build(
+        block: &BlockInput,
+        parameters: &LinearLpsParameters,
+    ) -> Result<Box<dyn Material>, MaterialError> {
+        Ok(Box::new(Self::new(
+            block,
+            &parameters.elastic,
+            parameters.analytic_weighted_volume,
+        )?))
+    }
+}
+
+impl LinearLps {
+    /// Validates the parameters (ρ, K, μ, δ and an analytic m positive and finite); ω from
+    /// `block`.
+    pub fn new(
+        block: &BlockInput,
+        elastic: &ElasticConstants,
+        analytic_weighted_volume: Option<f64>,
+    ) -> Result<Self, MaterialError> {
+        let data = BlockData::new(
+            &Self::DECLARATION,
+            block.density,
+            elastic.bulk_modulus,
+            block.horizon,
+        )?;
+        let shear_modulus = super::positive("Shear Modulus", elastic.shear_modulus)?;
+        if let Some(m) = analytic_weighted_volume {
+            super::positive(ANALYTIC_WEIGHTED_VOLUME.key, m)?;
         }
         Ok(Self {
-            parameters,
-            points: Vec::new(),
+            block: data,
+            shear_modulus,
+            influence: block.influence.clone(),
+            analytic_weighted_volume,
             local_offsets: vec![0],
             weights: Vec::new(),
             weighted_volume: Vec::new(),
-            tangent: TangentMethod::Analytic,
-            force_points: None,
         })
     }
 
@@ -189,8 +271,8 @@ impl LinearLps {
             weighted_volume: &self.weighted_volume,
             weights: &self.weights,
             damage,
-            bulk: self.parameters.bulk_modulus,
-            shear: self.parameters.shear_modulus,
+            bulk: self.block.bulk_modulus(),
+            shear: self.shear_modulus,
         }
     }
 }
@@ -312,57 +394,29 @@ impl ForceState for LinearLpsForceState<'_> {
 }
 
 impl Material for LinearLps {
-    fn declaration(&self) -> &'static ModelDeclaration {
-        &Self::DECLARATION
+    fn block(&self) -> &BlockData {
+        &self.block
     }
 
-    fn density(&self) -> f64 {
-        self.parameters.density
+    fn block_mut(&mut self) -> &mut BlockData {
+        &mut self.block
     }
 
-    fn bulk_modulus(&self) -> f64 {
-        self.parameters.bulk_modulus
-    }
-
-    fn horizon(&self) -> f64 {
-        self.parameters.horizon
-    }
-
-    fn weighted_volume(&self) -> Option<&[f64]> {
-        Some(&self.weighted_volume)
-    }
-
-    fn setup(
-        &mut self,
-        reference: &ReferenceView<'_>,
-        points: Vec<u32>,
-    ) -> Result<(), MaterialError> {
+    fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError> {
         let bonds = reference.bonds;
-        assert_point_set(&points, bonds.num_points());
-        let horizon = self.parameters.horizon;
+        let points = self.block.points();
         let weights = self
-            .parameters
             .influence
-            .per_bond(bonds, &points, horizon)?;
-        let local_offsets = local_offsets(bonds, &points);
-        let weighted_volume: Vec<f64> = match self.parameters.analytic_weighted_volume {
+            .per_bond(bonds, points, self.block.horizon())?;
+        let local_offsets = local_offsets(bonds, points);
+        let weighted_volume: Vec<f64> = match self.analytic_weighted_volume {
             Some(m) => vec![m; points.len()],
-            None => influence_weighted_volumes(reference, &points, &local_offsets, Some(&weights)),
+            None => influence_weighted_volumes(reference, points, &local_offsets, Some(&weights)),
         };
-        self.points = points;
-        self.force_points = None;
         self.weights = weights;
         self.local_offsets = local_offsets;
         self.weighted_volume = weighted_volume;
         Ok(())
-    }
-
-    fn points(&self) -> &[u32] {
-        &self.points
-    }
-
-    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        self.force_points = kept_points(&self.points, keep);
     }
 
     fn compute_point_coefficients(
@@ -373,13 +427,14 @@ impl Material for LinearLps {
     ) {
         let kernel = self.kernel(reference, current.bond_damage);
         let bonds = reference.bonds;
+        let points = self.block.points();
         for_each_chunk(
-            &self.points,
+            points,
             coefficients,
             &|i| i as usize,
             &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
                 let mut y = Vec::new();
-                let k0 = self.points.partition_point(|&p| p < chunk[0]);
+                let k0 = points.partition_point(|&p| p < chunk[0]);
                 for (local, &i) in (k0..).zip(chunk) {
                     let global = i as usize;
                     y.clear();
@@ -407,16 +462,15 @@ impl Material for LinearLps {
         let bonds = reference.bonds;
         let x = reference.position;
         let y = current.position;
-        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        let points = self.block.points();
         for_each_chunk(
-            force_points,
+            self.block.force_points(),
             force_density,
             &|i| i as usize,
             &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
                 for &i in chunk {
                     let i = i as usize;
-                    let local = self
-                        .points
+                    let local = points
                         .binary_search(&(i as u32))
                         .expect("force points are block points");
                     let row = self.local_offsets[local];
@@ -458,12 +512,13 @@ impl Material for LinearLps {
         let x = reference.position;
         let y = current.position;
         let kernel = self.kernel(reference, current.bond_damage);
+        let points = self.block.points();
         for_each_chunk(
-            &self.points,
+            points,
             energy_density,
             &|i| i as usize,
             &|chunk: &[u32], base: usize, out: &mut [f64]| {
-                let k0 = self.points.partition_point(|&p| p < chunk[0]);
+                let k0 = points.partition_point(|&p| p < chunk[0]);
                 for (local, &i) in (k0..).zip(chunk) {
                     let i = i as usize;
                     let m = self.weighted_volume[local];
@@ -472,7 +527,7 @@ impl Material for LinearLps {
                         continue;
                     }
                     let theta = coefficients[i].dilatation;
-                    let alpha = 15.0 * self.parameters.shear_modulus / m;
+                    let alpha = 15.0 * self.shear_modulus / m;
                     let row = self.local_offsets[local];
                     let mut deviatoric = 0.0;
                     for (n, b) in bonds.range(i).enumerate() {
@@ -486,22 +541,23 @@ impl Material for LinearLps {
                             * ed
                             * reference.neighbor_volume(b, j);
                     }
-                    out[i - base] = 0.5 * self.parameters.bulk_modulus * theta * theta
-                        + 0.5 * alpha * deviatoric;
+                    out[i - base] =
+                        0.5 * self.block.bulk_modulus() * theta * theta + 0.5 * alpha * deviatoric;
                 }
             },
         );
     }
 
-    fn tangent_method(&self) -> TangentMethod {
-        self.tangent
+    fn tangent(&self) -> Option<&dyn MaterialTangent> {
+        Some(self)
     }
 
-    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
-        self.tangent = checked_tangent_method(method)?;
-        Ok(())
+    fn outputs(&self) -> Option<&dyn MaterialOutputs> {
+        Some(self)
     }
+}
 
+impl MaterialTangent for LinearLps {
     fn add_tangent(
         &self,
         reference: &ReferenceView<'_>,
@@ -512,13 +568,19 @@ impl Material for LinearLps {
         let kernel = self.kernel(reference, current.bond_damage);
         assemble(
             &kernel,
-            self.model_name(),
-            &self.points,
+            Self::DECLARATION.deck_name,
+            self.block.points(),
             reference,
             current,
             method,
             tangent,
         )
+    }
+}
+
+impl MaterialOutputs for LinearLps {
+    fn weighted_volume(&self) -> Option<&[f64]> {
+        Some(&self.weighted_volume)
     }
 }
 

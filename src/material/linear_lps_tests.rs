@@ -4,7 +4,7 @@
 //! analytic weighted volume.
 
 use super::*;
-use crate::material::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};
+use crate::material::LinearPeridynamicSolid;
 use crate::model::quadrature::{self, QuadratureRule};
 use crate::model::test_support::{brute_force_bonds, lattice, random_cloud, Rng};
 use crate::tangent::BlockPattern;
@@ -13,16 +13,20 @@ use std::sync::Arc;
 const BULK: f64 = 3.0;
 const SHEAR: f64 = 1.3;
 
-fn parameters(horizon: f64, influence: InfluenceFunction) -> LinearLpsParameters {
-    LinearLpsParameters {
+/// The block input of the tests' material: ρ = 1, `horizon`, `influence`.
+fn block(horizon: f64, influence: InfluenceFunction) -> BlockInput {
+    BlockInput {
         density: 1.0,
-        bulk_modulus: BULK,
-        shear_modulus: SHEAR,
         horizon,
         influence,
-        analytic_weighted_volume: None,
     }
 }
+
+/// K = BULK, μ = SHEAR.
+const ELASTIC: ElasticConstants = ElasticConstants {
+    bulk_modulus: BULK,
+    shear_modulus: SHEAR,
+};
 
 /// Points, cell volumes, families and (optional) per-bond quadrature volumes and damage.
 struct Body {
@@ -76,9 +80,11 @@ impl Body {
     }
 
     fn set_up(&self, mut material: Box<dyn Material>) -> Box<dyn Material> {
-        material
-            .setup(&self.reference(), (0..self.x.len() as u32).collect())
-            .unwrap();
+        crate::material::set_up(
+            &mut material,
+            &self.reference(),
+            (0..self.x.len() as u32).collect(),
+        );
         material
     }
 
@@ -131,7 +137,7 @@ impl Body {
 }
 
 fn linear(horizon: f64, influence: InfluenceFunction) -> Box<dyn Material> {
-    Box::new(LinearLps::new(parameters(horizon, influence)).unwrap())
+    Box::new(LinearLps::new(&block(horizon, influence), &ELASTIC, None).unwrap())
 }
 
 fn max_norm(f: &[[f64; 3]]) -> f64 {
@@ -401,13 +407,17 @@ fn a_small_stretch_matches_elastic_to_first_order() {
         let body = Body::lattice(rule, 2.0);
         let linear = body.set_up(linear(2.0, InfluenceFunction::One));
         let elastic = body.set_up(Box::new(
-            LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-                density: 1.0,
-                bulk_modulus: BULK,
-                shear_modulus: SHEAR,
-                horizon: 2.0,
-                influence: InfluenceFunction::One,
-            })
+            LinearPeridynamicSolid::new(
+                &crate::material::BlockInput {
+                    density: 1.0,
+                    horizon: 2.0,
+                    influence: InfluenceFunction::One,
+                },
+                &crate::material::ElasticConstants {
+                    bulk_modulus: BULK,
+                    shear_modulus: SHEAR,
+                },
+            )
             .unwrap(),
         ));
         for (epsilon, uniaxial) in [(1e-3, false), (1e-4, true), (1e-5, true)] {
@@ -446,11 +456,7 @@ fn the_analytic_weighted_volume_replaces_m() {
     let family = body.set_up(linear(1.6, InfluenceFunction::One));
     let given = 4.0 * std::f64::consts::PI * 1.6f64.powi(5) / 5.0;
     let analytic = body.set_up(Box::new(
-        LinearLps::new(LinearLpsParameters {
-            analytic_weighted_volume: Some(given),
-            ..parameters(1.6, InfluenceFunction::One)
-        })
-        .unwrap(),
+        LinearLps::new(&block(1.6, InfluenceFunction::One), &ELASTIC, Some(given)).unwrap(),
     ));
     assert!(analytic
         .weighted_volume()
@@ -473,11 +479,7 @@ fn the_analytic_weighted_volume_replaces_m() {
 
 #[test]
 fn invalid_parameters_name_the_key() {
-    let error = LinearLps::new(LinearLpsParameters {
-        analytic_weighted_volume: Some(-1.0),
-        ..parameters(1.0, InfluenceFunction::One)
-    })
-    .err();
+    let error = LinearLps::new(&block(1.0, InfluenceFunction::One), &ELASTIC, Some(-1.0)).err();
     assert_eq!(
         error,
         Some(MaterialError::NotPositive {

@@ -35,19 +35,25 @@
 //!   response is unchanged and the stiffest probed pure shear of every point has modulus μ.
 
 use super::influence::InfluenceFunction;
+use super::keys::{
+    AUTOMATIC_DIFFERENTIATION, DENSITY, ELASTIC, PROBE_LENGTH, TANGENT, THERMAL_EXPANSION,
+};
 use super::{
-    assert_point_set, checked_row, checked_tangent_method, gather_bound,
-    influence_weighted_volumes, kept_points, local_offsets, positive, BondWeights, CurrentView,
-    Damaged, Integrity, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
-    StoredWeights, Undamaged, UnitWeights,
+    checked_row, gather_bound, influence_weighted_volumes, local_offsets, BlockData, BlockInput,
+    BondWeights, CurrentView, Damaged, ElasticConstants, Integrity, Material, MaterialError,
+    MaterialKeys, MaterialModel, MaterialOutputs, MaterialParameters, MaterialTangent,
+    PointCoefficients, ReferenceView, StoredWeights, Undamaged, UnitWeights,
 };
 use super::{BreakingCoefficientPass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::with_volume_rule;
 use crate::model::{
-    BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach, VolumeRule,
+    BondVolumes, FieldCarrier, FieldDeclaration, KeyDoc, ModelDeclaration, Reach, TangentSupport,
+    VolumeRule,
 };
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -58,63 +64,91 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 #[cfg(target_arch = "x86_64")]
 mod rows_avx2;
 
-/// Deck parameters of `Elastic`.
-#[derive(Debug, Clone)]
+/// `Compute Partial Stress`.
+const COMPUTE_PARTIAL_STRESS: KeyDoc = KeyDoc {
+    key: "Compute Partial Stress",
+    meaning: "Peridigm's switch for `Partial_Stress`; accepted without effect (peridyn computes \
+              it whenever an output lists it)",
+    unit: "true/false",
+    default: "false",
+};
+
+/// `Apply Shear Correction Factor` of `Elastic`.
+const SHEAR_CORRECTION: KeyDoc = KeyDoc {
+    key: "Apply Shear Correction Factor",
+    meaning: "scale μ pointwise by the shear-correction factor of the point's neighbourhood \
+              (Peridigm's `Elastic` reads the key and ignores it)",
+    unit: "true/false",
+    default: "false",
+};
+
+/// `Hourglass Coefficient`, which decks carry on `Elastic` materials.
+const HOURGLASS_WITHOUT_EFFECT: KeyDoc = KeyDoc {
+    key: "Hourglass Coefficient",
+    meaning: "accepted without effect: only correspondence models have hourglass control",
+    unit: "—",
+    default: "—",
+};
+
+/// Deck parameters of `Elastic` besides the keys every model shares.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LinearPeridynamicSolidParameters {
-    /// `Density` ρ (mass/length³).
-    pub density: f64,
-    /// Bulk modulus K (pressure), e.g. from [`super::ElasticConstants::from_pair`].
-    pub bulk_modulus: f64,
-    /// Shear modulus μ (pressure).
-    pub shear_modulus: f64,
-    /// Horizon δ of the block (length).
-    pub horizon: f64,
-    /// `Discretization → Influence Function` (default `One`).
-    pub influence: InfluenceFunction,
+    /// K and μ from the elastic pair.
+    pub elastic: ElasticConstants,
+    /// `Compute Partial Stress` (no effect: `Partial_Stress` is computed whenever an output
+    /// lists it).
+    pub compute_partial_stress: bool,
+    /// `Apply Shear Correction Factor` (module docs).
+    pub shear_correction: bool,
+}
+
+impl MaterialParameters for LinearPeridynamicSolidParameters {
+    fn bulk_modulus(&self) -> Option<f64> {
+        Some(self.elastic.bulk_modulus)
+    }
 }
 
 /// The LPS material of one block (see the module docs for the formulas).
 #[derive(Debug, Clone)]
 pub struct LinearPeridynamicSolid {
-    parameters: LinearPeridynamicSolidParameters,
-    points: Vec<u32>,
+    block: BlockData,
+    shear_modulus: f64,
+    influence: InfluenceFunction,
     /// Block-local row starts into `weights`.
     local_offsets: Vec<usize>,
     /// ω per block bond; `None` for `One` (nothing to store).
     weights: Option<Vec<f64>>,
-    /// m per block point (same order as `points`).
+    /// m per block point (same order as the block's points).
     weighted_volume: Vec<f64>,
-    /// How the tangent is computed (default analytic).
-    tangent: TangentMethod,
-    /// The points whose force is computed, when fewer than `points`
-    /// ([`Material::restrict_forces`]).
-    force_points: Option<Vec<u32>>,
-    /// `Thermal Expansion Coefficient` α (per degree), when the deck gives one.
-    thermal_expansion: Option<f64>,
-    /// Whether [`Material::setup`] probes the shear-correction factor of every point.
+    /// Whether `prepare` probes the shear-correction factor of every point.
     shear_correction: bool,
-    /// The shear-correction factor s per block point (same order as `points`); empty when
-    /// the deck does not ask for it.
+    /// The shear-correction factor s per block point (same order as the block's points); empty
+    /// when the deck does not ask for it.
     correction: Vec<f64>,
 }
 
-impl LinearPeridynamicSolid {
+impl MaterialKeys for LinearPeridynamicSolid {
+    type Parameters = LinearPeridynamicSolidParameters;
+
     /// `Elastic`: state-based (the dilatation of both ends enters every bond force, so the
     /// force reaches two hops); keeps the weighted volume (fixed by the reference
     /// configuration) and the dilatation (recomputed in every evaluation) per point.
-    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Elastic",
+        aliases: &["Elastic Partial Volume"],
         deck_keys: &[
-            "Density",
-            "Bulk Modulus",
-            "Shear Modulus",
-            "Young's Modulus",
-            "Poisson's Ratio",
-            "Tangent",
-            "Apply Automatic Differentiation Jacobian",
-            "Finite Difference Probe Length",
-            "Compute Partial Stress",
-            "Thermal Expansion Coefficient",
+            DENSITY,
+            ELASTIC[0],
+            ELASTIC[1],
+            ELASTIC[2],
+            ELASTIC[3],
+            TANGENT,
+            AUTOMATIC_DIFFERENTIATION,
+            PROBE_LENGTH,
+            COMPUTE_PARTIAL_STRESS,
+            SHEAR_CORRECTION,
+            THERMAL_EXPANSION,
+            HOURGLASS_WITHOUT_EFFECT,
         ],
         reach: Reach::TwoHop,
         fields: &[
@@ -132,43 +166,83 @@ impl LinearPeridynamicSolid {
             },
         ],
         outputs: &["Weighted_Volume", "Dilatation", "Partial_Stress"],
+        tangent: TangentSupport::Analytic,
+        thermal_strain: true,
     };
 
-    /// The registry's constructor: ρ, K, μ, δ and ω from `input`.
-    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
+    // Peridigm's `Elastic Partial Volume` (a -DUSE_PV build) is the LPS of `Elastic` whose
+    // bond volumes are the element–horizon intersections when the discretization computes
+    // them, else the cells: the block's quadrature rule (`Full Volume` unless the block or the
+    // discretization's `Element-Horizon Intersection Partial Volume Scheme` says otherwise)
+    // does exactly that for every material, hence the alias.
+    fn read(
+        ctx: &mut Ctx,
+        list: &mut ListReader,
+    ) -> Result<LinearPeridynamicSolidParameters, DeckError> {
+        let elastic = super::elastic_constants::read(ctx, list)?;
+        list.without_effect(
+            HOURGLASS_WITHOUT_EFFECT.key,
+            "only correspondence models have hourglass control",
+        );
+        let compute_partial_stress = list.flag_without_effect(
+            ctx,
+            COMPUTE_PARTIAL_STRESS.key,
+            false,
+            true,
+            "peridyn computes Partial_Stress whenever an output lists it",
+        )?;
+        let shear_correction = list.bool_or(ctx, SHEAR_CORRECTION.key, false)?;
+        if let Some(f) = list.peek(SHEAR_CORRECTION.key).filter(|_| shear_correction) {
+            ctx.warn(
+                f.line(),
+                &f.path,
+                "peridyn applies the shear-correction factor to this Elastic material \
+                 (Peridigm's Elastic reads the key and ignores it, so results differ from \
+                 Peridigm's near surfaces)",
+            );
+        }
+        Ok(LinearPeridynamicSolidParameters {
+            elastic,
+            compute_partial_stress,
+            shear_correction,
+        })
+    }
+}
+
+impl MaterialModel for LinearPeridynamicSolid {
+    fn build(
+        block: &BlockInput,
+        parameters: &LinearPeridynamicSolidParameters,
+    ) -> Result<Box<dyn Material>, MaterialError> {
         Ok(Box::new(
-            Self::new(LinearPeridynamicSolidParameters {
-                density: input.density,
-                bulk_modulus: input.bulk_modulus,
-                shear_modulus: input.required_shear_modulus()?,
-                horizon: input.horizon,
-                influence: input.influence.clone(),
-            })?
-            .with_shear_correction(input.shear_correction),
+            Self::new(block, &parameters.elastic)?
+                .with_shear_correction(parameters.shear_correction),
         ))
     }
+}
 
+impl LinearPeridynamicSolid {
     /// The same material, applying the shear-correction factor (module docs) when `on`.
     pub fn with_shear_correction(mut self, on: bool) -> Self {
         self.shear_correction = on;
         self
     }
 
-    /// Validates the parameters (ρ, K, μ, δ positive and finite).
-    pub fn new(parameters: LinearPeridynamicSolidParameters) -> Result<Self, MaterialError> {
-        positive("Density", parameters.density)?;
-        positive("Bulk Modulus", parameters.bulk_modulus)?;
-        positive("Shear Modulus", parameters.shear_modulus)?;
-        positive("Horizon", parameters.horizon)?;
+    /// Validates the parameters (ρ, K, μ, δ positive and finite); ω from `block`.
+    pub fn new(block: &BlockInput, elastic: &ElasticConstants) -> Result<Self, MaterialError> {
+        let data = BlockData::new(
+            &Self::DECLARATION,
+            block.density,
+            elastic.bulk_modulus,
+            block.horizon,
+        )?;
         Ok(Self {
-            parameters,
-            points: Vec::new(),
+            block: data,
+            shear_modulus: super::positive("Shear Modulus", elastic.shear_modulus)?,
+            influence: block.influence.clone(),
             local_offsets: vec![0],
             weights: None,
             weighted_volume: Vec::new(),
-            tangent: TangentMethod::Analytic,
-            force_points: None,
-            thermal_expansion: None,
             shear_correction: false,
             correction: Vec::new(),
         })
@@ -177,12 +251,12 @@ impl LinearPeridynamicSolid {
     /// The free thermal strain α ΔT of every point, when this block has α and the run has
     /// point temperatures (the thermal bond loops then run).
     fn thermal_strain<'a>(&self, current: &CurrentView<'a>) -> Option<&'a [f64]> {
-        self.thermal_expansion?;
+        self.block.thermal_expansion()?;
         current.history.thermal().map(|t| &t.strain[..])
     }
 
     /// Weighted volume m of each block point (Peridigm's `Weighted_Volume`), in the order of
-    /// [`Material::points`]; empty before setup.
+    /// the block's points; empty before setup.
     pub fn weighted_volume(&self) -> &[f64] {
         &self.weighted_volume
     }
@@ -1073,83 +1147,53 @@ impl LinearPeridynamicSolid {
             reference,
             volume,
             current,
-            points: &self.points,
+            points: self.block.points(),
             local_offsets: &self.local_offsets,
             weighted_volume: &self.weighted_volume,
-            bulk: self.parameters.bulk_modulus,
-            shear: self.parameters.shear_modulus,
+            bulk: self.block.bulk_modulus(),
+            shear: self.shear_modulus,
             correction: &self.correction,
-            force_subset: self.force_points.is_some(),
+            force_subset: self.block.force_points().len() < self.block.points().len(),
             wide: wide_vectors_available(),
         }
     }
 }
 
 impl Material for LinearPeridynamicSolid {
-    fn declaration(&self) -> &'static ModelDeclaration {
-        &Self::DECLARATION
+    fn block(&self) -> &BlockData {
+        &self.block
     }
 
-    fn density(&self) -> f64 {
-        self.parameters.density
+    fn block_mut(&mut self) -> &mut BlockData {
+        &mut self.block
     }
 
-    fn bulk_modulus(&self) -> f64 {
-        self.parameters.bulk_modulus
-    }
-
-    fn horizon(&self) -> f64 {
-        self.parameters.horizon
-    }
-
-    fn weighted_volume(&self) -> Option<&[f64]> {
-        Some(&self.weighted_volume)
-    }
-
-    fn setup(
-        &mut self,
-        reference: &ReferenceView<'_>,
-        points: Vec<u32>,
-    ) -> Result<(), MaterialError> {
+    fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError> {
         let bonds = reference.bonds;
-        assert_point_set(&points, bonds.num_points());
-        let horizon = self.parameters.horizon;
-        let weights = if self.parameters.influence.is_one() {
+        let points = self.block.points();
+        let horizon = self.block.horizon();
+        let weights = if self.influence.is_one() {
             None
         } else {
-            Some(
-                self.parameters
-                    .influence
-                    .per_bond(bonds, &points, horizon)?,
-            )
+            Some(self.influence.per_bond(bonds, points, horizon)?)
         };
-        let local_offsets = local_offsets(bonds, &points);
+        let local_offsets = local_offsets(bonds, points);
         let weighted_volume =
-            influence_weighted_volumes(reference, &points, &local_offsets, weights.as_deref());
+            influence_weighted_volumes(reference, points, &local_offsets, weights.as_deref());
         self.correction = if self.shear_correction {
             super::shear_correction::factors(
                 reference,
-                &points,
+                points,
                 &weighted_volume,
                 weights.as_deref().map(|w| (w, local_offsets.as_slice())),
             )
         } else {
             Vec::new()
         };
-        self.points = points;
-        self.force_points = None;
         self.weights = weights;
         self.local_offsets = local_offsets;
         self.weighted_volume = weighted_volume;
         Ok(())
-    }
-
-    fn points(&self) -> &[u32] {
-        &self.points
-    }
-
-    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        self.force_points = kept_points(&self.points, keep);
     }
 
     fn compute_point_coefficients(
@@ -1162,7 +1206,7 @@ impl Material for LinearPeridynamicSolid {
             let rows = self.rows(reference, current, reference.bond_volumes());
             with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
                 for_each_chunk(
-                    &self.points,
+                    self.block.points(),
                     coefficients,
                     &|i| i as usize,
                     &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
@@ -1176,7 +1220,7 @@ impl Material for LinearPeridynamicSolid {
             let rows = self.rows(reference, current, v);
             with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
                 for_each_chunk(
-                    &self.points,
+                    self.block.points(),
                     coefficients,
                     &|i| i as usize,
                     &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
@@ -1194,18 +1238,10 @@ impl Material for LinearPeridynamicSolid {
     /// layer-1 ghosts, whose neighbours in the outer ghost layer belong to no block's point
     /// list, take the pass as their owner does.
     fn critical_stretch_fast_path(&self) -> Option<CriticalStretchFastPath<'_>> {
-        self.thermal_expansion
+        self.block
+            .thermal_expansion()
             .is_none()
             .then_some(CriticalStretchFastPath::PointCoefficients(self))
-    }
-
-    fn thermal_expansion(&self) -> Option<f64> {
-        self.thermal_expansion
-    }
-
-    fn set_thermal_expansion(&mut self, coefficient: f64) -> Result<(), MaterialError> {
-        self.thermal_expansion = Some(super::finite("Thermal Expansion Coefficient", coefficient)?);
-        Ok(())
     }
 
     fn add_force_density(
@@ -1215,7 +1251,7 @@ impl Material for LinearPeridynamicSolid {
         coefficients: &[PointCoefficients],
         force_density: &mut [[f64; 3]],
     ) {
-        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        let force_points = self.block.force_points();
         if let Some(strain) = self.thermal_strain(current) {
             let rows = self.rows(reference, current, reference.bond_volumes());
             with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
@@ -1245,15 +1281,37 @@ impl Material for LinearPeridynamicSolid {
         })
     }
 
-    fn tangent_method(&self) -> TangentMethod {
-        self.tangent
+    fn stored_energy_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        coefficients: &[PointCoefficients],
+        energy_density: &mut [f64],
+    ) {
+        let rows = self.rows(reference, current, reference.bond_volumes());
+        let strain = self.thermal_strain(current);
+        with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
+            for_each_chunk(
+                self.block.points(),
+                energy_density,
+                &|i| i as usize,
+                &|chunk: &[u32], base: usize, out: &mut [f64]| {
+                    rows.energy(strain, coefficients, chunk, base, out, w, d)
+                },
+            )
+        })
     }
 
-    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
-        self.tangent = checked_tangent_method(method)?;
-        Ok(())
+    fn tangent(&self) -> Option<&dyn MaterialTangent> {
+        Some(self)
     }
 
+    fn outputs(&self) -> Option<&dyn MaterialOutputs> {
+        Some(self)
+    }
+}
+
+impl MaterialTangent for LinearPeridynamicSolid {
     fn add_tangent(
         &self,
         reference: &ReferenceView<'_>,
@@ -1261,7 +1319,7 @@ impl Material for LinearPeridynamicSolid {
         method: TangentMethod,
         tangent: &mut BlockTangent,
     ) -> Result<(), TangentError> {
-        let model = self.model_name();
+        let model = Self::DECLARATION.deck_name;
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             let kernel = LpsForceState {
                 bonds: reference.bonds,
@@ -1270,21 +1328,27 @@ impl Material for LinearPeridynamicSolid {
                 weighted_volume: &self.weighted_volume,
                 weights: w,
                 damage: d,
-                bulk: self.parameters.bulk_modulus,
-                shear: self.parameters.shear_modulus,
+                bulk: self.block.bulk_modulus(),
+                shear: self.shear_modulus,
                 thermal_strain: self.thermal_strain(current),
                 correction: &self.correction,
             };
             assemble(
                 &kernel,
                 model,
-                &self.points,
+                self.block.points(),
                 reference,
                 current,
                 method,
                 tangent,
             )
         })
+    }
+}
+
+impl MaterialOutputs for LinearPeridynamicSolid {
+    fn weighted_volume(&self) -> Option<&[f64]> {
+        Some(&self.weighted_volume)
     }
 
     fn partial_stress(
@@ -1303,13 +1367,14 @@ impl Material for LinearPeridynamicSolid {
                 weighted_volume: &self.weighted_volume,
                 weights: w,
                 damage: d,
-                bulk: self.parameters.bulk_modulus,
-                shear: self.parameters.shear_modulus,
+                bulk: self.block.bulk_modulus(),
+                shear: self.shear_modulus,
                 thermal_strain: self.thermal_strain(current),
                 correction: &self.correction,
             };
             let stresses: Vec<[f64; 9]> = self
-                .points
+                .block
+                .points()
                 .par_iter()
                 .enumerate()
                 .map_init(
@@ -1342,30 +1407,9 @@ impl Material for LinearPeridynamicSolid {
                     },
                 )
                 .collect();
-            for (&p, stress) in self.points.iter().zip(stresses) {
+            for (&p, stress) in self.block.points().iter().zip(stresses) {
                 out[p as usize] = stress;
             }
-        })
-    }
-
-    fn stored_energy_density(
-        &self,
-        reference: &ReferenceView<'_>,
-        current: &CurrentView<'_>,
-        coefficients: &[PointCoefficients],
-        energy_density: &mut [f64],
-    ) {
-        let rows = self.rows(reference, current, reference.bond_volumes());
-        let strain = self.thermal_strain(current);
-        with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
-            for_each_chunk(
-                &self.points,
-                energy_density,
-                &|i| i as usize,
-                &|chunk: &[u32], base: usize, out: &mut [f64]| {
-                    rows.energy(strain, coefficients, chunk, base, out, w, d)
-                },
-            )
         })
     }
 }
@@ -1453,16 +1497,20 @@ mod tests {
             (InfluenceFunction::ParabolicDecay, false),
             (InfluenceFunction::ParabolicDecay, true),
         ] {
-            let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-                density: 1.0,
-                bulk_modulus: 3.0,
-                shear_modulus: 1.3,
-                horizon: 1.7,
-                influence,
-            })
+            let mut m = LinearPeridynamicSolid::new(
+                &crate::material::BlockInput {
+                    density: 1.0,
+                    horizon: 1.7,
+                    influence,
+                },
+                &crate::material::ElasticConstants {
+                    bulk_modulus: 3.0,
+                    shear_modulus: 1.3,
+                },
+            )
             .unwrap()
             .with_shear_correction(corrected);
-            m.setup(&reference, all.clone()).unwrap();
+            crate::material::set_up(&mut m, &reference, all.clone());
             assert_eq!(m.correction.is_empty(), !corrected);
             let mut coefficients = vec![PointCoefficients::default(); x.len()];
             m.compute_point_coefficients(&reference, &current, &mut coefficients);
@@ -1545,16 +1593,20 @@ mod tests {
         .into_iter()
         .flat_map(|case| [(case.clone(), &all), (case, &left)])
         {
-            let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-                density: 1.0,
-                bulk_modulus: 3.0,
-                shear_modulus: 1.3,
-                horizon: 1.7,
-                influence,
-            })
+            let mut m = LinearPeridynamicSolid::new(
+                &crate::material::BlockInput {
+                    density: 1.0,
+                    horizon: 1.7,
+                    influence,
+                },
+                &crate::material::ElasticConstants {
+                    bulk_modulus: 3.0,
+                    shear_modulus: 1.3,
+                },
+            )
             .unwrap()
             .with_shear_correction(corrected);
-            m.setup(&reference, points.clone()).unwrap();
+            crate::material::set_up(&mut m, &reference, points.clone());
             assert_eq!(m.correction.is_empty(), !corrected);
             assert!(m.critical_stretch_fast_path().is_some());
             let model = CriticalStretch::new(0.02).unwrap();
@@ -1615,13 +1667,17 @@ mod tests {
 
     /// The LPS material of the perturbed cloud (δ = 1.6, not set up).
     fn small_material(influence: InfluenceFunction) -> LinearPeridynamicSolid {
-        LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-            density: 1.0,
-            bulk_modulus: 3.0,
-            shear_modulus: 1.3,
-            horizon: 1.6,
-            influence,
-        })
+        LinearPeridynamicSolid::new(
+            &crate::material::BlockInput {
+                density: 1.0,
+                horizon: 1.6,
+                influence,
+            },
+            &crate::material::ElasticConstants {
+                bulk_modulus: 3.0,
+                shear_modulus: 1.3,
+            },
+        )
         .unwrap()
     }
 
@@ -1639,7 +1695,7 @@ mod tests {
         };
         let mut m = small_material(InfluenceFunction::ParabolicDecay);
         let block: Vec<u32> = (0..x.len() as u32).filter(|p| p % 5 != 0).collect();
-        m.setup(&reference, block.clone()).unwrap();
+        crate::material::set_up(&mut m, &reference, block.clone());
         let current = CurrentView {
             position: &y,
             bond_damage: None,
@@ -1650,7 +1706,7 @@ mod tests {
         let mut all = vec![[0.0; 3]; x.len()];
         m.add_force_density(&reference, &current, &c, &mut all);
         let kept = |p: u32| p % 3 == 0;
-        m.restrict_forces(&kept);
+        (&mut m as &mut dyn Material).restrict_forces(&kept);
         let untouched = [7.0, 8.0, 9.0];
         let mut restricted = vec![untouched; x.len()];
         restricted
@@ -1667,7 +1723,7 @@ mod tests {
             }
         }
         // Keeping every point is no restriction.
-        m.restrict_forces(&|_| true);
+        (&mut m as &mut dyn Material).restrict_forces(&|_| true);
         let mut again = vec![[0.0; 3]; x.len()];
         m.add_force_density(&reference, &current, &c, &mut again);
         assert_eq!(again, all);
@@ -1694,7 +1750,7 @@ mod tests {
         assert_eq!(lengths.len(), 4, "rows of every length mod 4");
         let all: Vec<u32> = (0..x.len() as u32).collect();
         let mut m = small_material(InfluenceFunction::ParabolicDecay);
-        m.setup(&reference, all.clone()).unwrap();
+        crate::material::set_up(&mut m, &reference, all.clone());
         let weights = StoredWeights(m.weights.as_deref().expect("parabolic ω is stored"));
         let mut damage = vec![0.0f32; bonds.num_bonds()];
         for b in (0..damage.len()).step_by(5) {
@@ -1765,7 +1821,7 @@ mod tests {
             bond_volume: None,
         };
         let mut m = small_material(InfluenceFunction::One);
-        m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
+        crate::material::set_up(&mut m, &reference, (0..x.len() as u32).collect());
         let current = CurrentView {
             position: &y,
             bond_damage: None,
@@ -1818,18 +1874,20 @@ mod tests {
         let reference = ReferenceView::of(&bonds, &points);
         let center = (n * n + n + 1) * (n / 2);
         let energy = |corrected: bool, y: &[[f64; 3]]| {
-            let mut material = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-                density: 1.0,
-                bulk_modulus: 3.0,
-                shear_modulus: 1.3,
-                horizon: 2.2,
-                influence: InfluenceFunction::ParabolicDecay,
-            })
+            let mut material = LinearPeridynamicSolid::new(
+                &crate::material::BlockInput {
+                    density: 1.0,
+                    horizon: 2.2,
+                    influence: InfluenceFunction::ParabolicDecay,
+                },
+                &crate::material::ElasticConstants {
+                    bulk_modulus: 3.0,
+                    shear_modulus: 1.3,
+                },
+            )
             .unwrap()
             .with_shear_correction(corrected);
-            material
-                .setup(&reference, (0..x.len() as u32).collect())
-                .unwrap();
+            crate::material::set_up(&mut material, &reference, (0..x.len() as u32).collect());
             let current = CurrentView {
                 position: y,
                 bond_damage: None,
@@ -1887,9 +1945,7 @@ mod tests {
         let bonds = brute_force_bonds(&x, 1.6);
         let reference = ReferenceView::of(&bonds, &points);
         let mut material = small_material(InfluenceFunction::ParabolicDecay);
-        material
-            .setup(&reference, (0..x.len() as u32).collect())
-            .unwrap();
+        crate::material::set_up(&mut material, &reference, (0..x.len() as u32).collect());
         let epsilon = 1e-3;
         let y: Vec<[f64; 3]> = x.iter().map(|p| p.map(|c| c * (1.0 + epsilon))).collect();
         let current = CurrentView {

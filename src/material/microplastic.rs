@@ -40,14 +40,20 @@
 //! model would be evaluated by that model without s̄); a mesh that bonds it to another block is
 //! refused at set-up.
 
+use super::bond_based::PMB_KEYS;
+use super::keys::{PROBE_LENGTH, TANGENT};
 use super::{
-    assert_point_set, checked_tangent_method, kept_points, CurrentView, Damaged, Integrity,
-    Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView, Undamaged,
+    BlockData, BlockInput, BondBasedParameters, CurrentView, Damaged, Integrity, Material,
+    MaterialError, MaterialKeys, MaterialModel, MaterialParameters, MaterialTangent,
+    PointCoefficients, ReferenceView, Undamaged,
 };
-use super::{BondBased, BondBasedParameters};
 use crate::history::History;
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{BondList, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
+use crate::model::{
+    BondList, FieldCarrier, FieldDeclaration, KeyDoc, ModelDeclaration, Reach, TangentSupport,
+};
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -59,18 +65,42 @@ pub mod fields {
     pub const PERMANENT_STRETCH: &str = "Permanent_Stretch";
 }
 
+/// `Yield Stretch`.
+const YIELD_STRETCH: KeyDoc = KeyDoc {
+    key: "Yield Stretch",
+    meaning:
+        "s_Y: a bond's force stays within ±c s_Y (about σ_ut/(2E), Macek & Silling 2007, eq. 50)",
+    unit: "—",
+    default: "required",
+};
+
+/// Deck parameters of `Microplastic Bond Based`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MicroplasticParameters {
+    /// The PMB constants, as `Elastic Bond Based` reads them.
+    pub pmb: BondBasedParameters,
+    /// `Yield Stretch` s_Y (dimensionless, > 0).
+    pub yield_stretch: f64,
+}
+
+impl MaterialParameters for MicroplasticParameters {
+    fn bulk_modulus(&self) -> Option<f64> {
+        Some(self.pmb.bulk_modulus)
+    }
+
+    fn planar_thickness(&self) -> Option<f64> {
+        self.pmb.planar_thickness
+    }
+}
+
 /// `Microplastic Bond Based` for one block (see the module docs for the formulas).
 #[derive(Debug, Clone)]
 pub struct MicroplasticBondBased {
-    /// The PMB constants (density, K, δ, c) of the block, validated by `Elastic Bond Based`.
-    elastic: BondBased,
+    block: BlockData,
+    /// c (force/length⁶ in 3D), as `Elastic Bond Based`'s.
+    micromodulus: f64,
     /// s_Y (dimensionless, > 0).
     yield_stretch: f64,
-    points: Vec<u32>,
-    tangent: TangentMethod,
-    /// The points whose force is computed, when fewer than `points`
-    /// ([`Material::restrict_forces`]).
-    force_points: Option<Vec<u32>>,
 }
 
 /// The return map of one bond (module docs): the permanent stretch after a step from the
@@ -95,21 +125,24 @@ fn stretch_of(yi: [f64; 3], yj: [f64; 3], zeta: f64) -> (f64, f64) {
     ((length - zeta) / zeta, length)
 }
 
-impl MicroplasticBondBased {
+impl MaterialKeys for MicroplasticBondBased {
+    type Parameters = MicroplasticParameters;
+
     /// `Microplastic Bond Based`: a bond's force depends on its two ends and its own permanent
     /// stretch (one hop); the staged `Permanent_Stretch` per bond.
-    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Microplastic Bond Based",
+        aliases: &[],
         deck_keys: &[
-            "Density",
-            "Bulk Modulus",
-            "Young's Modulus",
-            "Plane Strain",
-            "Plane Stress",
-            "Height",
-            "Yield Stretch",
-            "Tangent",
-            "Finite Difference Probe Length",
+            PMB_KEYS[0],
+            PMB_KEYS[1],
+            PMB_KEYS[2],
+            PMB_KEYS[3],
+            PMB_KEYS[4],
+            PMB_KEYS[5],
+            YIELD_STRETCH,
+            TANGENT,
+            PROBE_LENGTH,
         ],
         reach: Reach::OneHop,
         fields: &[FieldDeclaration {
@@ -119,39 +152,49 @@ impl MicroplasticBondBased {
             staged: true,
         }],
         outputs: &[],
+        tangent: TangentSupport::Analytic,
+        thermal_strain: false,
     };
 
-    /// The registry's constructor: the PMB constants as for `Elastic Bond Based` and the
-    /// `Yield Stretch`.
-    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        let yield_stretch = input.yield_stretch.ok_or(MaterialError::Missing {
-            key: "Yield Stretch",
-        })?;
-        Ok(Box::new(Self::new(
-            BondBasedParameters {
-                density: input.density,
-                bulk_modulus: input.bulk_modulus,
-                horizon: input.horizon,
-                planar_thickness: input.planar_thickness,
-            },
-            yield_stretch,
-        )?))
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<MicroplasticParameters, DeckError> {
+        Ok(MicroplasticParameters {
+            pmb: BondBasedParameters::read(ctx, list, Self::DECLARATION.deck_name)?,
+            yield_stretch: list.positive_req(ctx, YIELD_STRETCH.key)?,
+        })
     }
+}
 
+impl MaterialModel for MicroplasticBondBased {
+    fn build(
+        block: &BlockInput,
+        parameters: &MicroplasticParameters,
+    ) -> Result<Box<dyn Material>, MaterialError> {
+        Ok(Box::new(Self::new(block, parameters)?))
+    }
+}
+
+impl MicroplasticBondBased {
     /// Validates the parameters (those of `Elastic Bond Based`, and s_Y positive and finite).
-    pub fn new(parameters: BondBasedParameters, yield_stretch: f64) -> Result<Self, MaterialError> {
+    pub fn new(
+        block: &BlockInput,
+        parameters: &MicroplasticParameters,
+    ) -> Result<Self, MaterialError> {
+        let data = BlockData::new(
+            &Self::DECLARATION,
+            block.density,
+            parameters.pmb.bulk_modulus,
+            block.horizon,
+        )?;
         Ok(Self {
-            elastic: BondBased::new(parameters)?,
-            yield_stretch: super::positive("Yield Stretch", yield_stretch)?,
-            points: Vec::new(),
-            tangent: TangentMethod::Analytic,
-            force_points: None,
+            micromodulus: parameters.pmb.micromodulus(data.horizon())?,
+            yield_stretch: super::positive(YIELD_STRETCH.key, parameters.yield_stretch)?,
+            block: data,
         })
     }
 
     /// Micromodulus c (force/length⁶ in 3D), as `Elastic Bond Based`'s.
     pub fn micromodulus(&self) -> f64 {
-        self.elastic.micromodulus()
+        self.micromodulus
     }
 
     /// Yield stretch s_Y.
@@ -192,9 +235,8 @@ impl MicroplasticBondBased {
         let y = current.position;
         let permanent = Self::permanent(current.history).trial();
         let c = self.micromodulus();
-        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
         for_each_chunk(
-            force_points,
+            self.block.force_points(),
             force_density,
             &|i| i as usize,
             &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
@@ -306,31 +348,19 @@ impl<D: Integrity> ForceState for MicroplasticForceState<'_, D> {
 }
 
 impl Material for MicroplasticBondBased {
-    fn declaration(&self) -> &'static ModelDeclaration {
-        &Self::DECLARATION
+    fn block(&self) -> &BlockData {
+        &self.block
     }
 
-    fn density(&self) -> f64 {
-        self.elastic.density()
+    fn block_mut(&mut self) -> &mut BlockData {
+        &mut self.block
     }
 
-    fn bulk_modulus(&self) -> f64 {
-        self.elastic.bulk_modulus()
-    }
-
-    fn horizon(&self) -> f64 {
-        self.elastic.horizon()
-    }
-
-    fn setup(
-        &mut self,
-        reference: &ReferenceView<'_>,
-        points: Vec<u32>,
-    ) -> Result<(), MaterialError> {
+    fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError> {
         let bonds = reference.bonds;
-        assert_point_set(&points, bonds.num_points());
+        let points = self.block.points();
         let mut member = vec![false; bonds.num_points()];
-        for &i in &points {
+        for &i in points {
             member[i as usize] = true;
         }
         if let Some(&point) = points.iter().find(|&&i| {
@@ -344,17 +374,7 @@ impl Material for MicroplasticBondBased {
                 point: point as usize,
             });
         }
-        self.points = points;
-        self.force_points = None;
         Ok(())
-    }
-
-    fn points(&self) -> &[u32] {
-        &self.points
-    }
-
-    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        self.force_points = kept_points(&self.points, keep);
     }
 
     fn update_history(
@@ -371,7 +391,7 @@ impl Material for MicroplasticBondBased {
             .expect("the run allocates every field a Microplastic Bond Based block declares")
             .committed_and_trial();
         for_each_chunk(
-            &self.points,
+            self.block.points(),
             trial,
             &|i| bonds.offsets[i as usize],
             &|chunk: &[u32], base: usize, out: &mut [f64]| {
@@ -399,7 +419,7 @@ impl Material for MicroplasticBondBased {
             isotropic: 0.5 * self.micromodulus(),
             deviatoric: 0.0,
         };
-        for &i in &self.points {
+        for &i in self.block.points() {
             coefficients[i as usize] = published;
         }
     }
@@ -431,7 +451,7 @@ impl Material for MicroplasticBondBased {
         let y = current.position;
         let permanent = Self::permanent(current.history).trial();
         let c = self.micromodulus();
-        for &i in &self.points {
+        for &i in self.block.points() {
             let i = i as usize;
             let mut w = 0.0;
             for b in bonds.range(i) {
@@ -446,15 +466,12 @@ impl Material for MicroplasticBondBased {
         }
     }
 
-    fn tangent_method(&self) -> TangentMethod {
-        self.tangent
+    fn tangent(&self) -> Option<&dyn MaterialTangent> {
+        Some(self)
     }
+}
 
-    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
-        self.tangent = checked_tangent_method(method)?;
-        Ok(())
-    }
-
+impl MaterialTangent for MicroplasticBondBased {
     fn add_tangent(
         &self,
         reference: &ReferenceView<'_>,
@@ -462,14 +479,14 @@ impl Material for MicroplasticBondBased {
         method: TangentMethod,
         tangent: &mut BlockTangent,
     ) -> Result<(), TangentError> {
-        let model = self.model_name();
+        let model = Self::DECLARATION.deck_name;
         let bonds = reference.bonds;
         let committed = Self::permanent(current.history).committed();
         match current.bond_damage {
             None => assemble(
                 &self.force_state(bonds, Undamaged, committed),
                 model,
-                &self.points,
+                self.block.points(),
                 reference,
                 current,
                 method,
@@ -478,7 +495,7 @@ impl Material for MicroplasticBondBased {
             Some(d) => assemble(
                 &self.force_state(bonds, Damaged(d), committed),
                 model,
-                &self.points,
+                self.block.points(),
                 reference,
                 current,
                 method,

@@ -25,6 +25,7 @@
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+mod block;
 mod bond_based;
 mod correspondence;
 mod elastic_constants;
@@ -32,6 +33,7 @@ mod elastic_plastic;
 #[cfg(test)]
 pub(crate) mod generic_force;
 mod influence;
+pub(crate) mod keys;
 mod linear_lps;
 mod linear_peridynamic_solid;
 mod microplastic;
@@ -42,19 +44,20 @@ mod registry;
 mod shear_correction;
 #[cfg(test)]
 mod surface_correction_tests;
+mod unbuilt;
 mod viscoelastic;
 
+pub use block::BlockData;
 pub use bond_based::{BondBased, BondBasedParameters};
 pub use correspondence::{
-    fields as correspondence_fields, Flaw, NeedlemanParameters, CORRESPONDENCE_FIELDS,
-    CORRESPONDENCE_OUTPUTS, HYPOELASTIC_DISPLACEMENT, HYPOELASTIC_FIELDS,
+    fields as correspondence_fields, CorrespondenceParameters, Flaw, NeedlemanInput,
+    NeedlemanParameters, PlasticParameters, CORRESPONDENCE_FIELDS, CORRESPONDENCE_OUTPUTS,
+    HYPOELASTIC_DISPLACEMENT, HYPOELASTIC_FIELDS,
 };
 pub(crate) use correspondence::{
     ElasticCorrespondence, ElasticHypoelasticCorrespondence, ElasticPlasticCorrespondence,
-    ElasticPlasticHypoelasticCorrespondence, ElasticStress, HardeningPlasticStress,
-    HypoelasticStress, IsotropicHardeningCorrespondence,
-    IsotropicHardeningHypoelasticCorrespondence, NeedlemanStress, PerfectlyPlasticStress,
-    StressModel, ViscoplasticNeedlemanCorrespondence,
+    ElasticPlasticHypoelasticCorrespondence, IsotropicHardeningCorrespondence,
+    IsotropicHardeningHypoelasticCorrespondence, ViscoplasticNeedlemanCorrespondence,
 };
 pub use elastic_constants::{ElasticConstants, ElasticInput, PlanarAssumption};
 pub use elastic_plastic::{
@@ -64,19 +67,25 @@ pub use elastic_plastic::{
 pub use influence::{InfluenceFunction, UserInfluence};
 pub use linear_lps::{LinearLps, LinearLpsParameters};
 pub use linear_peridynamic_solid::{LinearPeridynamicSolid, LinearPeridynamicSolidParameters};
-pub use microplastic::{fields as microplastic_fields, permanent_stretch, MicroplasticBondBased};
-pub use pals::{Multipliers, Pals, PalsInfluence, MULTIPLIERS};
-pub use registry::{
-    material_entry, CorrespondenceInput, HypoelasticInput, MaterialConstructor, MaterialEntry,
-    MaterialInput, MATERIALS,
+pub use microplastic::{
+    fields as microplastic_fields, permanent_stretch, MicroplasticBondBased, MicroplasticParameters,
 };
+pub use pals::{Multipliers, Pals, PalsInfluence, PalsParameters, MULTIPLIERS};
+pub use registry::{
+    deck_model, deck_model_names, deck_models, material_entry, BlockInput, MaterialEntry,
+    MaterialParameters, MATERIALS,
+};
+pub(crate) use registry::{MaterialKeys, MaterialModel};
 pub use shear_correction::PROBE_SHEAR;
+pub use unbuilt::{BondAssociatedParameters, BondAssociatedPlasticity, UNBUILT_MATERIALS};
 pub use viscoelastic::{fields as viscoelastic_fields, Viscoelastic, ViscoelasticInput};
 
 use rayon::prelude::*;
 
-use crate::model::{BondList, ModelDeclaration, Reach, VolumeRule};
+use crate::model::{BondList, VolumeRule};
 pub use crate::model::{CurrentView, ReferenceView};
+#[cfg(doc)]
+use crate::model::{ModelDeclaration, Reach};
 use crate::tangent::{BlockTangent, TangentError, TangentMethod};
 
 /// Invalid material parameters or reference data. Messages name the deck key; the deck layer
@@ -298,64 +307,34 @@ pub struct PointCoefficients {
 /// A constitutive model for one block. Object-safe: the run holds `Box<dyn Material>` per
 /// block; the bond loops inside are monomorphized (no virtual call per bond).
 ///
+/// The core every model writes: its [`BlockData`], its reference-configuration set-up, its
+/// passes (coefficients, force, stored energy) and, with history, the history update. What
+/// only some models can do is a capability they return: [`Material::tangent`],
+/// [`Material::outputs`], [`Material::critical_stretch_fast_path`]; thermal strain is declared
+/// ([`ModelDeclaration::thermal_strain`]) and its α kept in the block data. The accessors every
+/// model shares (ρ, K, δ, points, tangent method, …) are written once over the block data
+/// (`impl dyn Material`, in `block.rs`).
+///
 /// Every per-point slice argument is indexed by global point index and every per-bond slice by
 /// global bond index; a material reads all points but writes only the entries of its own.
 pub trait Material: Send + Sync {
-    /// What the model declares about itself: the declaration of its registry entry
-    /// ([`MATERIALS`]).
-    fn declaration(&self) -> &'static ModelDeclaration;
+    /// The block's shared data.
+    fn block(&self) -> &BlockData;
 
-    /// Peridigm's `Material Model` string, e.g. `"Elastic"`.
-    fn model_name(&self) -> &'static str {
-        self.declaration().deck_name
-    }
+    /// The block's shared data, for the set-up.
+    fn block_mut(&mut self) -> &mut BlockData;
 
-    /// Mass density ρ (`Density`).
-    fn density(&self) -> f64;
+    /// Evaluates everything that depends only on the reference configuration for the block's
+    /// points ([`BlockData::points`], stored by `setup` just before): influence weights ω per
+    /// bond, LPS weighted volume m per point, and the like. Fails on reference data the model
+    /// cannot use (a singular shape tensor, a bond leaving a closed block).
+    fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError>;
 
-    /// Bulk modulus K (used by the critical time step for every model, as in Peridigm).
-    fn bulk_modulus(&self) -> f64;
-
-    /// Horizon δ of the block.
-    fn horizon(&self) -> f64;
-
-    /// True when the published [`PointCoefficients`] depend on the deformation (LPS: the
-    /// dilatation pass), so [`Material::compute_point_coefficients`] must run (and be
-    /// exchanged across ranks) before every force evaluation. When false they are constant
-    /// and computing them once after setup is enough. It is the declared reach: a point's
-    /// published numbers depend on its family's deformation exactly when its force reaches
-    /// two hops ([`Reach::TwoHop`]).
-    fn needs_dilatation(&self) -> bool {
-        self.declaration().reach == Reach::TwoHop
-    }
-
-    /// Stores the block's points (strictly increasing global indices) and evaluates
-    /// everything that depends only on the reference configuration. Must be called before the
-    /// other methods; calling it again replaces the previous setup.
-    fn setup(
-        &mut self,
-        reference: &ReferenceView<'_>,
-        points: Vec<u32>,
-    ) -> Result<(), MaterialError>;
-
-    /// The points' 0-based numbers in the input (indexed by run order), given before
-    /// [`Material::setup`]. A model whose reference-configuration sums must round as
-    /// Peridigm's, which adds a family in input order, keeps them (`Pals`); the default ignores
-    /// them.
+    /// The points' 0-based numbers in the input (indexed by run order), given before the
+    /// set-up. A model whose reference-configuration sums must round as Peridigm's, which adds
+    /// a family in input order, keeps them (`Pals`); the default ignores them.
     fn input_numbering(&mut self, original_id: &[u32]) {
         let _ = original_id;
-    }
-
-    /// The block's points given to [`Material::setup`].
-    fn points(&self) -> &[u32];
-
-    /// From now on [`Material::add_force_density`] may skip the block points for which `keep`
-    /// is false, leaving their force density as it was. A rank of a distributed run keeps only
-    /// its owned points: its ghosts' forces are never used (their rows may be truncated), while
-    /// their other per-point values (dilatation, damage) still are. The default computes every
-    /// block point's force.
-    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        let _ = keep;
     }
 
     /// Advances the block's history fields ([`crate::history::History`]) to the configuration
@@ -371,48 +350,6 @@ pub trait Material: Send + Sync {
         history: &mut crate::history::History,
     ) {
         let _ = (reference, current, history);
-    }
-
-    /// The block's `Thermal Expansion Coefficient` α (per degree), when the deck gives one
-    /// (set by [`Material::set_thermal_expansion`]). The physics publishes the free thermal
-    /// strain α ΔT_i of every point from it ([`crate::history::Thermal::strain`]); `None` (the
-    /// default) publishes 0.
-    fn thermal_expansion(&self) -> Option<f64> {
-        None
-    }
-
-    /// Sets the `Thermal Expansion Coefficient` α of the block. The default refuses it (the
-    /// models Peridigm gives no thermal strain), naming the model.
-    fn set_thermal_expansion(&mut self, coefficient: f64) -> Result<(), MaterialError> {
-        let _ = coefficient;
-        Err(MaterialError::ThermalExpansionNotSupported {
-            model: self.model_name(),
-        })
-    }
-
-    /// Adds the hourglass-control part of the force density of the block's points
-    /// (Peridigm's `Hourglass_Force_Density`) to `out`; nothing for models without one (the
-    /// default).
-    fn add_hourglass_force_density(
-        &self,
-        reference: &ReferenceView<'_>,
-        current: &CurrentView<'_>,
-        out: &mut [[f64; 3]],
-    ) {
-        let _ = (reference, current, out);
-    }
-
-    /// Writes Peridigm's `Partial_Stress` of the block's points into `out` (row-major,
-    /// pressure): `Σ_j T_ij ⊗ ξ_ij V_j`, T_ij the force state of the bond from the point's own
-    /// side (force/length⁶), as Peridigm's `Elastic` sums it. Models without a partial stress
-    /// (the default) leave `out` as it is.
-    fn partial_stress(
-        &self,
-        reference: &ReferenceView<'_>,
-        current: &CurrentView<'_>,
-        out: &mut [[f64; 9]],
-    ) {
-        let _ = (reference, current, out);
     }
 
     /// Writes the [`PointCoefficients`] of the block's points into `coefficients`.
@@ -434,17 +371,6 @@ pub trait Material: Send + Sync {
         force_density: &mut [[f64; 3]],
     );
 
-    /// The material's fast path for a constant critical stretch, when it has one for this
-    /// block: the pass in which it can take the decisions of a constant critical stretch
-    /// ([`crate::damage::DamageModel::fusable_critical_stretch`]) itself, saving the damage
-    /// model's own pass over the bonds. [`crate::physics::Physics`] takes it only for a block
-    /// without bonds to another block (their damage is made symmetric between the damage
-    /// update and the bond passes); a material may ask more. Default `None`: the separate
-    /// damage pass.
-    fn critical_stretch_fast_path(&self) -> Option<CriticalStretchFastPath<'_>> {
-        None
-    }
-
     /// Writes the stored elastic energy density W_i (energy/length³) of every block point
     /// (Peridigm's `Stored_Elastic_Energy_Density`; `Stored_Elastic_Energy` is W_i·V_i).
     fn stored_energy_density(
@@ -455,38 +381,32 @@ pub trait Material: Send + Sync {
         energy_density: &mut [f64],
     );
 
-    /// The values of the point output `name` (a name of the declaration's `outputs` that the
-    /// model keeps itself, e.g. `Pals`' `Lagrange_Multiplier_Dilatation_1`) for each block
-    /// point in the order of [`Material::points`]; `None` (the default) for names the model
-    /// does not provide this way.
-    fn point_output(&self, name: &str) -> Option<Vec<f64>> {
-        let _ = name;
+    /// The model's tangent, when it has one (its kind is declared,
+    /// [`ModelDeclaration::tangent`]); `None` (the default): explicit solvers only.
+    fn tangent(&self) -> Option<&dyn MaterialTangent> {
         None
     }
 
-    /// Weighted volume m of each block point in the order of [`Material::points`]
-    /// (Peridigm's `Weighted_Volume`), for state-based models; `None` otherwise.
-    fn weighted_volume(&self) -> Option<&[f64]> {
+    /// The outputs the model computes itself beyond force and energy (weighted volume,
+    /// partial stress, hourglass force, its own point fields); `None` (the default): none.
+    fn outputs(&self) -> Option<&dyn MaterialOutputs> {
         None
     }
 
-    /// The tangent method chosen for this block (deck `Tangent`, set by
-    /// [`Material::set_tangent_method`]); materials without a tangent report finite
-    /// differences, which they cannot do either ([`Material::add_tangent`] says so).
-    fn tangent_method(&self) -> TangentMethod {
-        TangentMethod::FiniteDifference { probe: None }
+    /// The material's fast path for a constant critical stretch, when it has one for this
+    /// block: the pass in which it can take the decisions of a constant critical stretch
+    /// ([`crate::damage::DamageModel::fusable_critical_stretch`]) itself, saving the damage
+    /// model's own pass over the bonds. [`crate::physics::Physics`] takes it only for a block
+    /// without bonds to another block (their damage is made symmetric between the damage
+    /// update and the bond passes); a material may ask more. Default `None`: the separate
+    /// damage pass.
+    fn critical_stretch_fast_path(&self) -> Option<CriticalStretchFastPath<'_>> {
+        None
     }
+}
 
-    /// Chooses how [`Material::add_tangent`] computes this block's tangent by default.
-    /// Fails when the material cannot use `method` (no analytic form, or no tangent at all) or
-    /// the finite-difference probe is not a positive finite number.
-    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
-        let _ = method;
-        Err(TangentError::Unsupported {
-            model: self.model_name(),
-        })
-    }
-
+/// The tangent of a material model (a capability: [`Material::tangent`]).
+pub trait MaterialTangent: Send + Sync {
     /// Adds the tangent contribution of the force states of the block's points,
     /// `∂(V f)/∂u` at `current` with its bond damage held fixed, to `tangent`, computed by
     /// `method` (see [`crate::tangent`]). The pattern must hold every pair of points sharing
@@ -497,22 +417,49 @@ pub trait Material: Send + Sync {
         current: &CurrentView<'_>,
         method: TangentMethod,
         tangent: &mut BlockTangent,
-    ) -> Result<(), TangentError> {
-        let _ = (reference, current, method, tangent);
-        Err(TangentError::Unsupported {
-            model: self.model_name(),
-        })
+    ) -> Result<(), TangentError>;
+}
+
+/// The outputs a material model computes itself (a capability: [`Material::outputs`]); each
+/// method's default is "not provided".
+pub trait MaterialOutputs: Send + Sync {
+    /// Weighted volume m of each block point in the order of [`BlockData::points`]
+    /// (Peridigm's `Weighted_Volume`), for state-based models.
+    fn weighted_volume(&self) -> Option<&[f64]> {
+        None
     }
 
-    /// Peridigm's critical time step over the block's points, see [`critical_time_step`].
-    fn critical_time_step(&self, reference: &ReferenceView<'_>) -> Option<f64> {
-        critical_time_step(
-            reference,
-            self.points(),
-            self.density(),
-            self.bulk_modulus(),
-            self.horizon(),
-        )
+    /// The values of the point output `name` (a name of the declaration's `outputs` that the
+    /// model keeps itself, e.g. `Pals`' `Lagrange_Multiplier_Dilatation_1`) for each block
+    /// point in the order of [`BlockData::points`]; `None` for names the model does not
+    /// provide this way.
+    fn point_output(&self, name: &str) -> Option<Vec<f64>> {
+        let _ = name;
+        None
+    }
+
+    /// Writes Peridigm's `Partial_Stress` of the block's points into `out` (row-major,
+    /// pressure): `Σ_j T_ij ⊗ ξ_ij V_j`, T_ij the force state of the bond from the point's own
+    /// side (force/length⁶), as Peridigm's `Elastic` sums it. The default leaves `out` as it
+    /// is.
+    fn partial_stress(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        out: &mut [[f64; 9]],
+    ) {
+        let _ = (reference, current, out);
+    }
+
+    /// Adds the hourglass-control part of the force density of the block's points
+    /// (Peridigm's `Hourglass_Force_Density`) to `out`; the default adds nothing.
+    fn add_hourglass_force_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        out: &mut [[f64; 3]],
+    ) {
+        let _ = (reference, current, out);
     }
 }
 
@@ -845,6 +792,41 @@ pub(crate) fn assert_point_set(points: &[u32], num_points: usize) {
             "block point {last} is outside the {num_points} points"
         );
     }
+}
+
+/// A concrete material or a boxed one, as the tests hold them.
+#[cfg(test)]
+pub(crate) trait AsMaterial {
+    /// The material as a trait object.
+    fn as_material(&mut self) -> &mut dyn Material;
+}
+
+#[cfg(test)]
+impl<M: Material> AsMaterial for M {
+    fn as_material(&mut self) -> &mut dyn Material {
+        self
+    }
+}
+
+#[cfg(test)]
+impl AsMaterial for Box<dyn Material> {
+    fn as_material(&mut self) -> &mut dyn Material {
+        &mut **self
+    }
+}
+
+/// Sets up `material` on `points` (tests of concrete models reach the shared set-up of
+/// `dyn Material` through this).
+#[cfg(test)]
+pub(crate) fn set_up(
+    material: &mut impl AsMaterial,
+    reference: &ReferenceView<'_>,
+    points: Vec<u32>,
+) {
+    material
+        .as_material()
+        .setup(reference, points)
+        .expect("the test's body sets up");
 }
 
 #[cfg(test)]

@@ -1,181 +1,205 @@
 //! The one list of the material models this build runs.
 //!
-//! Each entry pairs a model's [`ModelDeclaration`] (deck name and keys, reach, fields,
-//! outputs) with its constructor. The builder (`setup::build_physics`), `peridyn check`, the
-//! ghost depth of ranks and the tangent pattern all ask this list; nothing else names a model.
-//! Adding a model is its file, one line in [`MATERIALS`] and its tests.
+//! Each model is one type in its own file that implements [`MaterialModel`]: its declaration
+//! (deck name, documented keys, reach, fields, outputs, tangent, thermal strain), its typed
+//! parameters and the reader that takes them from its deck list, and its builder. Its line in
+//! [`MATERIALS`] makes it a model of the build: the deck reads it by name, the set-up builds it,
+//! `peridyn check`, the ghost depth of ranks, the tangent pattern and the user guide's key
+//! tables ask this list, and the conformance suite (`conformance_tests.rs`) runs it. Nothing
+//! else names a model. Adding a model is its file and one line in [`MATERIALS`].
+
+use std::fmt;
+use std::sync::Arc;
 
 use super::{
     BondBased, ElasticCorrespondence, ElasticHypoelasticCorrespondence, ElasticPlastic,
     ElasticPlasticCorrespondence, ElasticPlasticHardening, ElasticPlasticHypoelasticCorrespondence,
-    ElasticStress, HardeningPlasticStress, HypoelasticStress, InfluenceFunction,
-    IsotropicHardeningCorrespondence, IsotropicHardeningHypoelasticCorrespondence, LinearLps,
-    LinearPeridynamicSolid, Material, MaterialError, MicroplasticBondBased, NeedlemanStress, Pals,
-    PalsInfluence, PerfectlyPlasticStress, PlasticityInput, StressModel, Viscoelastic,
-    ViscoelasticInput, ViscoplasticNeedlemanCorrespondence,
+    InfluenceFunction, IsotropicHardeningCorrespondence,
+    IsotropicHardeningHypoelasticCorrespondence, LinearLps, LinearPeridynamicSolid, Material,
+    MaterialError, MicroplasticBondBased, Pals, Viscoelastic, ViscoplasticNeedlemanCorrespondence,
 };
 use crate::model::ModelDeclaration;
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
+use crate::parameter_list::TypedParameters;
 
-/// The deck values every constructor may read, resolved by the builder from the block and its
-/// `Materials` entry.
+/// What the set-up gives every model's builder for one block, besides the model's own
+/// parameters.
 #[derive(Debug, Clone)]
-pub struct MaterialInput {
+pub struct BlockInput {
     /// `Density` ρ (mass/length³).
     pub density: f64,
     /// The block's `Horizon` δ (length).
     pub horizon: f64,
-    /// Bulk modulus K (pressure): from two elastic constants, or for bond-based models from
-    /// `Bulk Modulus` / `Young's Modulus` with the model's fixed Poisson's ratio.
-    pub bulk_modulus: f64,
-    /// Shear modulus μ (pressure) when the deck gives two elastic constants; `None` for
-    /// bond-based models, whose Poisson's ratio is fixed.
-    pub shear_modulus: Option<f64>,
-    /// `Height` h of a `Plane Strain`/`Plane Stress` bond-based model, or `Thickness` h of a
-    /// `Planar Problem`; `None` in 3D.
-    pub planar_thickness: Option<f64>,
-    /// `Yield Stress`, `Disable Plasticity` and `Hardening Modulus` of the state-based plastic
-    /// models (`None` for other models).
-    pub plasticity: Option<PlasticityInput>,
-    /// `Apply Shear Correction Factor`, with the model's default resolved (true for `Elastic
-    /// Plastic Hardening`, false elsewhere): the ordinary state-based models that support it
-    /// scale α by the pointwise shear-correction factor.
-    pub shear_correction: bool,
-    /// `lambda_i` and `tau b` of `Viscoelastic` (`None` for other models).
-    pub viscoelastic: Option<ViscoelasticInput>,
     /// `Discretization → Influence Function` ω(ζ, δ).
     pub influence: InfluenceFunction,
-    /// The parameters of a correspondence model (`None` for other models).
-    pub correspondence: Option<CorrespondenceInput>,
-    /// The two base influence functions of `Pals` (`None` for other models, and for `Pals`
-    /// Peridigm's default `One` for both).
-    pub pals: Option<PalsInfluence>,
-    /// `Yield Stretch` s_Y of `Microplastic Bond Based` (`None` for other models).
-    pub yield_stretch: Option<f64>,
-    /// `Analytic Weighted Volume` m of `Linear LPS Partial Volume` when the deck sets `Use
-    /// Analytic Weighted Volume: true` (length⁵; `None` otherwise: m from the family).
-    pub analytic_weighted_volume: Option<f64>,
 }
 
-/// The deck parameters of a correspondence model besides its elastic constants.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CorrespondenceInput {
-    /// `Hourglass Coefficient` C_hg (dimensionless, ≥ 0).
-    pub hourglass_coefficient: f64,
-    /// `Yield Stress` σ_y (pressure) of the plastic models.
-    pub yield_stress: Option<f64>,
-    /// `Hardening Modulus` H (pressure) of `Isotropic Hardening Correspondence`.
-    pub hardening_modulus: Option<f64>,
-    /// `Enable Flaw` with its parameters.
-    pub flaw: Option<super::Flaw>,
-    /// The flow-stress parameters of `Viscoplastic Needleman Correspondence`.
-    pub viscoplastic: Option<super::NeedlemanParameters>,
-    /// The semi-Lagrangian parameters of the hypoelastic correspondence models.
-    pub hypoelastic: Option<HypoelasticInput>,
-}
+/// The parameters of one material model, read from its deck list by its reader and kept in
+/// the deck (typed by the model, seen through this trait elsewhere).
+pub trait MaterialParameters: TypedParameters {
+    /// Bulk modulus K (pressure) the parameters give, `None` for a model without one.
+    fn bulk_modulus(&self) -> Option<f64>;
 
-/// The deck parameters of the hypoelastic (semi-Lagrangian) correspondence models.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HypoelasticInput {
-    /// `Actual Horizon` δ_a (length): the horizon of the physics, measured on the current
-    /// configuration; at most the block's `Horizon`, which builds the neighbour lists.
-    pub actual_horizon: f64,
-    /// `Gradient Order Of Accuracy` (Peridigm's default 1, the only order implemented).
-    pub gradient_order_of_accuracy: i64,
-}
-
-impl MaterialInput {
-    /// μ, for models that need it.
-    pub fn required_shear_modulus(&self) -> Result<f64, MaterialError> {
-        self.shear_modulus.ok_or(MaterialError::Missing {
-            key: "Shear Modulus",
-        })
+    /// The thickness h of a planar model (`Height`, `Thickness`); `None` in 3D (the default).
+    fn planar_thickness(&self) -> Option<f64> {
+        None
     }
 
-    /// The correspondence parameters, or a clear error naming `key` when the model needs them.
-    pub fn required_correspondence(
-        &self,
-        key: &'static str,
-    ) -> Result<&CorrespondenceInput, MaterialError> {
-        self.correspondence
-            .as_ref()
-            .ok_or(MaterialError::Missing { key })
+    /// True when the model asks for partial-volume weights itself: a block without its own
+    /// `Quadrature` then uses the `Exact` rule. Default false.
+    fn asks_for_partial_volumes(&self) -> bool {
+        false
+    }
+
+    /// True when the model needs the deck's top-level `Multiphysics: 1`. Default false.
+    fn requires_multiphysics(&self) -> bool {
+        false
     }
 }
 
-/// Builds a model's material for one block from the resolved deck values.
-pub type MaterialConstructor = fn(&MaterialInput) -> Result<Box<dyn Material>, MaterialError>;
+/// A material model as decks name it: its declaration and its typed parameters, read from
+/// its deck list.
+pub(crate) trait MaterialKeys: 'static {
+    /// The model's parameters (its `Material Model` list less the keys every model shares:
+    /// `Density`, `Tangent`, `Finite Difference Probe Length`, `Apply Automatic
+    /// Differentiation Jacobian`, `Thermal Expansion Coefficient`, which the deck reads by the
+    /// declaration).
+    type Parameters: MaterialParameters + Clone + PartialEq;
 
-/// One material model of this build.
-#[derive(Debug, Clone, Copy)]
+    /// What the model declares about itself.
+    const DECLARATION: ModelDeclaration;
+
+    /// Reads the model's own keys from its list (the shared ones are read already); every key
+    /// is one of [`Self::DECLARATION`]'s `deck_keys`. Errors name the file, key path and line.
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<Self::Parameters, DeckError>;
+}
+
+/// A material model this build runs: [`MaterialKeys`] and the builder of one block's material.
+pub(crate) trait MaterialModel: MaterialKeys {
+    /// The material of one block from the block's input and the model's parameters
+    /// (validated: errors name the deck key).
+    fn build(
+        block: &BlockInput,
+        parameters: &Self::Parameters,
+    ) -> Result<Box<dyn Material>, MaterialError>;
+}
+
+/// Reads the parameters of a model from its deck list.
+type ReadParameters =
+    fn(&mut Ctx, &mut ListReader) -> Result<Arc<dyn MaterialParameters>, DeckError>;
+
+/// Builds one block's material from its parameters.
+type Build = fn(&BlockInput, &dyn MaterialParameters) -> Result<Box<dyn Material>, MaterialError>;
+
+/// One material model of the registry.
+#[derive(Clone, Copy)]
 pub struct MaterialEntry {
     /// What the model declares about itself.
     pub declaration: &'static ModelDeclaration,
-    /// Its constructor.
-    pub build: MaterialConstructor,
+    read: ReadParameters,
+    build: Option<Build>,
 }
 
-/// Every material model this build runs, one entry each.
+fn read_erased<M: MaterialKeys>(
+    ctx: &mut Ctx,
+    list: &mut ListReader,
+) -> Result<Arc<dyn MaterialParameters>, DeckError> {
+    Ok(Arc::new(M::read(ctx, list)?))
+}
+
+fn build_erased<M: MaterialModel>(
+    block: &BlockInput,
+    parameters: &dyn MaterialParameters,
+) -> Result<Box<dyn Material>, MaterialError> {
+    let parameters = parameters
+        .as_any()
+        .downcast_ref::<M::Parameters>()
+        .expect("the deck read these parameters with the same registry entry");
+    M::build(block, parameters)
+}
+
+impl MaterialEntry {
+    /// The entry of the model `M`, which this build runs.
+    pub(crate) const fn of<M: MaterialModel>() -> Self {
+        Self {
+            declaration: const { &M::DECLARATION },
+            read: read_erased::<M>,
+            build: Some(build_erased::<M>),
+        }
+    }
+
+    /// The entry of a model whose keys decks may carry but this build does not run.
+    pub(crate) const fn read_only<M: MaterialKeys>() -> Self {
+        Self {
+            declaration: const { &M::DECLARATION },
+            read: read_erased::<M>,
+            build: None,
+        }
+    }
+
+    /// Peridigm's `Material Model` string of the model.
+    pub fn deck_name(&self) -> &'static str {
+        self.declaration.deck_name
+    }
+
+    /// True when this build runs the model.
+    pub fn is_built(&self) -> bool {
+        self.build.is_some()
+    }
+
+    /// Reads the model's parameters from its deck list ([`MaterialKeys::read`]).
+    pub(crate) fn read(
+        &self,
+        ctx: &mut Ctx,
+        list: &mut ListReader,
+    ) -> Result<Arc<dyn MaterialParameters>, DeckError> {
+        (self.read)(ctx, list)
+    }
+
+    /// Builds one block's material from `parameters` (read by this entry); `None` for a model
+    /// this build does not run.
+    pub fn build(
+        &self,
+        block: &BlockInput,
+        parameters: &dyn MaterialParameters,
+    ) -> Option<Result<Box<dyn Material>, MaterialError>> {
+        Some((self.build?)(block, parameters))
+    }
+}
+
+impl fmt::Debug for MaterialEntry {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_tuple("MaterialEntry")
+            .field(&self.declaration.deck_name)
+            .finish()
+    }
+}
+
+impl PartialEq for MaterialEntry {
+    fn eq(&self, other: &Self) -> bool {
+        self.declaration == other.declaration
+    }
+}
+
+/// Every material model this build runs, one line each (in the order decks' error messages
+/// list them).
 pub static MATERIALS: &[MaterialEntry] = &[
-    MaterialEntry {
-        declaration: &BondBased::DECLARATION,
-        build: BondBased::build,
-    },
-    MaterialEntry {
-        declaration: &LinearPeridynamicSolid::DECLARATION,
-        build: LinearPeridynamicSolid::build,
-    },
-    MaterialEntry {
-        declaration: &LinearLps::DECLARATION,
-        build: LinearLps::build,
-    },
-    MaterialEntry {
-        declaration: &ElasticPlastic::DECLARATION,
-        build: ElasticPlastic::build,
-    },
-    MaterialEntry {
-        declaration: &MicroplasticBondBased::DECLARATION,
-        build: MicroplasticBondBased::build,
-    },
-    MaterialEntry {
-        declaration: &ElasticPlasticHardening::DECLARATION,
-        build: ElasticPlasticHardening::build,
-    },
-    MaterialEntry {
-        declaration: &Viscoelastic::DECLARATION,
-        build: Viscoelastic::build,
-    },
-    MaterialEntry {
-        declaration: &Pals::DECLARATION,
-        build: Pals::build,
-    },
-    MaterialEntry {
-        declaration: &<ElasticStress as StressModel>::DECLARATION,
-        build: ElasticCorrespondence::build,
-    },
-    MaterialEntry {
-        declaration: &<PerfectlyPlasticStress as StressModel>::DECLARATION,
-        build: ElasticPlasticCorrespondence::build,
-    },
-    MaterialEntry {
-        declaration: &<HardeningPlasticStress as StressModel>::DECLARATION,
-        build: IsotropicHardeningCorrespondence::build,
-    },
-    MaterialEntry {
-        declaration: &<NeedlemanStress as StressModel>::DECLARATION,
-        build: ViscoplasticNeedlemanCorrespondence::build,
-    },
-    MaterialEntry {
-        declaration: &<ElasticStress as HypoelasticStress>::HYPOELASTIC_DECLARATION,
-        build: ElasticHypoelasticCorrespondence::build,
-    },
-    MaterialEntry {
-        declaration: &<PerfectlyPlasticStress as HypoelasticStress>::HYPOELASTIC_DECLARATION,
-        build: ElasticPlasticHypoelasticCorrespondence::build,
-    },
-    MaterialEntry {
-        declaration: &<HardeningPlasticStress as HypoelasticStress>::HYPOELASTIC_DECLARATION,
-        build: IsotropicHardeningHypoelasticCorrespondence::build,
-    },
+    MaterialEntry::of::<LinearPeridynamicSolid>(),
+    MaterialEntry::of::<ElasticPlastic>(),
+    MaterialEntry::of::<ElasticPlasticHardening>(),
+    MaterialEntry::of::<Viscoelastic>(),
+    MaterialEntry::of::<BondBased>(),
+    MaterialEntry::of::<MicroplasticBondBased>(),
+    MaterialEntry::of::<Pals>(),
+    MaterialEntry::of::<LinearLps>(),
+    MaterialEntry::of::<ElasticCorrespondence>(),
+    MaterialEntry::of::<ElasticPlasticCorrespondence>(),
+    MaterialEntry::of::<IsotropicHardeningCorrespondence>(),
+    MaterialEntry::of::<ViscoplasticNeedlemanCorrespondence>(),
+    MaterialEntry::of::<ElasticHypoelasticCorrespondence>(),
+    MaterialEntry::of::<ElasticPlasticHypoelasticCorrespondence>(),
+    MaterialEntry::of::<IsotropicHardeningHypoelasticCorrespondence>(),
 ];
 
 /// The entry of the model called `deck_name` in decks (`Material Model`), if this build runs it.
@@ -185,89 +209,53 @@ pub fn material_entry(deck_name: &str) -> Option<&'static MaterialEntry> {
         .find(|entry| entry.declaration.deck_name == deck_name)
 }
 
+/// Every model a deck may name: those of [`MATERIALS`], then Peridigm's models this build
+/// reads but does not run ([`super::unbuilt::UNBUILT_MATERIALS`]).
+pub fn deck_models() -> impl Iterator<Item = &'static MaterialEntry> {
+    MATERIALS.iter().chain(super::unbuilt::UNBUILT_MATERIALS)
+}
+
+/// The model a deck's `Material Model: "name"` means (by its deck name or an alias), built or
+/// not.
+pub fn deck_model(name: &str) -> Option<&'static MaterialEntry> {
+    deck_models().find(|entry| entry.declaration.answers_to(name))
+}
+
+/// Every name a deck may give `Material Model`, each model's deck name followed by its
+/// aliases.
+pub fn deck_model_names() -> Vec<&'static str> {
+    deck_models()
+        .flat_map(|entry| {
+            std::iter::once(entry.declaration.deck_name)
+                .chain(entry.declaration.aliases.iter().copied())
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn deck_names_are_unique_and_the_built_material_reports_its_declaration() {
-        for (k, entry) in MATERIALS.iter().enumerate() {
-            let name = entry.declaration.deck_name;
-            assert!(
-                MATERIALS[..k]
-                    .iter()
-                    .all(|other| other.declaration.deck_name != name),
-                "{name} listed twice"
-            );
-            let input = MaterialInput {
-                density: 1.0,
-                horizon: 1.0,
-                bulk_modulus: 1.0,
-                shear_modulus: Some(1.0),
-                planar_thickness: None,
-                plasticity: Some(PlasticityInput {
-                    yield_stress: 1.0,
-                    disabled: false,
-                    hardening_modulus: 0.0,
-                }),
-                shear_correction: false,
-                viscoelastic: Some(ViscoelasticInput {
-                    lambda_i: 0.5,
-                    tau_b: 1.0,
-                }),
-                influence: InfluenceFunction::One,
-                correspondence: Some(CorrespondenceInput {
-                    hourglass_coefficient: 0.0,
-                    yield_stress: Some(1.0),
-                    hardening_modulus: Some(0.1),
-                    flaw: None,
-                    viscoplastic: Some(super::super::NeedlemanParameters {
-                        strain_hardening_exponent: 0.1,
-                        rate_hardening_exponent: 0.02,
-                        reference_strain_rate: 1.0,
-                        reference_strain_0: 0.01,
-                        reference_strain_1: 1.0,
-                    }),
-                    hypoelastic: Some(HypoelasticInput {
-                        actual_horizon: 1.0,
-                        gradient_order_of_accuracy: 1,
-                    }),
-                }),
-                pals: None,
-                yield_stretch: Some(0.01),
-                analytic_weighted_volume: None,
-            };
-            let material = (entry.build)(&input).unwrap();
-            assert_eq!(material.model_name(), name);
-            assert_eq!(material.declaration(), entry.declaration);
-            assert!(std::ptr::eq(material_entry(name).unwrap(), entry));
+    fn deck_names_are_unique_and_each_entry_finds_itself() {
+        let names = deck_model_names();
+        for (k, name) in names.iter().enumerate() {
+            assert!(!names[..k].contains(name), "{name} listed twice");
         }
-        assert!(material_entry("Linear LPS Partial Volume").is_some());
-    }
-
-    #[test]
-    fn a_model_that_needs_the_shear_modulus_says_so() {
-        let input = MaterialInput {
-            density: 1.0,
-            horizon: 1.0,
-            bulk_modulus: 1.0,
-            shear_modulus: None,
-            planar_thickness: None,
-            plasticity: None,
-            shear_correction: false,
-            viscoelastic: None,
-            influence: InfluenceFunction::One,
-            correspondence: None,
-            pals: None,
-            yield_stretch: None,
-            analytic_weighted_volume: None,
-        };
-        let error = (material_entry("Elastic").unwrap().build)(&input).err();
+        for entry in MATERIALS {
+            let name = entry.deck_name();
+            assert!(entry.is_built(), "{name}");
+            assert!(std::ptr::eq(material_entry(name).unwrap(), entry));
+            assert!(std::ptr::eq(deck_model(name).unwrap(), entry));
+        }
+        for entry in super::super::unbuilt::UNBUILT_MATERIALS {
+            assert!(!entry.is_built());
+            assert!(material_entry(entry.deck_name()).is_none());
+        }
         assert_eq!(
-            error,
-            Some(MaterialError::Missing {
-                key: "Shear Modulus"
-            })
+            deck_model("Elastic Partial Volume").map(MaterialEntry::deck_name),
+            Some("Elastic")
         );
+        assert!(material_entry("Linear LPS Partial Volume").is_some());
     }
 }

@@ -76,7 +76,7 @@ impl Body {
 
     fn set_up(&self, mut material: Box<dyn Material>) -> Box<dyn Material> {
         let all = (0..self.x.len() as u32).collect();
-        material.setup(&self.reference(), all).unwrap();
+        crate::material::set_up(&mut material, &self.reference(), all);
         material
     }
 
@@ -109,25 +109,34 @@ impl Body {
 
 fn pmb(bulk: f64) -> Box<dyn Material> {
     Box::new(
-        BondBased::new(BondBasedParameters {
-            density: 1.0,
-            bulk_modulus: bulk,
-            horizon: HORIZON,
-            planar_thickness: None,
-        })
+        BondBased::new(
+            &crate::material::BlockInput {
+                density: 1.0,
+                horizon: HORIZON,
+                influence: crate::material::InfluenceFunction::One,
+            },
+            &crate::material::BondBasedParameters {
+                bulk_modulus: bulk,
+                planar_thickness: None,
+            },
+        )
         .unwrap(),
     )
 }
 
 fn lps() -> Box<dyn Material> {
     Box::new(
-        LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-            density: 1.0,
-            bulk_modulus: 3.0,
-            shear_modulus: 1.7,
-            horizon: HORIZON,
-            influence: InfluenceFunction::One,
-        })
+        LinearPeridynamicSolid::new(
+            &crate::material::BlockInput {
+                density: 1.0,
+                horizon: HORIZON,
+                influence: InfluenceFunction::One,
+            },
+            &crate::material::ElasticConstants {
+                bulk_modulus: 3.0,
+                shear_modulus: 1.7,
+            },
+        )
         .unwrap(),
     )
 }

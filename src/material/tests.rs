@@ -8,25 +8,34 @@ const PI: f64 = std::f64::consts::PI;
 
 fn pmb(bulk: f64, horizon: f64) -> Box<dyn Material> {
     Box::new(
-        BondBased::new(BondBasedParameters {
-            density: 2.0,
-            bulk_modulus: bulk,
-            horizon,
-            planar_thickness: None,
-        })
+        BondBased::new(
+            &crate::material::BlockInput {
+                density: 2.0,
+                horizon,
+                influence: crate::material::InfluenceFunction::One,
+            },
+            &crate::material::BondBasedParameters {
+                bulk_modulus: bulk,
+                planar_thickness: None,
+            },
+        )
         .unwrap(),
     )
 }
 
 fn lps(bulk: f64, shear: f64, horizon: f64, influence: InfluenceFunction) -> Box<dyn Material> {
     Box::new(
-        LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-            density: 2.0,
-            bulk_modulus: bulk,
-            shear_modulus: shear,
-            horizon,
-            influence,
-        })
+        LinearPeridynamicSolid::new(
+            &crate::material::BlockInput {
+                density: 2.0,
+                horizon,
+                influence,
+            },
+            &crate::material::ElasticConstants {
+                bulk_modulus: bulk,
+                shear_modulus: shear,
+            },
+        )
         .unwrap(),
     )
 }
@@ -95,7 +104,7 @@ fn evaluate(
 }
 
 fn set_up(body: &Body, mut material: Box<dyn Material>) -> Box<dyn Material> {
-    material.setup(&body.reference(), body.all()).unwrap();
+    crate::material::set_up(&mut material, &body.reference(), body.all());
     material
 }
 
@@ -272,12 +281,17 @@ fn pmb_two_point_force_and_energy_by_hand() {
 #[test]
 fn pmb_planar_micromodulus() {
     // Plane strain/stress: c = 12K/(π h δ³); K = 3, h = 0.5, δ = 2 → 36/(π·0.5·8) = 9/π.
-    let m = BondBased::new(BondBasedParameters {
-        density: 1.0,
-        bulk_modulus: 3.0,
-        horizon: 2.0,
-        planar_thickness: Some(0.5),
-    })
+    let m = BondBased::new(
+        &crate::material::BlockInput {
+            density: 1.0,
+            horizon: 2.0,
+            influence: crate::material::InfluenceFunction::One,
+        },
+        &crate::material::BondBasedParameters {
+            bulk_modulus: 3.0,
+            planar_thickness: Some(0.5),
+        },
+    )
     .unwrap();
     assert!((m.micromodulus() - 9.0 / PI).abs() < 1e-15);
 }
@@ -303,15 +317,19 @@ fn lps_two_point_force_by_hand() {
 fn lps_user_influence_enters_weighted_volume() {
     // ω = 1/ζ (Peridigm's test deck "1.0/zeta"): m_0 = ω ζ² V_1 = ζ V_1 = 2 · 0.5 = 1.
     let body = Body::new(vec![[0.0; 3], [2.0, 0.0, 0.0]], vec![2.0, 0.5], 2.5);
-    let mut m = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-        density: 1.0,
-        bulk_modulus: 1.0,
-        shear_modulus: 1.0,
-        horizon: 2.5,
-        influence: InfluenceFunction::user(|zeta, _| 1.0 / zeta),
-    })
+    let mut m = LinearPeridynamicSolid::new(
+        &crate::material::BlockInput {
+            density: 1.0,
+            horizon: 2.5,
+            influence: InfluenceFunction::user(|zeta, _| 1.0 / zeta),
+        },
+        &crate::material::ElasticConstants {
+            bulk_modulus: 1.0,
+            shear_modulus: 1.0,
+        },
+    )
     .unwrap();
-    m.setup(&body.reference(), body.all()).unwrap();
+    crate::material::set_up(&mut m, &body.reference(), body.all());
     assert_eq!(m.weighted_volume(), &[1.0, 4.0]); // m_1 = ζ V_0 = 2 · 2
 }
 
@@ -460,8 +478,8 @@ fn blocks_with_different_constants_stay_consistent() {
         ),
     ];
     for (mut a, mut b) in pairs {
-        a.setup(&body.reference(), left.clone()).unwrap();
-        b.setup(&body.reference(), right.clone()).unwrap();
+        crate::material::set_up(&mut a, &body.reference(), left.clone());
+        crate::material::set_up(&mut b, &body.reference(), right.clone());
         let blocks = [a, b];
         assert_force_is_energy_gradient(&body, &blocks, &y, None);
         let (f, _, _) = evaluate(&body, &blocks, &y, None);
@@ -503,21 +521,30 @@ fn critical_time_step_of_two_points_by_hand() {
 
 #[test]
 fn invalid_parameters_are_errors_naming_the_key() {
-    let err = BondBased::new(BondBasedParameters {
-        density: -1.0,
-        bulk_modulus: 1.0,
-        horizon: 1.0,
-        planar_thickness: None,
-    })
+    let err = BondBased::new(
+        &crate::material::BlockInput {
+            density: -1.0,
+            horizon: 1.0,
+            influence: crate::material::InfluenceFunction::One,
+        },
+        &crate::material::BondBasedParameters {
+            bulk_modulus: 1.0,
+            planar_thickness: None,
+        },
+    )
     .unwrap_err();
     assert!(err.to_string().contains("`Density`"), "{err}");
-    let err = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-        density: 1.0,
-        bulk_modulus: 1.0,
-        shear_modulus: f64::NAN,
-        horizon: 1.0,
-        influence: InfluenceFunction::One,
-    })
+    let err = LinearPeridynamicSolid::new(
+        &crate::material::BlockInput {
+            density: 1.0,
+            horizon: 1.0,
+            influence: InfluenceFunction::One,
+        },
+        &crate::material::ElasticConstants {
+            bulk_modulus: 1.0,
+            shear_modulus: f64::NAN,
+        },
+    )
     .unwrap_err();
     assert!(err.to_string().contains("`Shear Modulus`"), "{err}");
 }

@@ -39,18 +39,80 @@ impl Reach {
     }
 }
 
+/// One deck key of a model, documented once: its model's reader reads it by this name, and the
+/// model's page in the user guide lists it in the key table generated from the registry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct KeyDoc {
+    /// The key as written in decks, e.g. `Yield Stress`.
+    pub key: &'static str,
+    /// What it sets (one line, with the symbol the model's formulas use).
+    pub meaning: &'static str,
+    /// Its unit: a dimension such as `pressure` or `length`, `—` for a number without one, or
+    /// the kind of value (`true/false`, a name).
+    pub unit: &'static str,
+    /// Its default, or `required`.
+    pub default: &'static str,
+}
+
+/// How a material model provides the tangent ∂f/∂u of its block.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TangentSupport {
+    /// No tangent: the model runs only with explicit solvers.
+    None,
+    /// A closed form (the default), automatic or finite differences of the same force state.
+    Analytic,
+    /// Automatic differentiation of the force code (the default) or finite differences; no
+    /// closed form.
+    Differentiated,
+}
+
+impl TangentSupport {
+    /// The words the model pages use for it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            TangentSupport::None => "none (explicit solvers only)",
+            TangentSupport::Analytic => {
+                "analytic (default), automatic differentiation or finite differences"
+            }
+            TangentSupport::Differentiated => {
+                "automatic differentiation (default) or finite differences"
+            }
+        }
+    }
+}
+
 /// Everything a model declares besides its constructor: its deck name and keys, its reach,
-/// its fields and the output variables it provides.
+/// its fields, the output variables it provides and what else it can do.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ModelDeclaration {
     /// Peridigm's model name as written in decks (`Material Model` or `Damage Model`).
     pub deck_name: &'static str,
-    /// The deck keys the model reads, besides the model name (documentation and `check`).
-    pub deck_keys: &'static [&'static str],
+    /// Other names decks may give the same model (Peridigm's `Elastic Partial Volume` is
+    /// `Elastic`).
+    pub aliases: &'static [&'static str],
+    /// The deck keys the model reads, besides the model name, in the order its page lists
+    /// them.
+    pub deck_keys: &'static [KeyDoc],
     /// How far the force of a point reaches.
     pub reach: Reach,
     /// The fields the model keeps.
     pub fields: &'static [FieldDeclaration],
     /// The output variables only this kind of model provides (Peridigm's names).
     pub outputs: &'static [&'static str],
+    /// How a material computes its tangent ([`TangentSupport::None`] for damage models).
+    pub tangent: TangentSupport,
+    /// True when the model takes a `Thermal Expansion Coefficient` (thermal strain α ΔT).
+    pub thermal_strain: bool,
+}
+
+impl ModelDeclaration {
+    /// The documentation of the deck key `key`, if the model reads it.
+    pub fn key(&self, key: &str) -> Option<&'static KeyDoc> {
+        self.deck_keys.iter().find(|doc| doc.key == key)
+    }
+
+    /// True when decks may call the model `name` (its deck name or an alias).
+    pub fn answers_to(&self, name: &str) -> bool {
+        self.deck_name == name || self.aliases.contains(&name)
+    }
 }

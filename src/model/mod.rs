@@ -6,6 +6,7 @@
 //! blocks the points belong to, [`NodeSets`] maps deck/mesh node-set names to point indices,
 //! and [`BondList`] holds every point's family in compressed-sparse-row form.
 
+mod bond_filters;
 mod bonds;
 mod declaration;
 mod node_sets;
@@ -17,8 +18,12 @@ pub mod surface_correction;
 pub(crate) mod test_support;
 mod views;
 
+pub(crate) use bond_filters::read_bond_filter;
+pub use bond_filters::{BondFilter, BondFilterShape};
 pub use bonds::BondList;
-pub use declaration::{FieldCarrier, FieldDeclaration, ModelDeclaration, Reach};
+pub use declaration::{
+    FieldCarrier, FieldDeclaration, KeyDoc, ModelDeclaration, Reach, TangentSupport,
+};
 pub use node_sets::{normalize_name, NodeSets};
 pub use points::{BlockInfo, PointCloud};
 pub(crate) use views::with_volume_rule;

@@ -20,7 +20,8 @@ pub fn check_distributable(deck: &Deck, ranks: usize) -> Result<(), Unsupported>
                 material.name, declaration.deck_name
             )));
         }
-        if declared == Some(&crate::material::Pals::DECLARATION) {
+        if declared == Some(&<crate::material::Pals as crate::material::MaterialKeys>::DECLARATION)
+        {
             return Err(Unsupported(format!(
                 "material \"{}\" (Pals) on {ranks} ranks is not available: its influence functions are fitted to whole families, which a rank's ghost points do not have; run on one rank (threads: `--threads`)",
                 material.name

@@ -23,7 +23,7 @@ pub fn halo_depth(deck: &Deck) -> usize {
     };
     let damage_reach = |name: &str| {
         deck.damage_model(name)
-            .and_then(|d| damage_entry(d.kind.deck_name()))
+            .and_then(|d| damage_entry(d.model.deck_name()))
             .map_or(Reach::TwoHop, |entry| entry.declaration.reach)
     };
     deck.blocks

@@ -29,8 +29,8 @@ use crate::discretization::{
 };
 use crate::expression::{Expression, INFLUENCE, SPACE, SPACE_TIME, TIME};
 use crate::io::deck::{
-    BoundaryConditionKind, DamageKind, Deck, DeckError, Horizon, InfluenceFunction, NodeSetSource,
-    OmitBonds, PointSource, QuickGridGenerator,
+    BoundaryConditionKind, Deck, DeckError, Horizon, InfluenceFunction, NodeSetSource, OmitBonds,
+    PointSource, QuickGridGenerator,
 };
 use crate::model::{BlockInfo, BondList, Model, ModelBlock, NodeSets, PointCloud};
 use crate::neighbors::{space_filling_curve_order, NeighborhoodRule};
@@ -193,7 +193,8 @@ pub(crate) fn compile(
 }
 
 /// Checks every expression in the deck that this build evaluates later (influence function,
-/// time-dependent critical stretch, time-dependent friction), so a typo fails before any work is done.
+/// time-dependent friction; a damage model's expressions are checked when its list is read),
+/// so a typo fails before any work is done.
 fn check_expressions(deck: &Deck) -> Result<(), DeckError> {
     if let InfluenceFunction::Expression(text) = &deck.discretization.influence_function {
         compile(
@@ -202,23 +203,6 @@ fn check_expressions(deck: &Deck) -> Result<(), DeckError> {
             text,
             INFLUENCE,
         )?;
-    }
-    for model in &deck.damage_models {
-        if let DamageKind::TimeDependentCriticalStretch {
-            critical_stretch, ..
-        } = &model.kind
-        {
-            compile(
-                deck,
-                &[
-                    "Damage Models",
-                    &model.name,
-                    "Time Dependent Critical Stretch",
-                ],
-                critical_stretch,
-                TIME,
-            )?;
-        }
     }
     for model in deck.contact.iter().flat_map(|c| &c.models) {
         if let crate::io::deck::Friction::TimeDependent(text) = &model.friction {

@@ -4,17 +4,10 @@ use super::{compile, SetupError};
 use crate::model::Model;
 use std::sync::Arc;
 
-use crate::damage::{
-    critical_stretch_from_energy_release_rate, damage_entry, DamageInput, DamageModel,
-    InterfaceAware, POINT_CRITICAL_STRETCH,
-};
-use crate::expression::{INFLUENCE, TIME};
-use crate::io::deck::{
-    Block, DamageKind, Deck, Horizon, InfluenceFunction as DeckInfluence, StretchLimit,
-};
-use crate::material::{
-    material_entry, InfluenceFunction, Material, MaterialError, MaterialInput, ReferenceView,
-};
+use crate::damage::{DamageBlock, DamageModel, InterfaceAware, POINT_CRITICAL_STRETCH};
+use crate::expression::INFLUENCE;
+use crate::io::deck::{Block, Deck, Horizon, InfluenceFunction as DeckInfluence};
+use crate::material::{BlockInput, InfluenceFunction, Material, MaterialError, ReferenceView};
 use crate::physics::{BlockPhysics, Physics};
 
 fn influence(deck: &Deck) -> Result<InfluenceFunction, SetupError> {
@@ -94,15 +87,14 @@ fn point_critical_stretch(deck: &Deck, model: &Model) -> Option<Arc<[f64]>> {
         .iter()
         .filter_map(|block| {
             let name = deck.blocks[block.deck_block].damage_model.as_ref()?;
-            let kind = &deck.damage_model(name)?.kind;
-            let declares = damage_entry(kind.deck_name())?
+            let damage = deck.damage_model(name)?;
+            let declares = damage
+                .model
                 .declaration
                 .fields
                 .contains(&POINT_CRITICAL_STRETCH);
-            match (declares, kind.critical_stretch()?) {
-                (true, StretchLimit::Stretch(s_c)) => Some((&block.points[..], s_c)),
-                _ => None,
-            }
+            let s_c = damage.parameters.critical_stretch()?;
+            declares.then_some((&block.points[..], s_c))
         })
         .collect();
     (!blocks.is_empty()).then(|| InterfaceAware::field(model.points.len(), blocks))
@@ -175,7 +167,12 @@ fn build_material(
     let density = material
         .density
         .ok_or_else(|| deck.error_at(&key_material, "this material needs a Density"))?;
-    let Some(registered) = material_entry(material.model.deck_name()) else {
+    let input = BlockInput {
+        density,
+        horizon,
+        influence: influence.clone(),
+    };
+    let Some(built) = material.model.build(&input, &*material.parameters) else {
         return Err(deck
             .error_at(
                 &[&key_material[..], &["Material Model"]].concat(),
@@ -186,26 +183,7 @@ fn build_material(
             )
             .into());
     };
-    let bulk_modulus = material
-        .bulk_modulus()
-        .ok_or_else(|| deck.error_at(&key_material, "this material needs elastic constants"))?;
-    let input = MaterialInput {
-        density,
-        horizon,
-        bulk_modulus,
-        shear_modulus: material.shear_modulus(),
-        planar_thickness: material.planar_thickness(),
-        plasticity: material.model.plasticity_input(),
-        shear_correction: material.model.shear_correction(),
-        viscoelastic: material.model.viscoelastic_input(),
-        influence: influence.clone(),
-        correspondence: material.model.correspondence_input(),
-        pals: material.model.pals_input(),
-        yield_stretch: material.model.yield_stretch(),
-        analytic_weighted_volume: material.model.analytic_weighted_volume(),
-    };
-    let mut built =
-        (registered.build)(&input).map_err(|e| deck.error_at(&key_material, e.to_string()))?;
+    let mut built = built.map_err(|e| deck.error_at(&key_material, e.to_string()))?;
     built.input_numbering(&model.points.original_id);
     built
         .setup(reference, block.points.clone())
@@ -244,24 +222,6 @@ struct BlockConstants {
     horizon: f64,
 }
 
-/// The `Bond Filters` of an `Initial Damage` model as geometry (empty for other models).
-fn initial_damage_filters(
-    deck: &Deck,
-    name: &str,
-    kind: &DamageKind,
-) -> Result<Vec<crate::neighbors::BondFilter>, SetupError> {
-    let DamageKind::InitialDamage { bond_filters } = kind else {
-        return Ok(Vec::new());
-    };
-    bond_filters
-        .iter()
-        .map(|filter| {
-            let key = ["Damage Models", name, "Bond Filters", filter.name.as_str()];
-            super::families::build_bond_filter(deck, &key, filter)
-        })
-        .collect()
-}
-
 /// The block's damage model `name`, built by its registry entry.
 fn build_damage(
     deck: &Deck,
@@ -277,46 +237,35 @@ fn build_damage(
             "no such damage model",
         )
     })?;
-    let registered = damage_entry(model.kind.deck_name()).ok_or_else(|| {
-        deck.error_at(
-            &key,
-            format!(
-                "damage model \"{}\" (with these options) is not available in this build",
-                model.kind.deck_name()
-            ),
-        )
-    })?;
-    let key_expression = [key[0], key[1], "Time Dependent Critical Stretch"];
-    let critical_stretch_in_time = match model.kind.critical_stretch_expression() {
-        Some(text) => Some(compile(deck, &key_expression, text, TIME)?),
-        None => None,
-    };
-    let input = DamageInput {
-        critical_stretch: model.kind.critical_stretch().map(|limit| match limit {
-            StretchLimit::Stretch(s_c) => s_c,
-            StretchLimit::EnergyReleaseRate(g0) => {
-                critical_stretch_from_energy_release_rate(g0, block.bulk_modulus, block.horizon)
-            }
-        }),
-        critical_stretch_in_time,
+    let bond_filters = model
+        .parameters
+        .bond_filters()
+        .iter()
+        .map(|filter| {
+            let key = ["Damage Models", name, "Bond Filters", filter.name.as_str()];
+            super::families::build_bond_filter(deck, &key, filter)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let input = DamageBlock {
+        bulk_modulus: block.bulk_modulus,
+        horizon: block.horizon,
         initial_time: deck.solvers.first().map_or(0.0, |s| s.initial_time),
         point_critical_stretch: point_critical_stretch.clone(),
-        bond_filters: initial_damage_filters(deck, name, &model.kind)?,
+        bond_filters,
     };
-    let key_error = if input.critical_stretch_in_time.is_some() {
-        &key_expression[..]
-    } else {
-        &key[..]
-    };
-    let mut built =
-        (registered.build)(&input).map_err(|e| deck.error_at(key_error, e.to_string()))?;
-    if let Some(coefficient) = model.kind.thermal_expansion_coefficient() {
-        built.set_thermal_expansion(coefficient).map_err(|e| {
-            deck.error_at(
-                &[key[0], key[1], "Thermal Expansion Coefficient"],
-                e.to_string(),
+    let Some(built) = model.model.build(&input, &*model.parameters) else {
+        return Err(deck
+            .error_at(
+                &key,
+                format!(
+                    "damage model \"{}\" (with these options) is not available in this build",
+                    model.model.deck_name()
+                ),
             )
-        })?;
-    }
-    Ok(built)
+            .into());
+    };
+    built.map_err(|e| {
+        let place: Vec<&str> = key.iter().copied().chain(e.key()).collect();
+        deck.error_at(&place, e.to_string()).into()
+    })
 }

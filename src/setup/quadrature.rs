@@ -28,7 +28,7 @@ pub fn block_rule(deck: &Deck, entry: &Block) -> Result<QuadratureRule, SetupErr
             // Peridigm's own `PV` scheme.
             let asks = deck
                 .material(&entry.material)
-                .is_some_and(|m| m.model.asks_for_partial_volumes());
+                .is_some_and(|m| m.asks_for_partial_volumes());
             if asks {
                 QuadratureRule::Exact
             } else {

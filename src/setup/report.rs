@@ -135,7 +135,7 @@ fn used_declarations(deck: &Deck, model: &Model) -> UsedModels {
             .as_ref()
             .and_then(|n| deck.damage_model(n))
         {
-            let found = crate::damage::damage_entry(damage.kind.deck_name());
+            let found = crate::damage::damage_entry(damage.model.deck_name());
             used.damage.push(found.map(|e| e.declaration));
         }
     }
@@ -191,7 +191,7 @@ pub fn unsupported_features(deck: &Deck) -> Vec<String> {
         }
     }
     for damage in &deck.damage_models {
-        let name = damage.kind.deck_name();
+        let name = damage.model.deck_name();
         if crate::damage::damage_entry(name).is_none() {
             note(format!("damage model {name}"));
         }

@@ -9,8 +9,7 @@ use std::sync::Arc;
 
 use super::*;
 use crate::material::{
-    BondBased, BondBasedParameters, InfluenceFunction, LinearPeridynamicSolid,
-    LinearPeridynamicSolidParameters, Material, ReferenceView,
+    BondBased, InfluenceFunction, LinearPeridynamicSolid, Material, ReferenceView,
 };
 use crate::model::test_support::{brute_force_bonds, lattice, random_cloud, Rng};
 use crate::model::{BondList, PointCloud};
@@ -39,25 +38,34 @@ const KINDS: [Kind; 4] = [
 fn material(kind: Kind, bulk: f64, shear: f64) -> Box<dyn Material> {
     let lps = |influence, corrected| {
         Box::new(
-            LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-                density: 2.0,
-                bulk_modulus: bulk,
-                shear_modulus: shear,
-                horizon: HORIZON,
-                influence,
-            })
+            LinearPeridynamicSolid::new(
+                &crate::material::BlockInput {
+                    density: 2.0,
+                    horizon: HORIZON,
+                    influence,
+                },
+                &crate::material::ElasticConstants {
+                    bulk_modulus: bulk,
+                    shear_modulus: shear,
+                },
+            )
             .unwrap()
             .with_shear_correction(corrected),
         ) as Box<dyn Material>
     };
     match kind {
         Kind::Pmb => Box::new(
-            BondBased::new(BondBasedParameters {
-                density: 2.0,
-                bulk_modulus: bulk,
-                horizon: HORIZON,
-                planar_thickness: None,
-            })
+            BondBased::new(
+                &crate::material::BlockInput {
+                    density: 2.0,
+                    horizon: HORIZON,
+                    influence: crate::material::InfluenceFunction::One,
+                },
+                &crate::material::BondBasedParameters {
+                    bulk_modulus: bulk,
+                    planar_thickness: None,
+                },
+            )
             .unwrap(),
         ),
         Kind::LpsOne => lps(InfluenceFunction::One, false),

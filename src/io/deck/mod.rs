@@ -19,23 +19,22 @@ mod boundary;
 mod contact;
 mod damage;
 mod discretization;
-mod error;
 mod integrators;
 mod linear_solve;
 mod materials;
 mod output;
 mod overrides;
 mod parameters;
-mod reader;
 mod solver;
 #[cfg(test)]
 pub(crate) use linear_solve::tests::three_point_bar_text;
 mod study;
-mod tree;
 mod xml;
 mod yaml;
 
 use std::collections::HashMap;
+
+use crate::parameter_list::{error, reader, tree};
 use std::path::{Path, PathBuf};
 
 pub use blocks::{Block, Horizon};
@@ -44,7 +43,7 @@ pub use boundary::{
     NodeSetDefinition, NodeSetSource,
 };
 pub use contact::{Contact, ContactInteraction, ContactModel, Friction};
-pub use damage::{DamageKind, DamageModel, StretchLimit};
+pub use damage::DamageModel;
 pub use discretization::{
     BondFilter, BondFilterShape, Discretization, ElementHorizonIntersections, InfluenceFunction,
     OmitBonds, PointSource, QuickGridGenerator,
@@ -58,10 +57,7 @@ pub use linear_solve::{
     parse_petsc_options, AlgebraicPreconditioner, BelosSettings, BelosSolver, LinearBackend,
     LinearMethod, LinearPreconditioner, LinearSolve, NonlinearMethod, PetscPreconditioner,
 };
-pub use materials::{
-    BondAssociatedPlasticity, BondBasedModulus, CorrespondencePlasticity, ElasticConstants, Flaw,
-    Material, MaterialModel, PalsInfluence, PlanarKind,
-};
+pub use materials::{Flaw, Material};
 pub use output::{CalculationType, ComputeClass, ComputeClassKind, Output};
 pub use overrides::{split_key_path, Override};
 pub use parameters::ParameterValue;
@@ -570,9 +566,7 @@ fn check_block_material(ctx: &Ctx, deck: &Deck, block: &Block) -> Result<(), Dec
             ))
         }
         Some(material) => {
-            if matches!(material.model, MaterialModel::MultiphysicsElastic { .. })
-                && !deck.multiphysics
-            {
+            if material.parameters.requires_multiphysics() && !deck.multiphysics {
                 let path = ["Materials", material.name.as_str(), "Material Model"];
                 return Err(ctx.error(
                     deck.line_of(&path),

@@ -1,5 +1,5 @@
 //! `Elastic Correspondence`'s stress model: hypoelastic isotropic elasticity in the unrotated
-//! frame (Peridigm's `updateElasticCauchyStress`, reference §1.3):
+//! frame (Peridigm's `updateElasticCauchyStress`, `correspondence.cxx`):
 //!
 //! `σ̃_{n+1} = σ̃_n + 2μ dev(d Δt) + K tr(d Δt) I`,
 //!
@@ -8,9 +8,12 @@
 //! many steps it is the usual hypoelastic rate form.
 
 use super::kinematics::{deviator, lift, trace, Tensor};
-use super::{PointStep, StressModel, StressState};
-use crate::material::{positive, MaterialError, MaterialInput};
-use crate::model::{ModelDeclaration, Reach};
+use super::{PointStep, StressModel, StressState, HOURGLASS_COEFFICIENT};
+use crate::material::keys::{DENSITY, ELASTIC, PROBE_LENGTH, TANGENT, THERMAL_EXPANSION};
+use crate::material::{positive, ElasticConstants, MaterialError};
+use crate::model::{ModelDeclaration, Reach, TangentSupport};
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::Scalar;
 
 /// Hypoelastic isotropic elasticity (K, μ).
@@ -23,30 +26,37 @@ pub(crate) struct ElasticStress {
 }
 
 impl StressModel for ElasticStress {
+    type Parameters = ();
+
     const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Elastic Correspondence",
+        aliases: &[],
         deck_keys: &[
-            "Density",
-            "Bulk Modulus",
-            "Shear Modulus",
-            "Young's Modulus",
-            "Poisson's Ratio",
-            "Hourglass Coefficient",
-            "Thermal Expansion Coefficient",
-            "Tangent",
-            "Finite Difference Probe Length",
+            DENSITY,
+            ELASTIC[0],
+            ELASTIC[1],
+            ELASTIC[2],
+            ELASTIC[3],
+            HOURGLASS_COEFFICIENT,
+            THERMAL_EXPANSION,
+            TANGENT,
+            PROBE_LENGTH,
         ],
         reach: Reach::TwoHop,
         fields: super::CORRESPONDENCE_FIELDS,
         outputs: super::CORRESPONDENCE_OUTPUTS,
+        tangent: TangentSupport::Differentiated,
+        thermal_strain: true,
     };
 
-    const THERMAL_EXPANSION: bool = true;
+    fn read(_ctx: &mut Ctx, _list: &mut ListReader) -> Result<(), DeckError> {
+        Ok(())
+    }
 
-    fn from_input(input: &MaterialInput) -> Result<Self, MaterialError> {
+    fn new(elastic: &ElasticConstants, _parameters: &()) -> Result<Self, MaterialError> {
         Ok(Self {
-            bulk_modulus: positive("Bulk Modulus", input.bulk_modulus)?,
-            shear_modulus: positive("Shear Modulus", input.required_shear_modulus()?)?,
+            bulk_modulus: positive("Bulk Modulus", elastic.bulk_modulus)?,
+            shear_modulus: positive("Shear Modulus", elastic.shear_modulus)?,
         })
     }
 

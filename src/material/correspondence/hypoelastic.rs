@@ -1,6 +1,6 @@
 //! The hypoelastic (semi-Lagrangian) correspondence models, Peridigm's `Elastic Hypoelastic
 //! Correspondence`, `Elastic Plastic Hypoelastic Correspondence` and `Isotropic Hardening
-//! Hypoelastic Correspondence` (reference §1.3; Behzadinasab & Foster, "A semi-Lagrangian
+//! Hypoelastic Correspondence` (Peridigm's `Peridigm_HypoelasticCorrespondenceMaterial.cpp`; Behzadinasab & Foster, "A semi-Lagrangian
 //! constitutive correspondence framework for peridynamics", J. Mech. Phys. Solids 137 (2020)
 //! 103862).
 //!
@@ -55,21 +55,25 @@ use super::kinematics::{
     determinant, from_row_major, identity, inverse, lift, rotate_and_stretch, scaled, to_row_major,
     StepStart, Tensor,
 };
-use super::plastic::PlasticStress;
+use super::plastic::{PlasticParameters, PlasticStress};
 use super::{
-    fields, tensor_field, well_conditioned, CommittedHistory, Held, PointStep, PointTensors,
-    PointUpdate, StressModel, CORRESPONDENCE_OUTPUTS,
+    fields, hourglass_coefficient, tensor_field, well_conditioned, CommittedHistory, Held,
+    PointStep, PointTensors, PointUpdate, StressModel, CORRESPONDENCE_OUTPUTS,
 };
 use crate::history::History;
+use crate::material::keys::{DENSITY, ELASTIC, PROBE_LENGTH, TANGENT};
 use crate::material::{
-    assert_point_set, checked_differentiated_tangent_method, kept_points, positive, CurrentView,
-    InfluenceFunction, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
-    PERIDIGM_PI,
+    positive, BlockData, BlockInput, CurrentView, ElasticConstants, InfluenceFunction, Material,
+    MaterialError, MaterialKeys, MaterialModel, MaterialOutputs, MaterialParameters,
+    MaterialTangent, PointCoefficients, ReferenceView, PERIDIGM_PI,
 };
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::{
-    BondList, BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach,
+    BondList, BondVolumes, FieldCarrier, FieldDeclaration, KeyDoc, ModelDeclaration, Reach,
+    TangentSupport,
 };
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -108,53 +112,120 @@ pub const HYPOELASTIC_FIELDS: &[FieldDeclaration] = &[
     },
 ];
 
+/// `Actual Horizon`.
+const ACTUAL_HORIZON: KeyDoc = KeyDoc {
+    key: "Actual Horizon",
+    meaning: "δ_a ≤ the block's `Horizon`: bonds whose current length exceeds it carry nothing",
+    unit: "length",
+    default: "required",
+};
+
+/// `Gradient Order Of Accuracy`.
+const GRADIENT_ORDER: KeyDoc = KeyDoc {
+    key: "Gradient Order Of Accuracy",
+    meaning: "order of the nonlocal gradient; only 1 (Peridigm's default) is implemented",
+    unit: "—",
+    default: "1",
+};
+
+/// `Hourglass Coefficient` of the hypoelastic models (optional: Peridigm's read none).
+const HOURGLASS_COEFFICIENT: KeyDoc = KeyDoc {
+    key: "Hourglass Coefficient",
+    meaning: "C_hg of the hourglass bond constant c = 18 C_hg K/(π δ_a⁴)",
+    unit: "—",
+    default: "0",
+};
+
 /// The deck keys of the hypoelastic models; the elastic one reads the first 10, the perfectly
 /// plastic one the first 11.
-const HYPOELASTIC_KEYS: &[&str] = &[
-    "Density",
-    "Bulk Modulus",
-    "Shear Modulus",
-    "Young's Modulus",
-    "Poisson's Ratio",
-    "Actual Horizon",
-    "Gradient Order Of Accuracy",
-    "Hourglass Coefficient",
-    "Tangent",
-    "Finite Difference Probe Length",
-    "Yield Stress",
-    "Hardening Modulus",
+const HYPOELASTIC_KEYS: &[KeyDoc] = &[
+    DENSITY,
+    ELASTIC[0],
+    ELASTIC[1],
+    ELASTIC[2],
+    ELASTIC[3],
+    ACTUAL_HORIZON,
+    GRADIENT_ORDER,
+    HOURGLASS_COEFFICIENT,
+    TANGENT,
+    PROBE_LENGTH,
+    super::YIELD_STRESS,
+    super::plastic::HARDENING_MODULUS,
 ];
+
+/// The deck parameters of a hypoelastic correspondence model besides the keys every model
+/// shares: the elastic pair, δ_a, the gradient order, C_hg and the stress model's own (`P`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HypoelasticParameters<P> {
+    /// K and μ from the elastic pair.
+    pub elastic: ElasticConstants,
+    /// `Actual Horizon` δ_a (length): the horizon of the physics, measured on the current
+    /// configuration; at most the block's `Horizon`, which builds the neighbour lists.
+    pub actual_horizon: f64,
+    /// `Gradient Order Of Accuracy` (Peridigm's default 1, the only order implemented).
+    pub gradient_order_of_accuracy: i64,
+    /// `Hourglass Coefficient` C_hg (≥ 0; default 0).
+    pub hourglass_coefficient: f64,
+    /// The stress model's parameters.
+    pub stress: P,
+}
+
+impl<P: Clone + PartialEq + std::fmt::Debug + Send + Sync + 'static> MaterialParameters
+    for HypoelasticParameters<P>
+{
+    fn bulk_modulus(&self) -> Option<f64> {
+        Some(self.elastic.bulk_modulus)
+    }
+}
 
 /// A stress model of the Lagrangian family that also has a hypoelastic model.
 pub(crate) trait HypoelasticStress: StressModel {
     /// The hypoelastic model's declaration.
     const HYPOELASTIC_DECLARATION: ModelDeclaration;
+
+    /// Reads the stress model's own keys of the hypoelastic model (before δ_a).
+    fn read_hypoelastic(ctx: &Ctx, list: &mut ListReader) -> Result<Self::Parameters, DeckError>;
 }
 
 /// The declaration of the hypoelastic model `deck_name` reading the first `keys` keys.
 const fn declaration(deck_name: &'static str, keys: usize) -> ModelDeclaration {
     ModelDeclaration {
         deck_name,
+        aliases: &[],
         deck_keys: HYPOELASTIC_KEYS.split_at(keys).0,
         reach: Reach::TwoHop,
         fields: HYPOELASTIC_FIELDS,
         outputs: CORRESPONDENCE_OUTPUTS,
+        tangent: TangentSupport::Differentiated,
+        thermal_strain: false,
     }
 }
 
 impl HypoelasticStress for ElasticStress {
     const HYPOELASTIC_DECLARATION: ModelDeclaration =
         declaration("Elastic Hypoelastic Correspondence", 10);
+
+    fn read_hypoelastic(_ctx: &Ctx, _list: &mut ListReader) -> Result<(), DeckError> {
+        Ok(())
+    }
 }
 
 impl HypoelasticStress for PlasticStress<false> {
     const HYPOELASTIC_DECLARATION: ModelDeclaration =
         declaration("Elastic Plastic Hypoelastic Correspondence", 11);
+
+    fn read_hypoelastic(ctx: &Ctx, list: &mut ListReader) -> Result<PlasticParameters, DeckError> {
+        Self::read_keys(ctx, list, false)
+    }
 }
 
 impl HypoelasticStress for PlasticStress<true> {
     const HYPOELASTIC_DECLARATION: ModelDeclaration =
         declaration("Isotropic Hardening Hypoelastic Correspondence", 12);
+
+    fn read_hypoelastic(ctx: &Ctx, list: &mut ListReader) -> Result<PlasticParameters, DeckError> {
+        Self::read_keys(ctx, list, false)
+    }
 }
 
 /// ω of the current bond length, written over the scalar so that the tangent differentiates
@@ -200,17 +271,12 @@ impl CurrentInfluence {
 #[derive(Debug, Clone)]
 pub(crate) struct Hypoelastic<S: HypoelasticStress> {
     stress: S,
-    density: f64,
-    bulk_modulus: f64,
-    /// The block's Horizon δ (the neighbour lists).
-    horizon: f64,
+    /// The block's data; its horizon δ builds the neighbour lists.
+    block: BlockData,
     /// `Actual Horizon` δ_a ≤ δ.
     actual_horizon: f64,
     hourglass_coefficient: f64,
     influence: CurrentInfluence,
-    points: Vec<u32>,
-    tangent: TangentMethod,
-    force_points: Option<Vec<u32>>,
 }
 
 /// What the per-point kinematics read: the reference families, the bond damage and the
@@ -246,55 +312,70 @@ impl Family<'_> {
     }
 }
 
-impl<S: HypoelasticStress> Hypoelastic<S> {
-    /// The registry's constructor.
-    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        let parameters = input.required_correspondence("Actual Horizon")?;
-        let hypoelastic = parameters.hypoelastic.ok_or(MaterialError::Missing {
-            key: "Actual Horizon",
-        })?;
-        let horizon = positive("Horizon", input.horizon)?;
-        let actual_horizon = positive("Actual Horizon", hypoelastic.actual_horizon)?;
+impl<S: HypoelasticStress> MaterialKeys for Hypoelastic<S> {
+    type Parameters = HypoelasticParameters<S::Parameters>;
+
+    const DECLARATION: ModelDeclaration = S::HYPOELASTIC_DECLARATION;
+
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<Self::Parameters, DeckError> {
+        let elastic = crate::material::elastic_constants::read(ctx, list)?;
+        let stress = S::read_hypoelastic(ctx, list)?;
+        Ok(HypoelasticParameters {
+            elastic,
+            actual_horizon: list.positive_req(ctx, ACTUAL_HORIZON.key)?,
+            gradient_order_of_accuracy: list.int_opt(ctx, GRADIENT_ORDER.key, 1)?.unwrap_or(1),
+            hourglass_coefficient: list
+                .non_negative_opt(ctx, HOURGLASS_COEFFICIENT.key)?
+                .unwrap_or(0.0),
+            stress,
+        })
+    }
+}
+
+impl<S: HypoelasticStress> MaterialModel for Hypoelastic<S> {
+    fn build(
+        block: &BlockInput,
+        parameters: &Self::Parameters,
+    ) -> Result<Box<dyn Material>, MaterialError> {
+        let horizon = positive("Horizon", block.horizon)?;
+        let actual_horizon = positive(ACTUAL_HORIZON.key, parameters.actual_horizon)?;
         if actual_horizon > horizon {
             return Err(MaterialError::ActualHorizonBeyondHorizon {
                 actual: actual_horizon,
                 block: horizon,
             });
         }
-        if hypoelastic.gradient_order_of_accuracy != 1 {
+        if parameters.gradient_order_of_accuracy != 1 {
             return Err(MaterialError::GradientOrderNotSupported {
-                order: hypoelastic.gradient_order_of_accuracy,
+                order: parameters.gradient_order_of_accuracy,
             });
         }
-        let hourglass_coefficient = parameters.hourglass_coefficient;
-        if !(hourglass_coefficient.is_finite() && hourglass_coefficient >= 0.0) {
-            return Err(MaterialError::NotNonNegative {
-                key: "Hourglass Coefficient",
-                value: hourglass_coefficient,
-            });
-        }
-        let influence = CurrentInfluence::of(&input.influence).ok_or(
+        let hourglass_coefficient = hourglass_coefficient(parameters.hourglass_coefficient)?;
+        let influence = CurrentInfluence::of(&block.influence).ok_or(
             MaterialError::UserInfluenceNotSupported {
                 model: S::HYPOELASTIC_DECLARATION.deck_name,
             },
         )?;
+        let stress = S::new(&parameters.elastic, &parameters.stress)?;
         Ok(Box::new(Self {
-            stress: S::from_input(input)?,
-            density: positive("Density", input.density)?,
-            bulk_modulus: positive("Bulk Modulus", input.bulk_modulus)?,
-            horizon,
+            stress,
+            block: BlockData::new(
+                &Self::DECLARATION,
+                block.density,
+                parameters.elastic.bulk_modulus,
+                horizon,
+            )?,
             actual_horizon,
             hourglass_coefficient,
             influence,
-            points: Vec::new(),
-            tangent: TangentMethod::AutomaticDifferentiation,
-            force_points: None,
         }))
     }
+}
 
+impl<S: HypoelasticStress> Hypoelastic<S> {
     /// c = 18 C_hg K/(π δ_a⁴), the hourglass bond constant (force/length⁶ per unit stretch).
     fn hourglass_constant(&self) -> f64 {
-        18.0 * self.hourglass_coefficient * self.bulk_modulus
+        18.0 * self.hourglass_coefficient * self.block.bulk_modulus()
             / (PERIDIGM_PI * self.actual_horizon.powi(4))
     }
 
@@ -450,7 +531,7 @@ impl<S: HypoelasticStress> Hypoelastic<S> {
         let at = |values: &[f64], p: usize| from_row_major(&values[9 * p..9 * p + 9]);
         let bonds = reference.bonds;
         let positions = current.position;
-        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        let force_points = self.block.force_points();
         let tensors_of = |p: usize| PointTensors {
             stress_shape: if with_stress {
                 at(stress_shape, p)
@@ -508,32 +589,19 @@ impl<S: HypoelasticStress> Hypoelastic<S> {
 }
 
 impl<S: HypoelasticStress> Material for Hypoelastic<S> {
-    fn declaration(&self) -> &'static ModelDeclaration {
-        &Self::DECLARATION
+    fn block(&self) -> &BlockData {
+        &self.block
     }
 
-    fn density(&self) -> f64 {
-        self.density
+    fn block_mut(&mut self) -> &mut BlockData {
+        &mut self.block
     }
 
-    fn bulk_modulus(&self) -> f64 {
-        self.bulk_modulus
-    }
-
-    fn horizon(&self) -> f64 {
-        self.horizon
-    }
-
-    fn setup(
-        &mut self,
-        reference: &ReferenceView<'_>,
-        points: Vec<u32>,
-    ) -> Result<(), MaterialError> {
+    fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError> {
         let bonds = reference.bonds;
-        assert_point_set(&points, bonds.num_points());
         // The reference configuration is the first current one: its bonds inside δ_a must
         // span three dimensions.
-        let singular = points.par_iter().find_map_first(|&p| {
+        let singular = self.block.points().par_iter().find_map_first(|&p| {
             let p = p as usize;
             let mut shape = Tensor::<f64>::zeros();
             let mut inside = 0;
@@ -565,17 +633,7 @@ impl<S: HypoelasticStress> Material for Hypoelastic<S> {
                 intact_bonds,
             });
         }
-        self.points = points;
-        self.force_points = None;
         Ok(())
-    }
-
-    fn points(&self) -> &[u32] {
-        &self.points
-    }
-
-    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        self.force_points = kept_points(&self.points, keep);
     }
 
     fn update_history(
@@ -587,7 +645,8 @@ impl<S: HypoelasticStress> Material for Hypoelastic<S> {
         let family = Self::family(reference, current, history);
         let committed = CommittedHistory::of(history);
         let updates: Vec<Option<PointUpdate<f64>>> = self
-            .points
+            .block
+            .points()
             .par_iter()
             .map_init(Vec::new, |y, &p| {
                 let p = p as usize;
@@ -603,7 +662,7 @@ impl<S: HypoelasticStress> Material for Hypoelastic<S> {
                     .field_mut(name)
                     .expect("the run allocates every field a hypoelastic model declares");
                 let (committed, trial) = field.committed_and_trial();
-                for (&p, update) in self.points.iter().zip(&updates) {
+                for (&p, update) in self.block.points().iter().zip(&updates) {
                     let range = 9 * p as usize..9 * p as usize + 9;
                     match (update, held) {
                         (Some(update), _) => {
@@ -635,7 +694,7 @@ impl<S: HypoelasticStress> Material for Hypoelastic<S> {
             .field_mut(fields::EQUIVALENT_PLASTIC_STRAIN)
             .expect("the run allocates every field a hypoelastic model declares");
         let (committed, trial) = field.committed_and_trial();
-        for (&p, update) in self.points.iter().zip(&updates) {
+        for (&p, update) in self.block.points().iter().zip(&updates) {
             let p = p as usize;
             trial[p] = update
                 .as_ref()
@@ -652,15 +711,6 @@ impl<S: HypoelasticStress> Material for Hypoelastic<S> {
                 displacement[3 * p + r] = y[r] - x[r];
             }
         }
-    }
-
-    fn add_hourglass_force_density(
-        &self,
-        reference: &ReferenceView<'_>,
-        current: &CurrentView<'_>,
-        out: &mut [[f64; 3]],
-    ) {
-        self.add_forces(reference, current, out, false);
     }
 
     fn compute_point_coefficients(
@@ -692,20 +742,21 @@ impl<S: HypoelasticStress> Material for Hypoelastic<S> {
     ) {
         // A hypoelastic model has no stored-energy function (zero, as for the Lagrangian
         // family).
-        for &p in &self.points {
+        for &p in self.block.points() {
             energy_density[p as usize] = 0.0;
         }
     }
 
-    fn tangent_method(&self) -> TangentMethod {
-        self.tangent
+    fn tangent(&self) -> Option<&dyn MaterialTangent> {
+        Some(self)
     }
 
-    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
-        self.tangent = checked_differentiated_tangent_method(self.model_name(), method)?;
-        Ok(())
+    fn outputs(&self) -> Option<&dyn MaterialOutputs> {
+        Some(self)
     }
+}
 
+impl<S: HypoelasticStress> MaterialTangent for Hypoelastic<S> {
     fn add_tangent(
         &self,
         reference: &ReferenceView<'_>,
@@ -720,13 +771,24 @@ impl<S: HypoelasticStress> Material for Hypoelastic<S> {
         };
         assemble(
             &kernel,
-            self.model_name(),
-            &self.points,
+            Self::DECLARATION.deck_name,
+            self.block.points(),
             reference,
             current,
             method,
             tangent,
         )
+    }
+}
+
+impl<S: HypoelasticStress> MaterialOutputs for Hypoelastic<S> {
+    fn add_hourglass_force_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        out: &mut [[f64; 3]],
+    ) {
+        self.add_forces(reference, current, out, false);
     }
 }
 

@@ -57,14 +57,14 @@ mod viscoplastic;
 
 pub(crate) use elastic::ElasticStress;
 pub(crate) use hypoelastic::{
-    ElasticHypoelasticCorrespondence, ElasticPlasticHypoelasticCorrespondence, HypoelasticStress,
+    ElasticHypoelasticCorrespondence, ElasticPlasticHypoelasticCorrespondence,
     IsotropicHardeningHypoelasticCorrespondence,
 };
 pub use hypoelastic::{DISPLACEMENT as HYPOELASTIC_DISPLACEMENT, HYPOELASTIC_FIELDS};
-pub use plastic::Flaw;
+pub use plastic::{Flaw, PlasticParameters};
 pub(crate) use plastic::{HardeningPlasticStress, PerfectlyPlasticStress};
-pub use viscoplastic::NeedlemanParameters;
 pub(crate) use viscoplastic::NeedlemanStress;
+pub use viscoplastic::{NeedlemanInput, NeedlemanParameters};
 
 use rayon::prelude::*;
 
@@ -73,18 +73,71 @@ use self::kinematics::{
     Tensor,
 };
 use super::influence::InfluenceFunction;
+use super::keys::non_negative_req;
 use super::{
-    assert_point_set, checked_differentiated_tangent_method, kept_points, local_offsets, positive,
-    CurrentView, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
-    PERIDIGM_PI,
+    local_offsets, BlockData, BlockInput, CurrentView, ElasticConstants, Material, MaterialError,
+    MaterialKeys, MaterialModel, MaterialOutputs, MaterialParameters, MaterialTangent,
+    PointCoefficients, ReferenceView, PERIDIGM_PI,
 };
 use crate::history::History;
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{BondList, BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration};
+use crate::model::{
+    BondList, BondVolumes, FieldCarrier, FieldDeclaration, KeyDoc, ModelDeclaration,
+};
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
 };
+
+/// `Hourglass Coefficient` of the Lagrangian correspondence models.
+pub(crate) const HOURGLASS_COEFFICIENT: KeyDoc = KeyDoc {
+    key: "Hourglass Coefficient",
+    meaning: "C_hg of the hourglass bond constant c = 18 C_hg K/(π δ⁴)",
+    unit: "—",
+    default: "required",
+};
+
+/// `Yield Stress` of the plastic correspondence models.
+pub(crate) const YIELD_STRESS: KeyDoc = KeyDoc {
+    key: "Yield Stress",
+    meaning: "σ_y, the uniaxial yield stress of J2 plasticity",
+    unit: "pressure",
+    default: "required",
+};
+
+/// The deck parameters of a correspondence model besides the keys every model shares: the
+/// elastic pair, the hourglass coefficient and the stress model's own (`P`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CorrespondenceParameters<P> {
+    /// K and μ from the elastic pair.
+    pub elastic: ElasticConstants,
+    /// `Hourglass Coefficient` C_hg (dimensionless, ≥ 0).
+    pub hourglass_coefficient: f64,
+    /// The stress model's parameters.
+    pub stress: P,
+}
+
+impl<P: Clone + PartialEq + std::fmt::Debug + Send + Sync + 'static> MaterialParameters
+    for CorrespondenceParameters<P>
+{
+    fn bulk_modulus(&self) -> Option<f64> {
+        Some(self.elastic.bulk_modulus)
+    }
+}
+
+/// `value` if it is a finite number ≥ 0, else the error naming the hourglass coefficient.
+fn hourglass_coefficient(value: f64) -> Result<f64, MaterialError> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(MaterialError::NotNonNegative {
+            key: HOURGLASS_COEFFICIENT.key,
+            value,
+        })
+    }
+}
 
 /// `Elastic Correspondence`: the correspondence family with the hypoelastic stress model.
 pub(crate) type ElasticCorrespondence = Correspondence<ElasticStress>;
@@ -107,15 +160,22 @@ pub(crate) struct StressState<T: Scalar> {
 /// The constitutive part of a correspondence model: how the unrotated Cauchy stress (and its
 /// internal variable) advance over a step.
 pub(crate) trait StressModel: std::fmt::Debug + Clone + Send + Sync + 'static {
-    /// What the model declares (deck name and keys, fields, outputs).
+    /// The stress model's own deck parameters.
+    type Parameters: std::fmt::Debug + Clone + PartialEq + Send + Sync + 'static;
+
+    /// What the model declares (deck name and keys, fields, outputs, thermal strain: Peridigm
+    /// gives it only to the elastic model).
     const DECLARATION: ModelDeclaration;
 
-    /// True when the model takes a `Thermal Expansion Coefficient` (Peridigm: only the elastic
-    /// model).
-    const THERMAL_EXPANSION: bool = false;
+    /// Reads the stress model's own keys (after the elastic pair and the hourglass
+    /// coefficient).
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<Self::Parameters, DeckError>;
 
-    /// The model's constants from the deck (K and μ come from `input`).
-    fn from_input(input: &MaterialInput) -> Result<Self, MaterialError>;
+    /// The model's constants from K and μ and its own parameters (validated).
+    fn new(
+        elastic: &ElasticConstants,
+        parameters: &Self::Parameters,
+    ) -> Result<Self, MaterialError>;
 
     /// The state at the end of the step from the state at its start and the unrotated strain
     /// increment `d Δt` (dimensionless), at the point and over the step of `step`, generic
@@ -194,20 +254,13 @@ pub const CORRESPONDENCE_OUTPUTS: &[&str] = &[
 #[derive(Debug, Clone)]
 pub(crate) struct Correspondence<S: StressModel> {
     stress: S,
-    density: f64,
-    bulk_modulus: f64,
-    horizon: f64,
+    block: BlockData,
     hourglass_coefficient: f64,
     influence: InfluenceFunction,
-    points: Vec<u32>,
     /// Block-local row starts into `weights`.
     local_offsets: Vec<usize>,
     /// ω per block bond.
     weights: Vec<f64>,
-    tangent: TangentMethod,
-    force_points: Option<Vec<u32>>,
-    /// `Thermal Expansion Coefficient` α (per degree), when the deck gives one.
-    thermal_expansion: Option<f64>,
 }
 
 /// What one point's update produces (generic over the scalar for the tangent).
@@ -223,37 +276,48 @@ struct PointUpdate<T: Scalar> {
     equivalent_plastic_strain: T,
 }
 
-impl<S: StressModel> Correspondence<S> {
-    /// The registry's constructor.
-    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        let hourglass_coefficient = input
-            .required_correspondence("Hourglass Coefficient")?
-            .hourglass_coefficient;
-        if !(hourglass_coefficient.is_finite() && hourglass_coefficient >= 0.0) {
-            return Err(MaterialError::NotNonNegative {
-                key: "Hourglass Coefficient",
-                value: hourglass_coefficient,
-            });
-        }
+impl<S: StressModel> MaterialKeys for Correspondence<S> {
+    type Parameters = CorrespondenceParameters<S::Parameters>;
+
+    const DECLARATION: ModelDeclaration = S::DECLARATION;
+
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<Self::Parameters, DeckError> {
+        Ok(CorrespondenceParameters {
+            elastic: super::elastic_constants::read(ctx, list)?,
+            hourglass_coefficient: non_negative_req(ctx, list, HOURGLASS_COEFFICIENT.key)?,
+            stress: S::read(ctx, list)?,
+        })
+    }
+}
+
+impl<S: StressModel> MaterialModel for Correspondence<S> {
+    fn build(
+        block: &BlockInput,
+        parameters: &Self::Parameters,
+    ) -> Result<Box<dyn Material>, MaterialError> {
+        let hourglass_coefficient = hourglass_coefficient(parameters.hourglass_coefficient)?;
+        let stress = S::new(&parameters.elastic, &parameters.stress)?;
         Ok(Box::new(Self {
-            stress: S::from_input(input)?,
-            density: positive("Density", input.density)?,
-            bulk_modulus: positive("Bulk Modulus", input.bulk_modulus)?,
-            horizon: positive("Horizon", input.horizon)?,
+            stress,
+            block: BlockData::new(
+                &Self::DECLARATION,
+                block.density,
+                parameters.elastic.bulk_modulus,
+                block.horizon,
+            )?,
             hourglass_coefficient,
-            influence: input.influence.clone(),
-            points: Vec::new(),
+            influence: block.influence.clone(),
             local_offsets: vec![0],
             weights: Vec::new(),
-            tangent: TangentMethod::AutomaticDifferentiation,
-            force_points: None,
-            thermal_expansion: None,
         }))
     }
+}
 
+impl<S: StressModel> Correspondence<S> {
     /// c = 18 C_hg K/(π δ⁴), the hourglass bond constant (force/length⁶ per unit stretch).
     fn hourglass_constant(&self) -> f64 {
-        18.0 * self.hourglass_coefficient * self.bulk_modulus / (PERIDIGM_PI * self.horizon.powi(4))
+        18.0 * self.hourglass_coefficient * self.block.bulk_modulus()
+            / (PERIDIGM_PI * self.block.horizon().powi(4))
     }
 
     fn family<'a>(
@@ -299,7 +363,7 @@ impl<S: StressModel> Correspondence<S> {
         let f_inverse = inverse(&deformation_gradient)?;
         let step = flanagan_taylor(&deformation_gradient, start)?;
         let mut increment = step.unrotated_strain_increment;
-        if let Some(alpha) = self.thermal_expansion {
+        if let Some(alpha) = self.block.thermal_expansion() {
             let free = alpha * start.temperature_increment;
             for k in 0..3 {
                 increment[(k, k)] -= free;
@@ -381,7 +445,7 @@ impl<S: StressModel> Correspondence<S> {
         let gradient = tensor(fields::DEFORMATION_GRADIENT);
         let at = |values: &[f64], p: usize| from_row_major(&values[9 * p..9 * p + 9]);
         let family = self.family(reference, current);
-        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        let force_points = self.block.force_points();
         let positions = current.position;
         let tensors_of = |p: usize| PointTensors {
             stress_shape: if with_stress {
@@ -431,7 +495,8 @@ impl<S: StressModel> Correspondence<S> {
     /// point).
     fn local_row_start(&self, i: usize) -> usize {
         let k = self
-            .points
+            .block
+            .points()
             .binary_search(&(i as u32))
             .expect("the force pass visits only block points");
         self.local_offsets[k]
@@ -586,33 +651,21 @@ impl Family<'_> {
 }
 
 impl<S: StressModel> Material for Correspondence<S> {
-    fn declaration(&self) -> &'static ModelDeclaration {
-        &Self::DECLARATION_OF_STRESS
+    fn block(&self) -> &BlockData {
+        &self.block
     }
 
-    fn density(&self) -> f64 {
-        self.density
+    fn block_mut(&mut self) -> &mut BlockData {
+        &mut self.block
     }
 
-    fn bulk_modulus(&self) -> f64 {
-        self.bulk_modulus
-    }
-
-    fn horizon(&self) -> f64 {
-        self.horizon
-    }
-
-    fn setup(
-        &mut self,
-        reference: &ReferenceView<'_>,
-        points: Vec<u32>,
-    ) -> Result<(), MaterialError> {
+    fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError> {
         let bonds = reference.bonds;
-        assert_point_set(&points, bonds.num_points());
-        self.weights = self.influence.per_bond(bonds, &points, self.horizon)?;
-        self.local_offsets = local_offsets(bonds, &points);
-        self.points = points;
-        self.force_points = None;
+        let points = self.block.points();
+        self.weights = self
+            .influence
+            .per_bond(bonds, points, self.block.horizon())?;
+        self.local_offsets = local_offsets(bonds, points);
         let undamaged = CurrentView {
             position: reference.position,
             bond_damage: None,
@@ -620,7 +673,8 @@ impl<S: StressModel> Material for Correspondence<S> {
         };
         let family = self.family(reference, &undamaged);
         let singular = self
-            .points
+            .block
+            .points()
             .par_iter()
             .enumerate()
             .find_map_first(|(local, &p)| {
@@ -643,28 +697,6 @@ impl<S: StressModel> Material for Correspondence<S> {
         }
     }
 
-    fn points(&self) -> &[u32] {
-        &self.points
-    }
-
-    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        self.force_points = kept_points(&self.points, keep);
-    }
-
-    fn thermal_expansion(&self) -> Option<f64> {
-        self.thermal_expansion
-    }
-
-    fn set_thermal_expansion(&mut self, coefficient: f64) -> Result<(), MaterialError> {
-        if !S::THERMAL_EXPANSION {
-            return Err(MaterialError::ThermalExpansionNotSupported {
-                model: self.model_name(),
-            });
-        }
-        self.thermal_expansion = Some(super::finite("Thermal Expansion Coefficient", coefficient)?);
-        Ok(())
-    }
-
     fn update_history(
         &self,
         reference: &ReferenceView<'_>,
@@ -674,7 +706,8 @@ impl<S: StressModel> Material for Correspondence<S> {
         let family = self.family(reference, current);
         let committed = CommittedHistory::of(history);
         let updates: Vec<Option<PointUpdate<f64>>> = self
-            .points
+            .block
+            .points()
             .par_iter()
             .enumerate()
             .map_init(Vec::new, |y, (local, &p)| {
@@ -694,7 +727,7 @@ impl<S: StressModel> Material for Correspondence<S> {
                     .field_mut(name)
                     .expect("the run allocates every field a correspondence model declares");
                 let (committed, trial) = field.committed_and_trial();
-                for (&p, update) in self.points.iter().zip(&updates) {
+                for (&p, update) in self.block.points().iter().zip(&updates) {
                     let range = 9 * p as usize..9 * p as usize + 9;
                     match (update, held) {
                         (Some(update), _) => {
@@ -726,21 +759,12 @@ impl<S: StressModel> Material for Correspondence<S> {
             .field_mut(fields::EQUIVALENT_PLASTIC_STRAIN)
             .expect("the run allocates every field a correspondence model declares");
         let (committed, trial) = field.committed_and_trial();
-        for (&p, update) in self.points.iter().zip(&updates) {
+        for (&p, update) in self.block.points().iter().zip(&updates) {
             let p = p as usize;
             trial[p] = update
                 .as_ref()
                 .map_or(committed[p], |u| u.equivalent_plastic_strain);
         }
-    }
-
-    fn add_hourglass_force_density(
-        &self,
-        reference: &ReferenceView<'_>,
-        current: &CurrentView<'_>,
-        out: &mut [[f64; 3]],
-    ) {
-        self.add_forces(reference, current, out, false);
     }
 
     fn compute_point_coefficients(
@@ -772,20 +796,21 @@ impl<S: StressModel> Material for Correspondence<S> {
     ) {
         // Hypoelastic models have no stored-energy function; Peridigm's correspondence
         // materials write none either (zero).
-        for &p in &self.points {
+        for &p in self.block.points() {
             energy_density[p as usize] = 0.0;
         }
     }
 
-    fn tangent_method(&self) -> TangentMethod {
-        self.tangent
+    fn tangent(&self) -> Option<&dyn MaterialTangent> {
+        Some(self)
     }
 
-    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
-        self.tangent = checked_differentiated_tangent_method(self.model_name(), method)?;
-        Ok(())
+    fn outputs(&self) -> Option<&dyn MaterialOutputs> {
+        Some(self)
     }
+}
 
+impl<S: StressModel> MaterialTangent for Correspondence<S> {
     fn add_tangent(
         &self,
         reference: &ReferenceView<'_>,
@@ -795,7 +820,8 @@ impl<S: StressModel> Material for Correspondence<S> {
     ) -> Result<(), TangentError> {
         let family = self.family(reference, current);
         let shape_inverses = self
-            .points
+            .block
+            .points()
             .par_iter()
             .enumerate()
             .map(|(local, &p)| {
@@ -813,8 +839,8 @@ impl<S: StressModel> Material for Correspondence<S> {
         };
         assemble(
             &kernel,
-            self.model_name(),
-            &self.points,
+            Self::DECLARATION.deck_name,
+            self.block.points(),
             reference,
             current,
             method,
@@ -823,9 +849,15 @@ impl<S: StressModel> Material for Correspondence<S> {
     }
 }
 
-impl<S: StressModel> Correspondence<S> {
-    /// The model's declaration (its stress model's).
-    const DECLARATION_OF_STRESS: ModelDeclaration = S::DECLARATION;
+impl<S: StressModel> MaterialOutputs for Correspondence<S> {
+    fn add_hourglass_force_density(
+        &self,
+        reference: &ReferenceView<'_>,
+        current: &CurrentView<'_>,
+        out: &mut [[f64; 3]],
+    ) {
+        self.add_forces(reference, current, out, false);
+    }
 }
 
 /// A shape tensor far enough from singular to invert reliably: det K above 1e-12 of the cube

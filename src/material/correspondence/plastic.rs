@@ -1,6 +1,7 @@
 //! J2 plasticity of the correspondence family, Peridigm's `Elastic Plastic Correspondence`
 //! (perfect plasticity) and `Isotropic Hardening Correspondence` (linear isotropic hardening,
-//! optional flaw), reference §1.3.
+//! optional flaw), as Peridigm's `Peridigm_ElasticPlasticCorrespondenceMaterial.cpp` and
+//! `Peridigm_IsotropicHardeningCorrespondenceMaterial.cpp`.
 //!
 //! Radial return in the unrotated frame (Simo & Hughes 1998, box 3.1): the elastic trial
 //! `σ̃_tr = σ̃_n + 2μ dev(d Δt) + K tr(d Δt) I` with deviator s_tr and von Mises stress
@@ -18,10 +19,67 @@
 
 use super::elastic::elastic_trial;
 use super::kinematics::{deviator, trace, Tensor};
-use super::{PointStep, StressModel, StressState};
-use crate::material::{positive, MaterialError, MaterialInput};
-use crate::model::{ModelDeclaration, Reach};
+use super::{PointStep, StressModel, StressState, HOURGLASS_COEFFICIENT, YIELD_STRESS};
+use crate::material::keys::{non_negative_req, DENSITY, ELASTIC, PROBE_LENGTH, TANGENT};
+use crate::material::{positive, ElasticConstants, MaterialError};
+use crate::model::{KeyDoc, ModelDeclaration, Reach, TangentSupport};
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::Scalar;
+
+/// `Hardening Modulus` of J2 plasticity.
+pub(super) const HARDENING_MODULUS: KeyDoc = KeyDoc {
+    key: "Hardening Modulus",
+    meaning: "H of linear isotropic hardening: the flow stress is σ_y + H ε̄_p",
+    unit: "pressure",
+    default: "required",
+};
+
+/// `Enable Flaw`.
+pub(super) const ENABLE_FLAW: KeyDoc = KeyDoc {
+    key: "Enable Flaw",
+    meaning: "lower the yield stress around a point: σ_y (1 − A exp(−|X − X_f|²/s²))",
+    unit: "true/false",
+    default: "false",
+};
+
+/// `Flaw Location X`, `Flaw Location Y`, `Flaw Location Z`.
+pub(super) const FLAW_LOCATION: [KeyDoc; 3] = [
+    KeyDoc {
+        key: "Flaw Location X",
+        meaning: "x of the flaw's centre X_f",
+        unit: "length",
+        default: "required with a flaw",
+    },
+    KeyDoc {
+        key: "Flaw Location Y",
+        meaning: "y of the flaw's centre X_f",
+        unit: "length",
+        default: "required with a flaw",
+    },
+    KeyDoc {
+        key: "Flaw Location Z",
+        meaning: "z of the flaw's centre X_f",
+        unit: "length",
+        default: "required with a flaw",
+    },
+];
+
+/// `Flaw Size`.
+pub(super) const FLAW_SIZE: KeyDoc = KeyDoc {
+    key: "Flaw Size",
+    meaning: "s, the radius of the Gaussian flaw",
+    unit: "length",
+    default: "required with a flaw",
+};
+
+/// `Flaw Magnitude`.
+pub(super) const FLAW_MAGNITUDE: KeyDoc = KeyDoc {
+    key: "Flaw Magnitude",
+    meaning: "A, the relative reduction of σ_y at the flaw's centre",
+    unit: "—",
+    default: "required with a flaw",
+};
 
 /// Gaussian flaw that lowers the yield stress: σ_y·(1 − A·exp(−|X − X_f|²/s²)) (Peridigm's
 /// `Enable Flaw` keys).
@@ -36,6 +94,22 @@ pub struct Flaw {
 }
 
 impl Flaw {
+    /// `Enable Flaw` with its parameters, when the list enables it.
+    pub(super) fn read(ctx: &Ctx, list: &mut ListReader) -> Result<Option<Flaw>, DeckError> {
+        if !list.bool_or(ctx, ENABLE_FLAW.key, false)? {
+            return Ok(None);
+        }
+        Ok(Some(Flaw {
+            location: [
+                list.f64_req(ctx, FLAW_LOCATION[0].key)?,
+                list.f64_req(ctx, FLAW_LOCATION[1].key)?,
+                list.f64_req(ctx, FLAW_LOCATION[2].key)?,
+            ],
+            size: list.positive_req(ctx, FLAW_SIZE.key)?,
+            magnitude: list.f64_req(ctx, FLAW_MAGNITUDE.key)?,
+        }))
+    }
+
     /// `yield_stress` at reference position `x`: σ_y (1 − A exp(−|X − X_f|²/s²)) with a flaw,
     /// σ_y without one.
     pub(crate) fn reduced(flaw: Option<&Flaw>, yield_stress: f64, x: [f64; 3]) -> f64 {
@@ -68,7 +142,7 @@ pub(crate) struct J2 {
 
 impl J2 {
     fn new(
-        input: &MaterialInput,
+        elastic: &ElasticConstants,
         yield_stress: f64,
         hardening_modulus: f64,
         flaw: Option<Flaw>,
@@ -80,8 +154,8 @@ impl J2 {
             });
         }
         Ok(Self {
-            bulk_modulus: positive("Bulk Modulus", input.bulk_modulus)?,
-            shear_modulus: positive("Shear Modulus", input.required_shear_modulus()?)?,
+            bulk_modulus: positive("Bulk Modulus", elastic.bulk_modulus)?,
+            shear_modulus: positive("Shear Modulus", elastic.shear_modulus)?,
             yield_stress: positive("Yield Stress", yield_stress)?,
             hardening_modulus,
             flaw,
@@ -143,58 +217,101 @@ pub(crate) type PerfectlyPlasticStress = PlasticStress<false>;
 /// `Isotropic Hardening Correspondence`.
 pub(crate) type HardeningPlasticStress = PlasticStress<true>;
 
-/// The keys of the perfectly plastic model; the hardening model adds its own after them.
-const PLASTIC_KEYS: &[&str] = &[
-    "Density",
-    "Bulk Modulus",
-    "Shear Modulus",
-    "Young's Modulus",
-    "Poisson's Ratio",
-    "Hourglass Coefficient",
-    "Yield Stress",
-    "Tangent",
-    "Finite Difference Probe Length",
-    "Hardening Modulus",
-    "Enable Flaw",
-    "Flaw Location X",
-    "Flaw Location Y",
-    "Flaw Location Z",
-    "Flaw Size",
-    "Flaw Magnitude",
-];
+/// The deck parameters of J2 plasticity besides the elastic pair.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlasticParameters {
+    /// `Yield Stress` σ_y (pressure).
+    pub yield_stress: f64,
+    /// `Hardening Modulus` H (pressure); 0 for perfect plasticity.
+    pub hardening_modulus: f64,
+    /// `Enable Flaw` with its parameters (`Isotropic Hardening Correspondence` only).
+    pub flaw: Option<Flaw>,
+}
+
+impl<const HARDENING: bool> PlasticStress<HARDENING> {
+    /// `Yield Stress` and, with hardening, `Hardening Modulus` and (when `flaw`) the flaw.
+    pub(super) fn read_keys(
+        ctx: &Ctx,
+        list: &mut ListReader,
+        flaw: bool,
+    ) -> Result<PlasticParameters, DeckError> {
+        let yield_stress = list.positive_req(ctx, YIELD_STRESS.key)?;
+        if !HARDENING {
+            return Ok(PlasticParameters {
+                yield_stress,
+                hardening_modulus: 0.0,
+                flaw: None,
+            });
+        }
+        Ok(PlasticParameters {
+            yield_stress,
+            hardening_modulus: non_negative_req(ctx, list, HARDENING_MODULUS.key)?,
+            flaw: if flaw { Flaw::read(ctx, list)? } else { None },
+        })
+    }
+}
 
 impl<const HARDENING: bool> StressModel for PlasticStress<HARDENING> {
+    type Parameters = PlasticParameters;
+
     const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: if HARDENING {
             "Isotropic Hardening Correspondence"
         } else {
             "Elastic Plastic Correspondence"
         },
+        aliases: &[],
         deck_keys: if HARDENING {
-            PLASTIC_KEYS
+            &[
+                DENSITY,
+                ELASTIC[0],
+                ELASTIC[1],
+                ELASTIC[2],
+                ELASTIC[3],
+                HOURGLASS_COEFFICIENT,
+                YIELD_STRESS,
+                HARDENING_MODULUS,
+                ENABLE_FLAW,
+                FLAW_LOCATION[0],
+                FLAW_LOCATION[1],
+                FLAW_LOCATION[2],
+                FLAW_SIZE,
+                FLAW_MAGNITUDE,
+                TANGENT,
+                PROBE_LENGTH,
+            ]
         } else {
-            PLASTIC_KEYS.split_at(9).0
+            &[
+                DENSITY,
+                ELASTIC[0],
+                ELASTIC[1],
+                ELASTIC[2],
+                ELASTIC[3],
+                HOURGLASS_COEFFICIENT,
+                YIELD_STRESS,
+                TANGENT,
+                PROBE_LENGTH,
+            ]
         },
         reach: Reach::TwoHop,
         fields: super::CORRESPONDENCE_FIELDS,
         outputs: super::CORRESPONDENCE_OUTPUTS,
+        tangent: TangentSupport::Differentiated,
+        thermal_strain: false,
     };
 
-    fn from_input(input: &MaterialInput) -> Result<Self, MaterialError> {
-        let parameters = input.required_correspondence("Yield Stress")?;
-        let yield_stress = parameters.yield_stress.ok_or(MaterialError::Missing {
-            key: "Yield Stress",
-        })?;
-        if !HARDENING {
-            return Ok(Self(J2::new(input, yield_stress, 0.0, None)?));
-        }
-        let hardening_modulus = parameters.hardening_modulus.ok_or(MaterialError::Missing {
-            key: "Hardening Modulus",
-        })?;
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<PlasticParameters, DeckError> {
+        Self::read_keys(ctx, list, true)
+    }
+
+    fn new(
+        elastic: &ElasticConstants,
+        parameters: &PlasticParameters,
+    ) -> Result<Self, MaterialError> {
         Ok(Self(J2::new(
-            input,
-            yield_stress,
-            hardening_modulus,
+            elastic,
+            parameters.yield_stress,
+            parameters.hardening_modulus,
             parameters.flaw,
         )?))
     }

@@ -3,9 +3,10 @@
 
 use std::sync::Arc;
 
+use super::hypoelastic::HypoelasticParameters;
 use super::kinematics::{from_row_major, Tensor};
 use super::*;
-use crate::material::MaterialInput;
+use crate::material::BlockInput;
 use crate::model::test_support::{brute_force_bonds, lattice, Rng};
 use crate::model::PointCloud;
 use crate::physics::{BlockPhysics, Configuration, Physics};
@@ -24,30 +25,32 @@ struct Body {
     damage: Option<Vec<f32>>,
 }
 
-fn material(hourglass: f64) -> Box<dyn Material> {
-    ElasticCorrespondence::build(&MaterialInput {
+/// K = BULK, μ = SHEAR.
+const ELASTIC: ElasticConstants = ElasticConstants {
+    bulk_modulus: BULK,
+    shear_modulus: SHEAR,
+};
+
+/// ρ = 2, block horizon `horizon`, parabolic ω.
+fn block(horizon: f64) -> BlockInput {
+    BlockInput {
         density: 2.0,
-        horizon: HORIZON,
-        bulk_modulus: BULK,
-        shear_modulus: Some(SHEAR),
-        planar_thickness: None,
-        plasticity: None,
-        shear_correction: false,
-        viscoelastic: None,
+        horizon,
         influence: InfluenceFunction::ParabolicDecay,
-        correspondence: Some(crate::material::CorrespondenceInput {
-            hourglass_coefficient: hourglass,
-            yield_stress: None,
-            hardening_modulus: None,
-            flaw: None,
-            viscoplastic: None,
-            hypoelastic: None,
-        }),
-        pals: None,
-        yield_stretch: None,
-        analytic_weighted_volume: None,
-    })
-    .unwrap()
+    }
+}
+
+/// The parameters of a Lagrangian correspondence model with the lattice body's moduli.
+fn parameters<P>(hourglass: f64, stress: P) -> CorrespondenceParameters<P> {
+    CorrespondenceParameters {
+        elastic: ELASTIC,
+        hourglass_coefficient: hourglass,
+        stress,
+    }
+}
+
+fn material(hourglass: f64) -> Box<dyn Material> {
+    ElasticCorrespondence::build(&block(HORIZON), &parameters(hourglass, ())).unwrap()
 }
 
 impl Body {
@@ -70,7 +73,7 @@ impl Body {
         }
         let bonds = brute_force_bonds(&x, horizon);
         let reference = ReferenceView::of(&bonds, &points);
-        m.setup(&reference, (0..x.len() as u32).collect()).unwrap();
+        crate::material::set_up(&mut m, &reference, (0..x.len() as u32).collect());
         let fields = m.declaration().fields;
         let physics = Physics::new(
             vec![BlockPhysics {
@@ -536,34 +539,19 @@ fn a_flaw_lowers_the_yield_stress_where_it_sits() {
 fn the_plastic_tangent_matches_finite_differences_while_yielding() {
     // Moduli of the lattice body; a yield stress low enough that the perturbed state yields.
     let mut body = Body::new(0.05);
-    let mut m = IsotropicHardeningCorrespondence::build(&MaterialInput {
-        density: 2.0,
-        horizon: HORIZON,
-        bulk_modulus: BULK,
-        shear_modulus: Some(SHEAR),
-        planar_thickness: None,
-        plasticity: None,
-        shear_correction: false,
-        viscoelastic: None,
-        influence: InfluenceFunction::ParabolicDecay,
-        correspondence: Some(crate::material::CorrespondenceInput {
-            hourglass_coefficient: 0.05,
-            yield_stress: Some(2e-3),
-            hardening_modulus: Some(0.3),
-            flaw: None,
-            viscoplastic: None,
-            hypoelastic: None,
-        }),
-        pals: None,
-        yield_stretch: None,
-        analytic_weighted_volume: None,
-    })
-    .unwrap();
-    m.setup(
+    let plastic = PlasticParameters {
+        yield_stress: 2e-3,
+        hardening_modulus: 0.3,
+        flaw: None,
+    };
+    let mut m =
+        IsotropicHardeningCorrespondence::build(&block(HORIZON), &parameters(0.05, plastic))
+            .unwrap();
+    crate::material::set_up(
+        &mut m,
         &ReferenceView::of(&body.bonds, &body.points),
         (0..body.points.len() as u32).collect(),
-    )
-    .unwrap();
+    );
     body.physics = Physics::new(
         vec![BlockPhysics {
             material: m,
@@ -691,34 +679,23 @@ fn needleman_flows_only_when_time_passes() {
 /// stress low enough that the perturbed states yield.
 fn needleman_body() -> Body {
     Body::with(
-        ViscoplasticNeedlemanCorrespondence::build(&MaterialInput {
-            density: 2.0,
-            horizon: HORIZON,
-            bulk_modulus: BULK,
-            shear_modulus: Some(SHEAR),
-            planar_thickness: None,
-            influence: InfluenceFunction::ParabolicDecay,
-            plasticity: None,
-            shear_correction: false,
-            viscoelastic: None,
-            correspondence: Some(crate::material::CorrespondenceInput {
-                hourglass_coefficient: 0.05,
-                yield_stress: Some(2e-3),
-                hardening_modulus: None,
-                flaw: None,
-                viscoplastic: Some(NeedlemanParameters {
-                    strain_hardening_exponent: 0.2,
-                    rate_hardening_exponent: 0.1,
-                    reference_strain_rate: 1.0,
-                    reference_strain_0: 0.01,
-                    reference_strain_1: 1.0,
-                }),
-                hypoelastic: None,
-            }),
-            pals: None,
-            yield_stretch: None,
-            analytic_weighted_volume: None,
-        })
+        ViscoplasticNeedlemanCorrespondence::build(
+            &block(HORIZON),
+            &parameters(
+                0.05,
+                NeedlemanInput {
+                    yield_stress: 2e-3,
+                    parameters: NeedlemanParameters {
+                        strain_hardening_exponent: 0.2,
+                        rate_hardening_exponent: 0.1,
+                        reference_strain_rate: 1.0,
+                        reference_strain_0: 0.01,
+                        reference_strain_1: 1.0,
+                    },
+                    flaw: None,
+                },
+            ),
+        )
         .unwrap(),
     )
 }
@@ -842,33 +819,15 @@ fn the_keys_of_peridigms_needleman_verification_decks_load_and_build() {
 /// block horizon 1.8 holds the √3 bonds and the physics does not.
 const ACTUAL_HORIZON: f64 = 1.6;
 
-/// The input of a hypoelastic model with the lattice body's moduli, the block horizon
-/// `horizon` and `Actual Horizon` `actual_horizon`.
-fn hypoelastic_input(hourglass: f64, horizon: f64, actual_horizon: f64) -> MaterialInput {
-    MaterialInput {
-        density: 2.0,
-        horizon,
-        bulk_modulus: BULK,
-        shear_modulus: Some(SHEAR),
-        planar_thickness: None,
-        plasticity: None,
-        shear_correction: false,
-        viscoelastic: None,
-        influence: InfluenceFunction::ParabolicDecay,
-        correspondence: Some(crate::material::CorrespondenceInput {
-            hourglass_coefficient: hourglass,
-            yield_stress: None,
-            hardening_modulus: None,
-            flaw: None,
-            viscoplastic: None,
-            hypoelastic: Some(crate::material::HypoelasticInput {
-                actual_horizon,
-                gradient_order_of_accuracy: 1,
-            }),
-        }),
-        pals: None,
-        yield_stretch: None,
-        analytic_weighted_volume: None,
+/// The parameters of a hypoelastic model with the lattice body's moduli, `Actual Horizon`
+/// `actual_horizon` and the stress model's parameters `stress`.
+fn hypoelastic<P>(hourglass: f64, actual_horizon: f64, stress: P) -> HypoelasticParameters<P> {
+    HypoelasticParameters {
+        elastic: ELASTIC,
+        actual_horizon,
+        gradient_order_of_accuracy: 1,
+        hourglass_coefficient: hourglass,
+        stress,
     }
 }
 
@@ -876,11 +835,10 @@ fn hypoelastic_input(hourglass: f64, horizon: f64, actual_horizon: f64) -> Mater
 /// Horizon 1.6).
 fn hypoelastic_body(hourglass: f64) -> Body {
     Body::with(
-        ElasticHypoelasticCorrespondence::build(&hypoelastic_input(
-            hourglass,
-            HORIZON,
-            ACTUAL_HORIZON,
-        ))
+        ElasticHypoelasticCorrespondence::build(
+            &block(HORIZON),
+            &hypoelastic(hourglass, ACTUAL_HORIZON, ()),
+        )
         .unwrap(),
     )
 }
@@ -1041,11 +999,18 @@ fn the_hypoelastic_tangent_matches_finite_differences_undamaged_and_damaged() {
 
 #[test]
 fn the_hypoelastic_plastic_tangent_matches_finite_differences_while_yielding() {
-    let mut input = hypoelastic_input(0.05, HORIZON, ACTUAL_HORIZON);
-    let parameters = input.correspondence.as_mut().unwrap();
-    parameters.yield_stress = Some(2e-3);
-    parameters.hardening_modulus = Some(0.3);
-    let mut body = Body::with(IsotropicHardeningHypoelasticCorrespondence::build(&input).unwrap());
+    let input = hypoelastic(
+        0.05,
+        ACTUAL_HORIZON,
+        PlasticParameters {
+            yield_stress: 2e-3,
+            hardening_modulus: 0.3,
+            flaw: None,
+        },
+    );
+    let mut body = Body::with(
+        IsotropicHardeningHypoelasticCorrespondence::build(&block(HORIZON), &input).unwrap(),
+    );
     let start = perturbed(&body, 2);
     body.force(&start);
     body.commit();
@@ -1055,7 +1020,9 @@ fn the_hypoelastic_plastic_tangent_matches_finite_differences_while_yielding() {
     let error = tangent_error(&mut body, &y);
     assert!(error < 1e-6, "relative error {error}");
     // Perfect plasticity through the same kinematics.
-    let mut body = Body::with(ElasticPlasticHypoelasticCorrespondence::build(&input).unwrap());
+    let mut body = Body::with(
+        ElasticPlasticHypoelasticCorrespondence::build(&block(HORIZON), &input).unwrap(),
+    );
     body.force(&start);
     body.commit();
     body.force(&y);
@@ -1071,13 +1038,24 @@ fn hypoelastic_j2_hardening_under_uniaxial_strain_reaches_the_closed_form() {
     // σ_vm = Y + H(2μg − Y)/(3μ + H) = 781.0 MPa at an unrotated strain increment g = 10 %,
     // reached in one step by F = diag(1 + e, 1, 1) with 2e/(2 + e) = g (midpoint rule).
     let (mu, y, h, g): (f64, f64, f64, f64) = (211e9 / 2.0, 460e6, 5e9, 0.1);
-    let mut input = hypoelastic_input(0.0, HORIZON, ACTUAL_HORIZON);
-    input.bulk_modulus = 211e9 / 3.0;
-    input.shear_modulus = Some(mu);
-    let parameters = input.correspondence.as_mut().unwrap();
-    parameters.yield_stress = Some(y);
-    parameters.hardening_modulus = Some(h);
-    let mut body = Body::with(IsotropicHardeningHypoelasticCorrespondence::build(&input).unwrap());
+    let input = HypoelasticParameters {
+        elastic: ElasticConstants {
+            bulk_modulus: 211e9 / 3.0,
+            shear_modulus: mu,
+        },
+        ..hypoelastic(
+            0.0,
+            ACTUAL_HORIZON,
+            PlasticParameters {
+                yield_stress: y,
+                hardening_modulus: h,
+                flaw: None,
+            },
+        )
+    };
+    let mut body = Body::with(
+        IsotropicHardeningHypoelasticCorrespondence::build(&block(HORIZON), &input).unwrap(),
+    );
     let e = 2.0 * g / (2.0 - g);
     let f = Tensor::from_diagonal(&nalgebra::Vector3::new(1.0 + e, 1.0, 1.0));
     body.force(&body.affine(&f));
@@ -1107,7 +1085,8 @@ fn bonds_beyond_the_actual_horizon_carry_nothing() {
     // δ = 1.6 (the √3 bonds, ≈ 1.73 ± 0.04 long here, drop out), and differ from Actual
     // Horizon 1.8, where they count.
     let build = |horizon: f64, actual: f64| {
-        ElasticHypoelasticCorrespondence::build(&hypoelastic_input(0.05, horizon, actual)).unwrap()
+        ElasticHypoelasticCorrespondence::build(&block(horizon), &hypoelastic(0.05, actual, ()))
+            .unwrap()
     };
     let mut wide = Body::with_bonds(build(HORIZON, ACTUAL_HORIZON), HORIZON);
     let mut narrow = Body::with_bonds(build(ACTUAL_HORIZON, ACTUAL_HORIZON), ACTUAL_HORIZON);
@@ -1285,10 +1264,12 @@ fn hypoelastic_deck_mistakes_are_named() {
             "{error}"
         );
     }
-    let mut input = hypoelastic_input(0.0, HORIZON, ACTUAL_HORIZON);
-    input.influence = InfluenceFunction::user(|zeta, _| 1.0 / zeta);
+    let user = BlockInput {
+        influence: InfluenceFunction::user(|zeta, _| 1.0 / zeta),
+        ..block(HORIZON)
+    };
     assert_eq!(
-        ElasticHypoelasticCorrespondence::build(&input).err(),
+        ElasticHypoelasticCorrespondence::build(&user, &hypoelastic(0.0, ACTUAL_HORIZON, ())).err(),
         Some(MaterialError::UserInfluenceNotSupported {
             model: "Elastic Hypoelastic Correspondence"
         })

@@ -1,5 +1,6 @@
 //! `Viscoplastic Needleman Correspondence`'s stress model: rate-dependent J2 plasticity with
-//! Needleman's flow stress (Peridigm's `updateElasticViscoplasticCauchyStress`, reference §1.3):
+//! Needleman's flow stress (Peridigm's `updateElasticViscoplasticCauchyStress`,
+//! `correspondence.cxx`):
 //!
 //! `Y(ε̄_p, ε̇_p) = σ_y (1 + ε̄_p/ε₀)^N / (1 + (ε̄_p/ε₁)²) · (ε̇_p/ε̇_ref)^m`,
 //!
@@ -40,10 +41,54 @@ use num_dual::Dual64;
 
 use super::elastic::elastic_trial;
 use super::kinematics::{deviator, trace, Tensor};
-use super::{PointStep, StressModel, StressState};
-use crate::material::{positive, Flaw, MaterialError, MaterialInput};
-use crate::model::{ModelDeclaration, Reach};
+use super::plastic::{ENABLE_FLAW, FLAW_LOCATION, FLAW_MAGNITUDE, FLAW_SIZE};
+use super::{PointStep, StressModel, StressState, HOURGLASS_COEFFICIENT, YIELD_STRESS};
+use crate::material::keys::{DENSITY, ELASTIC, PROBE_LENGTH, TANGENT};
+use crate::material::{positive, ElasticConstants, Flaw, MaterialError};
+use crate::model::{KeyDoc, ModelDeclaration, Reach, TangentSupport};
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::Scalar;
+
+/// `Strain Hardening Exponent`.
+const STRAIN_HARDENING_EXPONENT: KeyDoc = KeyDoc {
+    key: "Strain Hardening Exponent",
+    meaning: "N of the flow stress's hardening factor (1 + ε̄_p/ε₀)^N",
+    unit: "—",
+    default: "required",
+};
+
+/// `Rate Hardening Exponent`.
+const RATE_HARDENING_EXPONENT: KeyDoc = KeyDoc {
+    key: "Rate Hardening Exponent",
+    meaning: "m ≥ 0 of the rate factor (ε̇_p/ε̇_ref)^m; 0 is rate independent",
+    unit: "—",
+    default: "required",
+};
+
+/// `Reference Strain Rate`.
+const REFERENCE_STRAIN_RATE: KeyDoc = KeyDoc {
+    key: "Reference Strain Rate",
+    meaning: "ε̇_ref of the rate factor",
+    unit: "1/time",
+    default: "required",
+};
+
+/// `Reference Strain 0`.
+const REFERENCE_STRAIN_0: KeyDoc = KeyDoc {
+    key: "Reference Strain 0",
+    meaning: "ε₀ of the hardening factor",
+    unit: "—",
+    default: "required",
+};
+
+/// `Reference Strain 1`.
+const REFERENCE_STRAIN_1: KeyDoc = KeyDoc {
+    key: "Reference Strain 1",
+    meaning: "ε₁ of the softening factor 1/(1 + (ε̄_p/ε₁)²)",
+    unit: "—",
+    default: "required",
+};
 
 /// √(2/3), the factor between the deviatoric norm and the von Mises measure.
 const SQRT_TWO_THIRDS: f64 = 0.816_496_580_927_726;
@@ -61,6 +106,17 @@ pub struct NeedlemanParameters {
     pub reference_strain_0: f64,
     /// `Reference Strain 1` ε₁ (dimensionless, > 0).
     pub reference_strain_1: f64,
+}
+
+/// The deck parameters of `Viscoplastic Needleman Correspondence` besides the elastic pair.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NeedlemanInput {
+    /// `Yield Stress` σ_y (pressure).
+    pub yield_stress: f64,
+    /// N, m, ε̇_ref, ε₀, ε₁.
+    pub parameters: NeedlemanParameters,
+    /// `Enable Flaw` with its parameters.
+    pub flaw: Option<Flaw>,
 }
 
 /// Rate-dependent J2 plasticity with Needleman's flow stress (module docs).
@@ -140,60 +196,73 @@ impl NeedlemanStress {
 }
 
 impl StressModel for NeedlemanStress {
+    type Parameters = NeedlemanInput;
+
     const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Viscoplastic Needleman Correspondence",
+        aliases: &[],
         deck_keys: &[
-            "Density",
-            "Bulk Modulus",
-            "Shear Modulus",
-            "Young's Modulus",
-            "Poisson's Ratio",
-            "Hourglass Coefficient",
-            "Yield Stress",
-            "Strain Hardening Exponent",
-            "Rate Hardening Exponent",
-            "Reference Strain Rate",
-            "Reference Strain 0",
-            "Reference Strain 1",
-            "Enable Flaw",
-            "Flaw Location X",
-            "Flaw Location Y",
-            "Flaw Location Z",
-            "Flaw Size",
-            "Flaw Magnitude",
-            "Tangent",
-            "Finite Difference Probe Length",
+            DENSITY,
+            ELASTIC[0],
+            ELASTIC[1],
+            ELASTIC[2],
+            ELASTIC[3],
+            HOURGLASS_COEFFICIENT,
+            YIELD_STRESS,
+            STRAIN_HARDENING_EXPONENT,
+            RATE_HARDENING_EXPONENT,
+            REFERENCE_STRAIN_RATE,
+            REFERENCE_STRAIN_0,
+            REFERENCE_STRAIN_1,
+            ENABLE_FLAW,
+            FLAW_LOCATION[0],
+            FLAW_LOCATION[1],
+            FLAW_LOCATION[2],
+            FLAW_SIZE,
+            FLAW_MAGNITUDE,
+            TANGENT,
+            PROBE_LENGTH,
         ],
         reach: Reach::TwoHop,
         fields: super::CORRESPONDENCE_FIELDS,
         outputs: super::CORRESPONDENCE_OUTPUTS,
+        tangent: TangentSupport::Differentiated,
+        thermal_strain: false,
     };
 
-    fn from_input(input: &MaterialInput) -> Result<Self, MaterialError> {
-        let correspondence = input.required_correspondence("Yield Stress")?;
-        let yield_stress = correspondence.yield_stress.ok_or(MaterialError::Missing {
-            key: "Yield Stress",
-        })?;
-        let parameters = correspondence.viscoplastic.ok_or(MaterialError::Missing {
-            key: "Rate Hardening Exponent",
-        })?;
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<NeedlemanInput, DeckError> {
+        Ok(NeedlemanInput {
+            yield_stress: list.positive_req(ctx, YIELD_STRESS.key)?,
+            parameters: NeedlemanParameters {
+                strain_hardening_exponent: list.f64_req(ctx, STRAIN_HARDENING_EXPONENT.key)?,
+                rate_hardening_exponent: list.f64_req(ctx, RATE_HARDENING_EXPONENT.key)?,
+                reference_strain_rate: list.positive_req(ctx, REFERENCE_STRAIN_RATE.key)?,
+                reference_strain_0: list.positive_req(ctx, REFERENCE_STRAIN_0.key)?,
+                reference_strain_1: list.positive_req(ctx, REFERENCE_STRAIN_1.key)?,
+            },
+            flaw: Flaw::read(ctx, list)?,
+        })
+    }
+
+    fn new(elastic: &ElasticConstants, input: &NeedlemanInput) -> Result<Self, MaterialError> {
+        let parameters = input.parameters;
         if !(parameters.rate_hardening_exponent.is_finite()
             && parameters.rate_hardening_exponent >= 0.0)
         {
             return Err(MaterialError::NotNonNegative {
-                key: "Rate Hardening Exponent",
+                key: RATE_HARDENING_EXPONENT.key,
                 value: parameters.rate_hardening_exponent,
             });
         }
-        positive("Reference Strain Rate", parameters.reference_strain_rate)?;
-        positive("Reference Strain 0", parameters.reference_strain_0)?;
-        positive("Reference Strain 1", parameters.reference_strain_1)?;
+        positive(REFERENCE_STRAIN_RATE.key, parameters.reference_strain_rate)?;
+        positive(REFERENCE_STRAIN_0.key, parameters.reference_strain_0)?;
+        positive(REFERENCE_STRAIN_1.key, parameters.reference_strain_1)?;
         Ok(Self {
-            bulk_modulus: positive("Bulk Modulus", input.bulk_modulus)?,
-            shear_modulus: positive("Shear Modulus", input.required_shear_modulus()?)?,
-            yield_stress: positive("Yield Stress", yield_stress)?,
+            bulk_modulus: positive("Bulk Modulus", elastic.bulk_modulus)?,
+            shear_modulus: positive("Shear Modulus", elastic.shear_modulus)?,
+            yield_stress: positive(YIELD_STRESS.key, input.yield_stress)?,
             parameters,
-            flaw: correspondence.flaw,
+            flaw: input.flaw,
         })
     }
 

@@ -44,48 +44,94 @@
 //! differentiation by default (Peridigm: finite differences unless `Apply Automatic
 //! Differentiation Jacobian: true`), since it is the exact derivative of the same return map.
 
-use super::{ElasticPlastic, FIELDS};
-use crate::material::{Material, MaterialError, MaterialInput};
-use crate::model::{ModelDeclaration, Reach};
+use super::{ElasticPlastic, PlasticityInput, DISABLE_PLASTICITY, FIELDS, YIELD_STRESS};
+use crate::material::keys::{
+    non_negative_req, AUTOMATIC_DIFFERENTIATION, DENSITY, ELASTIC, PROBE_LENGTH, TANGENT,
+};
+use crate::material::{BlockInput, Material, MaterialError, MaterialKeys, MaterialModel};
+use crate::model::{KeyDoc, ModelDeclaration, Reach, TangentSupport};
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::Scalar;
+
+/// `Hardening Modulus`.
+const HARDENING_MODULUS: KeyDoc = KeyDoc {
+    key: "Hardening Modulus",
+    meaning: "H of the yield surface ψ₀ + Hλ (units of ψ per unit of λ, as Peridigm reads it)",
+    unit: "force³/length¹⁶",
+    default: "required",
+};
+
+/// `Apply Shear Correction Factor` of `Elastic Plastic Hardening`.
+const SHEAR_CORRECTION: KeyDoc = KeyDoc {
+    key: "Apply Shear Correction Factor",
+    meaning: "scale α and ψ₀ pointwise by the shear-correction factor s of the neighbourhood",
+    unit: "true/false",
+    default: "true",
+};
 
 /// `Elastic Plastic Hardening` (module docs): an [`ElasticPlastic`] with a hardening modulus
 /// and the shear-correction factor.
 pub struct ElasticPlasticHardening;
 
-impl ElasticPlasticHardening {
+impl MaterialKeys for ElasticPlasticHardening {
+    type Parameters = PlasticityInput;
+
     /// `Elastic Plastic Hardening`: the fields and reach of `Elastic Plastic`.
-    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Elastic Plastic Hardening",
+        aliases: &[],
         deck_keys: &[
-            "Density",
-            "Bulk Modulus",
-            "Shear Modulus",
-            "Young's Modulus",
-            "Poisson's Ratio",
-            "Yield Stress",
-            "Hardening Modulus",
-            "Disable Plasticity",
-            "Apply Shear Correction Factor",
-            "Tangent",
-            "Apply Automatic Differentiation Jacobian",
-            "Finite Difference Probe Length",
+            DENSITY,
+            ELASTIC[0],
+            ELASTIC[1],
+            ELASTIC[2],
+            ELASTIC[3],
+            YIELD_STRESS,
+            HARDENING_MODULUS,
+            DISABLE_PLASTICITY,
+            SHEAR_CORRECTION,
+            TANGENT,
+            AUTOMATIC_DIFFERENTIATION,
+            PROBE_LENGTH,
         ],
         reach: Reach::TwoHop,
         fields: FIELDS,
         outputs: &["Weighted_Volume", "Dilatation", "Lambda"],
+        tangent: TangentSupport::Differentiated,
+        thermal_strain: false,
     };
 
-    /// The registry's constructor: ρ, K, μ, δ, σ_y, H (`Disable Plasticity`) and the shear
-    /// correction from `input`; ω must be `One`, H ≥ 0.
-    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        Ok(Box::new(Self::material(input)?))
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<PlasticityInput, DeckError> {
+        let elastic = crate::material::elastic_constants::read(ctx, list)?;
+        Ok(PlasticityInput {
+            elastic,
+            yield_stress: list.positive_req(ctx, YIELD_STRESS.key)?,
+            hardening_modulus: non_negative_req(ctx, list, HARDENING_MODULUS.key)?,
+            disabled: list.bool_or(ctx, DISABLE_PLASTICITY.key, false)?,
+            planar_thickness: None,
+            shear_correction: list.bool_or(ctx, SHEAR_CORRECTION.key, true)?,
+        })
     }
+}
 
-    /// The model as an [`ElasticPlastic`] (validated as [`ElasticPlastic::new`], and H finite
-    /// and ≥ 0).
-    pub fn material(input: &MaterialInput) -> Result<ElasticPlastic, MaterialError> {
-        ElasticPlastic::of_model(&Self::DECLARATION, input)
+impl MaterialModel for ElasticPlasticHardening {
+    fn build(
+        block: &BlockInput,
+        parameters: &PlasticityInput,
+    ) -> Result<Box<dyn Material>, MaterialError> {
+        Ok(Box::new(Self::material(block, parameters)?))
+    }
+}
+
+impl ElasticPlasticHardening {
+    /// The model as an [`ElasticPlastic`] (validated as `Elastic Plastic`, and H finite and
+    /// ≥ 0).
+    pub fn material(
+        block: &BlockInput,
+        parameters: &PlasticityInput,
+    ) -> Result<ElasticPlastic, MaterialError> {
+        ElasticPlastic::of_model(&Self::DECLARATION, block, parameters)
     }
 }
 

@@ -4,27 +4,22 @@
 //! shear-correction factor, rigid motion, momentum, staged history and the tangent.
 
 use super::super::tests::{
-    continuum_yield_shear, diagonal_bond, input, magnitude, perturbed, tangent_error,
-    yielding_body_of, Body, CENTER, HORIZON, N, YIELD_STRESS,
+    block, continuum_yield_shear, diagonal_bond, elastic_plastic, input, magnitude, perturbed,
+    tangent_error, yielding_body_of, Body, CENTER, HORIZON, N, YIELD_STRESS,
 };
-use super::super::{fields, yield_value, ElasticPlastic};
+use super::super::{fields, yield_value, ElasticPlastic, PlasticityInput};
 use super::*;
-use crate::material::MaterialInput;
 
 const SHEAR: f64 = 1.0;
 
 /// `Elastic Plastic Hardening` with hardening modulus `h` and the shear correction `on`.
-fn hardening_input(horizon: f64, h: f64, on: bool) -> MaterialInput {
-    let mut input = input(horizon, YIELD_STRESS, false);
-    if let Some(p) = input.plasticity.as_mut() {
-        p.hardening_modulus = h;
-    }
-    input.shear_correction = on;
-    input
-}
-
 fn hardening(horizon: f64, h: f64, on: bool) -> ElasticPlastic {
-    ElasticPlasticHardening::material(&hardening_input(horizon, h, on)).unwrap()
+    let parameters = PlasticityInput {
+        hardening_modulus: h,
+        shear_correction: on,
+        ..input(YIELD_STRESS, false)
+    };
+    ElasticPlasticHardening::material(&block(horizon), &parameters).unwrap()
 }
 
 /// The consistency condition of a plastic step, `(P + HΔλ)(1 + αΔλ)² − T`, relative to T.
@@ -102,14 +97,12 @@ fn the_dual_root_carries_the_implicit_derivative() {
 
 #[test]
 fn with_zero_hardening_the_model_is_elastic_plastic_bitwise() {
-    let mut plastic = Body::of(
-        6,
-        1.8,
-        Some(4),
-        ElasticPlastic::new(&input(1.8, YIELD_STRESS, false)).unwrap(),
-    );
+    let mut plastic = Body::of(6, 1.8, Some(4), elastic_plastic(1.8, YIELD_STRESS, false));
     let mut hard = Body::of(6, 1.8, Some(4), hardening(1.8, 0.0, false));
-    assert_eq!(hard.material.model_name(), "Elastic Plastic Hardening");
+    assert_eq!(
+        hard.material.block().declaration().deck_name,
+        "Elastic Plastic Hardening"
+    );
     for (step, amplitude) in [0.02, 0.05, 0.03].into_iter().enumerate() {
         let y = perturbed(&plastic, 7 + step as u64, amplitude);
         assert_eq!(plastic.force(&y), hard.force(&y), "step {step}");
@@ -128,12 +121,7 @@ fn with_zero_hardening_the_model_is_elastic_plastic_bitwise() {
 fn a_small_hardening_modulus_approaches_elastic_plastic() {
     // The cubic's root is continuous in H: with H → 0 the plastic multiplier of a step tends
     // to Elastic Plastic's (the H = 0 branch of the kernel), the difference of order H.
-    let mut plastic = Body::of(
-        6,
-        1.8,
-        Some(4),
-        ElasticPlastic::new(&input(1.8, YIELD_STRESS, false)).unwrap(),
-    );
+    let mut plastic = Body::of(6, 1.8, Some(4), elastic_plastic(1.8, YIELD_STRESS, false));
     let y = perturbed(&plastic, 7, 0.05);
     plastic.force(&y);
     let reference = plastic.field(fields::LAMBDA).trial().to_vec();

@@ -50,15 +50,20 @@
 
 use rayon::prelude::*;
 
+use super::keys::{AUTOMATIC_DIFFERENTIATION, DENSITY, ELASTIC, PROBE_LENGTH, TANGENT};
 use super::{
-    assert_point_set, checked_differentiated_tangent_method, kept_points, local_offsets, positive,
-    CurrentView, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
+    local_offsets, BlockData, BlockInput, CurrentView, ElasticConstants, Material, MaterialError,
+    MaterialKeys, MaterialModel, MaterialOutputs, MaterialParameters, MaterialTangent,
+    PointCoefficients, ReferenceView,
 };
 use crate::history::History;
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::{
-    BondList, BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach,
+    BondList, BondVolumes, FieldCarrier, FieldDeclaration, KeyDoc, ModelDeclaration, Reach,
+    TangentSupport,
 };
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -87,38 +92,73 @@ pub(super) const NO_REVERSE: usize = usize::MAX;
 /// ([`ElasticPlasticHardening`]).
 #[derive(Debug, Clone)]
 pub struct ElasticPlastic {
-    /// The model's declaration: `Elastic Plastic` or `Elastic Plastic Hardening`.
-    declaration: &'static ModelDeclaration,
-    density: f64,
-    bulk_modulus: f64,
+    block: BlockData,
     shear_modulus: f64,
-    horizon: f64,
     /// ψ₀ (force²/length⁹); `None` with `Disable Plasticity`.
     yield_value: Option<f64>,
     /// H of the yield surface ψ₀ + Hλ (0: perfect plasticity, `Elastic Plastic`).
     hardening_modulus: f64,
-    /// Whether [`Material::setup`] probes the shear-correction factor of every point.
+    /// Whether `prepare` probes the shear-correction factor of every point.
     shear_correction: bool,
-    /// The shear-correction factor s per block point (same order as `points`), scaling α and
-    /// ψ₀ ([`super::shear_correction`]); empty when the model applies none.
+    /// The shear-correction factor s per block point (same order as the block's points),
+    /// scaling α and ψ₀ ([`super::shear_correction`]); empty when the model applies none.
     correction: Vec<f64>,
-    points: Vec<u32>,
-    /// m per block point (same order as `points`).
+    /// m per block point (same order as the block's points).
     weighted_volume: Vec<f64>,
     /// Block-local row starts into `reverse`.
     local_offsets: Vec<usize>,
     /// For each block bond i→j, the global index of j→i ([`NO_REVERSE`] when j has no bond
     /// to i).
     reverse: Vec<usize>,
-    tangent: TangentMethod,
-    /// The points whose force is computed, when fewer than `points`
-    /// ([`Material::restrict_forces`]).
-    force_points: Option<Vec<u32>>,
 }
 
-/// The deck parameters of the plastic state-based models besides their elastic constants.
+/// `Yield Stress`.
+pub(super) const YIELD_STRESS: KeyDoc = KeyDoc {
+    key: "Yield Stress",
+    meaning: "σ_y, giving the yield value ψ₀ = 25σ_y²/(8πδ⁵) (75σ_y²/(8πhδ⁴) when planar)",
+    unit: "pressure",
+    default: "required",
+};
+
+/// `Disable Plasticity`.
+pub(super) const DISABLE_PLASTICITY: KeyDoc = KeyDoc {
+    key: "Disable Plasticity",
+    meaning: "an infinite yield stress: the model is then the LPS with ω = 1",
+    unit: "true/false",
+    default: "false",
+};
+
+/// `Planar Problem`.
+const PLANAR_PROBLEM: KeyDoc = KeyDoc {
+    key: "Planar Problem",
+    meaning: "the planar yield value ψ₀ = 75σ_y²/(8πhδ⁴) with `Thickness` h",
+    unit: "true/false",
+    default: "false",
+};
+
+/// `Thickness`.
+const THICKNESS: KeyDoc = KeyDoc {
+    key: "Thickness",
+    meaning: "thickness h of a `Planar Problem`",
+    unit: "length",
+    default: "required when planar",
+};
+
+/// `Apply Shear Correction Factor`, which `Elastic Plastic` accepts without effect.
+const SHEAR_CORRECTION_WITHOUT_EFFECT: KeyDoc = KeyDoc {
+    key: "Apply Shear Correction Factor",
+    meaning: "accepted without effect: the Elastic Plastic model never applies a shear \
+              correction",
+    unit: "true/false",
+    default: "—",
+};
+
+/// The deck parameters of the plastic state-based models besides the keys every model
+/// shares.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlasticityInput {
+    /// K and μ from the elastic pair.
+    pub elastic: ElasticConstants,
     /// `Yield Stress` σ_y (pressure).
     pub yield_stress: f64,
     /// `Disable Plasticity`: the yield stress is infinite.
@@ -126,6 +166,21 @@ pub struct PlasticityInput {
     /// `Hardening Modulus` H of `Elastic Plastic Hardening` (units of ψ per unit of λ,
     /// force³/length¹⁶, as Peridigm reads it); 0 for `Elastic Plastic`.
     pub hardening_modulus: f64,
+    /// `Thickness` h of an `Elastic Plastic` `Planar Problem`; `None` in 3D.
+    pub planar_thickness: Option<f64>,
+    /// `Apply Shear Correction Factor` (`Elastic Plastic Hardening`, default true; false for
+    /// `Elastic Plastic`).
+    pub shear_correction: bool,
+}
+
+impl MaterialParameters for PlasticityInput {
+    fn bulk_modulus(&self) -> Option<f64> {
+        Some(self.elastic.bulk_modulus)
+    }
+
+    fn planar_thickness(&self) -> Option<f64> {
+        self.planar_thickness
+    }
 }
 
 /// ψ₀ = 25σ_y²/(8πδ⁵) in 3-D, 75σ_y²/(8πhδ⁴) in a plane of thickness h (module docs).
@@ -167,62 +222,92 @@ const FIELDS: &[FieldDeclaration] = &[
     },
 ];
 
-impl ElasticPlastic {
+impl MaterialKeys for ElasticPlastic {
+    type Parameters = PlasticityInput;
+
     /// `Elastic Plastic`: state-based (two hops), keeps m and θ per point (not staged) and the
     /// staged plastic extension per bond and λ per point.
-    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Elastic Plastic",
+        aliases: &[],
         deck_keys: &[
-            "Density",
-            "Bulk Modulus",
-            "Shear Modulus",
-            "Young's Modulus",
-            "Poisson's Ratio",
-            "Yield Stress",
-            "Disable Plasticity",
-            "Planar Problem",
-            "Thickness",
-            "Tangent",
-            "Apply Automatic Differentiation Jacobian",
-            "Finite Difference Probe Length",
+            DENSITY,
+            ELASTIC[0],
+            ELASTIC[1],
+            ELASTIC[2],
+            ELASTIC[3],
+            YIELD_STRESS,
+            DISABLE_PLASTICITY,
+            PLANAR_PROBLEM,
+            THICKNESS,
+            TANGENT,
+            AUTOMATIC_DIFFERENTIATION,
+            PROBE_LENGTH,
+            SHEAR_CORRECTION_WITHOUT_EFFECT,
         ],
         reach: Reach::TwoHop,
         fields: FIELDS,
         outputs: &["Weighted_Volume", "Dilatation", "Lambda"],
+        tangent: TangentSupport::Differentiated,
+        thermal_strain: false,
     };
 
-    /// The registry's constructor: ρ, K, μ, δ, σ_y (`Disable Plasticity`) and the planar
-    /// thickness from `input`; ω must be `One`.
-    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        Ok(Box::new(Self::new(input)?))
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<PlasticityInput, DeckError> {
+        let elastic = super::elastic_constants::read(ctx, list)?;
+        list.without_effect(
+            SHEAR_CORRECTION_WITHOUT_EFFECT.key,
+            "the Elastic Plastic model never applies a shear correction",
+        );
+        let yield_stress = list.positive_req(ctx, YIELD_STRESS.key)?;
+        let planar = list.bool_or(ctx, PLANAR_PROBLEM.key, false)?;
+        let disabled = list.bool_or(ctx, DISABLE_PLASTICITY.key, false)?;
+        Ok(PlasticityInput {
+            elastic,
+            yield_stress,
+            disabled,
+            hardening_modulus: 0.0,
+            planar_thickness: if planar {
+                Some(list.positive_req(ctx, THICKNESS.key)?)
+            } else {
+                None
+            },
+            shear_correction: false,
+        })
     }
+}
 
-    /// Validates the parameters (ρ, K, μ, δ, σ_y and the thickness positive and finite, ω
-    /// `One`).
-    pub fn new(input: &MaterialInput) -> Result<Self, MaterialError> {
-        Self::of_model(&Self::DECLARATION, input)
+impl MaterialModel for ElasticPlastic {
+    fn build(
+        block: &BlockInput,
+        parameters: &PlasticityInput,
+    ) -> Result<Box<dyn Material>, MaterialError> {
+        Ok(Box::new(Self::of_model(
+            &Self::DECLARATION,
+            block,
+            parameters,
+        )?))
     }
+}
 
+impl ElasticPlastic {
     /// The model `declaration` names (`Elastic Plastic`, or `Elastic Plastic Hardening` with
-    /// its hardening modulus and shear correction from `input`), validated as [`Self::new`]
-    /// says.
+    /// its hardening modulus and shear correction), validated: ρ, K, μ, δ, σ_y and the
+    /// thickness positive and finite, H finite and ≥ 0, ω `One`.
     pub(super) fn of_model(
         declaration: &'static ModelDeclaration,
-        input: &MaterialInput,
+        block: &BlockInput,
+        plasticity: &PlasticityInput,
     ) -> Result<Self, MaterialError> {
-        if !input.influence.is_one() {
+        if !block.influence.is_one() {
             return Err(MaterialError::InfluenceNotSupported {
                 model: declaration.deck_name,
             });
         }
-        let plasticity = input.plasticity.ok_or(MaterialError::Missing {
-            key: "Yield Stress",
-        })?;
-        let yield_stress = positive("Yield Stress", plasticity.yield_stress)?;
-        let horizon = positive("Horizon", input.horizon)?;
-        let thickness = input
+        let yield_stress = super::positive(YIELD_STRESS.key, plasticity.yield_stress)?;
+        let horizon = super::positive("Horizon", block.horizon)?;
+        let thickness = plasticity
             .planar_thickness
-            .map(|h| positive("Thickness", h))
+            .map(|h| super::positive(THICKNESS.key, h))
             .transpose()?;
         let hardening_modulus = plasticity.hardening_modulus;
         if !(hardening_modulus.is_finite() && hardening_modulus >= 0.0) {
@@ -231,23 +316,23 @@ impl ElasticPlastic {
                 value: hardening_modulus,
             });
         }
-        Ok(Self {
+        let data = BlockData::new(
             declaration,
-            density: positive("Density", input.density)?,
-            bulk_modulus: positive("Bulk Modulus", input.bulk_modulus)?,
-            shear_modulus: positive("Shear Modulus", input.required_shear_modulus()?)?,
+            block.density,
+            plasticity.elastic.bulk_modulus,
             horizon,
+        )?;
+        Ok(Self {
+            block: data,
+            shear_modulus: super::positive("Shear Modulus", plasticity.elastic.shear_modulus)?,
             yield_value: (!plasticity.disabled)
                 .then(|| yield_value(yield_stress, horizon, thickness)),
             hardening_modulus,
-            shear_correction: input.shear_correction,
+            shear_correction: plasticity.shear_correction,
             correction: Vec::new(),
-            points: Vec::new(),
             weighted_volume: Vec::new(),
             local_offsets: vec![0],
             reverse: Vec::new(),
-            tangent: TangentMethod::AutomaticDifferentiation,
-            force_points: None,
         })
     }
 
@@ -262,7 +347,7 @@ impl ElasticPlastic {
             volume: reference.bond_volumes(),
             damage,
             weighted_volume: &self.weighted_volume,
-            bulk_modulus: self.bulk_modulus,
+            bulk_modulus: self.block.bulk_modulus(),
             shear_modulus: self.shear_modulus,
             yield_value: self.yield_value,
             hardening_modulus: self.hardening_modulus,
@@ -438,52 +523,26 @@ impl Kernel<'_> {
 }
 
 impl Material for ElasticPlastic {
-    fn declaration(&self) -> &'static ModelDeclaration {
-        self.declaration
+    fn block(&self) -> &BlockData {
+        &self.block
     }
 
-    fn density(&self) -> f64 {
-        self.density
+    fn block_mut(&mut self) -> &mut BlockData {
+        &mut self.block
     }
 
-    fn bulk_modulus(&self) -> f64 {
-        self.bulk_modulus
-    }
-
-    fn horizon(&self) -> f64 {
-        self.horizon
-    }
-
-    fn weighted_volume(&self) -> Option<&[f64]> {
-        Some(&self.weighted_volume)
-    }
-
-    fn setup(
-        &mut self,
-        reference: &ReferenceView<'_>,
-        points: Vec<u32>,
-    ) -> Result<(), MaterialError> {
+    fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError> {
         let bonds = reference.bonds;
-        assert_point_set(&points, bonds.num_points());
-        self.weighted_volume = unit_weighted_volumes(reference, &points);
-        self.local_offsets = local_offsets(bonds, &points);
-        self.reverse = reverse_bonds(bonds, &points);
+        let points = self.block.points();
+        self.weighted_volume = unit_weighted_volumes(reference, points);
+        self.local_offsets = local_offsets(bonds, points);
+        self.reverse = reverse_bonds(bonds, points);
         self.correction = if self.shear_correction {
-            super::shear_correction::factors(reference, &points, &self.weighted_volume, None)
+            super::shear_correction::factors(reference, points, &self.weighted_volume, None)
         } else {
             Vec::new()
         };
-        self.points = points;
-        self.force_points = None;
         Ok(())
-    }
-
-    fn points(&self) -> &[u32] {
-        &self.points
-    }
-
-    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        self.force_points = kept_points(&self.points, keep);
     }
 
     fn update_history(
@@ -502,7 +561,8 @@ impl Material for ElasticPlastic {
         let bonds = reference.bonds;
         let (committed, trial) = Self::staged(history, fields::DEVIATORIC_PLASTIC_EXTENSION);
         let responses: Vec<Option<PointResponse<f64>>> = self
-            .points
+            .block
+            .points()
             .par_iter()
             .enumerate()
             .map_init(Vec::new, |y, (local, &p)| {
@@ -516,12 +576,12 @@ impl Material for ElasticPlastic {
             })
             .collect();
         for_each_chunk(
-            &self.points,
+            self.block.points(),
             trial,
             &|i| bonds.offsets[i as usize],
             &|chunk: &[u32], base: usize, out: &mut [f64]| {
                 let mut y = Vec::new();
-                let first = self.points.partition_point(|&p| p < chunk[0]);
+                let first = self.block.points().partition_point(|&p| p < chunk[0]);
                 for (local, &p) in (first..).zip(chunk) {
                     let point = PointIndex {
                         global: p as usize,
@@ -555,7 +615,7 @@ impl Material for ElasticPlastic {
             },
         );
         let (committed, trial) = Self::staged(history, fields::LAMBDA);
-        for (&p, response) in self.points.iter().zip(&responses) {
+        for (&p, response) in self.block.points().iter().zip(&responses) {
             let p = p as usize;
             trial[p] = committed[p] + response.map_or(0.0, |r| r.delta_lambda);
         }
@@ -570,12 +630,12 @@ impl Material for ElasticPlastic {
         let kernel = self.kernel(reference, current.bond_damage, &[]);
         let bonds = reference.bonds;
         for_each_chunk(
-            &self.points,
+            self.block.points(),
             coefficients,
             &|i| i as usize,
             &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
                 let mut y = Vec::new();
-                let first = self.points.partition_point(|&p| p < chunk[0]);
+                let first = self.block.points().partition_point(|&p| p < chunk[0]);
                 for (local, &p) in (first..).zip(chunk) {
                     let point = PointIndex {
                         global: p as usize,
@@ -588,7 +648,8 @@ impl Material for ElasticPlastic {
                         match self.correction.get(local) {
                             None => PointCoefficients {
                                 dilatation: theta,
-                                isotropic: (3.0 * self.bulk_modulus - 5.0 * self.shear_modulus)
+                                isotropic: (3.0 * self.block.bulk_modulus()
+                                    - 5.0 * self.shear_modulus)
                                     * theta
                                     / m,
                                 deviatoric: 15.0 * self.shear_modulus / m,
@@ -598,7 +659,7 @@ impl Material for ElasticPlastic {
                                 let alpha = s * (15.0 * self.shear_modulus / m);
                                 PointCoefficients {
                                     dilatation: theta,
-                                    isotropic: 3.0 * self.bulk_modulus * theta / m
+                                    isotropic: 3.0 * self.block.bulk_modulus() * theta / m
                                         - alpha * theta / 3.0,
                                     deviatoric: alpha,
                                 }
@@ -630,7 +691,7 @@ impl Material for ElasticPlastic {
             .trial();
         let kernel = self.kernel(reference, current.bond_damage, &[]);
         let y = current.position;
-        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        let force_points = self.block.force_points();
         let scalar =
             |c: &PointCoefficients, zeta: f64, extension: f64, intact: f64, plastic: f64| {
                 let deviatoric = extension - c.dilatation * zeta / 3.0 - plastic;
@@ -645,7 +706,8 @@ impl Material for ElasticPlastic {
             &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
                 for &i in chunk {
                     let i = i as usize;
-                    let local = self.local_offsets[self.points.partition_point(|&p| p < i as u32)];
+                    let local =
+                        self.local_offsets[self.block.points().partition_point(|&p| p < i as u32)];
                     let mut total = [0.0; 3];
                     for (n, b) in bonds.range(i).enumerate() {
                         let j = bonds.neighbor[b] as usize;
@@ -696,7 +758,7 @@ impl Material for ElasticPlastic {
             .trial();
         let kernel = self.kernel(reference, current.bond_damage, &[]);
         let y = current.position;
-        for &i in &self.points {
+        for &i in self.block.points() {
             let i = i as usize;
             let c = &coefficients[i];
             let mut sum = 0.0;
@@ -708,20 +770,21 @@ impl Material for ElasticPlastic {
                 let elastic = length - zeta - c.dilatation * zeta / 3.0 - plastic[b];
                 sum += kernel.intact(b) * elastic * elastic * reference.neighbor_volume(b, j);
             }
-            energy_density[i] =
-                0.5 * self.bulk_modulus * c.dilatation * c.dilatation + 0.5 * c.deviatoric * sum;
+            energy_density[i] = 0.5 * self.block.bulk_modulus() * c.dilatation * c.dilatation
+                + 0.5 * c.deviatoric * sum;
         }
     }
 
-    fn tangent_method(&self) -> TangentMethod {
-        self.tangent
+    fn tangent(&self) -> Option<&dyn MaterialTangent> {
+        Some(self)
     }
 
-    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
-        self.tangent = checked_differentiated_tangent_method(self.model_name(), method)?;
-        Ok(())
+    fn outputs(&self) -> Option<&dyn MaterialOutputs> {
+        Some(self)
     }
+}
 
+impl MaterialTangent for ElasticPlastic {
     fn add_tangent(
         &self,
         reference: &ReferenceView<'_>,
@@ -744,13 +807,19 @@ impl Material for ElasticPlastic {
         };
         assemble(
             &kernel,
-            self.model_name(),
-            &self.points,
+            self.block.declaration().deck_name,
+            self.block.points(),
             reference,
             current,
             method,
             tangent,
         )
+    }
+}
+
+impl MaterialOutputs for ElasticPlastic {
+    fn weighted_volume(&self) -> Option<&[f64]> {
+        Some(&self.weighted_volume)
     }
 }
 

@@ -6,9 +6,7 @@
 use std::sync::Arc;
 
 use super::*;
-use crate::material::{
-    InfluenceFunction, LinearPeridynamicSolid, LinearPeridynamicSolidParameters, MaterialInput,
-};
+use crate::material::{InfluenceFunction, LinearPeridynamicSolid};
 use crate::model::test_support::{brute_force_bonds, lattice, Rng};
 use crate::model::PointCloud;
 use crate::physics::{BlockPhysics, Configuration, Physics};
@@ -17,26 +15,38 @@ use crate::tangent::BlockPattern;
 const BULK: f64 = 3.0;
 const SHEAR: f64 = 1.0;
 
-pub(super) fn input(horizon: f64, yield_stress: f64, disabled: bool) -> MaterialInput {
-    MaterialInput {
+/// ρ = 2, `horizon`, ω = 1.
+pub(super) fn block(horizon: f64) -> BlockInput {
+    BlockInput {
         density: 2.0,
         horizon,
-        bulk_modulus: BULK,
-        shear_modulus: Some(SHEAR),
-        planar_thickness: None,
-        plasticity: Some(PlasticityInput {
-            yield_stress,
-            disabled,
-            hardening_modulus: 0.0,
-        }),
-        shear_correction: false,
-        viscoelastic: None,
         influence: InfluenceFunction::One,
-        correspondence: None,
-        pals: None,
-        yield_stretch: None,
-        analytic_weighted_volume: None,
     }
+}
+
+/// K = BULK, μ = SHEAR, σ_y `yield_stress` (infinite when `disabled`), no hardening.
+pub(super) fn input(yield_stress: f64, disabled: bool) -> PlasticityInput {
+    PlasticityInput {
+        elastic: ElasticConstants {
+            bulk_modulus: BULK,
+            shear_modulus: SHEAR,
+        },
+        yield_stress,
+        disabled,
+        hardening_modulus: 0.0,
+        planar_thickness: None,
+        shear_correction: false,
+    }
+}
+
+/// `Elastic Plastic` of [`block`] and [`input`].
+pub(super) fn elastic_plastic(horizon: f64, yield_stress: f64, disabled: bool) -> ElasticPlastic {
+    ElasticPlastic::of_model(
+        &ElasticPlastic::DECLARATION,
+        &block(horizon),
+        &input(yield_stress, disabled),
+    )
+    .unwrap()
 }
 
 /// An n³ lattice (spacing 1) of one `Elastic Plastic` block, with its staged history.
@@ -52,7 +62,7 @@ pub(super) struct Body {
 impl Body {
     /// Unit volumes when `seed` is `None`, else volumes in 0.8–1.2.
     fn new(n: usize, horizon: f64, yield_stress: f64, seed: Option<u64>) -> Self {
-        let material = ElasticPlastic::new(&input(horizon, yield_stress, false)).unwrap();
+        let material = elastic_plastic(horizon, yield_stress, false);
         Self::of(n, horizon, seed, material)
     }
 
@@ -71,12 +81,11 @@ impl Body {
             points.push(*p, volume, 0);
         }
         let bonds = brute_force_bonds(&x, horizon);
-        material
-            .setup(
-                &ReferenceView::of(&bonds, &points),
-                (0..x.len() as u32).collect(),
-            )
-            .unwrap();
+        crate::material::set_up(
+            &mut material,
+            &ReferenceView::of(&bonds, &points),
+            (0..x.len() as u32).collect(),
+        );
         let physics = Physics::new(
             vec![BlockPhysics {
                 material: Box::new(material.clone()),
@@ -429,18 +438,22 @@ fn the_forces_conserve_linear_and_angular_momentum_while_yielding() {
 fn without_plasticity_the_model_is_the_linear_peridynamic_solid() {
     let body = Body::new(6, 1.8, 1e-3, Some(9));
     let reference = ReferenceView::of(&body.bonds, &body.points);
-    let mut disabled = ElasticPlastic::new(&input(1.8, 1e-3, true)).unwrap();
-    let mut lps = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-        density: 2.0,
-        bulk_modulus: BULK,
-        shear_modulus: SHEAR,
-        horizon: 1.8,
-        influence: InfluenceFunction::One,
-    })
+    let mut disabled = elastic_plastic(1.8, 1e-3, true);
+    let mut lps = LinearPeridynamicSolid::new(
+        &crate::material::BlockInput {
+            density: 2.0,
+            horizon: 1.8,
+            influence: InfluenceFunction::One,
+        },
+        &crate::material::ElasticConstants {
+            bulk_modulus: BULK,
+            shear_modulus: SHEAR,
+        },
+    )
     .unwrap();
     let all: Vec<u32> = (0..body.points.len() as u32).collect();
-    disabled.setup(&reference, all.clone()).unwrap();
-    lps.setup(&reference, all).unwrap();
+    crate::material::set_up(&mut disabled, &reference, all.clone());
+    crate::material::set_up(&mut lps, &reference, all);
     let force_of = |material: Box<dyn Material>, history: &mut History| {
         let mut physics = Physics::new(
             vec![BlockPhysics {
@@ -533,7 +546,7 @@ pub(super) fn tangent_error(body: &mut Body, y: &[[f64; 3]]) -> f64 {
 
 /// A body with a committed plastic step and a trial state that yields at most points.
 fn yielding_body(damaged: bool) -> (Body, Vec<[f64; 3]>) {
-    let material = ElasticPlastic::new(&input(1.8, 1e-3, false)).unwrap();
+    let material = elastic_plastic(1.8, 1e-3, false);
     yielding_body_of(damaged, material)
 }
 

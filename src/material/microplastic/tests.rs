@@ -15,16 +15,19 @@ use crate::tangent::BlockPattern;
 const BULK: f64 = 3.0;
 
 fn material(horizon: f64, yield_stretch: f64) -> MicroplasticBondBased {
-    MicroplasticBondBased::new(
-        BondBasedParameters {
-            density: 2.0,
+    let block = BlockInput {
+        density: 2.0,
+        horizon,
+        influence: crate::material::InfluenceFunction::One,
+    };
+    let parameters = MicroplasticParameters {
+        pmb: BondBasedParameters {
             bulk_modulus: BULK,
-            horizon,
             planar_thickness: None,
         },
         yield_stretch,
-    )
-    .unwrap()
+    };
+    MicroplasticBondBased::new(&block, &parameters).unwrap()
 }
 
 /// One `Microplastic Bond Based` block over `x`, with its staged history.
@@ -45,12 +48,11 @@ impl Body {
         }
         let bonds = brute_force_bonds(x, horizon);
         let mut material = material(horizon, yield_stretch);
-        material
-            .setup(
-                &ReferenceView::of(&bonds, &points),
-                (0..x.len() as u32).collect(),
-            )
-            .unwrap();
+        crate::material::set_up(
+            &mut material,
+            &ReferenceView::of(&bonds, &points),
+            (0..x.len() as u32).collect(),
+        );
         let physics = Physics::new(
             vec![BlockPhysics {
                 material: Box::new(material.clone()),
@@ -522,8 +524,7 @@ fn critical_stretch_breaks_the_bond_on_its_total_stretch() {
     let bonds = brute_force_bonds(&points.position, 1.5);
     let mut m = material(1.5, 0.01);
     let c = m.micromodulus();
-    m.setup(&ReferenceView::of(&bonds, &points), vec![0, 1])
-        .unwrap();
+    crate::material::set_up(&mut m, &ReferenceView::of(&bonds, &points), vec![0, 1]);
     let mut physics = Physics::new(
         vec![BlockPhysics {
             material: Box::new(m),

@@ -59,15 +59,19 @@
 
 use rayon::prelude::*;
 
+use super::keys::{AUTOMATIC_DIFFERENTIATION, DENSITY, ELASTIC, PROBE_LENGTH, TANGENT};
 use super::{
-    assert_point_set, checked_differentiated_tangent_method, kept_points, local_offsets, positive,
-    CurrentView, InfluenceFunction, Material, MaterialError, MaterialInput, PointCoefficients,
-    ReferenceView,
+    local_offsets, BlockData, BlockInput, CurrentView, ElasticConstants, InfluenceFunction,
+    Material, MaterialError, MaterialKeys, MaterialModel, MaterialOutputs, MaterialParameters,
+    MaterialTangent, PointCoefficients, ReferenceView,
 };
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::{
-    BondList, BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach,
+    BondList, BondVolumes, FieldCarrier, FieldDeclaration, KeyDoc, ModelDeclaration, Reach,
+    TangentSupport,
 };
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -90,9 +94,42 @@ const DEVIATORIC_TARGET: [f64; MULTIPLIERS] = [2.0 / 3.0, 2.0 / 3.0, 2.0 / 3.0, 
 /// direction the family does not span.
 const DEGENERATE: f64 = 1e-15;
 
+/// `Dilatation Influence Function`.
+const DILATATION_INFLUENCE: KeyDoc = KeyDoc {
+    key: "Dilatation Influence Function",
+    meaning: "ω₀, the base of the dilatation's influence function: \"One\", \"Parabolic \
+              Decay\" or \"Gaussian\" (the discretization's is not read)",
+    unit: "a name",
+    default: "One",
+};
+
+/// `Deviatoric Influence Function`.
+const DEVIATORIC_INFLUENCE: KeyDoc = KeyDoc {
+    key: "Deviatoric Influence Function",
+    meaning: "σ₀, the base of the deviatoric influence function: \"One\", \"Parabolic \
+              Decay\" or \"Gaussian\"",
+    unit: "a name",
+    default: "One",
+};
+
+/// The deck parameters of `Pals` besides the keys every model shares.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PalsParameters {
+    /// K and μ from the elastic pair.
+    pub elastic: ElasticConstants,
+    /// The two base influence functions.
+    pub influence: PalsInfluence,
+}
+
+impl MaterialParameters for PalsParameters {
+    fn bulk_modulus(&self) -> Option<f64> {
+        Some(self.elastic.bulk_modulus)
+    }
+}
+
 /// The two base influence functions of `Pals` (deck `Dilatation Influence Function`,
 /// `Deviatoric Influence Function`); Peridigm's default for both is `One`.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct PalsInfluence {
     /// ω₀(ζ, δ) of the dilatation.
     pub dilatation: InfluenceFunction,
@@ -113,13 +150,10 @@ pub struct Multipliers {
 /// `Pals` for one block (see the module docs for the formulas).
 #[derive(Debug, Clone)]
 pub struct Pals {
-    density: f64,
-    bulk_modulus: f64,
+    block: BlockData,
     shear_modulus: f64,
-    horizon: f64,
     influence: PalsInfluence,
-    points: Vec<u32>,
-    /// Per block point (same order as `points`).
+    /// Per block point (same order as the block's points).
     multipliers: Vec<Multipliers>,
     /// `Σ σ ζ² V` over all bonds per block point (Peridigm's `Weighted_Volume` of `Pals`).
     weighted_volume: Vec<f64>,
@@ -131,10 +165,6 @@ pub struct Pals {
     sigma: Vec<f64>,
     /// For each block bond i→j, the block-local index of j→i.
     reverse: Vec<usize>,
-    tangent: TangentMethod,
-    /// The points whose force is computed, when fewer than `points`
-    /// ([`Material::restrict_forces`]).
-    force_points: Option<Vec<u32>>,
     /// Every point's number in the input ([`Material::input_numbering`]); empty when not
     /// given (the families are then summed in row order).
     input_id: Vec<u32>,
@@ -156,23 +186,26 @@ const MULTIPLIER_OUTPUTS: [&str; 2 * MULTIPLIERS] = [
     "Lagrange_Multiplier_Deviatoric_6",
 ];
 
-impl Pals {
+impl MaterialKeys for Pals {
+    type Parameters = PalsParameters;
+
     /// `Pals`: state-based (two hops); keeps the twelve multipliers and the weighted volume
     /// per point (reference configuration), ω and σ per bond, and the dilatation per point
     /// (recomputed in every evaluation).
-    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Pals",
+        aliases: &[],
         deck_keys: &[
-            "Density",
-            "Bulk Modulus",
-            "Shear Modulus",
-            "Young's Modulus",
-            "Poisson's Ratio",
-            "Dilatation Influence Function",
-            "Deviatoric Influence Function",
-            "Tangent",
-            "Apply Automatic Differentiation Jacobian",
-            "Finite Difference Probe Length",
+            DENSITY,
+            ELASTIC[0],
+            ELASTIC[1],
+            ELASTIC[2],
+            ELASTIC[3],
+            DILATATION_INFLUENCE,
+            DEVIATORIC_INFLUENCE,
+            TANGENT,
+            AUTOMATIC_DIFFERENTIATION,
+            PROBE_LENGTH,
         ],
         reach: Reach::TwoHop,
         fields: &[
@@ -219,31 +252,57 @@ impl Pals {
             "Lagrange_Multiplier_Deviatoric_5",
             "Lagrange_Multiplier_Deviatoric_6",
         ],
+        tangent: TangentSupport::Differentiated,
+        thermal_strain: false,
     };
 
-    /// The registry's constructor: ρ, K, μ, δ and the two base influence functions from
-    /// `input` (both `One` when it gives none).
-    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        Ok(Box::new(Self::new(input)?))
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<PalsParameters, DeckError> {
+        let elastic = super::elastic_constants::read(ctx, list)?;
+        let mut base = |key: &'static str| -> Result<InfluenceFunction, DeckError> {
+            Ok(match list.get(key) {
+                None => InfluenceFunction::One,
+                Some(f) => {
+                    let name = f.choice(ctx, &["One", "Parabolic Decay", "Gaussian"])?;
+                    InfluenceFunction::from_deck_name(name).expect("a built-in function")
+                }
+            })
+        };
+        let influence = PalsInfluence {
+            dilatation: base(DILATATION_INFLUENCE.key)?,
+            deviatoric: base(DEVIATORIC_INFLUENCE.key)?,
+        };
+        Ok(PalsParameters { elastic, influence })
     }
+}
 
+impl MaterialModel for Pals {
+    fn build(
+        block: &BlockInput,
+        parameters: &PalsParameters,
+    ) -> Result<Box<dyn Material>, MaterialError> {
+        Ok(Box::new(Self::new(block, parameters)?))
+    }
+}
+
+impl Pals {
     /// Validates the parameters (ρ, K, μ, δ positive and finite).
-    pub fn new(input: &MaterialInput) -> Result<Self, MaterialError> {
+    pub fn new(block: &BlockInput, parameters: &PalsParameters) -> Result<Self, MaterialError> {
+        let data = BlockData::new(
+            &Self::DECLARATION,
+            block.density,
+            parameters.elastic.bulk_modulus,
+            block.horizon,
+        )?;
         Ok(Self {
-            density: positive("Density", input.density)?,
-            bulk_modulus: positive("Bulk Modulus", input.bulk_modulus)?,
-            shear_modulus: positive("Shear Modulus", input.required_shear_modulus()?)?,
-            horizon: positive("Horizon", input.horizon)?,
-            influence: input.pals.clone().unwrap_or_default(),
-            points: Vec::new(),
+            block: data,
+            shear_modulus: super::positive("Shear Modulus", parameters.elastic.shear_modulus)?,
+            influence: parameters.influence.clone(),
             multipliers: Vec::new(),
             weighted_volume: Vec::new(),
             local_offsets: vec![0],
             omega: Vec::new(),
             sigma: Vec::new(),
             reverse: Vec::new(),
-            tangent: TangentMethod::AutomaticDifferentiation,
-            force_points: None,
             input_id: Vec::new(),
         })
     }
@@ -265,7 +324,7 @@ impl Pals {
             local_offsets: &self.local_offsets,
             omega: &self.omega,
             sigma: &self.sigma,
-            bulk_modulus: self.bulk_modulus,
+            bulk_modulus: self.block.bulk_modulus(),
             shear_modulus: self.shear_modulus,
         }
     }
@@ -490,54 +549,20 @@ fn scalar_force_state(
 }
 
 impl Material for Pals {
-    fn declaration(&self) -> &'static ModelDeclaration {
-        &Self::DECLARATION
+    fn block(&self) -> &BlockData {
+        &self.block
     }
 
-    fn density(&self) -> f64 {
-        self.density
+    fn block_mut(&mut self) -> &mut BlockData {
+        &mut self.block
     }
 
-    fn bulk_modulus(&self) -> f64 {
-        self.bulk_modulus
-    }
-
-    fn horizon(&self) -> f64 {
-        self.horizon
-    }
-
-    fn weighted_volume(&self) -> Option<&[f64]> {
-        Some(&self.weighted_volume)
-    }
-
-    fn point_output(&self, name: &str) -> Option<Vec<f64>> {
-        if name == "Dilatation_Normalization" || name == "Deviatoric_Normalization" {
-            return Some(vec![1.0; self.points.len()]);
-        }
-        let k = MULTIPLIER_OUTPUTS.iter().position(|&o| o == name)?;
-        Some(
-            self.multipliers
-                .iter()
-                .map(|m| {
-                    if k < MULTIPLIERS {
-                        m.dilatation[k]
-                    } else {
-                        m.deviatoric[k - MULTIPLIERS]
-                    }
-                })
-                .collect(),
-        )
-    }
-
-    fn setup(
-        &mut self,
-        reference: &ReferenceView<'_>,
-        points: Vec<u32>,
-    ) -> Result<(), MaterialError> {
+    fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError> {
         let bonds = reference.bonds;
-        assert_point_set(&points, bonds.num_points());
+        let points = self.block.points();
+        let horizon = self.block.horizon();
         let mut inside = vec![false; bonds.num_points()];
-        for &p in &points {
+        for &p in points {
             inside[p as usize] = true;
         }
         // Any bond with exactly one end in the block, from either end (one-way bonds of
@@ -559,7 +584,7 @@ impl Material for Pals {
                 point_multipliers(
                     reference,
                     &self.influence,
-                    self.horizon,
+                    horizon,
                     &self.input_id,
                     i as usize,
                 )
@@ -573,7 +598,7 @@ impl Material for Pals {
                 bonds: bonds.family_size(i as usize),
             })?);
         }
-        let offsets = local_offsets(bonds, &points);
+        let offsets = local_offsets(bonds, points);
         let count = *offsets.last().unwrap_or(&0);
         let (mut omega, mut sigma) = (Vec::with_capacity(count), Vec::with_capacity(count));
         let mut weighted_volume = Vec::with_capacity(points.len());
@@ -587,10 +612,10 @@ impl Material for Pals {
                 let xi = [0, 1, 2].map(|k| reference.position[j][k] - x[k]);
                 let zeta = bonds.reference_length[b];
                 omega.push(
-                    self.influence.dilatation.evaluate(zeta, self.horizon)
+                    self.influence.dilatation.evaluate(zeta, horizon)
                         + dot(&m.dilatation, &dilatation_modes(xi)),
                 );
-                let s = self.influence.deviatoric.evaluate(zeta, self.horizon)
+                let s = self.influence.deviatoric.evaluate(zeta, horizon)
                     + dot(&m.deviatoric, &deviatoric_modes(xi));
                 sigma.push(s);
                 sum += s * zeta * zeta * reference.neighbor_volume(b, j);
@@ -613,21 +638,11 @@ impl Material for Pals {
         self.omega = omega;
         self.sigma = sigma;
         self.reverse = reverse;
-        self.points = points;
-        self.force_points = None;
         Ok(())
     }
 
     fn input_numbering(&mut self, original_id: &[u32]) {
         self.input_id = original_id.to_vec();
-    }
-
-    fn points(&self) -> &[u32] {
-        &self.points
-    }
-
-    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        self.force_points = kept_points(&self.points, keep);
     }
 
     fn compute_point_coefficients(
@@ -640,12 +655,12 @@ impl Material for Pals {
         let bonds = reference.bonds;
         let two_mu = 2.0 * self.shear_modulus;
         for_each_chunk(
-            &self.points,
+            self.block.points(),
             coefficients,
             &|i| i as usize,
             &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
                 let mut y = Vec::new();
-                let first = self.points.partition_point(|&p| p < chunk[0]);
+                let first = self.block.points().partition_point(|&p| p < chunk[0]);
                 for (local, &p) in (first..).zip(chunk) {
                     let point = PointIndex {
                         global: p as usize,
@@ -675,14 +690,14 @@ impl Material for Pals {
         let bonds = reference.bonds;
         let kernel = self.kernel(reference, current.bond_damage);
         let y = current.position;
-        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        let force_points = self.block.force_points();
         for_each_chunk(
             force_points,
             force_density,
             &|i| i as usize,
             &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
                 for &i in chunk {
-                    let local = self.local_offsets[self.points.partition_point(|&p| p < i)];
+                    let local = self.local_offsets[self.block.points().partition_point(|&p| p < i)];
                     let i = i as usize;
                     let mut total = [0.0; 3];
                     for (n, b) in bonds.range(i).enumerate() {
@@ -736,7 +751,7 @@ impl Material for Pals {
         let bonds = reference.bonds;
         let kernel = self.kernel(reference, current.bond_damage);
         let y = current.position;
-        for (local, &i) in self.points.iter().enumerate() {
+        for (local, &i) in self.block.points().iter().enumerate() {
             let i = i as usize;
             let theta = coefficients[i].dilatation;
             let base = self.local_offsets[local];
@@ -753,19 +768,21 @@ impl Material for Pals {
                     * deviatoric
                     * reference.neighbor_volume(b, j);
             }
-            energy_density[i] = 0.5 * self.bulk_modulus * theta * theta + self.shear_modulus * sum;
+            energy_density[i] =
+                0.5 * self.block.bulk_modulus() * theta * theta + self.shear_modulus * sum;
         }
     }
 
-    fn tangent_method(&self) -> TangentMethod {
-        self.tangent
+    fn tangent(&self) -> Option<&dyn MaterialTangent> {
+        Some(self)
     }
 
-    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
-        self.tangent = checked_differentiated_tangent_method(self.model_name(), method)?;
-        Ok(())
+    fn outputs(&self) -> Option<&dyn MaterialOutputs> {
+        Some(self)
     }
+}
 
+impl MaterialTangent for Pals {
     fn add_tangent(
         &self,
         reference: &ReferenceView<'_>,
@@ -778,12 +795,37 @@ impl Material for Pals {
         };
         assemble(
             &kernel,
-            self.model_name(),
-            &self.points,
+            Self::DECLARATION.deck_name,
+            self.block.points(),
             reference,
             current,
             method,
             tangent,
+        )
+    }
+}
+
+impl MaterialOutputs for Pals {
+    fn weighted_volume(&self) -> Option<&[f64]> {
+        Some(&self.weighted_volume)
+    }
+
+    fn point_output(&self, name: &str) -> Option<Vec<f64>> {
+        if name == "Dilatation_Normalization" || name == "Deviatoric_Normalization" {
+            return Some(vec![1.0; self.block.points().len()]);
+        }
+        let k = MULTIPLIER_OUTPUTS.iter().position(|&o| o == name)?;
+        Some(
+            self.multipliers
+                .iter()
+                .map(|m| {
+                    if k < MULTIPLIERS {
+                        m.dilatation[k]
+                    } else {
+                        m.deviatoric[k - MULTIPLIERS]
+                    }
+                })
+                .collect(),
         )
     }
 }

@@ -15,22 +15,22 @@ use crate::tangent::BlockPattern;
 const BULK: f64 = 3.0;
 const SHEAR: f64 = 1.2;
 
-fn input(horizon: f64, influence: Option<PalsInfluence>) -> MaterialInput {
-    MaterialInput {
+/// `Pals` with ρ = 2, K = BULK, μ = SHEAR, horizon `horizon` and `influence` (both `One`
+/// when `None`).
+fn pals(horizon: f64, influence: Option<PalsInfluence>) -> Pals {
+    let block = BlockInput {
         density: 2.0,
         horizon,
-        bulk_modulus: BULK,
-        shear_modulus: Some(SHEAR),
-        planar_thickness: None,
-        plasticity: None,
-        shear_correction: false,
-        viscoelastic: None,
         influence: InfluenceFunction::One,
-        correspondence: None,
-        pals: influence,
-        yield_stretch: None,
-        analytic_weighted_volume: None,
-    }
+    };
+    let parameters = PalsParameters {
+        elastic: ElasticConstants {
+            bulk_modulus: BULK,
+            shear_modulus: SHEAR,
+        },
+        influence: influence.unwrap_or_default(),
+    };
+    Pals::new(&block, &parameters).unwrap()
 }
 
 /// A body of one `Pals` block.
@@ -53,13 +53,12 @@ impl Body {
             points.push(*p, volume, 0);
         }
         let bonds = brute_force_bonds(&x, horizon);
-        let mut material = Pals::new(&input(horizon, influence)).unwrap();
-        material
-            .setup(
-                &ReferenceView::of(&bonds, &points),
-                (0..x.len() as u32).collect(),
-            )
-            .unwrap();
+        let mut material = pals(horizon, influence);
+        crate::material::set_up(
+            &mut material,
+            &ReferenceView::of(&bonds, &points),
+            (0..x.len() as u32).collect(),
+        );
         let physics = Physics::new(
             vec![BlockPhysics {
                 material: Box::new(material.clone()),
@@ -236,17 +235,24 @@ fn the_constraints_hold_to_round_off_at_a_corner_where_the_lps_dilatation_is_wro
     assert!((theta / trace - 1.0).abs() < 1e-5, "{theta} vs {trace}");
     // The LPS at the same corner (θ = (3/m) Σ ζ e V) sees the shears of the octant as volume
     // change: its dilatation is off by far more.
-    let mut lps = LinearPeridynamicSolid::new(crate::material::LinearPeridynamicSolidParameters {
-        density: 2.0,
-        bulk_modulus: BULK,
-        shear_modulus: SHEAR,
-        horizon: 3.0,
-        influence: InfluenceFunction::Gaussian,
-    })
+    let mut lps = LinearPeridynamicSolid::new(
+        &crate::material::BlockInput {
+            density: 2.0,
+            horizon: 3.0,
+            influence: InfluenceFunction::Gaussian,
+        },
+        &crate::material::ElasticConstants {
+            bulk_modulus: BULK,
+            shear_modulus: SHEAR,
+        },
+    )
     .unwrap();
     let reference = ReferenceView::of(&body.bonds, &body.points);
-    lps.setup(&reference, (0..body.points.len() as u32).collect())
-        .unwrap();
+    crate::material::set_up(
+        &mut lps,
+        &reference,
+        (0..body.points.len() as u32).collect(),
+    );
     let mut coefficients = vec![PointCoefficients::default(); y.len()];
     let current = CurrentView {
         position: &y,
@@ -465,8 +471,10 @@ fn a_bond_to_another_block_and_a_singular_family_are_errors() {
     }
     let bonds = brute_force_bonds(&x, 3.0);
     let reference = ReferenceView::of(&bonds, &points);
-    let mut material = Pals::new(&input(3.0, None)).unwrap();
-    let error = material.setup(&reference, vec![0, 1, 2]).unwrap_err();
+    let mut material = pals(3.0, None);
+    let error = (&mut material as &mut dyn Material)
+        .setup(&reference, vec![0, 1, 2])
+        .unwrap_err();
     assert_eq!(
         error,
         MaterialError::SingularInfluenceSystem {
@@ -476,7 +484,9 @@ fn a_bond_to_another_block_and_a_singular_family_are_errors() {
         }
     );
     assert!(error.to_string().contains("enlarge the horizon"), "{error}");
-    let error = material.setup(&reference, vec![0, 1]).unwrap_err();
+    let error = (&mut material as &mut dyn Material)
+        .setup(&reference, vec![0, 1])
+        .unwrap_err();
     assert!(
         matches!(error, MaterialError::BondLeavesBlock { model: "Pals", .. }),
         "{error:?}"
@@ -499,10 +509,8 @@ fn a_one_layer_mesh_drops_the_modes_it_does_not_span() {
     }
     let bonds = brute_force_bonds(&x, 2.5);
     let reference = ReferenceView::of(&bonds, &points);
-    let mut material = Pals::new(&input(2.5, None)).unwrap();
-    material
-        .setup(&reference, (0..x.len() as u32).collect())
-        .unwrap();
+    let mut material = pals(2.5, None);
+    crate::material::set_up(&mut material, &reference, (0..x.len() as u32).collect());
     for (i, m) in material.multipliers().iter().enumerate() {
         for k in [2, 4, 5] {
             assert_eq!(m.dilatation[k], 0.0);

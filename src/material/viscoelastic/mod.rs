@@ -43,15 +43,20 @@
 use rayon::prelude::*;
 
 use super::elastic_plastic::{family_positions, reverse_bonds, unit_weighted_volumes, NO_REVERSE};
+use super::keys::{refuse, DENSITY, ELASTIC, PROBE_LENGTH, TANGENT};
 use super::{
-    assert_point_set, checked_differentiated_tangent_method, kept_points, local_offsets, positive,
-    CurrentView, Material, MaterialError, MaterialInput, PointCoefficients, ReferenceView,
+    local_offsets, BlockData, BlockInput, CurrentView, ElasticConstants, Material, MaterialError,
+    MaterialKeys, MaterialModel, MaterialOutputs, MaterialParameters, MaterialTangent,
+    PointCoefficients, ReferenceView,
 };
 use crate::history::History;
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::{
-    BondList, BondVolumes, FieldCarrier, FieldDeclaration, ModelDeclaration, Reach,
+    BondList, BondVolumes, FieldCarrier, FieldDeclaration, KeyDoc, ModelDeclaration, Reach,
+    TangentSupport,
 };
+use crate::parameter_list::error::DeckError;
+use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::{
     assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
     TangentMethod,
@@ -70,34 +75,52 @@ pub mod fields {
     pub const FRACTION: &str = "Viscoelastic_Fraction";
 }
 
-/// The deck parameters of `Viscoelastic` besides its elastic constants.
+/// `lambda_i`.
+const LAMBDA_I: KeyDoc = KeyDoc {
+    key: "lambda_i",
+    meaning: "λ_i ∈ [0, 1], the fraction of the deviatoric stiffness that relaxes",
+    unit: "—",
+    default: "required",
+};
+
+/// `tau b`.
+const TAU_B: KeyDoc = KeyDoc {
+    key: "tau b",
+    meaning: "τ_b, the relaxation time of the Maxwell element",
+    unit: "time",
+    default: "required",
+};
+
+/// The deck parameters of `Viscoelastic` besides the keys every model shares.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ViscoelasticInput {
+    /// K and μ from the elastic pair.
+    pub elastic: ElasticConstants,
     /// `lambda_i` λ_i ∈ [0, 1]: the fraction of the deviatoric stiffness that relaxes.
     pub lambda_i: f64,
     /// `tau b` τ_b > 0: the relaxation time (time).
     pub tau_b: f64,
 }
 
+impl MaterialParameters for ViscoelasticInput {
+    fn bulk_modulus(&self) -> Option<f64> {
+        Some(self.elastic.bulk_modulus)
+    }
+}
+
 /// `Viscoelastic` for one block (see the module docs for the formulas).
 #[derive(Debug, Clone)]
 pub struct Viscoelastic {
-    density: f64,
-    bulk_modulus: f64,
+    block: BlockData,
     shear_modulus: f64,
-    horizon: f64,
     lambda_i: f64,
     tau_b: f64,
-    points: Vec<u32>,
-    /// m per block point (same order as `points`).
+    /// m per block point (same order as the block's points).
     weighted_volume: Vec<f64>,
     /// Block-local row starts into `reverse`.
     local_offsets: Vec<usize>,
     /// For each block bond i→j, the global index of j→i ([`NO_REVERSE`] when none).
     reverse: Vec<usize>,
-    tangent: TangentMethod,
-    /// The points whose force is computed, when fewer than `points`.
-    force_points: Option<Vec<u32>>,
 }
 
 /// The decay of the back extension over one step and the weight of the step's increment
@@ -112,21 +135,24 @@ fn step_weights(tau_b: f64, duration: f64) -> (f64, f64) {
     (1.0 - absorbed, 1.0 - absorbed / x)
 }
 
-impl Viscoelastic {
+impl MaterialKeys for Viscoelastic {
+    type Parameters = ViscoelasticInput;
+
     /// `Viscoelastic`: state-based (two hops); m and θ per point (not staged), the staged back
     /// and deviatoric extensions per bond and λ_i per point.
-    pub const DECLARATION: ModelDeclaration = ModelDeclaration {
+    const DECLARATION: ModelDeclaration = ModelDeclaration {
         deck_name: "Viscoelastic",
+        aliases: &[],
         deck_keys: &[
-            "Density",
-            "Bulk Modulus",
-            "Shear Modulus",
-            "Young's Modulus",
-            "Poisson's Ratio",
-            "lambda_i",
-            "tau b",
-            "Tangent",
-            "Finite Difference Probe Length",
+            DENSITY,
+            ELASTIC[0],
+            ELASTIC[1],
+            ELASTIC[2],
+            ELASTIC[3],
+            LAMBDA_I,
+            TAU_B,
+            TANGENT,
+            PROBE_LENGTH,
         ],
         reach: Reach::TwoHop,
         fields: &[
@@ -162,42 +188,69 @@ impl Viscoelastic {
             },
         ],
         outputs: &["Weighted_Volume", "Dilatation"],
+        tangent: TangentSupport::Differentiated,
+        thermal_strain: false,
     };
 
-    /// The registry's constructor: ρ, K, μ, δ, λ_i and τ_b from `input`; ω must be `One`.
-    pub fn build(input: &MaterialInput) -> Result<Box<dyn Material>, MaterialError> {
-        Ok(Box::new(Self::new(input)?))
+    fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<ViscoelasticInput, DeckError> {
+        let model = Self::DECLARATION.deck_name;
+        let elastic = super::elastic_constants::read(ctx, list)?;
+        for key in [
+            "Apply Automatic Differentiation Jacobian",
+            "Apply Shear Correction Factor",
+        ] {
+            refuse(ctx, list, model, key)?;
+        }
+        let f = list.require(ctx, LAMBDA_I.key, "a number in [0, 1]")?;
+        let lambda_i = f.f64(ctx)?;
+        if !(0.0..=1.0).contains(&lambda_i) {
+            return Err(f.err(ctx, format!("must lie in [0, 1], found {lambda_i}")));
+        }
+        Ok(ViscoelasticInput {
+            elastic,
+            lambda_i,
+            tau_b: list.positive_req(ctx, TAU_B.key)?,
+        })
     }
+}
 
+impl MaterialModel for Viscoelastic {
+    fn build(
+        block: &BlockInput,
+        parameters: &ViscoelasticInput,
+    ) -> Result<Box<dyn Material>, MaterialError> {
+        Ok(Box::new(Self::new(block, parameters)?))
+    }
+}
+
+impl Viscoelastic {
     /// Validates the parameters (ρ, K, μ, δ, τ_b positive and finite, λ_i in [0, 1], ω `One`).
-    pub fn new(input: &MaterialInput) -> Result<Self, MaterialError> {
-        if !input.influence.is_one() {
+    pub fn new(block: &BlockInput, parameters: &ViscoelasticInput) -> Result<Self, MaterialError> {
+        if !block.influence.is_one() {
             return Err(MaterialError::InfluenceNotSupported {
                 model: Self::DECLARATION.deck_name,
             });
         }
-        let parameters = input
-            .viscoelastic
-            .ok_or(MaterialError::Missing { key: "lambda_i" })?;
         if !(0.0..=1.0).contains(&parameters.lambda_i) {
             return Err(MaterialError::NotInUnitInterval {
-                key: "lambda_i",
+                key: LAMBDA_I.key,
                 value: parameters.lambda_i,
             });
         }
+        let data = BlockData::new(
+            &Self::DECLARATION,
+            block.density,
+            parameters.elastic.bulk_modulus,
+            block.horizon,
+        )?;
         Ok(Self {
-            density: positive("Density", input.density)?,
-            bulk_modulus: positive("Bulk Modulus", input.bulk_modulus)?,
-            shear_modulus: positive("Shear Modulus", input.required_shear_modulus()?)?,
-            horizon: positive("Horizon", input.horizon)?,
+            block: data,
+            shear_modulus: super::positive("Shear Modulus", parameters.elastic.shear_modulus)?,
             lambda_i: parameters.lambda_i,
-            tau_b: positive("tau b", parameters.tau_b)?,
-            points: Vec::new(),
+            tau_b: super::positive(TAU_B.key, parameters.tau_b)?,
             weighted_volume: Vec::new(),
             local_offsets: vec![0],
             reverse: Vec::new(),
-            tangent: TangentMethod::AutomaticDifferentiation,
-            force_points: None,
         })
     }
 
@@ -272,47 +325,21 @@ impl Kernel<'_> {
 }
 
 impl Material for Viscoelastic {
-    fn declaration(&self) -> &'static ModelDeclaration {
-        &Self::DECLARATION
+    fn block(&self) -> &BlockData {
+        &self.block
     }
 
-    fn density(&self) -> f64 {
-        self.density
+    fn block_mut(&mut self) -> &mut BlockData {
+        &mut self.block
     }
 
-    fn bulk_modulus(&self) -> f64 {
-        self.bulk_modulus
-    }
-
-    fn horizon(&self) -> f64 {
-        self.horizon
-    }
-
-    fn weighted_volume(&self) -> Option<&[f64]> {
-        Some(&self.weighted_volume)
-    }
-
-    fn setup(
-        &mut self,
-        reference: &ReferenceView<'_>,
-        points: Vec<u32>,
-    ) -> Result<(), MaterialError> {
+    fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError> {
         let bonds = reference.bonds;
-        assert_point_set(&points, bonds.num_points());
-        self.weighted_volume = unit_weighted_volumes(reference, &points);
-        self.local_offsets = local_offsets(bonds, &points);
-        self.reverse = reverse_bonds(bonds, &points);
-        self.points = points;
-        self.force_points = None;
+        let points = self.block.points();
+        self.weighted_volume = unit_weighted_volumes(reference, points);
+        self.local_offsets = local_offsets(bonds, points);
+        self.reverse = reverse_bonds(bonds, points);
         Ok(())
-    }
-
-    fn points(&self) -> &[u32] {
-        &self.points
-    }
-
-    fn restrict_forces(&mut self, keep: &dyn Fn(u32) -> bool) {
-        self.force_points = kept_points(&self.points, keep);
     }
 
     fn update_history(
@@ -326,7 +353,8 @@ impl Material for Viscoelastic {
         let (decay, beta) = step_weights(self.tau_b, history.step_duration());
         // e^d_{n+1} of every block bond first (it reads only positions and damage).
         let deviatoric: Vec<Vec<f64>> = self
-            .points
+            .block
+            .points()
             .par_iter()
             .enumerate()
             .map_init(Vec::new, |y, (local, &p)| {
@@ -351,7 +379,7 @@ impl Material for Viscoelastic {
             .expect("the run allocates every field a Viscoelastic block declares")
             .committed_and_trial();
         let old_deviatoric = old_deviatoric.to_vec();
-        for (&p, row) in self.points.iter().zip(&deviatoric) {
+        for (&p, row) in self.block.points().iter().zip(&deviatoric) {
             let range = bonds.range(p as usize);
             if row.is_empty() {
                 new_deviatoric[range.clone()].copy_from_slice(&old_deviatoric[range]);
@@ -363,7 +391,7 @@ impl Material for Viscoelastic {
             .field_mut(fields::DEVIATORIC_BACK_EXTENSION)
             .expect("the run allocates every field a Viscoelastic block declares")
             .committed_and_trial();
-        for (&p, row) in self.points.iter().zip(&deviatoric) {
+        for (&p, row) in self.block.points().iter().zip(&deviatoric) {
             for (n, b) in bonds.range(p as usize).enumerate() {
                 new_back[b] = match row.get(n) {
                     Some(&now) => {
@@ -378,7 +406,7 @@ impl Material for Viscoelastic {
             .field_mut(fields::FRACTION)
             .expect("the run allocates every field a Viscoelastic block declares")
             .committed_and_trial();
-        for &p in &self.points {
+        for &p in self.block.points() {
             fraction[p as usize] = self.lambda_i;
         }
     }
@@ -392,12 +420,12 @@ impl Material for Viscoelastic {
         let kernel = self.kernel(reference, current.bond_damage);
         let bonds = reference.bonds;
         for_each_chunk(
-            &self.points,
+            self.block.points(),
             coefficients,
             &|i| i as usize,
             &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
                 let mut y = Vec::new();
-                let first = self.points.partition_point(|&p| p < chunk[0]);
+                let first = self.block.points().partition_point(|&p| p < chunk[0]);
                 for (local, &p) in (first..).zip(chunk) {
                     let point = PointIndex {
                         global: p as usize,
@@ -409,7 +437,8 @@ impl Material for Viscoelastic {
                         let theta = kernel.dilatation(point, &y);
                         PointCoefficients {
                             dilatation: theta,
-                            isotropic: (3.0 * self.bulk_modulus - 5.0 * self.shear_modulus) * theta
+                            isotropic: (3.0 * self.block.bulk_modulus() - 5.0 * self.shear_modulus)
+                                * theta
                                 / m,
                             deviatoric: 15.0 * self.shear_modulus / m,
                         }
@@ -436,7 +465,7 @@ impl Material for Viscoelastic {
         let fraction = Self::field(current.history, fields::FRACTION).trial();
         let kernel = self.kernel(reference, current.bond_damage);
         let y = current.position;
-        let force_points = self.force_points.as_deref().unwrap_or(&self.points);
+        let force_points = self.block.force_points();
         let scalar =
             |c: &PointCoefficients, zeta: f64, extension: f64, intact: f64, relaxed: f64| {
                 let deviatoric = intact * extension - c.dilatation * zeta / 3.0 - relaxed;
@@ -451,7 +480,8 @@ impl Material for Viscoelastic {
             &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
                 for &i in chunk {
                     let i = i as usize;
-                    let local = self.local_offsets[self.points.partition_point(|&p| p < i as u32)];
+                    let local =
+                        self.local_offsets[self.block.points().partition_point(|&p| p < i as u32)];
                     let mut total = [0.0; 3];
                     for (n, b) in bonds.range(i).enumerate() {
                         let j = bonds.neighbor[b] as usize;
@@ -503,7 +533,7 @@ impl Material for Viscoelastic {
         let back = Self::field(current.history, fields::DEVIATORIC_BACK_EXTENSION).trial();
         let kernel = self.kernel(reference, current.bond_damage);
         let y = current.position;
-        for &i in &self.points {
+        for &i in self.block.points() {
             let i = i as usize;
             let c = &coefficients[i];
             let mut sum = 0.0;
@@ -518,20 +548,21 @@ impl Material for Viscoelastic {
                     + self.lambda_i * maxwell * maxwell)
                     * reference.neighbor_volume(b, j);
             }
-            energy_density[i] =
-                0.5 * self.bulk_modulus * c.dilatation * c.dilatation + 0.5 * c.deviatoric * sum;
+            energy_density[i] = 0.5 * self.block.bulk_modulus() * c.dilatation * c.dilatation
+                + 0.5 * c.deviatoric * sum;
         }
     }
 
-    fn tangent_method(&self) -> TangentMethod {
-        self.tangent
+    fn tangent(&self) -> Option<&dyn MaterialTangent> {
+        Some(self)
     }
 
-    fn set_tangent_method(&mut self, method: TangentMethod) -> Result<(), TangentError> {
-        self.tangent = checked_differentiated_tangent_method(self.model_name(), method)?;
-        Ok(())
+    fn outputs(&self) -> Option<&dyn MaterialOutputs> {
+        Some(self)
     }
+}
 
+impl MaterialTangent for Viscoelastic {
     fn add_tangent(
         &self,
         reference: &ReferenceView<'_>,
@@ -550,13 +581,19 @@ impl Material for Viscoelastic {
         };
         assemble(
             &state,
-            self.model_name(),
-            &self.points,
+            Self::DECLARATION.deck_name,
+            self.block.points(),
             reference,
             current,
             method,
             tangent,
         )
+    }
+}
+
+impl MaterialOutputs for Viscoelastic {
+    fn weighted_volume(&self) -> Option<&[f64]> {
+        Some(&self.weighted_volume)
     }
 }
 
@@ -592,7 +629,8 @@ impl ForceState for ViscoelasticForceState<'_> {
             return;
         };
         let theta = kernel.dilatation(point, y);
-        let pressure = theta * (3.0 * material.bulk_modulus / kernel.weighted_volume[point.local]);
+        let pressure =
+            theta * (3.0 * material.block.bulk_modulus() / kernel.weighted_volume[point.local]);
         for (n, b) in kernel.bonds.range(point.global).enumerate() {
             let length = Kernel::length(y, n);
             t[n] = if length.re() > 0.0 {

@@ -5,9 +5,7 @@
 use std::sync::Arc;
 
 use super::*;
-use crate::material::{
-    InfluenceFunction, LinearPeridynamicSolid, LinearPeridynamicSolidParameters, MaterialInput,
-};
+use crate::material::{InfluenceFunction, LinearPeridynamicSolid};
 use crate::model::test_support::{brute_force_bonds, lattice, Rng};
 use crate::model::PointCloud;
 use crate::physics::{BlockPhysics, Configuration, Physics};
@@ -17,25 +15,22 @@ const BULK: f64 = 3.0;
 const SHEAR: f64 = 1.0;
 const TAU: f64 = 0.5;
 
-fn input(horizon: f64, lambda_i: f64) -> MaterialInput {
-    MaterialInput {
+/// `Viscoelastic` with ρ = 2, K = BULK, μ = SHEAR, τ_b = TAU and `lambda_i`.
+fn viscoelastic(horizon: f64, lambda_i: f64) -> Viscoelastic {
+    let block = BlockInput {
         density: 2.0,
         horizon,
-        bulk_modulus: BULK,
-        shear_modulus: Some(SHEAR),
-        planar_thickness: None,
-        plasticity: None,
-        shear_correction: false,
-        viscoelastic: Some(ViscoelasticInput {
-            lambda_i,
-            tau_b: TAU,
-        }),
         influence: InfluenceFunction::One,
-        correspondence: None,
-        pals: None,
-        yield_stretch: None,
-        analytic_weighted_volume: None,
-    }
+    };
+    let parameters = ViscoelasticInput {
+        elastic: ElasticConstants {
+            bulk_modulus: BULK,
+            shear_modulus: SHEAR,
+        },
+        lambda_i,
+        tau_b: TAU,
+    };
+    Viscoelastic::new(&block, &parameters).unwrap()
 }
 
 /// An n³ lattice (spacing 1) of one `Viscoelastic` block, with its staged history.
@@ -59,13 +54,12 @@ impl Body {
             points.push(*p, volume, 0);
         }
         let bonds = brute_force_bonds(&x, horizon);
-        let mut material = Viscoelastic::new(&input(horizon, lambda_i)).unwrap();
-        material
-            .setup(
-                &ReferenceView::of(&bonds, &points),
-                (0..x.len() as u32).collect(),
-            )
-            .unwrap();
+        let mut material = viscoelastic(horizon, lambda_i);
+        crate::material::set_up(
+            &mut material,
+            &ReferenceView::of(&bonds, &points),
+            (0..x.len() as u32).collect(),
+        );
         let physics = Physics::new(
             vec![BlockPhysics {
                 material: Box::new(material.clone()),
@@ -258,16 +252,23 @@ fn a_step_shear_relaxes_as_the_closed_form_of_the_back_extension_ode() {
 fn without_relaxation_the_model_is_the_linear_peridynamic_solid() {
     let mut body = Body::new(6, 1.8, 0.0, Some(9));
     let reference = ReferenceView::of(&body.bonds, &body.points);
-    let mut lps = LinearPeridynamicSolid::new(LinearPeridynamicSolidParameters {
-        density: 2.0,
-        bulk_modulus: BULK,
-        shear_modulus: SHEAR,
-        horizon: 1.8,
-        influence: InfluenceFunction::One,
-    })
+    let mut lps = LinearPeridynamicSolid::new(
+        &crate::material::BlockInput {
+            density: 2.0,
+            horizon: 1.8,
+            influence: InfluenceFunction::One,
+        },
+        &crate::material::ElasticConstants {
+            bulk_modulus: BULK,
+            shear_modulus: SHEAR,
+        },
+    )
     .unwrap();
-    lps.setup(&reference, (0..body.points.len() as u32).collect())
-        .unwrap();
+    crate::material::set_up(
+        &mut lps,
+        &reference,
+        (0..body.points.len() as u32).collect(),
+    );
     let mut physics = Physics::new(
         vec![BlockPhysics {
             material: Box::new(lps),

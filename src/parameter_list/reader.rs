@@ -269,6 +269,8 @@ pub(crate) struct ListReader<'t> {
     entries: &'t [Entry],
     used: Vec<bool>,
     known: Vec<&'static str>,
+    /// Keys accepted without effect, with the reason ([`ListReader::without_effect`]).
+    without_effect: Vec<(&'static str, &'static str)>,
 }
 
 impl<'t> ListReader<'t> {
@@ -279,6 +281,7 @@ impl<'t> ListReader<'t> {
             entries,
             used: vec![false; entries.len()],
             known: Vec::new(),
+            without_effect: Vec::new(),
         }
     }
 
@@ -309,6 +312,15 @@ impl<'t> ListReader<'t> {
             if !self.known.contains(key) {
                 self.known.push(key);
             }
+        }
+    }
+
+    /// Accepts `key` in this list although it has no effect here (Peridigm reads it, or its
+    /// decks carry it): [`ListReader::finish_with`] warns about it with `why`, as about its own
+    /// `ignored` keys.
+    pub fn without_effect(&mut self, key: &'static str, why: &'static str) {
+        if !self.without_effect.iter().any(|(k, _)| *k == key) {
+            self.without_effect.push((key, why));
         }
     }
 
@@ -496,7 +508,8 @@ impl<'t> ListReader<'t> {
                 continue;
             }
             let path = self.child_path(&e.key);
-            if let Some((_, why)) = ignored.iter().find(|(k, _)| *k == e.key) {
+            let own: &[(&str, &str)] = &self.without_effect;
+            if let Some((_, why)) = own.iter().chain(ignored).find(|(k, _)| *k == e.key) {
                 ctx.warn(e.line, &path, format!("accepted but has no effect: {why}"));
                 continue;
             }

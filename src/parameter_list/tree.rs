@@ -1,7 +1,7 @@
 //! Format-neutral tree of a deck: nested named lists of typed scalars, each with its line.
 //!
 //! Both the YAML and the XML reader produce this tree, so everything after parsing is shared
-//! and the two formats give identical [`Deck`](super::Deck)s.
+//! and the two formats give identical [`Deck`](crate::io::deck::Deck)s.
 
 use std::collections::HashMap;
 
@@ -142,7 +142,7 @@ pub(crate) fn is_float_literal(text: &str) -> bool {
 }
 
 /// Records the line of every key path in the tree (root excluded), for
-/// [`Deck::line_of`](super::Deck::line_of).
+/// [`Deck::line_of`](crate::io::deck::Deck::line_of).
 pub(crate) fn index_lines(entries: &[Entry]) -> HashMap<Vec<String>, usize> {
     fn walk(entries: &[Entry], prefix: &mut Vec<String>, out: &mut HashMap<Vec<String>, usize>) {
         for entry in entries {
