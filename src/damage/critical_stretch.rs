@@ -112,6 +112,8 @@ impl DamageKeys for CriticalStretch {
         outputs: &["Damage"],
         tangent: TangentSupport::None,
         thermal_strain: true,
+        small_displacement: false,
+        example: "Critical Stretch: 0.02",
     };
 
     /// Exactly one of `Critical Stretch` and `Critical Energy Release Rate`.

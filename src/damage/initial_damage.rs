@@ -61,6 +61,8 @@ impl DamageKeys for InitialDamage {
         outputs: &["Damage"],
         tangent: TangentSupport::None,
         thermal_strain: false,
+        small_displacement: false,
+        example: "Bond Filters:\n  Crack:\n    Type: \"Rectangular_Plane\"\n    Normal_X: 1.0\n    Normal_Y: 0.0\n    Normal_Z: 0.0\n    Lower_Left_Corner_X: 2.5\n    Lower_Left_Corner_Y: -1.0\n    Lower_Left_Corner_Z: 2.5\n    Bottom_Unit_Vector_X: 0.0\n    Bottom_Unit_Vector_Y: 1.0\n    Bottom_Unit_Vector_Z: 0.0\n    Bottom_Length: 4.0\n    Side_Length: 8.0",
     };
 
     /// At least one `Rectangular_Plane` or `Exodus Mesh` bond filter.

@@ -76,6 +76,8 @@ impl DamageKeys for InterfaceAware {
         outputs: &["Damage"],
         tangent: TangentSupport::None,
         thermal_strain: true,
+        small_displacement: false,
+        example: "Critical Stretch: 0.02",
     };
 
     fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<InterfaceAwareParameters, DeckError> {

@@ -54,6 +54,8 @@ impl DamageKeys for TimeDependentCriticalStretch {
         outputs: &["Damage"],
         tangent: TangentSupport::None,
         thermal_strain: true,
+        small_displacement: false,
+        example: "Time Dependent Critical Stretch: \"if(t < 0.5) { value = 0.02; } else { value = 0.01; }\"",
     };
 
     /// The expression, parsed here so that a typo is named at its line when the deck loads.

@@ -24,6 +24,8 @@ const fn unbuilt(deck_name: &'static str, deck_keys: &'static [KeyDoc]) -> Model
         outputs: &[],
         tangent: TangentSupport::None,
         thermal_strain: false,
+        small_displacement: false,
+        example: "",
     }
 }
 

@@ -254,6 +254,8 @@ impl MaterialKeys for BondBased {
         outputs: &[],
         tangent: TangentSupport::Analytic,
         thermal_strain: false,
+        small_displacement: false,
+        example: "Density: 2.0\nBulk Modulus: 3.0",
     };
 
     fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<BondBasedParameters, DeckError> {

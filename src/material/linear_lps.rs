@@ -196,6 +196,8 @@ impl MaterialKeys for LinearLps {
         outputs: &["Weighted_Volume", "Dilatation"],
         tangent: TangentSupport::Analytic,
         thermal_strain: false,
+        small_displacement: true,
+        example: "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.3",
     };
 
     fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<LinearLpsParameters, DeckError> {

@@ -168,6 +168,8 @@ impl MaterialKeys for LinearPeridynamicSolid {
         outputs: &["Weighted_Volume", "Dilatation", "Partial_Stress"],
         tangent: TangentSupport::Analytic,
         thermal_strain: true,
+        small_displacement: false,
+        example: "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.7",
     };
 
     // Peridigm's `Elastic Partial Volume` (a -DUSE_PV build) is the LPS of `Elastic` whose

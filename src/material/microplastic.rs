@@ -154,6 +154,8 @@ impl MaterialKeys for MicroplasticBondBased {
         outputs: &[],
         tangent: TangentSupport::Analytic,
         thermal_strain: false,
+        small_displacement: false,
+        example: "Density: 2.0\nBulk Modulus: 3.0\nYield Stretch: 0.01",
     };
 
     fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<MicroplasticParameters, DeckError> {

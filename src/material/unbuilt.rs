@@ -34,6 +34,8 @@ const fn unbuilt(
         outputs: &[],
         tangent: TangentSupport::None,
         thermal_strain,
+        small_displacement: false,
+        example: "",
     }
 }
 

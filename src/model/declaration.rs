@@ -103,6 +103,15 @@ pub struct ModelDeclaration {
     pub tangent: TangentSupport,
     /// True when the model takes a `Thermal Expansion Coefficient` (thermal strain α ΔT).
     pub thermal_strain: bool,
+    /// True for a small-displacement model, linearized about the reference configuration (a
+    /// bond's force along its reference direction): a rigid rotation is force free only to
+    /// second order in its angle.
+    pub small_displacement: bool,
+    /// An example of the model's keys as a deck writes them (YAML lines of its list, without
+    /// the model's name), in consistent units for a body of unit point spacing and horizon
+    /// 1.8: the user guide shows it, and the registry's conformance suite reads it through the
+    /// model's reader and builds the model from it. Empty for a model this build does not run.
+    pub example: &'static str,
 }
 
 impl ModelDeclaration {

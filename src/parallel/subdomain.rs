@@ -3,7 +3,7 @@
 
 use super::halo::{layered, new_ghosts};
 use super::{Communicator, HaloPlan, Partition};
-use crate::damage::damage_entry;
+use crate::damage::{damage_entry, POINT_CRITICAL_STRETCH};
 use crate::io::deck::Deck;
 use crate::material::material_entry;
 use crate::model::{BondList, NodeSets, PointCloud, Reach};
@@ -40,15 +40,31 @@ pub fn halo_depth(deck: &Deck) -> usize {
         .ghost_layers()
 }
 
-/// True when the outermost ghost layer must run the damage models too: when blocks use
-/// different damage models, the interface rule of [`crate::physics`] (`max(d_ij, d_ji)` on
-/// bonds between blocks) reads the reverse bonds of the layer-1 ghosts' rows, which live in
-/// the outer layer's rows. With one damage model (or none) everywhere both directions of a
-/// bond are decided alike, and at depth 2 the outer layer only supplies positions, so it
-/// stays out of the blocks (less redundant work: its rows are neither damaged nor forced).
+/// True when the outermost ghost layer must run the damage models too:
+/// * when blocks use different damage models, the interface rule of [`crate::physics`]
+///   (`max(d_ij, d_ji)` on bonds between blocks) reads the reverse bonds of the layer-1
+///   ghosts' rows, which live in the outer layer's rows;
+/// * when a damage model declares the per-point field [`POINT_CRITICAL_STRETCH`]
+///   (`Interface Aware`): a bond's limit reads its far end's value, which a point has only as
+///   a member of its block (outside the blocks it reads 0, "never breaks").
+///
+/// With one damage model (or none) everywhere, reading only the bond's own stretch, both
+/// directions of a bond are decided alike, and at depth 2 the outer layer only supplies
+/// positions, so it stays out of the blocks (less redundant work: its rows are neither damaged
+/// nor forced).
 pub fn outer_ghosts_need_physics(deck: &Deck) -> bool {
     let first = deck.blocks.first().map(|b| &b.damage_model);
+    let reads_far_end = |name: &str| {
+        deck.damage_model(name)
+            .and_then(|d| damage_entry(d.model.deck_name()))
+            .is_some_and(|entry| entry.declaration.fields.contains(&POINT_CRITICAL_STRETCH))
+    };
     !deck.blocks.iter().all(|b| Some(&b.damage_model) == first)
+        || deck
+            .blocks
+            .iter()
+            .filter_map(|b| b.damage_model.as_deref())
+            .any(reads_far_end)
 }
 
 /// One rank's share of a distributed run.

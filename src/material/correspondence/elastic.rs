@@ -47,6 +47,8 @@ impl StressModel for ElasticStress {
         outputs: super::CORRESPONDENCE_OUTPUTS,
         tangent: TangentSupport::Differentiated,
         thermal_strain: true,
+        small_displacement: false,
+        example: "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.7\nHourglass Coefficient: 0.05",
     };
 
     fn read(_ctx: &mut Ctx, _list: &mut ListReader) -> Result<(), DeckError> {

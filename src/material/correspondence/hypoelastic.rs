@@ -187,8 +187,17 @@ pub(crate) trait HypoelasticStress: StressModel {
     fn read_hypoelastic(ctx: &Ctx, list: &mut ListReader) -> Result<Self::Parameters, DeckError>;
 }
 
-/// The declaration of the hypoelastic model `deck_name` reading the first `keys` keys.
-const fn declaration(deck_name: &'static str, keys: usize) -> ModelDeclaration {
+/// The keys of the elastic hypoelastic model's example; the plastic ones add theirs.
+const EXAMPLE: &str = "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.7\nActual Horizon: 1.6\n\
+                       Hourglass Coefficient: 0.05";
+
+/// The declaration of the hypoelastic model `deck_name` reading the first `keys` keys, with
+/// the example `example`.
+const fn declaration(
+    deck_name: &'static str,
+    keys: usize,
+    example: &'static str,
+) -> ModelDeclaration {
     ModelDeclaration {
         deck_name,
         aliases: &[],
@@ -198,12 +207,14 @@ const fn declaration(deck_name: &'static str, keys: usize) -> ModelDeclaration {
         outputs: CORRESPONDENCE_OUTPUTS,
         tangent: TangentSupport::Differentiated,
         thermal_strain: false,
+        small_displacement: false,
+        example,
     }
 }
 
 impl HypoelasticStress for ElasticStress {
     const HYPOELASTIC_DECLARATION: ModelDeclaration =
-        declaration("Elastic Hypoelastic Correspondence", 10);
+        declaration("Elastic Hypoelastic Correspondence", 10, EXAMPLE);
 
     fn read_hypoelastic(_ctx: &Ctx, _list: &mut ListReader) -> Result<(), DeckError> {
         Ok(())
@@ -212,7 +223,12 @@ impl HypoelasticStress for ElasticStress {
 
 impl HypoelasticStress for PlasticStress<false> {
     const HYPOELASTIC_DECLARATION: ModelDeclaration =
-        declaration("Elastic Plastic Hypoelastic Correspondence", 11);
+        declaration(
+            "Elastic Plastic Hypoelastic Correspondence",
+            11,
+            "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.7\nActual Horizon: 1.6\n\
+             Hourglass Coefficient: 0.05\nYield Stress: 0.002",
+        );
 
     fn read_hypoelastic(ctx: &Ctx, list: &mut ListReader) -> Result<PlasticParameters, DeckError> {
         Self::read_keys(ctx, list, false)
@@ -221,7 +237,12 @@ impl HypoelasticStress for PlasticStress<false> {
 
 impl HypoelasticStress for PlasticStress<true> {
     const HYPOELASTIC_DECLARATION: ModelDeclaration =
-        declaration("Isotropic Hardening Hypoelastic Correspondence", 12);
+        declaration(
+            "Isotropic Hardening Hypoelastic Correspondence",
+            12,
+            "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.7\nActual Horizon: 1.6\n\
+             Hourglass Coefficient: 0.05\nYield Stress: 0.002\nHardening Modulus: 0.3",
+        );
 
     fn read_hypoelastic(ctx: &Ctx, list: &mut ListReader) -> Result<PlasticParameters, DeckError> {
         Self::read_keys(ctx, list, false)

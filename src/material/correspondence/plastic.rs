@@ -298,6 +298,14 @@ impl<const HARDENING: bool> StressModel for PlasticStress<HARDENING> {
         outputs: super::CORRESPONDENCE_OUTPUTS,
         tangent: TangentSupport::Differentiated,
         thermal_strain: false,
+        small_displacement: false,
+        example: if HARDENING {
+            "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.7\nHourglass Coefficient: 0.05\n\
+             Yield Stress: 0.002\nHardening Modulus: 0.3"
+        } else {
+            "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.7\nHourglass Coefficient: 0.05\n\
+             Yield Stress: 0.002"
+        },
     };
 
     fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<PlasticParameters, DeckError> {

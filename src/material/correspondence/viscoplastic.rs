@@ -228,6 +228,8 @@ impl StressModel for NeedlemanStress {
         outputs: super::CORRESPONDENCE_OUTPUTS,
         tangent: TangentSupport::Differentiated,
         thermal_strain: false,
+        small_displacement: false,
+        example: "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.7\nHourglass Coefficient: 0.05\nYield Stress: 0.002\nStrain Hardening Exponent: 0.2\nRate Hardening Exponent: 0.1\nReference Strain Rate: 1.0\nReference Strain 0: 0.01\nReference Strain 1: 1.0",
     };
 
     fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<NeedlemanInput, DeckError> {

@@ -100,6 +100,8 @@ impl MaterialKeys for ElasticPlasticHardening {
         outputs: &["Weighted_Volume", "Dilatation", "Lambda"],
         tangent: TangentSupport::Differentiated,
         thermal_strain: false,
+        small_displacement: false,
+        example: "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.0\nYield Stress: 0.001\nHardening Modulus: 1.0e-8",
     };
 
     fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<PlasticityInput, DeckError> {

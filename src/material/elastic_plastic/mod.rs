@@ -250,6 +250,8 @@ impl MaterialKeys for ElasticPlastic {
         outputs: &["Weighted_Volume", "Dilatation", "Lambda"],
         tangent: TangentSupport::Differentiated,
         thermal_strain: false,
+        small_displacement: false,
+        example: "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.0\nYield Stress: 0.001",
     };
 
     fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<PlasticityInput, DeckError> {

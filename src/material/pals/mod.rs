@@ -254,6 +254,8 @@ impl MaterialKeys for Pals {
         ],
         tangent: TangentSupport::Differentiated,
         thermal_strain: false,
+        small_displacement: false,
+        example: "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.2",
     };
 
     fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<PalsParameters, DeckError> {

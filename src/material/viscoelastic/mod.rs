@@ -190,6 +190,8 @@ impl MaterialKeys for Viscoelastic {
         outputs: &["Weighted_Volume", "Dilatation"],
         tangent: TangentSupport::Differentiated,
         thermal_strain: false,
+        small_displacement: false,
+        example: "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.0\nlambda_i: 0.5\ntau b: 0.5",
     };
 
     fn read(ctx: &mut Ctx, list: &mut ListReader) -> Result<ViscoelasticInput, DeckError> {
