@@ -222,13 +222,12 @@ impl HypoelasticStress for ElasticStress {
 }
 
 impl HypoelasticStress for PlasticStress<false> {
-    const HYPOELASTIC_DECLARATION: ModelDeclaration =
-        declaration(
-            "Elastic Plastic Hypoelastic Correspondence",
-            11,
-            "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.7\nActual Horizon: 1.6\n\
+    const HYPOELASTIC_DECLARATION: ModelDeclaration = declaration(
+        "Elastic Plastic Hypoelastic Correspondence",
+        11,
+        "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.7\nActual Horizon: 1.6\n\
              Hourglass Coefficient: 0.05\nYield Stress: 0.002",
-        );
+    );
 
     fn read_hypoelastic(ctx: &Ctx, list: &mut ListReader) -> Result<PlasticParameters, DeckError> {
         Self::read_keys(ctx, list, false)
@@ -236,13 +235,12 @@ impl HypoelasticStress for PlasticStress<false> {
 }
 
 impl HypoelasticStress for PlasticStress<true> {
-    const HYPOELASTIC_DECLARATION: ModelDeclaration =
-        declaration(
-            "Isotropic Hardening Hypoelastic Correspondence",
-            12,
-            "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.7\nActual Horizon: 1.6\n\
+    const HYPOELASTIC_DECLARATION: ModelDeclaration = declaration(
+        "Isotropic Hardening Hypoelastic Correspondence",
+        12,
+        "Density: 2.0\nBulk Modulus: 3.0\nShear Modulus: 1.7\nActual Horizon: 1.6\n\
              Hourglass Coefficient: 0.05\nYield Stress: 0.002\nHardening Modulus: 0.3",
-        );
+    );
 
     fn read_hypoelastic(ctx: &Ctx, list: &mut ListReader) -> Result<PlasticParameters, DeckError> {
         Self::read_keys(ctx, list, false)
