@@ -1,6 +1,6 @@
-//! Peridigm's `Critical Stretch` damage model (reference §1.4): a bond breaks for good
-//! (d = 1) once its stretch `s = (|Y_j − Y_i| − ζ)/ζ` exceeds the critical stretch s_c
-//! (tension only; compression never breaks a bond).
+//! Peridigm's `Critical Stretch` damage model (`Peridigm_CriticalStretchDamageModel.cpp`): a
+//! bond breaks for good (d = 1) once its stretch `s = (|Y_j − Y_i| − ζ)/ζ` exceeds the critical
+//! stretch s_c (tension only; compression never breaks a bond).
 //!
 //! # Both directions of a pair agree
 //! Each point updates its own row (a gather, no atomics), so the bonds i→j and j→i are

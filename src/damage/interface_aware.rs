@@ -1,5 +1,6 @@
-//! Peridigm's `Interface Aware` damage model (reference §1.4): critical stretch as a per-point
-//! field, so that bonds across the interface of two materials break at the weaker one's limit.
+//! Peridigm's `Interface Aware` damage model (`Peridigm_InterfaceAwareDamageModel.cpp`):
+//! critical stretch as a per-point field, so that bonds across the interface of two materials
+//! break at the weaker one's limit.
 //!
 //! # The rule (Peridigm's `InterfaceAwareDamageModel`)
 //! * Every point of a block with this model carries its model's `Critical Stretch`; every other

@@ -194,8 +194,8 @@ fn directed<L: BondLimit>(
     broken.into_inner()
 }
 
-/// The directed loop with thermal strain (Peridigm's rule, reference §1.4): the bond i→j
-/// breaks once `(|Y_j − Y_i| − ζ − α ΔT_i ζ)/ζ` exceeds its limit, ΔT_i the temperature change
+/// The directed loop with thermal strain (Peridigm's rule,
+/// `Peridigm_CriticalStretchDamageModel.cpp`): the bond i→j breaks once `(|Y_j − Y_i| − ζ − α ΔT_i ζ)/ζ` exceeds its limit, ΔT_i the temperature change
 /// of point i alone (`temperature_change`, all points), α the damage model's `Thermal
 /// Expansion Coefficient`. Each direction decides from its own end's ΔT, so a pair whose ends
 /// differ in temperature may break in one direction first, as in Peridigm. Returns the
