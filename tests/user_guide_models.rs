@@ -1,13 +1,13 @@
 //! The user guide's model pages against the registries: every material of
 //! `peridyn::material::MATERIALS` and damage model of `peridyn::damage::DAMAGE_MODELS` has a
 //! page (`docs/src/materials/<slug>.md`, `docs/src/damage/<slug>.md`, the slug being the deck
-//! name lower-cased with spaces as hyphens), listed in `docs/src/SUMMARY.md`, with hand-written
-//! prose and, between two marker lines, a block generated here from the model's
-//! `ModelDeclaration`: its key table, its reach, tangent, thermal strain and outputs, and its
-//! declared example. A page for no model (a model this build does not run may keep a page while
-//! it has one) and a block that differs from what the declaration gives are failures, so the
-//! guide cannot drift from what the deck reader accepts. `PERIDYN_BLESS=1` rewrites the blocks
-//! (the prose stays as it is).
+//! name lower-cased with spaces as hyphens), listed in `docs/src/SUMMARY.md` and in the overview
+//! table of `materials.md` or `damage.md`, with hand-written prose and, between two marker
+//! lines, a block generated here from the model's `ModelDeclaration`: its key table, its reach,
+//! tangent, thermal strain, history and outputs, and its declared example. A page for no model
+//! (a model this build does not run may keep a page while it has one) and a block that differs
+//! from what the declaration gives are failures, so the guide cannot drift from what the deck
+//! reader accepts. `PERIDYN_BLESS=1` rewrites the blocks (the prose stays as it is).
 
 use std::fmt::Write as _;
 use std::fs;
@@ -287,6 +287,13 @@ fn check_page(source: &Path, summary: &str, model: &Model, bless: bool) -> Optio
     let mut problems = Vec::new();
     if !summary.contains(&format!("]({relative})")) {
         problems.push(format!("docs/src/SUMMARY.md does not list ({relative})"));
+    }
+    let overview = format!("{}.md", model.kind.folder());
+    let table = fs::read_to_string(source.join(&overview)).unwrap_or_default();
+    if !table.contains(&format!("]({relative})")) {
+        problems.push(format!(
+            "the overview table of docs/src/{overview} does not link ({relative})"
+        ));
     }
     let title = format!("# {}", d.deck_name);
     if text.lines().next() != Some(title.as_str()) {
