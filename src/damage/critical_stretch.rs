@@ -103,7 +103,10 @@ impl DamageKeys for CriticalStretch {
         deck_name: "Critical Stretch",
         aliases: &[],
         deck_keys: &[
-            CRITICAL_STRETCH,
+            KeyDoc {
+                default: "one of the two",
+                ..CRITICAL_STRETCH
+            },
             CRITICAL_ENERGY_RELEASE_RATE,
             THERMAL_EXPANSION,
         ],
