@@ -20,7 +20,7 @@
 //!
 //! ## Module map
 //! Each module answers one question; none imports another that imports it back
-//! (`scripts/import-circles` checks).
+//! (`cargo xtask import-circles` checks).
 //!
 //! | module | question it answers |
 //! |---|---|
