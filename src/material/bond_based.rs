@@ -318,13 +318,7 @@ const LANES: usize = 4;
 /// division is still evaluated so that the lane loop has no branch (its inf/NaN is discarded).
 #[inline(always)]
 fn bond_scale(pair: f64, zeta: f64, dx: f64, dy: f64, dz: f64) -> f64 {
-    let length = (dx * dx + dy * dy + dz * dz).sqrt();
-    let scale = pair * (length - zeta) / (zeta * length);
-    if length > 0.0 {
-        scale
-    } else {
-        0.0
-    }
+    bond_scale_squared(pair, zeta, dx * dx + dy * dy + dz * dz)
 }
 
 /// [`bond_scale`] from the squared length q = `dx*dx + dy*dy + dz*dz` (the same operations,
@@ -415,15 +409,7 @@ impl Material for BondBased {
     }
 
     fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError> {
-        let bonds = reference.bonds;
-        let points = self.block.points();
-        let mut member = vec![false; bonds.num_points()];
-        for &i in points {
-            member[i as usize] = true;
-        }
-        self.closed = points
-            .iter()
-            .all(|&i| bonds.family(i as usize).iter().all(|&j| member[j as usize]));
+        self.closed = self.block.point_bonded_outside(reference.bonds).is_none();
         Ok(())
     }
 

@@ -79,7 +79,7 @@ impl Kernel<'_> {
 
     /// The yield value of `point` at the start of the step, s·ψ₀ + Hλ_n; `None` without
     /// plasticity.
-    pub(super) fn yield_surface(&self, point: PointIndex) -> Option<f64> {
+    fn yield_surface(&self, point: PointIndex) -> Option<f64> {
         let psi = self.yield_value?;
         let psi = match self.correction.get(point.local) {
             Some(s) => s * psi,
