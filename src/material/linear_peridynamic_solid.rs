@@ -295,6 +295,7 @@ fn corrected_shear(shear: f64, correction: &[f64], local: usize) -> f64 {
         None => shear,
     }
 }
+
 impl Material for LinearPeridynamicSolid {
     fn block(&self) -> &BlockData {
         &self.block
