@@ -4,7 +4,7 @@
 //! [`Material`] that every model shares are written once, here.
 
 use super::{critical_time_step, CurrentView, Material, MaterialError, ReferenceView};
-use crate::model::{ModelDeclaration, Reach, TangentSupport};
+use crate::model::{BondList, ModelDeclaration, Reach, TangentSupport};
 use crate::tangent::{BlockTangent, TangentError, TangentMethod};
 
 /// The data every material of a block keeps (module docs).
@@ -90,6 +90,21 @@ impl BlockData {
     /// Block-local index of the block point `point` (a global index).
     pub fn local(&self, point: u32) -> usize {
         self.points.partition_point(|&p| p < point)
+    }
+
+    /// The first block point bonded to a point outside the block in `bonds`, `None` when every
+    /// family stays inside the block (the block is closed).
+    pub(crate) fn point_bonded_outside(&self, bonds: &BondList) -> Option<u32> {
+        let mut member = vec![false; bonds.num_points()];
+        for &i in &self.points {
+            member[i as usize] = true;
+        }
+        self.points.iter().copied().find(|&i| {
+            bonds
+                .family(i as usize)
+                .iter()
+                .any(|&j| !member[j as usize])
+        })
     }
 
     /// The tangent method of the block (`Tangent`, or the model's default).

@@ -38,7 +38,7 @@
 //!
 //! # Speed
 //! Each directed bond takes its own square root and division (vectorized; on a CPU with AVX2
-//! the row is the intrinsics loop of `closed_row_avx2`, four bonds per register from the loads
+//! the row is the intrinsics loop of `closed_rows::avx2`, four bonds per register from the loads
 //! of Y_j to the partial sums, with bitwise the staged loop's result), twice the pair-once
 //! plan's, but in one pass that streams 16 bytes per directed bond (neighbour index, ζ,
 //! damage) and holds no per-pair data. The pair-once plan's second pass read every bond's
@@ -60,14 +60,14 @@
 use super::keys::DENSITY;
 use super::keys::{PROBE_LENGTH, TANGENT};
 use super::{
-    checked_row, gather_bound, BlockData, BlockInput, CurrentView, Damaged, Integrity, Material,
-    MaterialError, MaterialKeys, MaterialModel, MaterialParameters, MaterialTangent,
-    PointCoefficients, ReferenceView, Undamaged,
+    BlockData, BlockInput, CurrentView, Damaged, Integrity, Material, MaterialError, MaterialKeys,
+    MaterialModel, MaterialParameters, MaterialTangent, PointCoefficients, ReferenceView,
+    Undamaged,
 };
 use super::{BreakingForcePass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::{break_stretched_rows, StretchLimit};
 use crate::model::point_chunks::for_each_chunk;
-use crate::model::{with_volume_rule, KeyDoc, ModelDeclaration, Reach, TangentSupport, VolumeRule};
+use crate::model::{with_volume_rule, KeyDoc, ModelDeclaration, Reach, TangentSupport};
 use crate::parameter_list::error::DeckError;
 use crate::parameter_list::reader::{Ctx, ListReader};
 use crate::tangent::{
@@ -76,8 +76,11 @@ use crate::tangent::{
 };
 use crate::vector_width::wide_vectors_available;
 
-#[cfg(target_arch = "x86_64")]
-mod closed_row_avx2;
+mod closed_rows;
+mod rows;
+
+use closed_rows::NoBreaking;
+use rows::Rows;
 
 /// `Bulk Modulus` of the PMB models.
 const BULK_MODULUS: KeyDoc = KeyDoc {
@@ -300,43 +303,6 @@ impl BondBased {
     fn half(&self) -> f64 {
         0.5 * self.micromodulus
     }
-
-    /// Adds the force density of the forced points of this closed block to `force_density`,
-    /// with the bond breaking of `breaker` in their rows first, on every thread
-    /// ([`ClosedRows::chunk`]); returns the directed bonds broken.
-    fn add_closed_force<D: Integrity, B: Breaker>(
-        &self,
-        reference: &ReferenceView<'_>,
-        position: &[[f64; 3]],
-        damage: D,
-        breaker: B,
-        force_density: &mut [[f64; 3]],
-    ) -> usize {
-        assert!(force_density.len() >= position.len());
-        let rows = ClosedRows {
-            bonds: reference.bonds,
-            y: position,
-            // c/2 doubled: exactly c.
-            micromodulus: 2.0 * self.half(),
-            wide: wide_vectors_available(),
-        };
-        let broken = std::sync::atomic::AtomicUsize::new(0);
-        with_volume_rule!(reference, |v| {
-            let run = |chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
-                // SAFETY: the breaker's contract is the caller's; a chunk reads and writes the
-                // damage of its own points' rows only, and no two chunks share a point.
-                let n = unsafe { rows.chunk_dispatch(chunk, base, out, v, damage, breaker) };
-                broken.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
-            };
-            for_each_chunk(
-                self.block.force_points(),
-                force_density,
-                &|i| i as usize,
-                &run,
-            )
-        });
-        broken.into_inner()
-    }
 }
 
 /// Bonds of one row evaluated together: the loop body works on `[f64; LANES]` arrays so that
@@ -346,44 +312,13 @@ impl BondBased {
 /// result does not depend on the vector width the compiler picks.
 const LANES: usize = 4;
 
-/// The pair stiffness of an open block's bonds, whose neighbours may belong to other blocks:
-/// c_ij = a_i + a_j with a = c/2 published per point.
-#[derive(Clone, Copy)]
-struct Mixed<'a> {
-    own_half: f64,
-    coefficients: &'a [PointCoefficients],
-}
-
-impl Mixed<'_> {
-    /// c_ij of the bond to neighbour `j`.
-    #[inline(always)]
-    fn of(self, j: usize) -> f64 {
-        self.own_half + self.coefficients[j].isotropic
-    }
-}
-
-/// What the PMB bond loops read, bundled once per call.
-struct Rows<'a> {
-    reference: &'a ReferenceView<'a>,
-    current: &'a CurrentView<'a>,
-    coefficients: &'a [PointCoefficients],
-    /// c/2 of this block's points.
-    own_half: f64,
-}
-
 /// The force-density contribution of one bond: `c_ij (1−d) V_j (|Y| − ζ)/(ζ|Y|)` times
 /// `Y_j − Y_i` (the caller multiplies by the components). Coincident deformed points
 /// (|Y| = 0) have no direction and contribute nothing (Peridigm would produce NaN); the
 /// division is still evaluated so that the lane loop has no branch (its inf/NaN is discarded).
 #[inline(always)]
 fn bond_scale(pair: f64, zeta: f64, dx: f64, dy: f64, dz: f64) -> f64 {
-    let length = (dx * dx + dy * dy + dz * dz).sqrt();
-    let scale = pair * (length - zeta) / (zeta * length);
-    if length > 0.0 {
-        scale
-    } else {
-        0.0
-    }
+    bond_scale_squared(pair, zeta, dx * dx + dy * dy + dz * dz)
 }
 
 /// [`bond_scale`] from the squared length q = `dx*dx + dy*dy + dz*dz` (the same operations,
@@ -396,469 +331,6 @@ fn bond_scale_squared(pair: f64, zeta: f64, squared: f64) -> f64 {
         scale
     } else {
         0.0
-    }
-}
-
-/// The bond-list row of one point.
-#[derive(Clone, Copy)]
-struct BondRow<'a> {
-    /// Global bond index of the row's first bond.
-    first_bond: usize,
-    /// The neighbours j, in row order.
-    neighbors: &'a [u32],
-    /// The reference lengths ζ of the row's bonds (length).
-    lengths: &'a [f64],
-}
-
-/// `F_i = Σ_j c_ij (1−d) w_ij (|Y| − ζ)/(ζ|Y|) (Y_j − Y_i)` over the bond-list `row` of the
-/// point at `yi` (w_ij the bond's quadrature volume, V_j under the full-volume rule).
-#[inline(always)]
-fn row_force<V: VolumeRule, D: Integrity>(
-    yi: [f64; 3],
-    row: BondRow<'_>,
-    y: &[[f64; 3]],
-    volume: V,
-    damage: D,
-    stiffness: Mixed<'_>,
-) -> [f64; 3] {
-    let BondRow {
-        first_bond,
-        neighbors,
-        lengths,
-    } = row;
-    let mut sum = [[0.0; LANES]; 3];
-    let full = neighbors.len() - neighbors.len() % LANES;
-    for start in (0..full).step_by(LANES) {
-        let mut d = [[0.0; LANES]; 3];
-        let mut pair = [0.0; LANES];
-        let mut zeta = [0.0; LANES];
-        for lane in 0..LANES {
-            let n = start + lane;
-            let j = neighbors[n] as usize;
-            let yj = y[j];
-            for k in 0..3 {
-                d[k][lane] = yj[k] - yi[k];
-            }
-            pair[lane] =
-                stiffness.of(j) * damage.intact(first_bond + n) * volume.of(first_bond + n, j);
-            zeta[lane] = lengths[n];
-        }
-        for lane in 0..LANES {
-            let scale = bond_scale(pair[lane], zeta[lane], d[0][lane], d[1][lane], d[2][lane]);
-            for k in 0..3 {
-                sum[k][lane] += scale * d[k][lane];
-            }
-        }
-    }
-    for n in full..neighbors.len() {
-        let lane = n - full;
-        let j = neighbors[n] as usize;
-        let yj = y[j];
-        let d = [yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]];
-        let pair = stiffness.of(j) * damage.intact(first_bond + n) * volume.of(first_bond + n, j);
-        let scale = bond_scale(pair, lengths[n], d[0], d[1], d[2]);
-        for k in 0..3 {
-            sum[k][lane] += scale * d[k];
-        }
-    }
-    sum.map(|s| (s[0] + s[1]) + (s[2] + s[3]))
-}
-
-impl Rows<'_> {
-    /// c_ij of this block's bonds.
-    #[inline(always)]
-    fn pair_stiffness(&self) -> Mixed<'_> {
-        Mixed {
-            own_half: self.own_half,
-            coefficients: self.coefficients,
-        }
-    }
-
-    /// Adds the force density of the chunk's points (see [`row_force`]), with w_ij by the
-    /// quadrature rule `volume`.
-    #[inline(always)]
-    fn add_force<V: VolumeRule, D: Integrity>(
-        &self,
-        chunk: &[u32],
-        base: usize,
-        out: &mut [[f64; 3]],
-        volume: V,
-        damage: D,
-    ) {
-        let stiffness = self.pair_stiffness();
-        let bonds = self.reference.bonds;
-        let y = self.current.position;
-        for &i in chunk {
-            let i = i as usize;
-            let range = bonds.range(i);
-            let row = BondRow {
-                first_bond: range.start,
-                neighbors: &bonds.neighbor[range.clone()],
-                lengths: &bonds.reference_length[range],
-            };
-            let f = row_force(y[i], row, y, volume, damage, stiffness);
-            let out = &mut out[i - base];
-            for k in 0..3 {
-                out[k] += f[k];
-            }
-        }
-    }
-
-    /// [`Rows::add_force`] compiled for 256-bit vectors when `wide` (checked by
-    /// [`wide_vectors_available`]), for the baseline target otherwise. Both give bitwise the same
-    /// result: the lanes do the same IEEE operations in the same order, and no multiply-add is
-    /// fused (FMA is not enabled).
-    #[inline(always)]
-    fn add_force_dispatch<V: VolumeRule, D: Integrity>(
-        &self,
-        chunk: &[u32],
-        base: usize,
-        out: &mut [[f64; 3]],
-        volume: V,
-        damage: D,
-        wide: bool,
-    ) {
-        #[cfg(target_arch = "x86_64")]
-        if wide {
-            // SAFETY: `wide` is true only when the CPU reports AVX2 at run time.
-            unsafe { self.add_force_avx2(chunk, base, out, volume, damage) };
-            return;
-        }
-        let _ = wide;
-        self.add_force(chunk, base, out, volume, damage);
-    }
-
-    /// [`Rows::add_force`] with AVX2 enabled, so the `LANES` loop becomes 4-wide square roots and
-    /// divisions (twice the width of the x86-64 baseline's SSE2).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn add_force_avx2<V: VolumeRule, D: Integrity>(
-        &self,
-        chunk: &[u32],
-        base: usize,
-        out: &mut [[f64; 3]],
-        volume: V,
-        damage: D,
-    ) {
-        self.add_force(chunk, base, out, volume, damage);
-    }
-
-    /// `W_i = Σ_j ¼ c_ij s² ζ (1−d) w_ij = Σ_j ¼ (a_i + a_j)(1−d) e²/ζ w_ij`.
-    fn energy<D: Integrity>(&self, chunk: &[u32], base: usize, out: &mut [f64], damage: D) {
-        let stiffness = self.pair_stiffness();
-        let bonds = self.reference.bonds;
-        let y = self.current.position;
-        for &i in chunk {
-            let i = i as usize;
-            let yi = y[i];
-            let mut w = 0.0;
-            for b in bonds.range(i) {
-                let j = bonds.neighbor[b] as usize;
-                let yj = y[j];
-                let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
-                let zeta = bonds.reference_length[b];
-                let extension = (dx * dx + dy * dy + dz * dz).sqrt() - zeta;
-                let c_pair = stiffness.of(j);
-                w += 0.25 * c_pair * damage.intact(b) * extension * extension / zeta
-                    * self.reference.neighbor_volume(b, j);
-            }
-            out[i - base] = w;
-        }
-    }
-}
-
-/// What the closed-block loop reads, bundled once per call ([`ClosedRows::chunk`]).
-#[derive(Clone, Copy)]
-struct ClosedRows<'a> {
-    bonds: &'a crate::model::BondList,
-    y: &'a [[f64; 3]],
-    /// c (the block is closed, so c_ij = c).
-    micromodulus: f64,
-    /// Run the AVX2 build of the loop ([`wide_vectors_available`]).
-    wide: bool,
-}
-
-impl ClosedRows<'_> {
-    /// Adds the force density of the points of `chunk` to `out` (indexed from `base`) and, with
-    /// a `breaker`, breaks their over-stretched bonds first; returns the directed bonds broken.
-    /// Over the whole call: builds for AVX2 when [`ClosedRows::wide`], else for the baseline
-    /// target (bitwise the same result, as for the gather loop).
-    ///
-    /// # Safety
-    /// The contract of `breaker` ([`Breaker`]) must hold for the rows of `chunk`.
-    #[inline(always)]
-    unsafe fn chunk_dispatch<V: VolumeRule, D: Integrity, B: Breaker>(
-        self,
-        chunk: &[u32],
-        base: usize,
-        out: &mut [[f64; 3]],
-        volume: V,
-        damage: D,
-        breaker: B,
-    ) -> usize {
-        #[cfg(target_arch = "x86_64")]
-        if self.wide {
-            // SAFETY: AVX2 was detected at run time; the rest as the caller guarantees.
-            return unsafe { self.chunk_avx2(chunk, base, out, volume, damage, breaker) };
-        }
-        // SAFETY: as the caller guarantees.
-        unsafe { self.chunk(chunk, base, out, volume, damage, breaker) }
-    }
-
-    /// [`ClosedRows::chunk`] with AVX2: each row by the intrinsics loop `closed_row_avx2::row`
-    /// (bitwise the staged loop's force).
-    ///
-    /// # Safety
-    /// As [`ClosedRows::chunk`], and the CPU supports AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn chunk_avx2<V: VolumeRule, D: Integrity, B: Breaker>(
-        self,
-        chunk: &[u32],
-        base: usize,
-        out: &mut [[f64; 3]],
-        volume: V,
-        damage: D,
-        breaker: B,
-    ) -> usize {
-        let bound = gather_bound(self.bonds, self.y.len(), volume, damage);
-        let mut broken = 0;
-        for &i in chunk {
-            let i = i as usize;
-            // SAFETY: AVX2 is enabled here; `bound` is from `gather_bound`; the breaker's
-            // contract is the caller's.
-            let (f, newly) =
-                unsafe { closed_row_avx2::row(self, i, bound, volume, damage, breaker) };
-            broken += newly;
-            let out = &mut out[i - base];
-            for k in 0..3 {
-                out[k] += f[k];
-            }
-        }
-        broken
-    }
-
-    /// Adds, for every point i of `chunk`, the force density of its row (see
-    /// [`ClosedRows::row`]) to `out` (indexed from `base`); returns the directed bonds broken.
-    ///
-    /// # Safety
-    /// The contract of `breaker` ([`Breaker`]) must hold for the rows of `chunk`.
-    #[inline(always)]
-    unsafe fn chunk<V: VolumeRule, D: Integrity, B: Breaker>(
-        self,
-        chunk: &[u32],
-        base: usize,
-        out: &mut [[f64; 3]],
-        volume: V,
-        damage: D,
-        breaker: B,
-    ) -> usize {
-        let bound = gather_bound(self.bonds, self.y.len(), volume, damage);
-        let mut scratch = RowBlock::default();
-        let mut broken = 0;
-        for &i in chunk {
-            let i = i as usize;
-            // SAFETY: `bound` is from `gather_bound`; the breaker's contract is the caller's.
-            let (f, newly) = unsafe { self.row(i, bound, volume, damage, breaker, &mut scratch) };
-            broken += newly;
-            let out = &mut out[i - base];
-            for k in 0..3 {
-                out[k] += f[k];
-            }
-        }
-        broken
-    }
-
-    /// `F_i = Σ_j c (1−d_ij) (|Y| − ζ)/(ζ|Y|) w_ij (Y_j − Y_i)` over the row of point i, and
-    /// the directed bonds of the row `breaker` broke first. Every input of a term is the
-    /// bond's own (Y_i, Y_j, ζ and d of i→j), so the result depends on the row alone.
-    ///
-    /// The row is taken in blocks of [`ROW_BLOCK`] bonds, each in loops over plain arrays:
-    /// the gather of Y_j and w_ij (scalar loads); Y_j − Y_i and q = |Y_j − Y_i|²; the critical
-    /// stretch of `breaker` (when it has one: a branch-free filter over the block, the exact
-    /// test only for the bonds it cannot clear, breaking the bond i→j alone); the scale
-    /// `s = c (1−d) (|Y| − ζ)/(ζ|Y|)` times w_ij; the sum in [`LANES`] partial sums by row
-    /// position, added `(0 + 1) + (2 + 3)`. Loops of independent iterations vectorize and let
-    /// the square roots and divisions of many bonds overlap (groups of four bonds gathered,
-    /// scaled and summed in one loop measured 20 against 16 ms/step on the bench lattice).
-    /// The row's neighbours are checked once ([`checked_row`]), so that its bonds read Y_j,
-    /// w_ij and 1 − d without a check each.
-    ///
-    /// # Safety
-    /// `bound` is from [`gather_bound`] over `self.y.len()` (or less), `volume` and `damage`;
-    /// the contract of `breaker` ([`Breaker`]) holds for the row of i.
-    #[inline(always)]
-    unsafe fn row<V: VolumeRule, D: Integrity, B: Breaker>(
-        self,
-        i: usize,
-        bound: usize,
-        volume: V,
-        damage: D,
-        breaker: B,
-        scratch: &mut RowBlock,
-    ) -> ([f64; 3], usize) {
-        let y = self.y;
-        let yi = y[i];
-        let range = self.bonds.range(i);
-        let first = range.start;
-        let (neighbors, lengths) = checked_row(self.bonds, range, bound);
-        let mut sum = [[0.0; LANES]; 3];
-        let mut broken = 0;
-        for block_start in (0..neighbors.len()).step_by(ROW_BLOCK) {
-            let count = (neighbors.len() - block_start).min(ROW_BLOCK);
-            let block_neighbors = &neighbors[block_start..block_start + count];
-            let zeta = &lengths[block_start..block_start + count];
-            let first = first + block_start;
-            let RowBlock { d, squared, weight } = scratch;
-            // The gather alone (scalar loads); the arithmetic below runs over whole arrays.
-            for (n, &j) in block_neighbors.iter().enumerate() {
-                let j = j as usize;
-                // SAFETY: j < bound <= y.len(), and below the volume rule's covered points
-                // (`checked_row` with `gather_bound`).
-                let (yj, w) = unsafe { (*y.get_unchecked(j), volume.of_unchecked(first + n, j)) };
-                for k in 0..3 {
-                    d[k][n] = yj[k];
-                }
-                weight[n] = w;
-            }
-            for n in 0..count {
-                for k in 0..3 {
-                    d[k][n] -= yi[k];
-                }
-                // q = dx*dx + dy*dy + dz*dz, the number the damage models test.
-                squared[n] = d[0][n] * d[0][n] + d[1][n] * d[1][n] + d[2][n] * d[2][n];
-            }
-            if let Some(limit) = breaker.limit() {
-                // The filter as a reduction over the block (it vectorizes); the rare block with
-                // a bond it cannot clear tests that bond again, then exactly.
-                let mut all_cleared = true;
-                for n in 0..count {
-                    all_cleared &= limit.certainly_intact(squared[n], zeta[n]);
-                }
-                if !all_cleared {
-                    for n in 0..count {
-                        // SAFETY: the bond is in the row of i (the breaker's contract).
-                        if !limit.certainly_intact(squared[n], zeta[n])
-                            && unsafe { breaker.damage(first + n) } < 1.0
-                            && limit.exceeded(squared[n], zeta[n])
-                        {
-                            // SAFETY: as above.
-                            broken += usize::from(unsafe { breaker.break_bond(first + n) });
-                        }
-                    }
-                }
-            }
-            for n in 0..count {
-                // SAFETY: the bond is in the row, below `bonds.neighbor.len()`, which `damage`
-                // covers (`gather_bound`).
-                let intact = unsafe { damage.intact_unchecked(first + n) };
-                weight[n] *= bond_scale_squared(self.micromodulus * intact, zeta[n], squared[n]);
-            }
-            // ROW_BLOCK is a multiple of LANES, so bond n of the block is at row position
-            // n mod LANES too.
-            let full = count - count % LANES;
-            for at in (0..full).step_by(LANES) {
-                for k in 0..3 {
-                    for lane in 0..LANES {
-                        sum[k][lane] += weight[at + lane] * d[k][at + lane];
-                    }
-                }
-            }
-            for n in full..count {
-                for k in 0..3 {
-                    sum[k][n - full] += weight[n] * d[k][n];
-                }
-            }
-        }
-        (sum.map(|s| (s[0] + s[1]) + (s[2] + s[3])), broken)
-    }
-}
-
-/// Bonds of a row handled per block of the closed-block loop (an interior row at m = 3 has
-/// 122): a multiple of [`LANES`].
-const ROW_BLOCK: usize = 64;
-
-/// The arrays of one block of bonds of [`ClosedRows::row`], made once per chunk (zeroing them
-/// for every block cost a tenth of the step) and overwritten, up to the block's length, by
-/// every block.
-struct RowBlock {
-    /// Y_j, then Y_j − Y_i, by component.
-    d: [[f64; ROW_BLOCK]; 3],
-    /// q = |Y_j − Y_i|².
-    squared: [f64; ROW_BLOCK],
-    /// w_ij, then the bond's s·w_ij.
-    weight: [f64; ROW_BLOCK],
-}
-
-impl Default for RowBlock {
-    fn default() -> Self {
-        Self {
-            d: [[0.0; ROW_BLOCK]; 3],
-            squared: [0.0; ROW_BLOCK],
-            weight: [0.0; ROW_BLOCK],
-        }
-    }
-}
-
-/// The bond breaking the closed-block loop does before its forces (see [`ClosedRows::chunk`]).
-///
-/// # Contract of an implementation that breaks bonds
-/// `damage` and `break_bond` access the bond-damage array of the loop's bond list through a
-/// pointer; the loop only calls them for the bonds of the rows of the running chunk's points,
-/// whose entries no other task reads or writes meanwhile; the damage reads of the force loop
-/// go through the same pointer.
-trait Breaker: Copy + Send + Sync {
-    /// The critical stretch to test, `None` when the loop breaks nothing.
-    fn limit(self) -> Option<StretchLimit>;
-
-    /// d of bond `b`.
-    ///
-    /// # Safety
-    /// See the trait.
-    unsafe fn damage(self, b: usize) -> f32;
-
-    /// Sets d = 1 on bond `b`; returns whether it changed (it was intact or partly damaged).
-    ///
-    /// # Safety
-    /// See the trait.
-    unsafe fn break_bond(self, b: usize) -> bool;
-}
-
-/// The force loop alone (damage already up to date, or no damage).
-#[derive(Clone, Copy)]
-struct NoBreaking;
-
-impl Breaker for NoBreaking {
-    #[inline(always)]
-    fn limit(self) -> Option<StretchLimit> {
-        None
-    }
-
-    unsafe fn damage(self, _b: usize) -> f32 {
-        unreachable!("NoBreaking has no limit")
-    }
-
-    unsafe fn break_bond(self, _b: usize) -> bool {
-        unreachable!("NoBreaking has no limit")
-    }
-}
-
-impl Breaker for FusedCriticalStretch {
-    #[inline(always)]
-    fn limit(self) -> Option<StretchLimit> {
-        Some(self.limit)
-    }
-
-    #[inline(always)]
-    unsafe fn damage(self, b: usize) -> f32 {
-        // SAFETY: as the caller guarantees.
-        unsafe { self.read(b) }
-    }
-
-    #[inline(never)]
-    unsafe fn break_bond(self, b: usize) -> bool {
-        // SAFETY: as the caller guarantees.
-        unsafe { FusedCriticalStretch::break_bond(self, b) }
     }
 }
 
@@ -937,15 +409,7 @@ impl Material for BondBased {
     }
 
     fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError> {
-        let bonds = reference.bonds;
-        let points = self.block.points();
-        let mut member = vec![false; bonds.num_points()];
-        for &i in points {
-            member[i as usize] = true;
-        }
-        self.closed = points
-            .iter()
-            .all(|&i| bonds.family(i as usize).iter().all(|&j| member[j as usize]));
+        self.closed = self.block.point_bonded_outside(reference.bonds).is_none();
         Ok(())
     }
 
@@ -1132,6 +596,7 @@ impl BreakingForcePass for BondBased {
 
 #[cfg(test)]
 mod tests {
+    use super::closed_rows::ClosedRows;
     use super::*;
     use crate::damage::{CriticalStretch, DamageModel};
     use crate::model::test_support::{brute_force_bonds, random_cloud, Rng};

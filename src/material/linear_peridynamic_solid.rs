@@ -39,30 +39,28 @@ use super::keys::{
     AUTOMATIC_DIFFERENTIATION, DENSITY, ELASTIC, PROBE_LENGTH, TANGENT, THERMAL_EXPANSION,
 };
 use super::{
-    checked_row, gather_bound, influence_weighted_volumes, local_offsets, BlockData, BlockInput,
-    BondWeights, CurrentView, Damaged, ElasticConstants, Integrity, Material, MaterialError,
-    MaterialKeys, MaterialModel, MaterialOutputs, MaterialParameters, MaterialTangent,
-    PointCoefficients, ReferenceView, StoredWeights, Undamaged, UnitWeights,
+    influence_weighted_volumes, local_offsets, BlockData, BlockInput, CurrentView, Damaged,
+    ElasticConstants, Material, MaterialError, MaterialKeys, MaterialModel, MaterialOutputs,
+    MaterialParameters, MaterialTangent, PointCoefficients, ReferenceView, StoredWeights,
+    Undamaged, UnitWeights,
 };
 use super::{BreakingCoefficientPass, CriticalStretchFastPath, FusedCriticalStretch};
 use crate::damage::StretchLimit;
 use crate::model::point_chunks::for_each_chunk;
 use crate::model::with_volume_rule;
 use crate::model::{
-    BondVolumes, FieldCarrier, FieldDeclaration, KeyDoc, ModelDeclaration, Reach, TangentSupport,
-    VolumeRule,
+    FieldCarrier, FieldDeclaration, KeyDoc, ModelDeclaration, Reach, TangentSupport,
 };
 use crate::parameter_list::error::DeckError;
 use crate::parameter_list::reader::{Ctx, ListReader};
-use crate::tangent::{
-    assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
-    TangentMethod,
-};
-use crate::vector_width::wide_vectors_available;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use crate::tangent::{assemble, BlockTangent, ForceState, PointIndex, TangentError, TangentMethod};
 
-#[cfg(target_arch = "x86_64")]
-mod rows_avx2;
+mod force_state;
+mod rows;
+mod thermal;
+
+use force_state::LpsForceState;
+use rows::NoBreaking;
 
 /// `Compute Partial Stress`.
 const COMPUTE_PARTIAL_STRESS: KeyDoc = KeyDoc {
@@ -289,875 +287,12 @@ macro_rules! with_bond_data {
     };
 }
 
-/// What the LPS loops read, bundled once per call; `V` is the quadrature rule the hot loops
-/// are compiled for.
-struct Rows<'a, V> {
-    reference: &'a ReferenceView<'a>,
-    /// w_ij ([`VolumeRule`]).
-    volume: V,
-    current: &'a CurrentView<'a>,
-    points: &'a [u32],
-    local_offsets: &'a [usize],
-    weighted_volume: &'a [f64],
-    bulk: f64,
-    shear: f64,
-    /// s per block point, or empty (s = 1).
-    correction: &'a [f64],
-    /// The force pass runs over a subset of `points` ([`Material::restrict_forces`]), whose
-    /// chunks are not contiguous runs of `points`.
-    force_subset: bool,
-    /// Run the AVX2 builds of the loops ([`wide_vectors_available`]).
-    wide: bool,
-}
-
-impl<V: VolumeRule> Rows<'_, V> {
-    /// Block-local index of the chunk's first point (chunks are contiguous runs of `points`).
-    fn first_local(&self, chunk: &[u32]) -> usize {
-        self.points.partition_point(|&p| p < chunk[0])
-    }
-
-    /// θ_i and the published coefficients of the chunk's points, after the bonds `breaker`
-    /// breaks (if any) in their rows; returns the directed bonds broken.
-    ///
-    /// Each row is taken [`LANES`] bonds at a time: the per-bond terms are computed lane by
-    /// lane (vectorized: the square roots dominate), then added one by one in bond order, so
-    /// θ is bitwise the plain running sum `Σ_j ω (1−d) ζ e V_j` whatever the vector width.
-    ///
-    /// # Safety
-    /// The contract of `breaker` ([`RowBreaker`]) for the rows of `chunk`.
-    #[inline(always)]
-    unsafe fn dilatation<W: BondWeights, D: Integrity, B: RowBreaker>(
-        &self,
-        chunk: &[u32],
-        base: usize,
-        out: &mut [PointCoefficients],
-        weights: W,
-        damage: D,
-        breaker: B,
-    ) -> usize {
-        let bonds = self.reference.bonds;
-        let volume = self.volume;
-        let y = self.current.position;
-        let k0 = self.first_local(chunk);
-        let points = gather_bound(bonds, y.len(), volume, damage);
-        let mut broken = 0;
-        for (k, &i) in (k0..).zip(chunk) {
-            let i = i as usize;
-            let yi = y[i];
-            let range = bonds.range(i);
-            let local = self.local_offsets[k];
-            let (neighbors, lengths) = checked_row(bonds, range.clone(), points);
-            let mut sum = 0.0;
-            // Lane arrays stay in registers (written and read within one group of LANES); the
-            // tail bonds are groups of one.
-            macro_rules! group {
-                ($start:expr, $width:expr) => {{
-                    let start: usize = $start;
-                    let width: usize = $width;
-                    let mut squared = [0.0; LANES];
-                    let mut zeta = [0.0; LANES];
-                    let mut neighbor_volume = [0.0; LANES];
-                    for lane in 0..width {
-                        // SAFETY: start + lane < the row's length, and the row is checked
-                        // (`checked_row`, `gather_bound`).
-                        let (_, yj, z, w) = unsafe {
-                            gather(neighbors, lengths, y, volume, range.start, start + lane)
-                        };
-                        let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
-                        // q = dx*dx + dy*dy + dz*dz, the number the damage models test.
-                        squared[lane] = dx * dx + dy * dy + dz * dz;
-                        zeta[lane] = z;
-                        neighbor_volume[lane] = w;
-                    }
-                    if let Some(limit) = breaker.limit() {
-                        // The filter of every lane first, with no branch (it vectorizes); the
-                        // lanes are visited one by one only when one of them may break.
-                        let mut filtered = [false; LANES];
-                        for lane in 0..width {
-                            filtered[lane] = limit.certainly_intact(squared[lane], zeta[lane]);
-                        }
-                        if !filtered[..width].iter().fold(true, |all, &f| all & f) {
-                            for lane in 0..width {
-                                if !filtered[lane] {
-                                    let b = range.start + start + lane;
-                                    // SAFETY: b is in the row of a point of this chunk (the
-                                    // caller's contract).
-                                    if unsafe { breaker.damage(b) } < 1.0
-                                        && limit.exceeded(squared[lane], zeta[lane])
-                                    {
-                                        // SAFETY: as above.
-                                        unsafe { breaker.break_bond(b) };
-                                        broken += 1;
-                                    }
-                                }
-                            }
-                        }
-                    }
-                    // Read after the breaking above, and apart from the arithmetic below so
-                    // that it has no indexing (bounds checks would keep it scalar).
-                    let mut weight = [0.0; LANES];
-                    for lane in 0..width {
-                        // SAFETY: the bond is in the row, below `bonds.neighbor.len()`
-                        // (`gather_bound`).
-                        weight[lane] = weights.weight(local + start + lane)
-                            * unsafe { damage.intact_unchecked(range.start + start + lane) };
-                    }
-                    let mut term = [0.0; LANES];
-                    for lane in 0..width {
-                        term[lane] = dilatation_term(
-                            weight[lane],
-                            zeta[lane],
-                            squared[lane],
-                            neighbor_volume[lane],
-                        );
-                    }
-                    for &t in &term[..width] {
-                        sum += t;
-                    }
-                }};
-            }
-            let full = neighbors.len() - neighbors.len() % LANES;
-            for start in (0..full).step_by(LANES) {
-                group!(start, LANES);
-            }
-            for start in full..neighbors.len() {
-                group!(start, 1);
-            }
-            out[i - base] = self.point_coefficients(k, sum);
-        }
-        broken
-    }
-
-    /// θ = 3 Σ/m of block point k from its row's sum Σ = Σ_j ω (1−d) ζ e V_j, and its force
-    /// coefficients A = (3K − 5μ) θ/m, B = 15μ/m (all zero when m = 0).
-    #[inline(always)]
-    fn point_coefficients(&self, k: usize, sum: f64) -> PointCoefficients {
-        let m = self.weighted_volume[k];
-        if m > 0.0 {
-            let theta = 3.0 * sum / m;
-            let shear = corrected_shear(self.shear, self.correction, k);
-            PointCoefficients {
-                dilatation: theta,
-                isotropic: (3.0 * self.bulk - 5.0 * shear) * theta / m,
-                deviatoric: 15.0 * shear / m,
-            }
-        } else {
-            PointCoefficients::default()
-        }
-    }
-
-    /// Block-local index of point `i`, the `n`-th of a force chunk whose first point has
-    /// block-local index `k0` (when the forced points are all of them).
-    #[inline(always)]
-    fn force_local(&self, k0: usize, n: usize, i: u32) -> usize {
-        if self.force_subset {
-            self.points.partition_point(|&p| p < i)
-        } else {
-            k0 + n
-        }
-    }
-
-    /// [`Rows::dilatation`] built for AVX2 when [`Rows::wide`], else for the baseline target;
-    /// bitwise the same result (same IEEE operations in the same order, no fused
-    /// multiply-add).
-    ///
-    /// # Safety
-    /// As [`Rows::dilatation`].
-    #[inline(always)]
-    unsafe fn dilatation_dispatch<W: BondWeights, D: Integrity, B: RowBreaker>(
-        &self,
-        chunk: &[u32],
-        base: usize,
-        out: &mut [PointCoefficients],
-        weights: W,
-        damage: D,
-        breaker: B,
-    ) -> usize {
-        #[cfg(target_arch = "x86_64")]
-        if self.wide {
-            // SAFETY: AVX2 was detected at run time; the rest as the caller guarantees.
-            return unsafe { self.dilatation_avx2(chunk, base, out, weights, damage, breaker) };
-        }
-        // SAFETY: as the caller guarantees.
-        unsafe { self.dilatation(chunk, base, out, weights, damage, breaker) }
-    }
-
-    /// [`Rows::dilatation`] with AVX2: each row by the intrinsics loop
-    /// `rows_avx2::dilatation_sum` (bitwise the staged loop's sum).
-    ///
-    /// # Safety
-    /// As [`Rows::dilatation`], and the CPU supports AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn dilatation_avx2<W: BondWeights, D: Integrity, B: RowBreaker>(
-        &self,
-        chunk: &[u32],
-        base: usize,
-        out: &mut [PointCoefficients],
-        weights: W,
-        damage: D,
-        breaker: B,
-    ) -> usize {
-        let bonds = self.reference.bonds;
-        let points = gather_bound(bonds, self.current.position.len(), self.volume, damage);
-        let k0 = self.first_local(chunk);
-        let mut broken = 0;
-        for (k, &i) in (k0..).zip(chunk) {
-            let i = i as usize;
-            // SAFETY: AVX2 is enabled here; `points` is from `gather_bound`; the breaker's
-            // contract is the caller's.
-            let sum = unsafe {
-                rows_avx2::dilatation_sum(
-                    self,
-                    i,
-                    self.local_offsets[k],
-                    points,
-                    weights,
-                    damage,
-                    breaker,
-                    &mut broken,
-                )
-            };
-            out[i - base] = self.point_coefficients(k, sum);
-        }
-        broken
-    }
-
-    /// The dilatation pass over every block point with the bond breaking of `fused`; returns
-    /// the directed bonds broken.
-    fn fused_dilatation<W: BondWeights>(
-        &self,
-        coefficients: &mut [PointCoefficients],
-        weights: W,
-        fused: FusedCriticalStretch,
-    ) -> usize {
-        let broken = AtomicUsize::new(0);
-        for_each_chunk(
-            self.points,
-            coefficients,
-            &|i| i as usize,
-            &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
-                // SAFETY: the caller gives `fused` a pointer to the whole bond-damage array,
-                // borrowed mutably for this call; each chunk touches only the rows of its own
-                // points (the `RowBreaker` contract).
-                let newly =
-                    unsafe { self.dilatation_dispatch(chunk, base, out, weights, fused, fused) };
-                broken.fetch_add(newly, Ordering::Relaxed);
-            },
-        );
-        broken.into_inner()
-    }
-
-    /// `F_i += Σ_j (1−d) ω [(A_i + A_j) ζ + (1−d)(B_i + B_j) e] V_j M_ij` with A = isotropic,
-    /// B = deviatoric coefficients; coincident deformed points contribute nothing. Grouped as
-    /// [`Rows::dilatation`]: the bond terms are computed lane by lane and added in bond order,
-    /// so F is bitwise the plain running sum.
-    #[inline(always)]
-    fn add_force<W: BondWeights, D: Integrity>(
-        &self,
-        coefficients: &[PointCoefficients],
-        chunk: &[u32],
-        base: usize,
-        out: &mut [[f64; 3]],
-        weights: W,
-        damage: D,
-    ) {
-        let bonds = self.reference.bonds;
-        let volume = self.volume;
-        let y = self.current.position;
-        let k0 = self.first_local(chunk);
-        // Every neighbour indexes both `y` and `coefficients`.
-        let points = gather_bound(bonds, y.len().min(coefficients.len()), volume, damage);
-        for (n, &i) in chunk.iter().enumerate() {
-            let k = self.force_local(k0, n, i);
-            let i = i as usize;
-            let yi = y[i];
-            let own = coefficients[i];
-            let range = bonds.range(i);
-            let local = self.local_offsets[k];
-            let (neighbors, lengths) = checked_row(bonds, range.clone(), points);
-            let (mut fx, mut fy, mut fz) = (0.0, 0.0, 0.0);
-            // Lane arrays stay in registers (written and read within one group of LANES); the
-            // tail bonds are groups of one.
-            macro_rules! group {
-                ($start:expr, $width:expr) => {{
-                    let start: usize = $start;
-                    let width: usize = $width;
-                    let mut d = [[0.0; LANES]; 3];
-                    let mut zeta = [0.0; LANES];
-                    let mut neighbor_volume = [0.0; LANES];
-                    let mut other_isotropic = [0.0; LANES];
-                    let mut other_deviatoric = [0.0; LANES];
-                    // Read here, in the gather, so that the arithmetic below has no indexing
-                    // (bounds checks would keep it scalar).
-                    let mut intact = [0.0; LANES];
-                    let mut omega = [0.0; LANES];
-                    for lane in 0..width {
-                        // SAFETY: start + lane < the row's length, and the row is checked
-                        // (`checked_row`, `gather_bound`, j < coefficients.len()).
-                        let (j, yj, z, w) = unsafe {
-                            gather(neighbors, lengths, y, volume, range.start, start + lane)
-                        };
-                        for c in 0..3 {
-                            d[c][lane] = yj[c] - yi[c];
-                        }
-                        zeta[lane] = z;
-                        neighbor_volume[lane] = w;
-                        // SAFETY: as above.
-                        let other = unsafe { coefficients.get_unchecked(j) };
-                        other_isotropic[lane] = other.isotropic;
-                        other_deviatoric[lane] = other.deviatoric;
-                        // SAFETY: as above.
-                        intact[lane] =
-                            unsafe { damage.intact_unchecked(range.start + start + lane) };
-                        omega[lane] = weights.weight(local + start + lane);
-                    }
-                    let mut part = [[0.0; LANES]; 3];
-                    for lane in 0..width {
-                        let (dx, dy, dz) = (d[0][lane], d[1][lane], d[2][lane]);
-                        let scale = force_scale(
-                            intact[lane] * omega[lane],
-                            intact[lane],
-                            own.isotropic + other_isotropic[lane],
-                            own.deviatoric + other_deviatoric[lane],
-                            zeta[lane],
-                            (dx * dx + dy * dy + dz * dz).sqrt(),
-                            neighbor_volume[lane],
-                        );
-                        part[0][lane] = scale * dx;
-                        part[1][lane] = scale * dy;
-                        part[2][lane] = scale * dz;
-                    }
-                    for lane in 0..width {
-                        fx += part[0][lane];
-                        fy += part[1][lane];
-                        fz += part[2][lane];
-                    }
-                }};
-            }
-            let full = neighbors.len() - neighbors.len() % LANES;
-            for start in (0..full).step_by(LANES) {
-                group!(start, LANES);
-            }
-            for start in full..neighbors.len() {
-                group!(start, 1);
-            }
-            let f = &mut out[i - base];
-            f[0] += fx;
-            f[1] += fy;
-            f[2] += fz;
-        }
-    }
-
-    /// [`Rows::add_force`] built for AVX2 when [`Rows::wide`], else for the baseline target
-    /// (bitwise the same result, as [`Rows::dilatation_dispatch`]).
-    #[inline(always)]
-    fn add_force_dispatch<W: BondWeights, D: Integrity>(
-        &self,
-        coefficients: &[PointCoefficients],
-        chunk: &[u32],
-        base: usize,
-        out: &mut [[f64; 3]],
-        weights: W,
-        damage: D,
-    ) {
-        #[cfg(target_arch = "x86_64")]
-        if self.wide {
-            // SAFETY: AVX2 was detected at run time.
-            unsafe { self.add_force_avx2(coefficients, chunk, base, out, weights, damage) };
-            return;
-        }
-        self.add_force(coefficients, chunk, base, out, weights, damage);
-    }
-
-    /// [`Rows::add_force`] with AVX2: each row by the intrinsics loop `rows_avx2::force_sum`
-    /// (bitwise the staged loop's force).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn add_force_avx2<W: BondWeights, D: Integrity>(
-        &self,
-        coefficients: &[PointCoefficients],
-        chunk: &[u32],
-        base: usize,
-        out: &mut [[f64; 3]],
-        weights: W,
-        damage: D,
-    ) {
-        let bonds = self.reference.bonds;
-        let y = self.current.position;
-        let points = gather_bound(bonds, y.len().min(coefficients.len()), self.volume, damage);
-        let k0 = self.first_local(chunk);
-        for (n, &i) in chunk.iter().enumerate() {
-            let k = self.force_local(k0, n, i);
-            let i = i as usize;
-            // SAFETY: AVX2 is enabled here; `points` is from `gather_bound` over both arrays
-            // the row reads.
-            let f = unsafe {
-                rows_avx2::force_sum(
-                    self,
-                    coefficients,
-                    i,
-                    self.local_offsets[k],
-                    points,
-                    weights,
-                    damage,
-                )
-            };
-            let out = &mut out[i - base];
-            for c in 0..3 {
-                out[c] += f[c];
-            }
-        }
-    }
-
-    /// `W_i = K θ²/2 + (α/2) Σ_j (1−d) ω (e − ε_i ζ − θζ/3)² V_j`, α = 15μ/m, ε the free
-    /// thermal strain (0 without `strain`).
-    #[allow(clippy::too_many_arguments)]
-    fn energy<W: BondWeights, D: Integrity>(
-        &self,
-        strain: Option<&[f64]>,
-        coefficients: &[PointCoefficients],
-        chunk: &[u32],
-        base: usize,
-        out: &mut [f64],
-        weights: W,
-        damage: D,
-    ) {
-        let bonds = self.reference.bonds;
-        let y = self.current.position;
-        let k0 = self.first_local(chunk);
-        for (k, &i) in (k0..).zip(chunk) {
-            let i = i as usize;
-            let yi = y[i];
-            let theta = coefficients[i].dilatation;
-            let alpha = coefficients[i].deviatoric;
-            let local = self.local_offsets[k];
-            let free = strain.map_or(0.0, |s| s[i]);
-            let mut sum = 0.0;
-            for (n, b) in bonds.range(i).enumerate() {
-                let j = bonds.neighbor[b] as usize;
-                let yj = y[j];
-                let (dx, dy, dz) = (yj[0] - yi[0], yj[1] - yi[1], yj[2] - yi[2]);
-                let zeta = bonds.reference_length[b];
-                let length = (dx * dx + dy * dy + dz * dz).sqrt();
-                let deviatoric = match strain {
-                    None => length - zeta - theta * zeta / 3.0,
-                    Some(_) => length - zeta - free * zeta - theta * zeta / 3.0,
-                };
-                sum += damage.intact(b)
-                    * weights.weight(local + n)
-                    * deviatoric
-                    * deviatoric
-                    * self.reference.neighbor_volume(b, j);
-            }
-            out[i - base] = 0.5 * self.bulk * theta * theta + 0.5 * alpha * sum;
-        }
-    }
-}
-
-/// The bond loops with thermal strain (module docs): plain loops, used only by blocks with a
-/// `Thermal Expansion Coefficient` in runs with point temperatures.
-impl<V: VolumeRule> Rows<'_, V> {
-    /// θ_i = (3/m) Σ_j ω (1−d) ζ (e − ε_i ζ) V_j and the published coefficients, ε = α ΔT.
-    fn thermal_dilatation<W: BondWeights, D: Integrity>(
-        &self,
-        strain: &[f64],
-        chunk: &[u32],
-        base: usize,
-        out: &mut [PointCoefficients],
-        weights: W,
-        damage: D,
-    ) {
-        let bonds = self.reference.bonds;
-        let y = self.current.position;
-        let k0 = self.first_local(chunk);
-        for (k, &i) in (k0..).zip(chunk) {
-            let i = i as usize;
-            let local = self.local_offsets[k];
-            let mut sum = 0.0;
-            for (n, b) in bonds.range(i).enumerate() {
-                let j = bonds.neighbor[b] as usize;
-                let zeta = bonds.reference_length[b];
-                let extension = distance(y[i], y[j]) - zeta - strain[i] * zeta;
-                sum += weights.weight(local + n)
-                    * damage.intact(b)
-                    * zeta
-                    * extension
-                    * self.reference.neighbor_volume(b, j);
-            }
-            let m = self.weighted_volume[k];
-            out[i - base] = if m > 0.0 {
-                let theta = 3.0 * sum / m;
-                PointCoefficients {
-                    dilatation: theta,
-                    isotropic: (3.0 * self.bulk - 5.0 * self.shear) * theta / m,
-                    deviatoric: 15.0 * self.shear / m,
-                }
-            } else {
-                PointCoefficients::default()
-            };
-        }
-    }
-
-    /// `F_i += Σ_j (1−d) ω [(A_i + A_j) ζ + (1−d)(B_i (e − ε_i ζ) + B_j (e − ε_j ζ))] V_j M_ij`.
-    #[allow(clippy::too_many_arguments)]
-    fn thermal_force<W: BondWeights, D: Integrity>(
-        &self,
-        strain: &[f64],
-        coefficients: &[PointCoefficients],
-        chunk: &[u32],
-        base: usize,
-        out: &mut [[f64; 3]],
-        weights: W,
-        damage: D,
-    ) {
-        let bonds = self.reference.bonds;
-        let y = self.current.position;
-        for &i in chunk {
-            let k = self.points.partition_point(|&p| p < i);
-            let i = i as usize;
-            let own = coefficients[i];
-            let local = self.local_offsets[k];
-            let mut total = [0.0; 3];
-            for (n, b) in bonds.range(i).enumerate() {
-                let j = bonds.neighbor[b] as usize;
-                let length = distance(y[i], y[j]);
-                if length == 0.0 {
-                    continue;
-                }
-                let zeta = bonds.reference_length[b];
-                let other = coefficients[j];
-                let extension = length - zeta;
-                let intact = damage.intact(b);
-                let t = intact
-                    * weights.weight(local + n)
-                    * ((own.isotropic + other.isotropic) * zeta
-                        + intact
-                            * (own.deviatoric * (extension - strain[i] * zeta)
-                                + other.deviatoric * (extension - strain[j] * zeta)));
-                let scale = t * self.reference.neighbor_volume(b, j) / length;
-                for c in 0..3 {
-                    total[c] += scale * (y[j][c] - y[i][c]);
-                }
-            }
-            for c in 0..3 {
-                out[i - base][c] += total[c];
-            }
-        }
-    }
-}
-
-/// Bond `start + n` of a row ([`checked_row`]): its neighbour j, Y_j, ζ and w_ij.
-///
-/// # Safety
-/// `n` is below the row's length, the row `start..` is from [`checked_row`] with a bound
-/// `points` from [`gather_bound`] over `y.len()` or less and `volume`.
-#[inline(always)]
-unsafe fn gather<V: VolumeRule>(
-    neighbors: &[u32],
-    lengths: &[f64],
-    y: &[[f64; 3]],
-    volume: V,
-    start: usize,
-    n: usize,
-) -> (usize, [f64; 3], f64, f64) {
-    // SAFETY: as the caller guarantees (neighbors and lengths are the same row).
-    unsafe {
-        let j = *neighbors.get_unchecked(n) as usize;
-        (
-            j,
-            *y.get_unchecked(j),
-            *lengths.get_unchecked(n),
-            volume.of_unchecked(start + n, j),
-        )
-    }
-}
-
-/// ω (1−d) ζ e V_j, a bond's term of the dilatation sum, with `weight` = ω (1−d) and
-/// e = fl(√q) − ζ.
-#[inline(always)]
-fn dilatation_term(weight: f64, zeta: f64, squared: f64, volume: f64) -> f64 {
-    let extension = squared.sqrt() - zeta;
-    weight * zeta * extension * volume
-}
-
-/// The factor of `Y_j − Y_i` in a bond's force: `t V_j / |Y|` with
-/// `t = (1−d) ω [(A_i + A_j) ζ + (1−d)(B_i + B_j) e]`, e = |Y| − ζ, from `scaled` = (1−d) ω,
-/// `intact` = 1 − d, the coefficient sums and `length` = |Y|; zero when |Y| is not positive
-/// (divided unconditionally so that the lanes need no branch: the inf/NaN of a zero length
-/// is discarded).
-#[inline(always)]
-fn force_scale(
-    scaled: f64,
-    intact: f64,
-    isotropic: f64,
-    deviatoric: f64,
-    zeta: f64,
-    length: f64,
-    volume: f64,
-) -> f64 {
-    let extension = length - zeta;
-    let t = scaled * (isotropic * zeta + intact * deviatoric * extension);
-    let scale = t * volume / length;
-    if length > 0.0 {
-        scale
-    } else {
-        0.0
-    }
-}
-
-/// |b − a|.
-#[inline(always)]
-fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let (dx, dy, dz) = (b[0] - a[0], b[1] - a[1], b[2] - a[2]);
-    (dx * dx + dy * dy + dz * dz).sqrt()
-}
-
-/// Bonds of a row evaluated together in the LPS loops (the width of an AVX2 vector of f64; the
-/// result does not depend on it, since the terms are summed in bond order).
-const LANES: usize = 4;
-
-/// The bond breaking the dilatation pass does before it uses each bond.
-///
-/// # Contract of an implementation that breaks bonds
-/// `damage` and `break_bond` access the bond-damage array through a pointer; the pass only
-/// calls them for bonds in the rows of the running chunk's points, which no other task reads
-/// or writes meanwhile (each point's row belongs to one chunk); the damage reads of the pass
-/// go through the same pointer.
-trait RowBreaker: Copy + Send + Sync {
-    /// The critical stretch to test, `None` when the pass breaks nothing.
-    fn limit(self) -> Option<StretchLimit>;
-
-    /// d of bond `b`.
-    ///
-    /// # Safety
-    /// See the trait.
-    unsafe fn damage(self, b: usize) -> f32;
-
-    /// Sets d = 1 on bond `b` (this direction only: the other end's row takes the same
-    /// decision from the same numbers).
-    ///
-    /// # Safety
-    /// See the trait.
-    unsafe fn break_bond(self, b: usize);
-}
-
-/// The dilatation pass alone (damage already up to date, or no damage).
-#[derive(Clone, Copy)]
-struct NoBreaking;
-
-impl RowBreaker for NoBreaking {
-    #[inline(always)]
-    fn limit(self) -> Option<StretchLimit> {
-        None
-    }
-
-    unsafe fn damage(self, _b: usize) -> f32 {
-        unreachable!("NoBreaking has no limit")
-    }
-
-    unsafe fn break_bond(self, _b: usize) {
-        unreachable!("NoBreaking has no limit")
-    }
-}
-
-impl RowBreaker for FusedCriticalStretch {
-    #[inline(always)]
-    fn limit(self) -> Option<StretchLimit> {
-        Some(self.limit)
-    }
-
-    #[inline(always)]
-    unsafe fn damage(self, b: usize) -> f32 {
-        // SAFETY: as the caller guarantees.
-        unsafe { self.read(b) }
-    }
-
-    #[inline(always)]
-    unsafe fn break_bond(self, b: usize) {
-        // SAFETY: as the caller guarantees.
-        unsafe { FusedCriticalStretch::break_bond(self, b) };
-    }
-}
-
-/// The LPS force state of one point for the tangent, from its family's positions alone:
-/// `θ = (3/m) Σ_n ω (1−d) ζ e V_j`, `t_n = (1−d) ω [A ζ + (1−d) B e]` with
-/// `A = (3K − 5μ) θ/m`, `B = 15μ/m`, and `T_n = t_n M_n` (the module docs' formulas).
-struct LpsForceState<'a, W, D> {
-    bonds: &'a crate::model::BondList,
-    volume: BondVolumes<'a>,
-    local_offsets: &'a [usize],
-    weighted_volume: &'a [f64],
-    weights: W,
-    damage: D,
-    bulk: f64,
-    shear: f64,
-    /// The free thermal strain α ΔT of every point (module docs), when the block has α and
-    /// the run has point temperatures.
-    thermal_strain: Option<&'a [f64]>,
-    /// s per block point, or empty (s = 1).
-    correction: &'a [f64],
-}
-
-impl<W: BondWeights, D: Integrity> LpsForceState<'_, W, D> {
-    /// e = |Y| − ζ, less the free thermal strain ε_i ζ when there is one.
-    #[inline(always)]
-    fn extension<T: Scalar>(&self, point: PointIndex, length: T, zeta: f64) -> T {
-        match self.thermal_strain {
-            None => length - zeta,
-            Some(strain) => length - zeta - strain[point.global] * zeta,
-        }
-    }
-
-    /// m, (3K − 5μ)/m and 15μ/m of the point (μ times its shear-correction factor, if any);
-    /// `None` when m = 0 (no force).
-    fn moduli(&self, point: PointIndex) -> Option<(f64, f64, f64)> {
-        let m = self.weighted_volume[point.local];
-        let shear = corrected_shear(self.shear, self.correction, point.local);
-        (m > 0.0).then(|| (m, (3.0 * self.bulk - 5.0 * shear) / m, 15.0 * shear / m))
-    }
-}
-
 /// μ of block point `local`: times its shear-correction factor when `correction` has one.
 #[inline(always)]
 fn corrected_shear(shear: f64, correction: &[f64], local: usize) -> f64 {
     match correction.get(local) {
         Some(s) => s * shear,
         None => shear,
-    }
-}
-
-impl<W: BondWeights, D: Integrity> ForceState for LpsForceState<'_, W, D> {
-    const BOND_LOCAL: bool = false;
-    const ANALYTIC: bool = true;
-
-    fn force_state<T: Scalar>(
-        &self,
-        point: PointIndex,
-        y: &[[T; 3]],
-        _only: Option<usize>,
-        t: &mut [[T; 3]],
-    ) {
-        let range = self.bonds.range(point.global);
-        let zero = T::from(0.0);
-        let Some((m, isotropic_per_theta, deviatoric)) = self.moduli(point) else {
-            t.fill([zero; 3]);
-            return;
-        };
-        let local = self.local_offsets[point.local];
-        // Pass 1: θ; each bond's length and extension are kept in t[n] for pass 2.
-        let mut sum = zero;
-        for (n, b) in range.clone().enumerate() {
-            let zeta = self.bonds.reference_length[b];
-            let d = [0, 1, 2].map(|k| y[n + 1][k] - y[0][k]);
-            let squared = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            // A zero length has no derivative; the force kernel gives such a bond no force.
-            let length = if squared.re() > 0.0 {
-                squared.sqrt()
-            } else {
-                zero
-            };
-            let extension = self.extension(point, length, zeta);
-            let j = self.bonds.neighbor[b] as usize;
-            sum += extension
-                * (self.weights.weight(local + n)
-                    * self.damage.intact(b)
-                    * zeta
-                    * self.volume.of(b, j));
-            t[n] = [length, extension, zero];
-        }
-        let theta = sum * (3.0 / m);
-        let isotropic = theta * isotropic_per_theta;
-        for (n, b) in range.enumerate() {
-            let [length, extension, _] = t[n];
-            t[n] = if length.re() > 0.0 {
-                let zeta = self.bonds.reference_length[b];
-                let intact = self.damage.intact(b);
-                let scalar = (isotropic * zeta + extension * (intact * deviatoric))
-                    * (intact * self.weights.weight(local + n));
-                let scale = scalar / length;
-                [0, 1, 2].map(|k| (y[n + 1][k] - y[0][k]) * scale)
-            } else {
-                [zero; 3]
-            };
-        }
-    }
-
-    /// `axial = (1−d)² ω B`, `lateral = t_n/|Y|`, `γ_n = ∂t_n/∂θ = (1−d) ω ζ (3K − 5μ)/m`,
-    /// `β_n = ∂θ/∂e_n = (3/m) ω (1−d) ζ V_j`.
-    fn ordinary_derivatives(&self, point: PointIndex, y: &[[f64; 3]], out: &mut [OrdinaryBond]) {
-        let range = self.bonds.range(point.global);
-        let Some((m, isotropic_per_theta, deviatoric)) = self.moduli(point) else {
-            out.fill(OrdinaryBond::default());
-            return;
-        };
-        let local = self.local_offsets[point.local];
-        // Pass 1: θ, with each bond's length kept in `lateral` and extension in `axial`.
-        let mut sum = 0.0;
-        for ((n, b), bond) in range.clone().enumerate().zip(out.iter_mut()) {
-            let zeta = self.bonds.reference_length[b];
-            let d = [0, 1, 2].map(|k| y[n + 1][k] - y[0][k]);
-            let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let extension = self.extension(point, length, zeta);
-            let j = self.bonds.neighbor[b] as usize;
-            let factor = self.weights.weight(local + n)
-                * self.damage.intact(b)
-                * zeta
-                * self.volume.of(b, j);
-            sum += factor * extension;
-            *bond = OrdinaryBond {
-                direction: if length > 0.0 {
-                    d.map(|c| c / length)
-                } else {
-                    [0.0; 3]
-                },
-                axial: extension,
-                lateral: length,
-                coupling: 0.0,
-                weight: 3.0 / m * factor,
-            };
-        }
-        let theta = 3.0 * sum / m;
-        let isotropic = theta * isotropic_per_theta;
-        for ((n, b), bond) in range.enumerate().zip(out.iter_mut()) {
-            let (extension, length) = (bond.axial, bond.lateral);
-            if length <= 0.0 {
-                // No direction, no force, no derivative (as the force kernel).
-                *bond = OrdinaryBond::default();
-                continue;
-            }
-            let zeta = self.bonds.reference_length[b];
-            let intact = self.damage.intact(b);
-            let omega = self.weights.weight(local + n);
-            let scalar = intact * omega * (isotropic * zeta + intact * deviatoric * extension);
-            bond.axial = intact * intact * omega * deviatoric;
-            bond.lateral = scalar / length;
-            bond.coupling = intact * omega * zeta * isotropic_per_theta;
-        }
-    }
-}
-
-impl LinearPeridynamicSolid {
-    /// The loops' inputs, with the quadrature rule `volume` compiled in.
-    fn rows<'a, V: VolumeRule>(
-        &'a self,
-        reference: &'a ReferenceView<'a>,
-        current: &'a CurrentView<'a>,
-        volume: V,
-    ) -> Rows<'a, V> {
-        Rows {
-            reference,
-            volume,
-            current,
-            points: self.block.points(),
-            local_offsets: &self.local_offsets,
-            weighted_volume: &self.weighted_volume,
-            bulk: self.block.bulk_modulus(),
-            shear: self.shear_modulus,
-            correction: &self.correction,
-            force_subset: self.block.force_points().len() < self.block.points().len(),
-            wide: wide_vectors_available(),
-        }
     }
 }
 
@@ -1204,15 +339,15 @@ impl Material for LinearPeridynamicSolid {
         current: &CurrentView<'_>,
         coefficients: &mut [PointCoefficients],
     ) {
-        if let Some(strain) = self.thermal_strain(current) {
-            let rows = self.rows(reference, current, reference.bond_volumes());
+        let plain = self.rows(reference, current, reference.bond_volumes());
+        if let Some(thermal) = plain.thermal() {
             with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
                 for_each_chunk(
                     self.block.points(),
                     coefficients,
                     &|i| i as usize,
                     &|chunk: &[u32], base: usize, out: &mut [PointCoefficients]| {
-                        rows.thermal_dilatation(strain, chunk, base, out, w, d)
+                        thermal.dilatation(chunk, base, out, w, d)
                     },
                 )
             });
@@ -1254,15 +389,15 @@ impl Material for LinearPeridynamicSolid {
         force_density: &mut [[f64; 3]],
     ) {
         let force_points = self.block.force_points();
-        if let Some(strain) = self.thermal_strain(current) {
-            let rows = self.rows(reference, current, reference.bond_volumes());
+        let plain = self.rows(reference, current, reference.bond_volumes());
+        if let Some(thermal) = plain.thermal() {
             with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
                 for_each_chunk(
                     force_points,
                     force_density,
                     &|i| i as usize,
                     &|chunk: &[u32], base: usize, out: &mut [[f64; 3]]| {
-                        rows.thermal_force(strain, coefficients, chunk, base, out, w, d)
+                        thermal.add_force(coefficients, chunk, base, out, w, d)
                     },
                 )
             });
@@ -1291,14 +426,13 @@ impl Material for LinearPeridynamicSolid {
         energy_density: &mut [f64],
     ) {
         let rows = self.rows(reference, current, reference.bond_volumes());
-        let strain = self.thermal_strain(current);
         with_bond_data!(self.weights.as_deref(), current.bond_damage, |w, d| {
             for_each_chunk(
                 self.block.points(),
                 energy_density,
                 &|i| i as usize,
                 &|chunk: &[u32], base: usize, out: &mut [f64]| {
-                    rows.energy(strain, coefficients, chunk, base, out, w, d)
+                    rows.energy(coefficients, chunk, base, out, w, d)
                 },
             )
         })
@@ -1453,7 +587,10 @@ impl BreakingCoefficientPass for LinearPeridynamicSolid {
 mod tests {
     use super::*;
     use crate::damage::{CriticalStretch, DamageModel};
+    use crate::material::checked_row;
     use crate::model::test_support::{brute_force_bonds, random_cloud, Rng};
+    use crate::model::BondVolumes;
+    use crate::vector_width::wide_vectors_available;
 
     #[test]
     fn the_coefficient_kernels_match_the_generic_force_state_sum() {

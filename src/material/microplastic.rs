@@ -359,18 +359,7 @@ impl Material for MicroplasticBondBased {
     }
 
     fn prepare(&mut self, reference: &ReferenceView<'_>) -> Result<(), MaterialError> {
-        let bonds = reference.bonds;
-        let points = self.block.points();
-        let mut member = vec![false; bonds.num_points()];
-        for &i in points {
-            member[i as usize] = true;
-        }
-        if let Some(&point) = points.iter().find(|&&i| {
-            bonds
-                .family(i as usize)
-                .iter()
-                .any(|&j| !member[j as usize])
-        }) {
+        if let Some(point) = self.block.point_bonded_outside(reference.bonds) {
             return Err(MaterialError::BondLeavesBlock {
                 model: Self::DECLARATION.deck_name,
                 point: point as usize,

@@ -50,6 +50,7 @@
 
 use rayon::prelude::*;
 
+use super::committed::{CommittedHistory, Held};
 use super::elastic::ElasticStress;
 use super::kinematics::{
     determinant, from_row_major, identity, inverse, lift, rotate_and_stretch, scaled, to_row_major,
@@ -57,8 +58,8 @@ use super::kinematics::{
 };
 use super::plastic::{PlasticParameters, PlasticStress};
 use super::{
-    fields, hourglass_coefficient, tensor_field, well_conditioned, CommittedHistory, Held,
-    PointStep, PointTensors, PointUpdate, StressModel, CORRESPONDENCE_OUTPUTS,
+    fields, hourglass_coefficient, tensor_field, well_conditioned, PointStep, PointTensors,
+    PointUpdate, StressModel, CORRESPONDENCE_OUTPUTS,
 };
 use crate::history::History;
 use crate::material::keys::{DENSITY, ELASTIC, PROBE_LENGTH, TANGENT};

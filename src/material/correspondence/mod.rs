@@ -48,7 +48,9 @@
 
 pub(crate) mod kinematics;
 
+mod committed;
 mod elastic;
+mod force_state;
 mod hypoelastic;
 mod plastic;
 #[cfg(test)]
@@ -68,6 +70,8 @@ pub use viscoplastic::{NeedlemanInput, NeedlemanParameters};
 
 use rayon::prelude::*;
 
+use self::committed::{CommittedHistory, Held};
+use self::force_state::CorrespondenceForceState;
 use self::kinematics::{
     determinant, flanagan_taylor, from_row_major, identity, inverse, lift, to_row_major, StepStart,
     Tensor,
@@ -86,10 +90,7 @@ use crate::model::{
 };
 use crate::parameter_list::error::DeckError;
 use crate::parameter_list::reader::{Ctx, ListReader};
-use crate::tangent::{
-    assemble, BlockTangent, ForceState, OrdinaryBond, PointIndex, Scalar, TangentError,
-    TangentMethod,
-};
+use crate::tangent::{assemble, BlockTangent, PointIndex, Scalar, TangentError, TangentMethod};
 
 /// `Hourglass Coefficient` of the Lagrangian correspondence models.
 pub(crate) const HOURGLASS_COEFFICIENT: KeyDoc = KeyDoc {
@@ -536,69 +537,6 @@ impl<T: Scalar> Bond<T> {
     }
 }
 
-/// What a history field holds for a point without a deformation gradient.
-#[derive(Clone, Copy)]
-enum Held {
-    /// Its committed value (kinematics and unrotated stress stay where they were).
-    Committed,
-    /// Zero (it carries no stress).
-    Zero,
-}
-
-/// The committed history of the correspondence fields, looked up once per evaluation.
-#[derive(Clone, Copy)]
-struct CommittedHistory<'a> {
-    deformation_gradient: &'a [f64],
-    left_stretch: &'a [f64],
-    rotation: &'a [f64],
-    unrotated_stress: &'a [f64],
-    equivalent_plastic_strain: &'a [f64],
-    /// Δt of the step.
-    duration: f64,
-    /// ΔT now and at the step's start, in a run with point temperatures.
-    temperature: Option<(&'a [f64], &'a [f64])>,
-}
-
-impl<'a> CommittedHistory<'a> {
-    fn of(history: &'a History) -> Self {
-        let committed = |name: &str| {
-            history
-                .field(name)
-                .expect("the run allocates every field a correspondence model declares")
-                .committed()
-        };
-        Self {
-            deformation_gradient: committed(fields::DEFORMATION_GRADIENT),
-            left_stretch: committed(fields::LEFT_STRETCH),
-            rotation: committed(fields::ROTATION),
-            unrotated_stress: committed(fields::UNROTATED_STRESS),
-            equivalent_plastic_strain: committed(fields::EQUIVALENT_PLASTIC_STRAIN),
-            duration: history.step_duration(),
-            temperature: history
-                .thermal()
-                .map(|t| (&t.change[..], t.evaluated.committed())),
-        }
-    }
-
-    /// The committed start of the step of point `p` (global index).
-    fn start(&self, p: usize) -> StepStart {
-        let read = |values: &[f64]| from_row_major(&values[9 * p..9 * p + 9]);
-        StepStart {
-            deformation_gradient: read(self.deformation_gradient) + identity::<f64>(),
-            left_stretch: read(self.left_stretch) + identity::<f64>(),
-            rotation: read(self.rotation) + identity::<f64>(),
-            stress: StressState {
-                unrotated: read(self.unrotated_stress),
-                equivalent_plastic_strain: self.equivalent_plastic_strain[p],
-            },
-            duration: self.duration,
-            temperature_increment: self
-                .temperature
-                .map_or(0.0, |(now, start)| now[p] - start[p]),
-        }
-    }
-}
-
 /// What the per-point kinematics read: the reference families, ω and the bond damage.
 struct Family<'a> {
     bonds: &'a BondList,
@@ -865,59 +803,4 @@ impl<S: StressModel> MaterialOutputs for Correspondence<S> {
 fn well_conditioned(shape: &Tensor<f64>) -> bool {
     let mean = kinematics::trace(shape) / 3.0;
     determinant(shape) > 1e-12 * mean * mean * mean
-}
-
-/// The force state of a correspondence point for the tangent assembly: the same update as the
-/// force, from the committed history, generic over the scalar.
-struct CorrespondenceForceState<'a, S: StressModel> {
-    material: &'a Correspondence<S>,
-    family: Family<'a>,
-    committed: CommittedHistory<'a>,
-    /// K⁻¹ of each block point (block order; `None` when singular), computed once per
-    /// assembly instead of once per perturbed evaluation.
-    shape_inverses: Vec<Option<Tensor<f64>>>,
-}
-
-impl<S: StressModel> ForceState for CorrespondenceForceState<'_, S> {
-    const BOND_LOCAL: bool = false;
-    const ANALYTIC: bool = false;
-
-    fn force_state<T: Scalar>(
-        &self,
-        point: PointIndex,
-        y: &[[T; 3]],
-        _only: Option<usize>,
-        t: &mut [[T; 3]],
-    ) {
-        let zero = T::from(0.0);
-        let start = self.committed.start(point.global);
-        let update = self.shape_inverses[point.local].and_then(|shape_inverse| {
-            self.material
-                .point_update(&self.family, point, y, (&start, &shape_inverse))
-        });
-        let Some(update) = update else {
-            t.fill([zero; 3]);
-            return;
-        };
-        let tensors = PointTensors {
-            stress_shape: update.stress_shape,
-            deformation_gradient: update.deformation_gradient,
-        };
-        let row_start = self.family.local_offsets[point.local];
-        for (n, b) in self.family.bonds.range(point.global).enumerate() {
-            let intact = self.family.intact(b);
-            let bond = Bond {
-                xi: self.family.xi(point.global, b),
-                dy: std::array::from_fn(|r| y[n + 1][r] - y[0][r]),
-                zeta: self.family.bonds.reference_length[b],
-                weight: self.family.weights[row_start + n] * intact,
-                intact,
-            };
-            t[n] = self.material.bond_force_state(&tensors, &bond);
-        }
-    }
-
-    fn ordinary_derivatives(&self, _point: PointIndex, _y: &[[f64; 3]], _out: &mut [OrdinaryBond]) {
-        unreachable!("a correspondence force state is not ordinary (ANALYTIC is false)")
-    }
 }

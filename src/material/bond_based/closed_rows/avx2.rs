@@ -14,8 +14,9 @@
 //! formulas of the same operations.
 
 // LANES is the staged loop's: the partial sums must be the same (`lanes` returns four).
-use super::{bond_scale_squared, Breaker, ClosedRows, LANES};
+use super::{Breaker, ClosedRows};
 use crate::material::avx2::{bond_lanes, broadcast, exceeding_lanes, lanes, BondLanes};
+use crate::material::bond_based::{bond_scale_squared, LANES};
 use crate::material::{checked_row, Integrity};
 use crate::model::VolumeRule;
 use std::arch::x86_64::{
