@@ -1,8 +1,8 @@
 //! Prototype microelastic brittle material (PMB), Peridigm's `Elastic Bond Based`.
 //!
 //! Micromodulus `c = 18K/(πδ⁴)` in 3D (Silling & Askari 2005), `c = 12K/(π h δ³)` for
-//! `Plane Strain`/`Plane Stress` with thickness h = `Height` (reference §1.3). The pair force
-//! density is `c·s·(1−d)` along the deformed bond, stretch `s = (|Y| − ζ)/ζ`:
+//! `Plane Strain`/`Plane Stress` with thickness h = `Height` (Peridigm's
+//! `elastic_bond_based.cxx`). The pair force density is `c·s·(1−d)` along the deformed bond, stretch `s = (|Y| − ζ)/ζ`:
 //!
 //! `F_i = Σ_j c·s·(1−d)·V_j·M_ij`, `M_ij = (Y_j − Y_i)/|Y_j − Y_i|`.
 //!

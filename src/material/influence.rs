@@ -1,7 +1,7 @@
 //! Influence functions ω(ζ, δ): the weight a state-based material gives each bond.
 //!
 //! Peridigm has one global choice, `Discretization → Influence Function` (default `"One"`),
-//! see `Peridigm_InfluenceFunction.hpp` and reference §1.3. Any other string is an expression in
+//! see `Peridigm_InfluenceFunction.hpp`. Any other string is an expression in
 //! `zeta` and `horizon`; the expression module compiles it into a closure handed to
 //! [`InfluenceFunction::user`].
 //!

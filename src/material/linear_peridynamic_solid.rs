@@ -1,5 +1,5 @@
 //! Linear peridynamic solid (LPS, Silling et al. 2007), Peridigm's `Elastic` material
-//! (`elastic.cxx`, `material_utilities.cxx`; reference §0, §1.3), in its large-deformation
+//! (`elastic.cxx`, `material_utilities.cxx`), in its large-deformation
 //! form: extensions are measured along the current bond.
 //!
 //! * weighted volume `m_i = Σ_j ω ζ² V_j`, reference configuration, all bonds (damage

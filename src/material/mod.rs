@@ -10,7 +10,7 @@
 //!    per-point numbers are exchanged across ranks;
 //! 3. [`Material::add_force_density`] of every block.
 //!
-//! # Force convention (Peridigm's, reference §1.3)
+//! # Force convention (Peridigm's, `material_utilities.cxx`)
 //! The unknown is force density. Peridigm visits each directed bond i→j with the scalar force
 //! state t_ij computed from i's state and adds `t_ij M_ij V_j` to F_i and `−t_ij M_ij V_i` to
 //! F_j, where `M_ij = (Y_j − Y_i)/|Y_j − Y_i|`. Collecting both visits of a pair at point i
@@ -516,7 +516,7 @@ pub trait BreakingForcePass: Send + Sync {
 /// The value of π in Peridigm's critical-time-step formula (`Peridigm_CriticalTimeStep.cpp`).
 pub const PERIDIGM_PI: f64 = std::f64::consts::PI;
 
-/// Peridigm's stable time step estimate (`Peridigm_CriticalTimeStep.cpp`, reference §1.6), the
+/// Peridigm's stable time step estimate (`Peridigm_CriticalTimeStep.cpp`), the
 /// Silling–Askari bond-based bound applied to every material:
 ///
 /// `Δt_i = sqrt(2ρ / Σ_j V_j c/ζ_ij)` with `c = 18K/(πδ⁴)`, and `Δt = min_i Δt_i`.

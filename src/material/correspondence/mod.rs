@@ -1,6 +1,6 @@
-//! Correspondence models (Silling et al. 2007, §15; Peridigm's `CorrespondenceMaterial`,
-//! reference §1.3): a classical stress model evaluated at every point from a nonlocal
-//! deformation gradient, turned back into a force state.
+//! Correspondence models (Silling et al. 2007, §15; Peridigm's `correspondence.cxx`): a
+//! classical stress model evaluated at every point from a nonlocal deformation gradient, turned
+//! back into a force state.
 //!
 //! Per point i, with ξ = X_j − X_i, Δy = Y_j − Y_i, ζ = |ξ|, ω the influence function and d the
 //! bond damage:

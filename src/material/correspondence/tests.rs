@@ -782,7 +782,7 @@ fn deck_with(material: &str) -> crate::io::deck::Deck {
 #[test]
 fn the_keys_of_peridigms_needleman_verification_decks_load_and_build() {
     // The keys of Peridigm's ViscoplasticNeedlemanFullyPrescribedTension_WithFlaw deck
-    // (reference §1.3 and §3.3): every one is read, none is a warning, and the model builds.
+    // (Peridigm's test/verification folder): every one is read, none is a warning, and the model builds.
     let deck = deck_with(
         r#"      Material Model: "Viscoplastic Needleman Correspondence"
       Density: 7800.0

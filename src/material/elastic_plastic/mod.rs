@@ -1,6 +1,6 @@
 //! Mitchell's ordinary state-based plasticity, Peridigm's `Elastic Plastic` material
 //! (J. A. Mitchell, "A nonlocal, ordinary, state-based plasticity model for peridynamics",
-//! SAND2011-3166; Peridigm's `elastic_plastic.cxx`; reference §1.3).
+//! SAND2011-3166; Peridigm's `elastic_plastic.cxx`).
 //!
 //! The LPS split of the extension state e = |Y| − ζ into a spherical part θζ/3 and a
 //! deviatoric part e^d = e − θζ/3, with the deviatoric part split again into an elastic and a

@@ -1,5 +1,5 @@
 //! Peridigm's `Viscoelastic` material: Mitchell's standard linear solid on the deviatoric
-//! extension of the LPS (Peridigm's `viscoelastic.cxx`; reference §1.3), ω ≡ 1.
+//! extension of the LPS (Peridigm's `viscoelastic.cxx`), ω ≡ 1.
 //!
 //! The deviatoric response is a spring α(1 − λ_i) in parallel with a Maxwell element (spring
 //! αλ_i, dashpot of relaxation time τ_b), α = 15μ/m. The Maxwell element carries the *back
