@@ -2,7 +2,8 @@
 //!
 //! Micromodulus `c = 18K/(πδ⁴)` in 3D (Silling & Askari 2005), `c = 12K/(π h δ³)` for
 //! `Plane Strain`/`Plane Stress` with thickness h = `Height` (Peridigm's
-//! `elastic_bond_based.cxx`). The pair force density is `c·s·(1−d)` along the deformed bond, stretch `s = (|Y| − ζ)/ζ`:
+//! `elastic_bond_based.cxx`). The pair force density is `c·s·(1−d)` along the deformed bond,
+//! stretch `s = (|Y| − ζ)/ζ`:
 //!
 //! `F_i = Σ_j c·s·(1−d)·V_j·M_ij`, `M_ij = (Y_j − Y_i)/|Y_j − Y_i|`.
 //!
