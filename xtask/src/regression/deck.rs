@@ -47,6 +47,14 @@ pub fn comp_args(comp: &Option<PathBuf>) -> Vec<String> {
     }
 }
 
+/// Why a deck could not run: no scratch folder for its outputs in the temporary folder.
+pub fn no_scratch_folder(error: &std::io::Error) -> String {
+    format!(
+        "cannot create a scratch folder in {} ({error}); set TMPDIR to a writable folder",
+        std::env::temp_dir().display()
+    )
+}
+
 /// A path as an argument.
 pub fn shown(path: &Path) -> String {
     path.to_string_lossy().into_owned()
@@ -135,8 +143,10 @@ pub fn run_deck(runner: &Runner, deck: &Path) -> Option<Outcome> {
     if let Some(feature) = unsupported(&plan) {
         return Some(("UNSUPPORTED", label, feature, false));
     }
-    let scratch =
-        Scratch::new("peridyn-regression-").expect("a scratch folder in the temporary folder");
+    let scratch = match Scratch::new("peridyn-regression-") {
+        Ok(scratch) => scratch,
+        Err(e) => return Some(("FAIL", label, no_scratch_folder(&e), false)),
+    };
     let ranks = runner.options.ranks;
     let mut command = vec![
         runner.binary.clone(),

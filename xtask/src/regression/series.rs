@@ -1,7 +1,8 @@
 //! A restart series: Run decks one after the other, each against the uninterrupted run.
 
 use super::deck::{
-    comp_args, gold_and_comp, keep_outputs, output_files, plan_of, shown, unsupported,
+    comp_args, gold_and_comp, keep_outputs, no_scratch_folder, output_files, plan_of, shown,
+    unsupported,
 };
 use super::{first_line, name_of, output_or_error, Outcome, Runner};
 use crate::process::Scratch;
@@ -101,8 +102,13 @@ pub fn run_restart_series(runner: &Runner, full: &Path, runs: &[PathBuf]) -> Opt
         Ok(plans) => plans,
         Err(outcomes) => return Some(outcomes),
     };
-    let straight = Scratch::new("peridyn-regression-").expect("a scratch folder");
-    let series = Scratch::new("peridyn-regression-").expect("a scratch folder");
+    let (straight, series) = match (
+        Scratch::new("peridyn-regression-"),
+        Scratch::new("peridyn-regression-"),
+    ) {
+        (Ok(straight), Ok(series)) => (straight, series),
+        (Err(e), _) | (_, Err(e)) => return Some(all_runs("FAIL", no_scratch_folder(&e), false)),
+    };
     let mut args = vec![
         "run".into(),
         shown(full),
