@@ -15,7 +15,8 @@
 
 use crate::damage::{DamageEntry, DAMAGE_MODELS};
 use crate::material::conformance_tests::{
-    deck, forces_on_ranks, largest, momentum_defects, rigid_motions, Body,
+    assert_keys_documented_and_declared, deck, forces_on_ranks, largest, momentum_defects,
+    rigid_motions, Body,
 };
 use crate::material::{material_entry, MaterialEntry};
 
@@ -45,20 +46,7 @@ fn every_damage_model_reads_its_example_and_reports_its_declaration() {
     let dir = tempfile::tempdir().unwrap();
     for (name, entry, material) in cases() {
         let declaration = entry.declaration;
-        for doc in declaration.deck_keys {
-            assert!(
-                !doc.meaning.is_empty() && !doc.unit.is_empty() && !doc.default.is_empty(),
-                "{name}: key {} is not documented",
-                doc.key
-            );
-        }
-        for line in declaration.example.lines().filter(|l| !l.starts_with(' ')) {
-            let key = line.split(':').next().unwrap();
-            assert!(
-                declaration.key(key).is_some(),
-                "{name}: {key} is not declared"
-            );
-        }
+        assert_keys_documented_and_declared(&name, declaration);
         let deck = deck(dir.path(), material, Some(entry));
         assert!(deck.warnings.is_empty(), "{name}: {:?}", deck.warnings);
         assert!(std::ptr::eq(deck.damage_models[0].model, entry), "{name}");
@@ -141,18 +129,14 @@ fn a_rejected_step_gives_back_the_committed_bond_damage() {
 
 #[test]
 fn the_restart_round_trip_gives_back_the_bond_damage_and_the_next_step() {
-    use crate::parallel::Serial;
-    use crate::restart::{apply, capture, gather};
     let dir = tempfile::tempdir().unwrap();
     for (name, entry, material) in cases() {
         let mut body = body_of(dir.path(), entry, material);
         let start = body.perturbed(7, 0.1);
         body.force(&start);
         body.commit();
-        let every: Vec<u32> = (0..body.model.points.len() as u32).collect();
-        let snapshot = gather(&Serial, capture(&body.model, &every, None, &body.state)).unwrap();
         let mut resumed = body_of(dir.path(), entry, material);
-        apply(&snapshot, &resumed.model, &every, None, &mut resumed.state).unwrap();
+        body.restart_into(&mut resumed);
         assert_eq!(damage(&resumed), damage(&body), "{name}");
         let y = body.perturbed(8, 0.1);
         assert_eq!(resumed.force(&y), body.force(&y), "{name}");

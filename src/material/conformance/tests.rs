@@ -26,7 +26,7 @@ use crate::history::History;
 use crate::io::deck::{parse_str, Deck, DeckFormat};
 use crate::material::{Material, MaterialEntry, MATERIALS};
 use crate::model::test_support::{lattice, Rng};
-use crate::model::{FieldCarrier, Model};
+use crate::model::{FieldCarrier, Model, ModelDeclaration};
 use crate::parallel::{check_distributable, halo_depth, outer_ghosts_need_physics, Subdomain};
 use crate::physics::{Configuration, Physics};
 use crate::state::State;
@@ -181,6 +181,16 @@ impl Body {
             &mut w,
         );
         w
+    }
+
+    /// Writes this body's committed state to a restart snapshot (one rank, every point) and
+    /// applies it to `resumed`, a body of the same deck, as a restarted run does.
+    pub(crate) fn restart_into(&self, resumed: &mut Body) {
+        use crate::parallel::Serial;
+        use crate::restart::{apply, capture, gather};
+        let every: Vec<u32> = (0..self.model.points.len() as u32).collect();
+        let snapshot = gather(&Serial, capture(&self.model, &every, None, &self.state)).unwrap();
+        apply(&snapshot, &resumed.model, &every, None, &mut resumed.state).unwrap();
     }
 
     /// The bond damage the evaluations read.
@@ -442,6 +452,25 @@ pub(crate) fn forces_on_ranks(body: &Body, ranks: usize, y: &[[f64; 3]]) -> Opti
     Some(gathered)
 }
 
+/// Every key `declaration` lists is documented (meaning, unit, default), and every key its
+/// example writes is one it declares (`name` for messages).
+pub(crate) fn assert_keys_documented_and_declared(name: &str, declaration: &ModelDeclaration) {
+    for doc in declaration.deck_keys {
+        assert!(
+            !doc.meaning.is_empty() && !doc.unit.is_empty() && !doc.default.is_empty(),
+            "{name}: key {} is not documented",
+            doc.key
+        );
+    }
+    for line in declaration.example.lines().filter(|l| !l.starts_with(' ')) {
+        let key = line.split(':').next().unwrap();
+        assert!(
+            declaration.key(key).is_some(),
+            "{name}: {key} is not declared"
+        );
+    }
+}
+
 /// Every material of the registry, with its name for messages.
 fn materials() -> impl Iterator<Item = (&'static str, &'static MaterialEntry)> {
     MATERIALS.iter().map(|entry| (entry.deck_name(), entry))
@@ -461,20 +490,7 @@ fn every_material_reads_its_example_and_reports_its_declaration() {
     let dir = tempfile::tempdir().unwrap();
     for (name, entry) in materials() {
         let declaration = entry.declaration;
-        for doc in declaration.deck_keys {
-            assert!(
-                !doc.meaning.is_empty() && !doc.unit.is_empty() && !doc.default.is_empty(),
-                "{name}: key {} is not documented",
-                doc.key
-            );
-        }
-        for line in declaration.example.lines().filter(|l| !l.starts_with(' ')) {
-            let key = line.split(':').next().unwrap();
-            assert!(
-                declaration.key(key).is_some(),
-                "{name}: {key} is not declared"
-            );
-        }
+        assert_keys_documented_and_declared(name, declaration);
         let deck = deck(dir.path(), entry, None);
         assert!(deck.warnings.is_empty(), "{name}: {:?}", deck.warnings);
         assert!(std::ptr::eq(deck.materials[0].model, entry), "{name}");
@@ -645,18 +661,14 @@ fn a_rejected_step_leaves_the_committed_history_and_the_retried_step_unchanged()
 
 #[test]
 fn the_restart_round_trip_gives_back_the_history_and_the_next_step() {
-    use crate::parallel::Serial;
-    use crate::restart::{apply, capture, gather};
     let dir = tempfile::tempdir().unwrap();
     for (name, entry) in materials() {
         let mut body = body_of(dir.path(), entry, false);
         let start = body.perturbed(7, 0.05);
         body.force(&start);
         body.commit();
-        let every: Vec<u32> = (0..body.model.points.len() as u32).collect();
-        let snapshot = gather(&Serial, capture(&body.model, &every, None, &body.state)).unwrap();
         let mut resumed = body_of(dir.path(), entry, false);
-        apply(&snapshot, &resumed.model, &every, None, &mut resumed.state).unwrap();
+        body.restart_into(&mut resumed);
         assert_eq!(resumed.state.history, body.state.history, "{name}");
         let y = body.perturbed(8, 0.05);
         assert_eq!(resumed.force(&y), body.force(&y), "{name}");
