@@ -747,3 +747,57 @@ fn a_body_without_bonds_is_warned_of_or_refused() {
         &["the quasi-static solver \"Solver\" finds no equilibrium"],
     );
 }
+
+/// The fuzz campaign's trial 589 (CI, seed 1): a block whose horizon reached the points of a
+/// block with a smaller horizon made the implicit tangent panic, and explicit runs gain
+/// momentum from such one-way bonds. Refused at the far-reaching `Horizon`, on one rank here
+/// and on two in tests/mpi_explicit.rs.
+#[test]
+fn a_horizon_that_reaches_points_that_do_not_reach_back_is_refused() {
+    let dir = folder_with("Horizon: 1.75", "Horizon: 1.75");
+    // The x = 2 layer becomes block 2, under its own entry with a horizon of 1.2: it bonds
+    // along the axes only (spacing 1), while block 1 (1.75) also bonds across diagonals of
+    // √2 and √3 into it.
+    let mesh: String = mesh()
+        .lines()
+        .map(|line| match line.strip_prefix("2.0 ") {
+            Some(rest) => format!("2.0 {}\n", rest.replace(" 1 1.0", " 2 1.0")),
+            None => format!("{line}\n"),
+        })
+        .collect();
+    std::fs::write(dir.path().join("mesh.txt"), &mesh).unwrap();
+    let two_blocks = |right_horizon: &str, omit: bool| {
+        let deck = DECK.replacen(
+            "      Horizon: 1.75\n",
+            &format!("      Horizon: 1.75\n    Right:\n      Block Names: \"block_2\"\n      Material: \"Steel\"\n      Horizon: {right_horizon}\n"),
+            1,
+        );
+        if omit {
+            deck.replacen(
+                "    Input Mesh File: \"mesh.txt\"\n",
+                "    Input Mesh File: \"mesh.txt\"\n    Omit Bonds Between Blocks: \"All\"\n",
+                1,
+            )
+        } else {
+            deck
+        }
+    };
+    let deck = two_blocks("1.2", false);
+    std::fs::write(dir.path().join("deck.yaml"), &deck).unwrap();
+    assert_refused_alike(
+        dir.path(),
+        line_of(&deck, "Horizon: 1.75"),
+        &[
+            "Blocks → Everything → Horizon",
+            "which does not bond back",
+            "the same horizon, or set `Discretization → Omit Bonds Between Blocks: \"All\"`",
+        ],
+    );
+    // Horizons that differ but find the same neighbours (no distance of the lattice lies
+    // between 1.75 and 1.8), and blocks that do not bond to each other, run.
+    for deck in [two_blocks("1.8", false), two_blocks("1.2", true)] {
+        std::fs::write(dir.path().join("deck.yaml"), &deck).unwrap();
+        let output = peridyn(&["run", "deck.yaml", "--output-dir", "out"], dir.path());
+        assert!(output.status.success(), "{}", stderr(&output));
+    }
+}

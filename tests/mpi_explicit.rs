@@ -326,3 +326,27 @@ fn a_failure_on_rank_zero_alone_stops_every_rank() {
     assert_eq!(log.matches("error: ").count(), 1, "{log}");
     assert!(log.contains("bar.e"), "{log}");
 }
+
+/// One-way bonds (a horizon that grows along x: a point's family reaches points whose own
+/// horizon does not reach back) are refused by the ranks together, at the block's `Horizon`,
+/// as one rank refuses them (tests/bad_input.rs): once, exit code 2, nothing hangs.
+#[test]
+fn one_way_bonds_are_refused_on_two_ranks_as_on_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let deck = bar_deck(dir.path(), "Elastic");
+    let text = std::fs::read_to_string(dir.path().join(deck)).unwrap();
+    let text = text.replace("Horizon: 1.6", "Horizon: \"1.6 + 0.1*x\"");
+    std::fs::write(dir.path().join("one_way.yaml"), text).unwrap();
+    let expected = "which does not bond back";
+    for ranks in [1, 2] {
+        let output = mpirun(
+            dir.path(),
+            ranks,
+            &["run", "one_way.yaml", "--output-dir", "out"],
+        );
+        let log = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{ranks} ranks: {log}");
+        assert_eq!(log.matches(expected).count(), 1, "{ranks} ranks: {log}");
+        assert!(log.contains("Blocks → B → Horizon"), "{ranks} ranks: {log}");
+    }
+}

@@ -9,6 +9,7 @@ pub mod disk;
 mod families;
 mod geometry;
 mod node_sets;
+pub mod one_way_bonds;
 mod physics;
 pub mod quadrature;
 pub mod report;

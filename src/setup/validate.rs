@@ -13,6 +13,7 @@ use super::report::{critical_time_step, requested_variables};
 pub fn validate(deck: &Deck, model: &Model) -> Result<(), DeckError> {
     validate_points(deck, model)?;
     validate_time_steps(deck, model)?;
+    super::one_way_bonds::refuse_one_way_bonds(deck, model)?;
     super::bondless::refuse_motionless(deck, model)?;
     validate_petsc_options(deck, model)
 }

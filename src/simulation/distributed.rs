@@ -117,6 +117,14 @@ pub fn run_distributed(
         .map_err(|e| collective(comm, RunError::Unsupported(e)))?;
     let rank = comm.rank();
     let mut sub = subdomain(deck, global, families, comm)?;
+    // The ranks together find what one rank finds in `setup::validate`: each looks at the
+    // bonds of its own points, whose ends all have their rows among its points and ghosts.
+    let one_way = setup::one_way_bonds::first_one_way_bond(&sub.model.bonds, sub.owned())
+        .map(|bond| setup::one_way_bonds::refusal(deck, &sub.model, bond));
+    agree(
+        comm,
+        one_way.map_or(Ok(()), |e| Err(RunError::Setup(e.into()))),
+    )?;
     let mut bonds = [sub
         .owned()
         .iter()

@@ -1,0 +1,119 @@
+//! One-way bonds: a bond i → j whose reverse j → i does not exist, because the horizons of i
+//! and j differ (blocks of different `Horizon`, or a horizon given as an expression of
+//! position) and |ξ| lies between them.
+//!
+//! Peridigm keeps such bonds and applies each directed bond's force to both ends. peridyn's
+//! force kernels gather every pair from both ends instead (`F_i = Σ_j (t_ij + t_ji) V_j M_ij`,
+//! the module docs of `crate::material`), which holds only when every bond has its reverse:
+//! with a one-way bond the body gains momentum from nothing (a free bar of two blocks, horizons
+//! 0.5025 and 0.8, loses a third of its momentum within 500 Verlet steps), and the tangent has
+//! no reverse block to assemble. Until the kernels carry directed bonds, a deck whose families
+//! hold a one-way bond is refused at the `Horizon` that reaches too far, before anything runs,
+//! on one rank and on N ranks alike.
+
+use rayon::prelude::*;
+
+use crate::io::deck::{Deck, DeckError};
+use crate::model::{BondList, Model};
+
+/// Whether `row` (a family, neighbour indices) holds `point`.
+fn row_holds(row: &[u32], point: u32) -> bool {
+    if row.is_sorted() {
+        row.binary_search(&point).is_ok()
+    } else {
+        row.contains(&point)
+    }
+}
+
+/// The first bond i → j (i taken from `points` in order, j in i's row) whose reverse is not in
+/// j's row. Every j bonded from a point of `points` must have its row in `bonds` (a rank's
+/// owned points and ghosts: a ghost's row keeps its bonds to the rank's points).
+pub fn first_one_way_bond(bonds: &BondList, points: &[u32]) -> Option<(u32, u32)> {
+    points.par_iter().find_map_first(|&i| {
+        bonds
+            .family(i as usize)
+            .iter()
+            .find(|&&j| !row_holds(bonds.family(j as usize), i))
+            .map(|&j| (i, j))
+    })
+}
+
+/// The refusal of the one-way bond `i → j` of `model` (local indices), at the `Horizon` of i's
+/// block: the horizon that reaches j when j's does not reach back.
+pub fn refusal(deck: &Deck, model: &Model, (i, j): (u32, u32)) -> DeckError {
+    let (i, j) = (i as usize, j as usize);
+    let block_of = |p: usize| &model.blocks[model.points.block[p] as usize];
+    let (from, to) = (block_of(i), block_of(j));
+    let entry = &deck.blocks[from.deck_block].name;
+    let distance = {
+        let (a, b) = (model.points.position[i], model.points.position[j]);
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    };
+    let point = |p: usize| {
+        format!(
+            "point {} of block \"{}\" (horizon {:e})",
+            model.points.original_id[p] + 1,
+            block_of(p).info.name,
+            model.horizon[p]
+        )
+    };
+    let advice = if from.deck_block == to.deck_block {
+        "give the block one horizon (a number, not an expression of position)".to_string()
+    } else {
+        format!(
+            "give the blocks \"{}\" and \"{}\" the same horizon, or set `Discretization → Omit Bonds Between Blocks: \"All\"`",
+            from.info.name, to.info.name
+        )
+    };
+    deck.error_at(
+        &["Blocks", entry, "Horizon"],
+        format!(
+            "{} bonds to {} at distance {distance:e}, which does not bond back: peridyn's force kernels need every bond to have its reverse (horizons that differ between bonded points are not supported yet); {advice}",
+            point(i),
+            point(j)
+        ),
+    )
+}
+
+/// Refuses a model (one process, every family built) with a one-way bond.
+pub fn refuse_one_way_bonds(deck: &Deck, model: &Model) -> Result<(), DeckError> {
+    let all: Vec<u32> = (0..model.points.len() as u32).collect();
+    match first_one_way_bond(&model.bonds, &all) {
+        Some(bond) => Err(refusal(deck, model, bond)),
+        None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rows of 3 points on a line, spacing 1: 0 ↔ 1, and 2 → 1 one-way (2's horizon reaches
+    /// 1, 1's does not reach 2).
+    fn bonds_with_one_way() -> BondList {
+        BondList {
+            offsets: vec![0, 1, 2, 3],
+            neighbor: vec![1, 0, 1],
+            reference_length: vec![1.0, 1.0, 1.0],
+        }
+    }
+
+    #[test]
+    fn a_bond_without_its_reverse_is_found_from_the_point_that_holds_it() {
+        let bonds = bonds_with_one_way();
+        assert_eq!(first_one_way_bond(&bonds, &[0, 1, 2]), Some((2, 1)));
+        // Point 1's only bond (to 0) has its reverse; point 2 is not searched.
+        assert_eq!(first_one_way_bond(&bonds, &[0, 1]), None);
+    }
+
+    #[test]
+    fn symmetric_families_in_any_row_order_have_no_one_way_bond() {
+        // 0 ↔ 1, 0 ↔ 2, 1 ↔ 2, rows unsorted.
+        let bonds = BondList {
+            offsets: vec![0, 2, 4, 6],
+            neighbor: vec![2, 1, 2, 0, 1, 0],
+            reference_length: vec![2.0, 1.0, 1.0, 1.0, 1.0, 2.0],
+        };
+        assert_eq!(first_one_way_bond(&bonds, &[0, 1, 2]), None);
+    }
+}
