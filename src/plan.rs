@@ -214,13 +214,50 @@ pub struct OutputPlan {
     pub variables: Vec<String>,
 }
 
-/// This machine's physical memory in bytes (`MemTotal` of `/proc/meminfo`); `None` where that
-/// file does not exist or cannot be read (not Linux).
-pub fn physical_memory_bytes() -> Option<u64> {
+/// The memory this process may use, in bytes: the least of the machine's memory (`MemTotal`
+/// of `/proc/meminfo`), the process's address-space limit (`ulimit -v`, read from
+/// `/proc/self/limits`) and the memory limit of its control group (cgroup v2 `memory.max`,
+/// which batch schedulers such as SLURM set per job); `None` where none can be read (not
+/// Linux). The size guards compare their estimates with it, so a job is refused before it
+/// starts rather than killed for memory midway.
+pub fn usable_memory_bytes() -> Option<u64> {
+    [
+        machine_memory(),
+        address_space_limit(),
+        control_group_limit(),
+    ]
+    .into_iter()
+    .flatten()
+    .min()
+}
+
+/// `MemTotal` of `/proc/meminfo`, in bytes.
+fn machine_memory() -> Option<u64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
     let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     kib.checked_mul(1024)
+}
+
+/// The soft limit of `Max address space` in `/proc/self/limits` (bytes; `None` when
+/// unlimited).
+fn address_space_limit() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = text.lines().find(|l| l.starts_with("Max address space"))?;
+    let soft = line
+        .trim_start_matches("Max address space")
+        .split_whitespace()
+        .next()?;
+    soft.parse().ok()
+}
+
+/// `memory.max` of this process's cgroup v2 (the `0::PATH` line of `/proc/self/cgroup`), in
+/// bytes; `None` when it is `max`, or the system has no cgroup v2.
+fn control_group_limit() -> Option<u64> {
+    let groups = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    let path = groups.lines().find_map(|l| l.strip_prefix("0::"))?;
+    let file = format!("/sys/fs/cgroup{}/memory.max", path.trim_end_matches('/'));
+    std::fs::read_to_string(file).ok()?.trim().parse().ok()
 }
 
 /// Human-readable byte count.

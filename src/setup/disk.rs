@@ -95,7 +95,9 @@ fn frames(output: &Schedule, calls: u64) -> u64 {
     if first > last {
         return 0;
     }
-    last / frequency - first.div_ceil(frequency) + 1
+    // Multiples of the frequency in [first, last]; `+ 1` before the subtraction, which can
+    // reach zero (no multiple between first and last: a step of 10⁵ s with frequency 100).
+    last / frequency + 1 - first.div_ceil(frequency)
 }
 
 /// Bytes of one frame: the time value and every component of every variable.
@@ -132,13 +134,15 @@ mod tests {
             (4, 9, 30),
             (5, 50, 10),
             (0, 1, i64::MAX),
+            (100, 3, i64::MAX),
         ] {
             let o = Schedule {
                 frequency,
                 initial_step: initial,
                 final_step: last,
             };
-            for calls in [0, 1, 2, 11, 41, 100] {
+            // 6 calls of (7, 5): k = c − 1 runs over [4, 5], which holds no multiple of 7.
+            for calls in [0, 1, 2, 6, 11, 41, 100] {
                 assert_eq!(
                     frames(&o, calls),
                     counted(&o, calls),

@@ -16,25 +16,61 @@ use rayon::prelude::*;
 use crate::io::deck::{Deck, DeckError};
 use crate::model::{BondList, Model};
 
-/// Whether `row` (a family, neighbour indices) holds `point`.
-fn row_holds(row: &[u32], point: u32) -> bool {
-    if row.is_sorted() {
-        row.binary_search(&point).is_ok()
-    } else {
-        row.contains(&point)
-    }
+/// The first bond i → j of `model` (i taken from `points` in order, j in i's row) whose
+/// reverse is not in j's row. Every j bonded from a point of `points` must have its row in
+/// the model (a rank's owned points and ghosts: a ghost's row keeps its bonds to the rank's
+/// points).
+///
+/// Only bonds whose ends differ in block or horizon are looked up: the neighbour rules are
+/// symmetric in the two ends for one horizon (|X_j − X_i|² is the same number both ways, the
+/// lattice box and the bond filters test the segment), so within a block of one horizon every
+/// bond has its reverse. The rows looked into are sorted once, so the check costs
+/// O(bonds + looked-into rows · log family) however large and unsorted the families are.
+pub fn first_one_way_bond(model: &Model, points: &[u32]) -> Option<(u32, u32)> {
+    first_in(&model.bonds, &model.points.block, &model.horizon, points)
 }
 
-/// The first bond i → j (i taken from `points` in order, j in i's row) whose reverse is not in
-/// j's row. Every j bonded from a point of `points` must have its row in `bonds` (a rank's
-/// owned points and ghosts: a ghost's row keeps its bonds to the rank's points).
-pub fn first_one_way_bond(bonds: &BondList, points: &[u32]) -> Option<(u32, u32)> {
+/// [`first_one_way_bond`] of `bonds` whose points have blocks `block` and horizons `horizon`.
+fn first_in(
+    bonds: &BondList,
+    block: &[u32],
+    horizon: &[f64],
+    points: &[u32],
+) -> Option<(u32, u32)> {
+    let looked_up = |i: usize, j: usize| block[j] != block[i] || horizon[j] != horizon[i];
+    let mut targets: Vec<u32> = points
+        .par_iter()
+        .flat_map_iter(|&i| {
+            let i = i as usize;
+            bonds
+                .family(i)
+                .iter()
+                .copied()
+                .filter(move |&j| looked_up(i, j as usize))
+        })
+        .collect();
+    if targets.is_empty() {
+        return None;
+    }
+    targets.par_sort_unstable();
+    targets.dedup();
+    let sorted: Vec<Vec<u32>> = targets
+        .par_iter()
+        .map(|&j| {
+            let mut row = bonds.family(j as usize).to_vec();
+            row.sort_unstable();
+            row
+        })
+        .collect();
+    let row_of = |j: u32| &sorted[targets.binary_search(&j).expect("every target has a row")];
     points.par_iter().find_map_first(|&i| {
         bonds
             .family(i as usize)
             .iter()
-            .find(|&&j| !row_holds(bonds.family(j as usize), i))
-            .map(|&j| (i, j))
+            .copied()
+            .filter(|&j| looked_up(i as usize, j as usize))
+            .find(|&j| row_of(j).binary_search(&i).is_err())
+            .map(|j| (i, j))
     })
 }
 
@@ -78,7 +114,7 @@ pub fn refusal(deck: &Deck, model: &Model, (i, j): (u32, u32)) -> DeckError {
 /// Refuses a model (one process, every family built) with a one-way bond.
 pub fn refuse_one_way_bonds(deck: &Deck, model: &Model) -> Result<(), DeckError> {
     let all: Vec<u32> = (0..model.points.len() as u32).collect();
-    match first_one_way_bond(&model.bonds, &all) {
+    match first_one_way_bond(model, &all) {
         Some(bond) => Err(refusal(deck, model, bond)),
         None => Ok(()),
     }
@@ -101,9 +137,10 @@ mod tests {
     #[test]
     fn a_bond_without_its_reverse_is_found_from_the_point_that_holds_it() {
         let bonds = bonds_with_one_way();
-        assert_eq!(first_one_way_bond(&bonds, &[0, 1, 2]), Some((2, 1)));
+        let (block, horizon) = ([0, 0, 0], [1.5, 1.5, 2.5]);
+        assert_eq!(first_in(&bonds, &block, &horizon, &[0, 1, 2]), Some((2, 1)));
         // Point 1's only bond (to 0) has its reverse; point 2 is not searched.
-        assert_eq!(first_one_way_bond(&bonds, &[0, 1]), None);
+        assert_eq!(first_in(&bonds, &block, &horizon, &[0, 1]), None);
     }
 
     #[test]
@@ -114,6 +151,7 @@ mod tests {
             neighbor: vec![2, 1, 2, 0, 1, 0],
             reference_length: vec![2.0, 1.0, 1.0, 1.0, 1.0, 2.0],
         };
-        assert_eq!(first_one_way_bond(&bonds, &[0, 1, 2]), None);
+        // Every bond is looked up: the points lie in different blocks.
+        assert_eq!(first_in(&bonds, &[0, 1, 2], &[2.0; 3], &[0, 1, 2]), None);
     }
 }

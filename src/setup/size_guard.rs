@@ -99,7 +99,7 @@ fn refusal(
     points_key: &[&str],
     points_advice: &str,
 ) -> DeckError {
-    let memory = crate::plan::physical_memory_bytes().unwrap_or(u64::MAX);
+    let memory = crate::plan::usable_memory_bytes().unwrap_or(u64::MAX);
     let with_customary = Estimate {
         family: customary.min(estimate.family),
         ..estimate
@@ -124,7 +124,7 @@ fn refusal(
 
 /// True when `estimate` fits in this machine's memory (or its size cannot be read).
 fn fits(estimate: Estimate) -> bool {
-    crate::plan::physical_memory_bytes().is_none_or(|memory| estimate.bytes() <= u128::from(memory))
+    crate::plan::usable_memory_bytes().is_none_or(|memory| estimate.bytes() <= u128::from(memory))
 }
 
 /// Refuses a lattice of `cells` cells of size `spacing` (a QuickGrid generator, in index

@@ -119,7 +119,7 @@ pub fn run_distributed(
     let mut sub = subdomain(deck, global, families, comm)?;
     // The ranks together find what one rank finds in `setup::validate`: each looks at the
     // bonds of its own points, whose ends all have their rows among its points and ghosts.
-    let one_way = setup::one_way_bonds::first_one_way_bond(&sub.model.bonds, sub.owned())
+    let one_way = setup::one_way_bonds::first_one_way_bond(&sub.model, sub.owned())
         .map(|bond| setup::one_way_bonds::refusal(deck, &sub.model, bond));
     agree(
         comm,
