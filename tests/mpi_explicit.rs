@@ -327,15 +327,42 @@ fn a_failure_on_rank_zero_alone_stops_every_rank() {
     assert!(log.contains("bar.e"), "{log}");
 }
 
-/// One-way bonds (a horizon that grows along x: a point's family reaches points whose own
-/// horizon does not reach back) are refused by the ranks together, at the block's `Horizon`,
-/// as one rank refuses them (tests/bad_input.rs): once, exit code 2, nothing hangs.
+/// One-way bonds (the right half of the bar, a block of its own, bonds across 1.1 m while
+/// the left half's horizon of 1.6 m reaches into it: a left point's family holds right points
+/// whose own horizon does not reach back) are refused by the ranks together, at the left
+/// block's `Horizon`, as one rank refuses them (tests/bad_input.rs): once, exit code 2,
+/// nothing hangs.
 #[test]
 fn one_way_bonds_are_refused_on_two_ranks_as_on_one() {
     let dir = tempfile::tempdir().unwrap();
     let deck = bar_deck(dir.path(), "Elastic");
     let text = std::fs::read_to_string(dir.path().join(deck)).unwrap();
-    let text = text.replace("Horizon: 1.6", "Horizon: \"1.6 + 0.1*x\"");
+    // The bar's lattice as a text mesh, in QuickGrid's order (x fastest) so that the node
+    // sets keep their ids: cell-centred points of spacing 0.5 on 10 × 2 × 2 m.
+    let [nx, ny, nz] = SHORT_BAR.points;
+    let mut mesh = String::from("# x y z block volume\n");
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let [x, y, z] = [(i, nx), (j, ny), (k, nz)]
+                    .map(|(n, count)| 0.5 * (n as f64 + 0.5) - 0.25 * count as f64);
+                let block = if x > 0.0 { 2 } else { 1 };
+                mesh.push_str(&format!("{x} {y} {z} {block} 0.125\n"));
+            }
+        }
+    }
+    std::fs::write(dir.path().join("bar.txt"), mesh).unwrap();
+    let generator_start = text.find("    Type: \"PdQuickGrid\"").unwrap();
+    let generator_end = text.find("  Materials:").unwrap();
+    let text = format!(
+        "{}    Type: \"Text File\"\n    Input Mesh File: \"bar.txt\"\n{}",
+        &text[..generator_start],
+        &text[generator_end..]
+    )
+    .replace(
+        "      Horizon: 1.6\n",
+        "      Horizon: 1.6\n    Right:\n      Block Names: \"block_2\"\n      Material: \"M\"\n      Damage Model: \"D\"\n      Horizon: 1.1\n",
+    );
     std::fs::write(dir.path().join("one_way.yaml"), text).unwrap();
     let expected = "which does not bond back";
     for ranks in [1, 2] {
