@@ -572,6 +572,31 @@ fn the_size_guard_counts_at_most_n_minus_1_bonds_and_names_the_horizon() {
     );
 }
 
+/// The size guard compares with the memory the run may use, not the machine's alone: under a
+/// 4 GiB address-space limit (`ulimit -v`, as a batch job's limit) a body the machine could
+/// hold is refused before it is built, instead of dying on a failed allocation midway.
+#[test]
+fn the_size_guard_honours_the_address_space_limit() {
+    if physical_memory().is_none_or(|bytes| bytes <= 4 << 30) {
+        return;
+    }
+    // 160³ = 4,096,000 points 1/160 apart, a horizon of 3.05 spacings: at the guard's floor
+    // of 120 bytes a point and 12 a bond (src/setup/size_guard.rs), even the 119 bonds of a
+    // ball of 3.05 spacings need 6.3 GB, more than 4 GiB: the message names the limit's
+    // 4 GiB, not the machine's larger memory.
+    let dir = grid_folder(&[
+        ("Number Points X: 5", "Number Points X: 160"),
+        ("Number Points Y: 5", "Number Points Y: 160"),
+        ("Number Points Z: 5", "Number Points Z: 160"),
+        ("Horizon: 0.61", "Horizon: 0.0190625"),
+    ]);
+    assert_refused_within_4_gib(
+        dir.path(),
+        line_of(&grid_deck(), "Number Points X: 5"),
+        &["4096000 points", "more than the 4.0 GiB this run may use"],
+    );
+}
+
 /// Issue 44, finding 3: a condition on a vector field without `Coordinate` was taken as x.
 #[test]
 fn a_vector_condition_without_coordinate_is_refused() {

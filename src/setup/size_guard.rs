@@ -1,6 +1,8 @@
-//! Refusing a body whose points and bonds cannot fit in this machine's memory, before they are
-//! allocated: a typo such as `Number Points X: 100000`, or a horizon of 10⁶ point spacings,
-//! would otherwise abort on a failed allocation or spend minutes building bonds. The error
+//! Refusing a body whose points and bonds cannot fit in the memory this run may use
+//! ([`crate::plan::usable_memory_bytes`]: the machine's, or less under `ulimit -v` or a batch
+//! job's memory limit), before they are allocated: a typo such as `Number Points X: 100000`,
+//! or a horizon of 10⁶ point spacings, would otherwise abort on a failed allocation or spend
+//! minutes building bonds. The error
 //! names the key at fault: the horizon when the same points with a customary horizon would
 //! fit, the point count (or the mesh file) otherwise.
 //!
@@ -42,10 +44,10 @@ impl Estimate {
         self.points * (LEAST_BYTES_PER_POINT + self.family * LEAST_BYTES_PER_BOND)
     }
 
-    /// The memory need, and this machine's memory, for a message.
+    /// The memory need, and the memory this run may use, for a message.
     fn need(&self, memory: u64) -> String {
         format!(
-            "{} points with about {} bonds each need at least {} of memory, more than this machine's {}",
+            "{} points with about {} bonds each need at least {} of memory, more than the {} this run may use (the machine's memory, or a lower `ulimit -v` or batch-job limit)",
             self.points,
             self.family,
             crate::plan::format_bytes(u64::try_from(self.bytes()).unwrap_or(u64::MAX)),
@@ -122,7 +124,7 @@ fn refusal(
     }
 }
 
-/// True when `estimate` fits in this machine's memory (or its size cannot be read).
+/// True when `estimate` fits in the memory this run may use (or its size cannot be read).
 fn fits(estimate: Estimate) -> bool {
     crate::plan::usable_memory_bytes().is_none_or(|memory| estimate.bytes() <= u128::from(memory))
 }
