@@ -2,9 +2,8 @@
 //! ([`crate::plan::usable_memory_bytes`]: the machine's, or less under `ulimit -v` or a batch
 //! job's memory limit), before they are allocated: a typo such as `Number Points X: 100000`,
 //! or a horizon of 10⁶ point spacings, would otherwise abort on a failed allocation or spend
-//! minutes building bonds. The error
-//! names the key at fault: the horizon when the same points with a customary horizon would
-//! fit, the point count (or the mesh file) otherwise.
+//! minutes building bonds. The error names the key at fault: the horizon when the same points
+//! with a customary horizon would fit, the point count (or the mesh file) otherwise.
 //!
 //! The estimate is a floor: [`LEAST_BYTES_PER_POINT`] per point and [`LEAST_BYTES_PER_BOND`]
 //! per directed bond, with at most N − 1 bonds a point. Where the memory size cannot be read
