@@ -13,11 +13,13 @@ use crate::backend::settings::{
 };
 use crate::backend::Unsupported;
 use crate::io::deck::{self, Deck};
+use crate::solver::dynamic_relaxation::DynamicRelaxation;
 use crate::solver::implicit_dynamics::Newmark;
 use crate::solver::integrator::{HandOff, Integrator, ListSettings, SolverList, Unavailable};
 use crate::solver::load_stepped::{planned_load_steps, QuasiStatic};
 use crate::solver::newton::ConvergenceMeasure;
 use crate::solver::quasistatic::{AdaptiveLoadStepping, LoadSteps};
+use crate::solver::relaxation::AdaptiveRelaxation;
 use crate::solver::verlet::Verlet;
 
 /// The solver lists of `deck`, in the order they run.
@@ -61,6 +63,7 @@ pub fn integrator(list: &deck::Solver) -> Box<dyn Integrator> {
         deck::Integrator::QuasiStatic(q) => Box::new(quasi_static(list, q)),
         deck::Integrator::NoxQuasiStatic(nox) => Box::new(nox_quasi_static(list, nox)),
         deck::Integrator::Implicit(implicit) => Box::new(newmark(list, implicit)),
+        deck::Integrator::DynamicRelaxation(relaxation) => Box::new(dynamic_relaxation(relaxation)),
         deck::Integrator::ImplicitDiffusion(diffusion) => Box::new(Unavailable {
             name: "ImplicitDiffusion",
             implicit: true,
@@ -85,19 +88,12 @@ fn quasi_static(list: &deck::Solver, q: &deck::QuasiStatic) -> QuasiStatic {
         relative_tolerance: q.relative_tolerance,
         absolute_tolerance: q.absolute_tolerance,
         measure: ConvergenceMeasure::PeridigmQuasiStatic,
-        adaptive: adaptive.map(|a| AdaptiveLoadStepping {
-            max_reductions_in_one_step: a.max_reductions_in_one_step,
-            max_total_reductions: a.max_total_reductions,
-            reduce_all_remaining_load_steps: a.reduce_all_remaining_load_steps,
-        }),
-        hand_off: adaptive
-            .and_then(|a| a.switch_to_verlet.as_ref())
-            .map(|switch| HandOff {
-                label: "Switch to Verlet",
-                integrator: Box::new(Verlet {
-                    fixed_dt: switch.fixed_dt,
-                    safety_factor: switch.safety_factor,
-                }),
+        adaptive: adaptive.map(adaptive_load_stepping),
+        hand_off: adaptive.and_then(switch_to_verlet),
+        relaxation: adaptive
+            .and_then(|a| a.switch_to_dynamic_relaxation.as_ref())
+            .map(|switch| AdaptiveRelaxation {
+                max_iterations: Some(switch.maximum_solver_iterations),
             }),
         solve: implicit_solve(
             list,
@@ -105,6 +101,39 @@ fn quasi_static(list: &deck::Solver, q: &deck::QuasiStatic) -> QuasiStatic {
             Nonlinear::Newton { quasi_static: true },
         ),
     }
+}
+
+fn dynamic_relaxation(relaxation: &deck::DynamicRelaxation) -> DynamicRelaxation {
+    let adaptive = relaxation.adaptive_load_stepping.as_ref();
+    DynamicRelaxation {
+        load_steps: load_steps(&relaxation.load_steps),
+        max_iterations: relaxation.maximum_solver_iterations,
+        relative_tolerance: relaxation.relative_tolerance,
+        absolute_tolerance: relaxation.absolute_tolerance,
+        adaptive: adaptive.map(adaptive_load_stepping),
+        hand_off: adaptive.and_then(switch_to_verlet),
+    }
+}
+
+fn adaptive_load_stepping(adaptive: &deck::AdaptiveLoadStepping) -> AdaptiveLoadStepping {
+    AdaptiveLoadStepping {
+        max_reductions_in_one_step: adaptive.max_reductions_in_one_step,
+        max_total_reductions: adaptive.max_total_reductions,
+        reduce_all_remaining_load_steps: adaptive.reduce_all_remaining_load_steps,
+        max_broken_fraction: adaptive.max_broken_fraction,
+    }
+}
+
+/// `Switch to Verlet` of `Adaptive Load-Stepping`: the explicit list a failed step hands the
+/// rest of the list to.
+fn switch_to_verlet(adaptive: &deck::AdaptiveLoadStepping) -> Option<HandOff> {
+    adaptive.switch_to_verlet.as_ref().map(|switch| HandOff {
+        label: "Switch to Verlet",
+        integrator: Box::new(Verlet {
+            fixed_dt: switch.fixed_dt,
+            safety_factor: switch.safety_factor,
+        }),
+    })
 }
 
 fn nox_quasi_static(list: &deck::Solver, nox: &deck::NoxQuasiStatic) -> QuasiStatic {
@@ -123,6 +152,7 @@ fn nox_quasi_static(list: &deck::Solver, nox: &deck::NoxQuasiStatic) -> QuasiSta
         measure: ConvergenceMeasure::TwoNorm,
         adaptive: None,
         hand_off: None,
+        relaxation: None,
         solve: implicit_solve(list, "NOXQuasiStatic", Nonlinear::Nox(parameters)),
     }
 }

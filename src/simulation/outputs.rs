@@ -385,6 +385,7 @@ impl SolverHistory {
             report.preconditioner.levels as f64,
             report.preconditioner.operator_complexity,
             report.preconditioner.gmres_restart as f64,
+            report.relaxation_iterations as f64,
         ];
         self.writer
             .as_mut()
@@ -442,9 +443,11 @@ impl SolverHistory {
     }
 }
 
-/// Columns of the implicit solver report (`<output>_solver.csv`, after `Time`); the last five
-/// are [`crate::solver::multigrid::PreconditionerReport`].
-pub const SOLVER_HISTORY_COLUMNS: [&str; 14] = [
+/// Columns of the implicit solver report (`<output>_solver.csv`, after `Time`); five from
+/// `Preconditioner_Setup_Seconds` are [`crate::solver::multigrid::PreconditionerReport`];
+/// `Relaxation_Iterations` is nonzero when dynamic relaxation solved the step
+/// ([`crate::solver::relaxation`]).
+pub const SOLVER_HISTORY_COLUMNS: [&str; 15] = [
     "Step",
     "Newton_Iterations",
     "Linear_Iterations",
@@ -459,6 +462,7 @@ pub const SOLVER_HISTORY_COLUMNS: [&str; 14] = [
     "AMG_Levels",
     "AMG_Operator_Complexity",
     "GMRES_Restart",
+    "Relaxation_Iterations",
 ];
 
 /// How a gathered point field is stored.

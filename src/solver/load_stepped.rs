@@ -16,6 +16,7 @@ use super::newton::{ConvergenceMeasure, NonlinearSolver};
 use super::quasistatic::{
     self, AdaptiveLoadStepping, LoadSteps, QuasiStaticError, QuasiStaticSettings,
 };
+use super::relaxation::AdaptiveRelaxation;
 use crate::backend::factory::nox_parameters;
 use crate::backend::settings::{ImplicitSolve, LinearBackend};
 use crate::backend::SolveError;
@@ -42,6 +43,9 @@ pub struct QuasiStatic {
     pub adaptive: Option<AdaptiveLoadStepping>,
     /// Where a step that cannot be cut further goes (`Switch to Verlet`); default none.
     pub hand_off: Option<HandOff>,
+    /// `Switch to Dynamic Relaxation`: a step that cannot be cut further is relaxed instead,
+    /// and Newton goes on at the next step; default none.
+    pub relaxation: Option<AdaptiveRelaxation>,
     /// How each load step is solved.
     pub solve: ImplicitSolve,
 }
@@ -100,6 +104,7 @@ impl QuasiStatic {
             line_search: list.heuristics,
             verbose: list.verbose,
             adaptive: self.adaptive.clone(),
+            relaxation: self.relaxation,
             resume: None,
         }
     }

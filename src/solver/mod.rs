@@ -2,9 +2,11 @@
 //!
 //! A solver list runs through its [`Integrator`] ([`integrator`]): [`verlet::Verlet`],
 //! [`load_stepped::QuasiStatic`] (`QuasiStatic`, `NOXQuasiStatic`),
-//! [`implicit_dynamics::Newmark`] (`Implicit`); the driver gives it a [`list_run::ListRun`].
+//! [`implicit_dynamics::Newmark`] (`Implicit`), [`dynamic_relaxation::DynamicRelaxation`]
+//! (`DynamicRelaxation`); the driver gives it a [`list_run::ListRun`].
 
 pub mod collective;
+pub mod dynamic_relaxation;
 pub mod explicit;
 pub mod implicit;
 pub mod implicit_dynamics;
@@ -23,6 +25,7 @@ pub mod nox_newton;
 pub mod problem;
 pub mod progress;
 pub mod quasistatic;
+pub mod relaxation;
 #[cfg(feature = "petsc")]
 pub mod snes_newton;
 pub mod stability;

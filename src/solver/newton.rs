@@ -233,8 +233,11 @@ fn solve_native(
 pub struct NewtonReport {
     /// True when the measure reached the tolerance.
     pub converged: bool,
-    /// Linear solves taken.
+    /// Linear solves taken (Newton iterations).
     pub iterations: usize,
+    /// Dynamic relaxation iterations ([`crate::solver::relaxation`]): of a `DynamicRelaxation`
+    /// step, or of a step Newton handed to it; 0 when Newton solved the step.
+    pub relaxation_iterations: usize,
     /// Krylov iterations summed over the linear solves.
     pub linear_iterations: usize,
     /// Measure after every iteration (the first entry is the starting residual).

@@ -270,6 +270,7 @@ impl NonlinearSolver for NoxNewton {
             linear_method: "AztecOO (NOX)".to_string(),
             seconds: start.elapsed().as_secs_f64(),
             preconditioner,
+            relaxation_iterations: 0,
         })
     }
 }

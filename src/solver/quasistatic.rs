@@ -18,8 +18,13 @@
 //!    100× the tolerance; otherwise, with `Adaptive Load-Stepping`, the step is cut in half and
 //!    redone (bounded), else the state goes back to the last accepted step and the solve
 //!    returns [`QuasiStaticError::NotConverged`] (the run stops with exit code 3, or continues
-//!    explicitly with `Switch to Verlet`);
-//! 6. on acceptance: `v = (u − u_n)/Δt`, damage committed, output.
+//!    explicitly with `Switch to Verlet`); with `Switch to Dynamic Relaxation` a step that
+//!    cannot be cut further is started again from its beginning and relaxed instead
+//!    ([`crate::solver::relaxation`]), and the run goes on with Newton at the next step;
+//! 6. with `Maximum fraction of bonds broken in one step`, a converged step that broke more
+//!    than that fraction of the bonds is cut in half and redone while cuts are allowed, so a
+//!    crack advances over several shorter steps;
+//! 7. on acceptance: `v = (u − u_n)/Δt`, damage committed, output.
 //!
 //! During a step the current positions are `(X + u_n) + (u − u_n)`, rounded as Peridigm
 //! rounds them ([`State::step_start`]).
@@ -32,6 +37,7 @@ use crate::solver::collective::{any_failed, Collective};
 use crate::solver::implicit::{apply_loads_at, DofMap, ImplicitSystem};
 use crate::solver::newton::{ConvergenceMeasure, NewtonReport, NewtonSettings, NonlinearSolver};
 use crate::solver::problem::Physical;
+use crate::solver::relaxation::AdaptiveRelaxation;
 use crate::state::State;
 use std::time::Instant;
 
@@ -62,6 +68,9 @@ pub struct AdaptiveLoadStepping {
     pub max_total_reductions: Option<u64>,
     /// `Reduce all remaining load steps`: a cut halves every later step too.
     pub reduce_all_remaining_load_steps: bool,
+    /// `Maximum fraction of bonds broken in one step` (0 < f ≤ 1): a step that breaks more
+    /// than this fraction of the body's directed bonds is cut; default none.
+    pub max_broken_fraction: Option<f64>,
 }
 
 /// Settings of one quasi-static solver list.
@@ -87,6 +96,9 @@ pub struct QuasiStaticSettings {
     pub verbose: bool,
     /// `Adaptive Load-Stepping`.
     pub adaptive: Option<AdaptiveLoadStepping>,
+    /// `Switch to Dynamic Relaxation`: relaxes a step Newton failed on and could not cut;
+    /// default none.
+    pub relaxation: Option<AdaptiveRelaxation>,
     /// Where to start: `None` at the first load step of `times`; a position saved in a
     /// restart file ([`LoadStepReport::position`]) continues from there.
     pub resume: Option<LoadStepPosition>,
@@ -190,6 +202,7 @@ pub fn run<E: From<QuasiStaticError>>(
         model,
         settings,
         constrained: model.boundary.constrained_dofs(),
+        bonds: owned_bonds(model, collective),
         // On several ranks every rank runs this loop in step; rank 0 alone writes the log.
         root: collective.rank() == 0,
     };
@@ -237,8 +250,10 @@ pub fn run<E: From<QuasiStaticError>>(
             collective,
             constrained: &stepping.constrained,
         };
-        let report = nonlinear.solve(parts, &stepping.newton_settings(tolerance));
-        if let Some(reason) = failure(&report, tolerance) {
+        let mut report = nonlinear.solve(parts, &stepping.newton_settings(tolerance));
+        if let Some(reason) =
+            failure(&report, tolerance).or_else(|| stepping.too_many_broken(&report))
+        {
             if schedule.cut(settings) {
                 if stepping.root {
                     eprintln!("Warning: {reason}; cutting the load step in half and redoing it.");
@@ -246,6 +261,19 @@ pub fn run<E: From<QuasiStaticError>>(
                 step.restore(state);
                 continue;
             }
+        }
+        if let Some(relaxation) = settings
+            .relaxation
+            .filter(|_| needs_relaxation(&report, tolerance))
+        {
+            let newton = report.map_err(|source| source.to_string());
+            report = stepping.relax(
+                &step,
+                relaxation,
+                newton,
+                (&mut *physics, &mut *state, &mut *collective),
+                predict,
+            );
         }
         let report = report.map_err(|source| step.solve_error(source))?;
         stepping.accept_or_stop(&step, state, &report, tolerance)?;
@@ -290,6 +318,8 @@ struct LoadStepping<'a> {
     settings: &'a QuasiStaticSettings,
     /// Prescribed dofs (`3·p + component`), sorted.
     constrained: Vec<usize>,
+    /// Directed bonds of the body, summed over the ranks.
+    bonds: usize,
     /// This rank writes the log (rank 0).
     root: bool,
 }
@@ -392,6 +422,73 @@ impl LoadStepping<'_> {
         Ok(tolerance)
     }
 
+    /// Why a solved step broke too many bonds (`Maximum fraction of bonds broken in one
+    /// step`), if it did.
+    fn too_many_broken(&self, report: &Result<NewtonReport, SolveError>) -> Option<String> {
+        let limit = self.settings.adaptive.as_ref()?.max_broken_fraction?;
+        let broken = report.as_ref().ok()?.broken_bonds;
+        let fraction = broken as f64 / self.bonds.max(1) as f64;
+        (fraction > limit).then(|| {
+            format!(
+                "{broken} bonds broke in the step, {fraction:.3e} of the body's {}, above the Maximum fraction of bonds broken in one step {limit:e}",
+                self.bonds
+            )
+        })
+    }
+
+    /// `Switch to Dynamic Relaxation`: the step Newton failed on (`newton`: its report, or why
+    /// it failed) is started again and relaxed; the report is the relaxation's with Newton's
+    /// iterations, linear iterations, evaluations and time added.
+    fn relax(
+        &self,
+        step: &LoadStep,
+        relaxation: AdaptiveRelaxation,
+        newton: Result<NewtonReport, String>,
+        (physics, state, collective): (&mut Physics, &mut State, &mut dyn Collective),
+        predict: bool,
+    ) -> Result<NewtonReport, SolveError> {
+        if self.root {
+            let why = match &newton {
+                Ok(r) => format!(
+                    "residual {:.4e} after {} iterations",
+                    final_measure(r),
+                    r.iterations
+                ),
+                Err(reason) => reason.clone(),
+            };
+            eprintln!("Warning: Newton did not solve load step {} ({why}); relaxing it instead (Switch to Dynamic Relaxation).", step.number);
+        }
+        step.restore(state);
+        let mut system = ImplicitSystem::new(
+            DofMap::new(self.model.points.len(), &self.constrained, &[]),
+            state,
+        );
+        let tolerance = self
+            .begin(step, physics, state, &mut system, predict, collective)
+            .map_err(|failure| SolveError::Breakdown {
+                method: "dynamic relaxation",
+                reason: failure.to_string(),
+            })?;
+        let parts = Physical {
+            system: &mut system,
+            model: self.model,
+            physics,
+            state,
+            collective,
+            constrained: &self.constrained,
+        };
+        let mut relaxation = relaxation;
+        let mut relaxed = relaxation.solve(parts, &self.newton_settings(tolerance))?;
+        if let Ok(newton) = newton {
+            relaxed.iterations = newton.iterations;
+            relaxed.linear_iterations = newton.linear_iterations;
+            relaxed.residual_evaluations += newton.residual_evaluations;
+            relaxed.seconds += newton.seconds;
+            relaxed.tangent_bytes = relaxed.tangent_bytes.max(newton.tangent_bytes);
+        }
+        Ok(relaxed)
+    }
+
     /// Newton's settings for a step with `tolerance`.
     fn newton_settings(&self, tolerance: f64) -> NewtonSettings {
         NewtonSettings {
@@ -482,6 +579,27 @@ fn failure(report: &Result<NewtonReport, SolveError>, tolerance: f64) -> Option<
         )),
         Ok(_) => None,
     }
+}
+
+/// True when Newton's answer to a step can be neither accepted nor cut: an error of the
+/// solve (singular, broken down; not a condition that failed) or a measure above
+/// [`ACCEPTANCE_FACTOR`] × `tolerance`.
+fn needs_relaxation(report: &Result<NewtonReport, SolveError>, tolerance: f64) -> bool {
+    match report {
+        Err(_) => true,
+        Ok(r) => !r.converged && final_measure(r) >= ACCEPTANCE_FACTOR * tolerance,
+    }
+}
+
+/// Directed bonds of the points this rank owns, summed over the ranks (collective).
+fn owned_bonds(model: &Model, collective: &mut dyn Collective) -> usize {
+    let local = (0..model.points.len())
+        .filter(|&p| !collective.is_ghost(p))
+        .map(|p| model.bonds.family_size(p))
+        .sum::<usize>();
+    let mut sum = [local as f64];
+    collective.sum(&mut sum);
+    sum[0] as usize
 }
 
 /// The last convergence measure of a Newton solve (∞ without one).
@@ -605,10 +723,12 @@ mod tests {
             line_search: true,
             verbose: false,
             resume: None,
+            relaxation: None,
             adaptive: Some(AdaptiveLoadStepping {
                 max_reductions_in_one_step: Some(2),
                 max_total_reductions: Some(3),
                 reduce_all_remaining_load_steps: all,
+                max_broken_fraction: None,
             }),
         }
     }

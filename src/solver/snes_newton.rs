@@ -126,6 +126,7 @@ impl NonlinearSolver for SnesNewton {
             linear_method: report.method,
             seconds: start.elapsed().as_secs_f64(),
             preconditioner: Default::default(),
+            relaxation_iterations: 0,
         })
     }
 }

@@ -1,5 +1,6 @@
 //! The integrator sublist of a `Solver` list (`Verlet`, `QuasiStatic`, `NOXQuasiStatic`,
-//! `Implicit`, `ImplicitDiffusion`): its keys and the final time it implies.
+//! `Implicit`, `ImplicitDiffusion`, and peridyn's `DynamicRelaxation`): its keys and the final
+//! time it implies.
 
 use super::error::DeckError;
 use super::linear_solve::{read_belos, BelosSettings};
@@ -19,6 +20,9 @@ pub enum Integrator {
     Implicit(Implicit),
     /// `ImplicitDiffusion` — Newton on temperature.
     ImplicitDiffusion(ImplicitDiffusion),
+    /// `DynamicRelaxation` — load steps relaxed by adaptive dynamic relaxation (peridyn's;
+    /// Peridigm has none).
+    DynamicRelaxation(DynamicRelaxation),
 }
 
 /// `Verlet` sublist.
@@ -73,7 +77,40 @@ pub struct AdaptiveLoadStepping {
     pub adaptive_output_frequency: bool,
     /// `Switch to Verlet` — continue explicitly when cutting fails.
     pub switch_to_verlet: Option<SwitchToVerlet>,
+    /// `Switch to Dynamic Relaxation` (peridyn's) — relax a step Newton fails on when cutting
+    /// fails, then go on with Newton.
+    pub switch_to_dynamic_relaxation: Option<SwitchToDynamicRelaxation>,
+    /// `Maximum fraction of bonds broken in one step` (peridyn's; 0 < f ≤ 1) — cut a step that
+    /// breaks more than this fraction of the directed bonds; default none.
+    pub max_broken_fraction: Option<f64>,
 }
+
+/// `Adaptive Load-Stepping → Switch to Dynamic Relaxation`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SwitchToDynamicRelaxation {
+    /// `Maximum Solver Iterations` (≥ 1) — relaxation iterations for the step; default
+    /// 100,000.
+    pub maximum_solver_iterations: u64,
+}
+
+/// `DynamicRelaxation` sublist (peridyn's).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DynamicRelaxation {
+    /// `Number of Load Steps` or `Time Steps` (exactly one, required).
+    pub load_steps: LoadSteps,
+    /// `Maximum Solver Iterations` — relaxation iterations per load step; default 100,000.
+    pub maximum_solver_iterations: u64,
+    /// `Relative Tolerance` — criterion `tol·‖reaction‖₂`, as `QuasiStatic`; default 1e-6.
+    pub relative_tolerance: f64,
+    /// `Absolute Tolerance` — if present, used instead of the relative one.
+    pub absolute_tolerance: Option<f64>,
+    /// `Adaptive Load-Stepping` — as `QuasiStatic`'s, without `Switch to Dynamic Relaxation`.
+    pub adaptive_load_stepping: Option<AdaptiveLoadStepping>,
+}
+
+/// Relaxation iterations per load step when the deck gives none (the value of
+/// `crate::solver::relaxation::DEFAULT_MAX_ITERATIONS`, which the deck reader does not import).
+const RELAXATION_ITERATIONS: i64 = 100_000;
 
 /// `Adaptive Load-Stepping → Switch to Verlet`.
 #[derive(Debug, Clone, PartialEq)]
@@ -173,6 +210,7 @@ const INTEGRATORS: &[&str] = &[
     "NOXQuasiStatic",
     "Implicit",
     "ImplicitDiffusion",
+    "DynamicRelaxation",
 ];
 
 /// The one integrator sublist of a solver list (none or several is an error).
@@ -279,6 +317,11 @@ pub(super) fn read_integrator(
             let final_time = final_time_for_steps(ctx, list, final_given, last)?;
             (Integrator::ImplicitDiffusion(d), final_time)
         }
+        "DynamicRelaxation" => {
+            let (d, last) = read_dynamic_relaxation(ctx, integ)?;
+            let final_time = final_time_for_steps(ctx, list, final_given, last)?;
+            (Integrator::DynamicRelaxation(d), final_time)
+        }
         _ => unreachable!("only integrator names are looked up"),
     };
     Ok(ReadIntegrator {
@@ -322,6 +365,36 @@ fn read_quasi_static(
     };
     integ.finish(ctx, &[])?;
     Ok((q, last, belos_given))
+}
+
+/// Reads a `DynamicRelaxation` sublist; also returns the last listed load-step time.
+fn read_dynamic_relaxation(
+    ctx: &mut Ctx,
+    mut integ: ListReader,
+) -> Result<(DynamicRelaxation, Option<f64>), DeckError> {
+    let (load_steps, last) = read_load_steps(ctx, &mut integ)?;
+    let adaptive = integ.get("Adaptive Load-Stepping");
+    if let Some(adaptive) = &adaptive {
+        if let Some(f) = adaptive.list(ctx)?.peek("Switch to Dynamic Relaxation") {
+            return Err(f.err(
+                ctx,
+                "a DynamicRelaxation list relaxes every step already; remove Switch to Dynamic Relaxation (or use it in a QuasiStatic list)",
+            ));
+        }
+    }
+    let d = DynamicRelaxation {
+        load_steps,
+        maximum_solver_iterations: integ
+            .int_opt(ctx, "Maximum Solver Iterations", 1)?
+            .unwrap_or(RELAXATION_ITERATIONS) as u64,
+        relative_tolerance: integ
+            .positive_opt(ctx, "Relative Tolerance")?
+            .unwrap_or(1e-6),
+        absolute_tolerance: integ.positive_opt(ctx, "Absolute Tolerance")?,
+        adaptive_load_stepping: adaptive.map(|f| read_adaptive(ctx, &f)).transpose()?,
+    };
+    integ.finish(ctx, &[])?;
+    Ok((d, last))
 }
 
 /// Reads a `NOXQuasiStatic` sublist: Peridigm's own keys typed, every other key kept for NOX;
@@ -471,6 +544,29 @@ fn read_adaptive(ctx: &mut Ctx, field: &Field) -> Result<AdaptiveLoadStepping, D
             Some(v)
         }
     };
+    let switch_to_dynamic_relaxation = match list.list_opt(ctx, "Switch to Dynamic Relaxation")? {
+        None => None,
+        Some(mut s) => {
+            let iterations = s.int_opt(ctx, "Maximum Solver Iterations", 1)?;
+            s.finish(ctx, &[])?;
+            Some(SwitchToDynamicRelaxation {
+                maximum_solver_iterations: iterations.unwrap_or(RELAXATION_ITERATIONS) as u64,
+            })
+        }
+    };
+    if let (Some(_), Some(_)) = (&switch_to_verlet, &switch_to_dynamic_relaxation) {
+        let message = "give either Switch to Verlet or Switch to Dynamic Relaxation: a failed step goes to one of them";
+        return Err(list
+            .peek("Switch to Dynamic Relaxation")
+            .map_or_else(|| field.err(ctx, message), |f| f.err(ctx, message)));
+    }
+    let max_broken_fraction = match list.get("Maximum fraction of bonds broken in one step") {
+        None => None,
+        Some(f) => match f.positive(ctx)? {
+            fraction if fraction <= 1.0 => Some(fraction),
+            _ => return Err(f.err(ctx, "a fraction of the bonds: a number in (0, 1]")),
+        },
+    };
     let out = AdaptiveLoadStepping {
         max_reductions_in_one_step: list
             .int_opt(ctx, "Maximum load step reductions in one step", 0)?
@@ -485,6 +581,8 @@ fn read_adaptive(ctx: &mut Ctx, field: &Field) -> Result<AdaptiveLoadStepping, D
         )?,
         adaptive_output_frequency: list.bool_or(ctx, "Adaptive output frequency", false)?,
         switch_to_verlet,
+        switch_to_dynamic_relaxation,
+        max_broken_fraction,
     };
     list.finish(ctx, &[])?;
     Ok(out)
@@ -516,6 +614,7 @@ impl Integrator {
             Integrator::NoxQuasiStatic(_) => "NOXQuasiStatic",
             Integrator::Implicit(_) => "Implicit",
             Integrator::ImplicitDiffusion(_) => "ImplicitDiffusion",
+            Integrator::DynamicRelaxation(_) => "DynamicRelaxation",
         }
     }
 
@@ -527,7 +626,8 @@ impl Integrator {
             Integrator::QuasiStatic(_)
             | Integrator::NoxQuasiStatic(_)
             | Integrator::Implicit(_)
-            | Integrator::ImplicitDiffusion(_) => true,
+            | Integrator::ImplicitDiffusion(_)
+            | Integrator::DynamicRelaxation(_) => true,
         }
     }
 }

@@ -50,8 +50,8 @@ pub use discretization::{
 };
 pub use error::{DeckError, KeyPath};
 pub use integrators::{
-    AdaptiveLoadStepping, Implicit, ImplicitDiffusion, Integrator, LoadSteps, NoxQuasiStatic,
-    QuasiStatic, SwitchToVerlet, Verlet,
+    AdaptiveLoadStepping, DynamicRelaxation, Implicit, ImplicitDiffusion, Integrator, LoadSteps,
+    NoxQuasiStatic, QuasiStatic, SwitchToDynamicRelaxation, SwitchToVerlet, Verlet,
 };
 pub use linear_solve::{
     parse_petsc_options, AlgebraicPreconditioner, BelosSettings, BelosSolver, LinearBackend,
