@@ -22,8 +22,9 @@
 //!    cannot be cut further is started again from its beginning and relaxed instead
 //!    ([`crate::solver::relaxation`]), and the run goes on with Newton at the next step;
 //! 6. with `Maximum fraction of bonds broken in one step`, a converged step that broke more
-//!    than that fraction of the bonds is cut in half and redone while cuts are allowed, so a
-//!    crack advances over several shorter steps;
+//!    than that fraction of the bonds is cut in half and redone while cuts are allowed and
+//!    the step is longer than the shortest load step cut `Maximum load step reductions in one
+//!    step` times, so the load at which a crack starts is found to that resolution;
 //! 7. on acceptance: `v = (u − u_n)/Δt`, damage committed, output.
 //!
 //! During a step the current positions are `(X + u_n) + (u − u_n)`, rounded as Peridigm
@@ -251,9 +252,8 @@ pub fn run<E: From<QuasiStaticError>>(
             constrained: &stepping.constrained,
         };
         let mut report = nonlinear.solve(parts, &stepping.newton_settings(tolerance));
-        if let Some(reason) =
-            failure(&report, tolerance).or_else(|| stepping.too_many_broken(&report))
-        {
+        let too_many_broken = || stepping.too_many_broken(&report, &step);
+        if let Some(reason) = failure(&report, tolerance).or_else(too_many_broken) {
             if schedule.cut(settings) {
                 if stepping.root {
                     eprintln!("Warning: {reason}; cutting the load step in half and redoing it.");
@@ -423,9 +423,29 @@ impl LoadStepping<'_> {
     }
 
     /// Why a solved step broke too many bonds (`Maximum fraction of bonds broken in one
-    /// step`), if it did.
-    fn too_many_broken(&self, report: &Result<NewtonReport, SolveError>) -> Option<String> {
-        let limit = self.settings.adaptive.as_ref()?.max_broken_fraction?;
+    /// step`), if it did and is longer than a load step cut as often as one step may be: a
+    /// break that happens however short the step is accepted there (otherwise every step
+    /// after the last accepted one would be cut again, without end).
+    fn too_many_broken(
+        &self,
+        report: &Result<NewtonReport, SolveError>,
+        step: &LoadStep,
+    ) -> Option<String> {
+        let adaptive = self.settings.adaptive.as_ref()?;
+        let limit = adaptive.max_broken_fraction?;
+        let halvings = adaptive
+            .max_reductions_in_one_step
+            .unwrap_or(DEFAULT_REDUCTIONS_IN_ONE_STEP);
+        let shortest = self
+            .settings
+            .times
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .fold(f64::INFINITY, f64::min)
+            / 2f64.powi(halvings.min(60) as i32);
+        if step.to - step.from <= shortest * (1.0 + 1e-9) {
+            return None;
+        }
         let broken = report.as_ref().ok()?.broken_bonds;
         let fraction = broken as f64 / self.bonds.max(1) as f64;
         (fraction > limit).then(|| {
