@@ -199,6 +199,10 @@ pub struct SolverPlan {
     /// backend (e.g. `native CG + block 3x3`); `None` for explicit lists and NOX.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub resolved: Option<String>,
+    /// What the list does with a step that fails or breaks too many bonds (cuts, dynamic
+    /// relaxation, `Switch to Verlet`), one line each.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub step_strategy: Vec<String>,
 }
 
 /// One output file.
@@ -470,6 +474,9 @@ impl RunPlan {
             )?;
             if let Some(resolved) = &s.resolved {
                 writeln!(f, "  {:<12} {resolved}", "")?;
+            }
+            for line in &s.step_strategy {
+                writeln!(f, "  {:<12} {line}", "")?;
             }
         }
         if !self.outputs.is_empty() {

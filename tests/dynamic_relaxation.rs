@@ -323,6 +323,16 @@ fn newton_hands_a_step_it_cannot_solve_to_dynamic_relaxation() {
         difference < 1e-8 * 3.6,
         "the relaxed step differs by {difference:e}"
     );
+    // `peridyn check` prints the strategy.
+    let text = bar_deck(HARD_STEP, 3.6, 2.0, 1);
+    let deck = parse_str(&text, DeckFormat::Yaml, Path::new("deck.yaml")).unwrap();
+    let model = peridyn::setup::build(&deck).unwrap();
+    let plan = peridyn::setup::plan(&deck, &model).unwrap().to_string();
+    assert!(
+        plan.contains("a step that does not converge is not cut")
+            && plan.contains("a step Newton cannot solve or cut is relaxed by dynamic relaxation (at most 200000 iterations)"),
+        "{plan}"
+    );
 }
 
 #[test]

@@ -5,7 +5,8 @@
 //! Newmark-β (`Implicit`); a load step that fails over to `Switch to Verlet` continues on 2
 //! ranks bitwise as on one. The ML strategies (NOX JFNK preconditioned by ML on the one-hop
 //! operator, and peridyn's Newton with Belos CG + ML on the assembled tangent) reach the
-//! one-rank answer and the native direct answer on 1, 2 and 3 ranks.
+//! one-rank answer and the native direct answer on 1, 2 and 3 ranks; so does `DynamicRelaxation`,
+//! which solves no linear system.
 #![cfg(all(feature = "mpi", feature = "trilinos"))]
 
 mod implicit_ranks;
@@ -233,4 +234,21 @@ fn switch_to_verlet_gives_the_one_rank_answer_on_two_ranks() {
             );
         }
     }
+}
+
+#[test]
+fn dynamic_relaxation_gives_the_one_rank_answer_on_two_and_three_ranks() {
+    // No linear solver: the relaxation's sums are the only collectives besides the ghosts'
+    // refresh. Its tolerance is 0.03 N, just above the round-off floor of this bar's residual
+    // (≈ 1.2e-2 N), so the answers of 1, 2 and 3 ranks (whose sums differ in their order only)
+    // meet the 1e-8 relative bar of RELATIVE.
+    let solver = "    Final Time: 1.0\n    DynamicRelaxation:\n      Number of Load Steps: {steps}\n      Absolute Tolerance: 0.03";
+    let text = quasi_static_bar::bar_deck(solver, 0.012, 0.004, 2);
+    same_answer_on_one_two_and_three_ranks(
+        "DynamicRelaxation",
+        &text,
+        RELATIVE,
+        "Load step 2,",
+        Backend::Trilinos,
+    );
 }

@@ -430,6 +430,7 @@ pub(super) fn plan(deck: &Deck, model: &Model) -> Result<RunPlan, DeckError> {
                     petsc_resolution(solve, model)
                         .or_else(|| newton_resolution(solve, model.points.len()))
                 }),
+                step_strategy: list.integrator.step_strategy(),
             })
             .collect(),
         time_step: time_step_plan(deck, model),

@@ -14,7 +14,7 @@
 
 use super::integrator::{HandOff, Integrator, ListSettings};
 use super::list_run::{ListRun, Stop};
-use super::load_stepped::{planned_load_steps, LoadStepped};
+use super::load_stepped::{planned_load_steps, step_strategy, LoadStepped};
 use super::newton::ConvergenceMeasure;
 use super::quasistatic::{self, AdaptiveLoadStepping, LoadSteps, QuasiStaticSettings};
 use super::relaxation::AdaptiveRelaxation;
@@ -62,6 +62,19 @@ impl Integrator for DynamicRelaxation {
 
     fn unavailable(&self) -> Option<String> {
         None
+    }
+
+    fn step_strategy(&self) -> Vec<String> {
+        let mut lines = vec![format!(
+            "each load step relaxed by adaptive dynamic relaxation, at most {} iterations; no linear solver",
+            self.max_iterations
+        )];
+        lines.extend(step_strategy(
+            self.adaptive.as_ref(),
+            None,
+            self.hand_off.as_ref(),
+        ));
+        lines
     }
 
     fn run(&self, list: &ListSettings, run: &mut ListRun<'_>) -> Result<(), Stop> {

@@ -164,6 +164,12 @@ pub trait Integrator: fmt::Debug {
         self.solve().and_then(factory::native_limitation)
     }
 
+    /// How it treats a step that fails or breaks too many bonds (cuts, hand-offs), one line
+    /// each, for `peridyn check`'s plan; empty by default.
+    fn step_strategy(&self) -> Vec<String> {
+        Vec::new()
+    }
+
     /// Runs list `list` from its initial time, or from where the run resumes inside it
     /// ([`ListRun::resume`]), to its final time. On failure every rank stops with the error
     /// the driver holds ([`Stop`]).

@@ -63,6 +63,14 @@ impl Integrator for QuasiStatic {
         Some(planned_load_steps(&self.load_steps))
     }
 
+    fn step_strategy(&self) -> Vec<String> {
+        step_strategy(
+            self.adaptive.as_ref(),
+            self.relaxation,
+            self.hand_off.as_ref(),
+        )
+    }
+
     fn run(&self, list: &ListSettings, run: &mut ListRun<'_>) -> Result<(), Stop> {
         // NOX (Trilinos) and SNESNCG (PETSc) have nonlinear CG; peridyn's own solver is
         // Newton.
@@ -108,6 +116,47 @@ impl QuasiStatic {
             resume: None,
         }
     }
+}
+
+/// What a load-stepped list does with a step that fails or breaks too many bonds, one line
+/// each (`peridyn check`): the cuts of `adaptive`, the relaxation of a step Newton failed on,
+/// the hand-off of the rest of the list.
+pub fn step_strategy(
+    adaptive: Option<&AdaptiveLoadStepping>,
+    relaxation: Option<AdaptiveRelaxation>,
+    hand_off: Option<&HandOff>,
+) -> Vec<String> {
+    let mut lines = Vec::new();
+    if let Some(adaptive) = adaptive {
+        let halvings = adaptive
+            .max_reductions_in_one_step
+            .unwrap_or(quasistatic::DEFAULT_REDUCTIONS_IN_ONE_STEP);
+        lines.push(match halvings {
+            0 => "a step that does not converge is not cut".to_string(),
+            n => format!("a step that does not converge is cut in half, up to {n} times in a step"),
+        });
+        if let Some(fraction) = adaptive.max_broken_fraction {
+            lines.push(format!(
+                "a step that breaks more than {fraction} of the bonds is cut in half, down to 1/2^{halvings} of a load step"
+            ));
+        }
+    }
+    if let Some(relaxation) = relaxation {
+        let limit = relaxation
+            .max_iterations
+            .map_or_else(String::new, |n| format!(" (at most {n} iterations)"));
+        lines.push(format!(
+            "a step Newton cannot solve or cut is relaxed by dynamic relaxation{limit}; Newton solves the next"
+        ));
+    }
+    if let Some(hand_off) = hand_off {
+        lines.push(format!(
+            "a step that cannot be solved or cut hands the rest of the list to {} ({})",
+            hand_off.integrator.name(),
+            hand_off.label
+        ));
+    }
+    lines
 }
 
 /// Output calls a list of `load_steps` plans (for `peridyn check`'s disk plan: the count, or

@@ -277,7 +277,9 @@ pub fn run<E: From<QuasiStaticError>>(
         }
         let report = report.map_err(|source| step.solve_error(source))?;
         stepping.accept_or_stop(&step, state, &report, tolerance)?;
-        if stepping.root && !nonlinear.logs_after_each_iteration() {
+        // The relaxation logs its own summary (of a handed step too).
+        let logged = nonlinear.logs_after_each_iteration() || report.relaxation_iterations > 0;
+        if stepping.root && !logged {
             eprintln!(
                 "  iteration {}: residual = {:e}",
                 report.iterations + 1,
