@@ -277,22 +277,10 @@ pub fn run<E: From<QuasiStaticError>>(
         }
         let report = report.map_err(|source| step.solve_error(source))?;
         stepping.accept_or_stop(&step, state, &report, tolerance)?;
-        // The relaxation logs its own summary (of a handed step too).
-        let logged = nonlinear.logs_after_each_iteration() || report.relaxation_iterations > 0;
-        if stepping.root && !logged {
-            eprintln!(
-                "  iteration {}: residual = {:e}",
-                report.iterations + 1,
-                final_measure(&report)
-            );
-        }
         step.commit(state);
         if stepping.root {
-            eprintln!(
-                "  cpu time for load step = {:.3} sec., cumulative cpu time = {:.3} sec.",
-                step_start.elapsed().as_secs_f64(),
-                run_start.elapsed().as_secs_f64()
-            );
+            let logged = nonlinear.logs_after_each_iteration();
+            log_accepted(&report, logged, step_start, run_start);
         }
         let cuts = schedule.accept();
         let accepted = LoadStepReport {
@@ -312,6 +300,23 @@ pub fn run<E: From<QuasiStaticError>>(
         reports.push(accepted);
     }
     Ok(reports)
+}
+
+/// Peridigm's closing lines of an accepted step: the last residual (unless the solver logged
+/// it, as NOX and the relaxation, of a handed step too, do) and the step's and run's time.
+fn log_accepted(report: &NewtonReport, logged: bool, step_start: Instant, run_start: Instant) {
+    if !logged && report.relaxation_iterations == 0 {
+        eprintln!(
+            "  iteration {}: residual = {:e}",
+            report.iterations + 1,
+            final_measure(report)
+        );
+    }
+    eprintln!(
+        "  cpu time for load step = {:.3} sec., cumulative cpu time = {:.3} sec.",
+        step_start.elapsed().as_secs_f64(),
+        run_start.elapsed().as_secs_f64()
+    );
 }
 
 /// What every load step of one run reads.
