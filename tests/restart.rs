@@ -231,6 +231,27 @@ fn quasi_static_with_cut_back_continues_bit_for_bit() {
     assert!(frames > 3, "no step was cut ({frames} frames)");
 }
 
+/// A `DynamicRelaxation` list with a restart file every 3 of its 8 load steps, on the bar
+/// pulled 30 % with shear (the steps are long relaxations): continued from the file written
+/// after step 6, it relaxes steps 7 and 8 again and writes the straight run's file.
+#[test]
+fn dynamic_relaxation_continues_bit_for_bit_from_a_restart_inside_its_list() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = quasi_static_bar::bar_deck(
+        "    Final Time: 1.0
+    DynamicRelaxation:
+      Number of Load Steps: {steps}
+      Absolute Tolerance: 1.0",
+        3.6,
+        2.0,
+        8,
+    )
+    .replace("  Solver:\n", "  Restart:\n    Frequency: 3\n  Solver:\n");
+    std::fs::write(dir.path().join("deck.yaml"), text).unwrap();
+    let frames = continued_equals_straight(dir.path(), &["bar.e"]);
+    assert_eq!(frames, 9, "the initial frame and one per load step");
+}
+
 /// An `Implicit` (Newmark-β) list with a restart file every 7 of its 20 steps: continued from
 /// the one written inside the list (after step 14), it goes on with step 15 and writes the
 /// straight run's file. The right face is pulled at 0.5 m/s, so a wave runs along the bar (at
