@@ -146,7 +146,7 @@ pub fn step_strategy(
             .max_iterations
             .map_or_else(String::new, |n| format!(" (at most {n} iterations)"));
         lines.push(format!(
-            "a step Newton cannot solve or cut is relaxed by dynamic relaxation{limit}; Newton solves the next"
+            "a step Newton cannot solve is relaxed by dynamic relaxation{limit} instead of cut; Newton solves the next"
         ));
     }
     if let Some(hand_off) = hand_off {

@@ -16,10 +16,11 @@
 //!    accepted;
 //! 5. accepted when converged, or — Peridigm's rule, with a warning — when the measure is within
 //!    100× the tolerance; otherwise, with `Adaptive Load-Stepping`, the step is cut in half and
-//!    redone (bounded), else the state goes back to the last accepted step and the solve
+//!    redone (bounded, and never below what floating point can halve), else the state goes
+//!    back to the last accepted step and the solve
 //!    returns [`QuasiStaticError::NotConverged`] (the run stops with exit code 3, or continues
-//!    explicitly with `Switch to Verlet`); with `Switch to Dynamic Relaxation` a step that
-//!    cannot be cut further is started again from its beginning and relaxed instead
+//!    explicitly with `Switch to Verlet`); with `Switch to Dynamic Relaxation` a step Newton
+//!    cannot solve is not cut but started again from its beginning and relaxed instead
 //!    ([`crate::solver::relaxation`]), and the run goes on with Newton at the next step;
 //! 6. with `Maximum fraction of bonds broken in one step`, a converged step that broke more
 //!    than that fraction of the bonds is cut in half and redone while cuts are allowed and
@@ -252,8 +253,15 @@ pub fn run<E: From<QuasiStaticError>>(
             constrained: &stepping.constrained,
         };
         let mut report = nonlinear.solve(parts, &stepping.newton_settings(tolerance));
+        // With `Switch to Dynamic Relaxation` a step Newton cannot solve is relaxed rather than
+        // cut: after a fracture Newton may fail at every step, and cutting each one first
+        // would shrink the steps without end.
+        let relaxation = settings
+            .relaxation
+            .filter(|_| needs_relaxation(&report, tolerance));
+        let failed = failure(&report, tolerance).filter(|_| relaxation.is_none());
         let too_many_broken = || stepping.too_many_broken(&report, &step);
-        if let Some(reason) = failure(&report, tolerance).or_else(too_many_broken) {
+        if let Some(reason) = failed.or_else(too_many_broken) {
             if schedule.cut(settings) {
                 if stepping.root {
                     eprintln!("Warning: {reason}; cutting the load step in half and redoing it.");
@@ -262,10 +270,7 @@ pub fn run<E: From<QuasiStaticError>>(
                 continue;
             }
         }
-        if let Some(relaxation) = settings
-            .relaxation
-            .filter(|_| needs_relaxation(&report, tolerance))
-        {
+        if let Some(relaxation) = relaxation {
             let newton = report.map_err(|source| source.to_string());
             report = stepping.relax(
                 &step,
@@ -360,7 +365,14 @@ impl LoadSchedule {
     /// Halves the current step when `Adaptive Load-Stepping` allows one more cut; false
     /// when it does not.
     fn cut(&mut self, settings: &QuasiStaticSettings) -> bool {
-        if !can_cut(settings, self.cuts_this_step, self.total_cuts) {
+        let (from, to) = (self.times[self.k - 1], self.times[self.k]);
+        let middle = 0.5 * (from + to);
+        // A step too short to halve in floating point stays as it is (its velocity Δu/Δt
+        // would divide by zero).
+        if !can_cut(settings, self.cuts_this_step, self.total_cuts)
+            || middle <= from
+            || middle >= to
+        {
             return false;
         }
         cut(&mut self.times, self.k, settings);
