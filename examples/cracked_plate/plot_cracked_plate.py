@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Reads cracked_plate.e and writes the curves of the center-cracked plate: far-field stress
-against the grips' displacement and crack length against far-field stress, as
+and crack length against the grips' displacement, as
 cracked_plate_curve.csv and cracked_plate.png (needs netCDF4 and matplotlib:
 `pip install netCDF4 matplotlib`).
 
@@ -93,8 +93,8 @@ def plot(png, rows, expected):
     left.set_xlabel("grip displacement (mm)")
     left.set_ylabel("far-field stress (MPa)")
     left.legend()
-    right.plot([r[2] for r in rows], [r[3] for r in rows], "o-", ms=3)
-    right.set_xlabel("far-field stress (MPa)")
+    right.plot([r[1] for r in rows], [r[3] for r in rows], "o-", ms=3)
+    right.set_xlabel("grip displacement (mm)")
     right.set_ylabel("crack length 2a (mm)")
     plt.tight_layout()
     plt.savefig(png, dpi=120)
