@@ -6,11 +6,10 @@
 
 use peridyn::io::deck::{parse_str, DeckFormat};
 use peridyn::io::exodus::ExodusFile;
-use std::collections::HashMap;
 use std::path::Path;
 
 mod quasi_static_bar;
-use quasi_static_bar::{bar_deck, final_displacement, run_deck};
+use quasi_static_bar::{bar_deck, final_displacement, run_deck, solver_report};
 
 /// Newton on the LPS bar, to 0.1 N: above the round-off floor of its residual (≈ 1.2e-2 N,
 /// where Newton's iterations stagnate on this bar) and far below 1e-8 of the pull on a
@@ -32,27 +31,6 @@ fn largest_difference(a: &[f64], b: &[f64]) -> f64 {
         .zip(b)
         .map(|(a, b)| (a - b).abs())
         .fold(0.0, f64::max)
-}
-
-/// The rows of `dir/<name>_solver.csv` as column name → value maps.
-fn solver_report(dir: &Path, name: &str) -> Vec<HashMap<String, f64>> {
-    let text = std::fs::read_to_string(dir.join(format!("{name}_solver.csv"))).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<String> = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .map(|s| s.trim().to_string())
-        .collect();
-    lines
-        .map(|line| {
-            header
-                .iter()
-                .cloned()
-                .zip(line.split(',').map(|v| v.trim().parse::<f64>().unwrap()))
-                .collect()
-        })
-        .collect()
 }
 
 #[test]

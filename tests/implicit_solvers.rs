@@ -13,7 +13,7 @@ use peridyn::state::State;
 use std::path::Path;
 
 mod quasi_static_bar;
-use quasi_static_bar::{bar_deck, run_deck};
+use quasi_static_bar::{bar_deck, run_deck, solver_report};
 
 /// Index of a nodal variable component (`DisplacementX` …) in an output file.
 fn nodal(file: &ExodusFile, name: &str) -> usize {
@@ -514,27 +514,6 @@ fn a_point_without_bonds_is_held_instead_of_making_the_stiffness_singular() {
     assert!((ux[5] - 0.001).abs() < 1e-15);
 }
 
-/// The rows of `dir/bar_solver.csv` as column name → value maps.
-fn solver_report(dir: &Path) -> Vec<std::collections::HashMap<String, f64>> {
-    let text = std::fs::read_to_string(dir.join("bar_solver.csv")).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<String> = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .map(|s| s.trim().to_string())
-        .collect();
-    lines
-        .map(|line| {
-            header
-                .iter()
-                .cloned()
-                .zip(line.split(',').map(|v| v.trim().parse::<f64>().unwrap()))
-                .collect()
-        })
-        .collect()
-}
-
 #[test]
 fn the_solver_report_shows_one_amg_setup_for_the_run_and_the_gmres_restart() {
     // Jacobian-free Newton–Krylov + AMG on the bar (no damage model, so no bond breaks): the
@@ -553,7 +532,7 @@ fn the_solver_report_shows_one_amg_setup_for_the_run_and_the_gmres_restart() {
             Jacobian Operator: \"Matrix-Free\"";
     let dir = tempfile::tempdir().unwrap();
     run_deck(dir.path(), &bar_deck(jfnk_amg, 0.012, 0.004, 2)).expect("JFNK + AMG runs");
-    let rows = solver_report(dir.path());
+    let rows = solver_report(dir.path(), "bar");
     assert_eq!(rows.len(), 2, "{rows:?}");
     // The first step starts from rest and needs several Newton iterations (the second
     // starts from the predictor and may need one): one setup served them all, and the
@@ -583,7 +562,7 @@ fn the_solver_report_shows_one_amg_setup_for_the_run_and_the_gmres_restart() {
       Maximum Solver Iterations: 20";
     let dir = tempfile::tempdir().unwrap();
     run_deck(dir.path(), &bar_deck(direct, 0.012, 0.004, 1)).expect("LU runs");
-    let row = &solver_report(dir.path())[0];
+    let row = &solver_report(dir.path(), "bar")[0];
     for column in [
         "Preconditioner_Setup_Seconds",
         "Preconditioner_Setups",

@@ -11,7 +11,7 @@ use peridyn::backend::trilinos::nox::{
 };
 use peridyn::backend::SolveError;
 use peridyn::io::exodus::ExodusFile;
-use quasi_static_bar::{final_displacement, run_deck};
+use quasi_static_bar::{final_displacement, run_deck, solver_report};
 
 /// F(x) = (x₀³ + x₀ − 2, 2x₁ + x₀ − 5): the unique root is (1, 2) (x₀³ + x₀ = 2 holds at
 /// x₀ = 1 only, as the left side increases monotonically; then x₁ = (5 − 1)/2).
@@ -316,27 +316,6 @@ fn a_nan_condition_in_a_nox_solve_ends_the_run_with_exit_code_2() {
     assert_eq!(file.times.len(), 2, "the initial frame and load step 1");
 }
 
-/// The rows of `dir/bar_solver.csv` as column name → value maps.
-fn solver_report(dir: &std::path::Path) -> Vec<std::collections::HashMap<String, f64>> {
-    let text = std::fs::read_to_string(dir.join("bar_solver.csv")).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<String> = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .map(|s| s.trim().to_string())
-        .collect();
-    lines
-        .map(|line| {
-            header
-                .iter()
-                .cloned()
-                .zip(line.split(',').map(|v| v.trim().parse::<f64>().unwrap()))
-                .collect()
-        })
-        .collect()
-}
-
 #[test]
 fn nox_jfnk_with_ml_on_the_one_hop_operator_agrees_with_the_native_jfnk_and_amg() {
     // Absolute Tolerance 1 N: a Jacobian-free solve's finite-difference directional
@@ -359,7 +338,7 @@ fn nox_jfnk_with_ml_on_the_one_hop_operator_agrees_with_the_native_jfnk_and_amg(
             .unwrap_or_else(|e| panic!("{backend} JFNK + AMG: {e}"));
         assert_eq!(summary.steps, 2, "{backend}");
         answers.push(final_displacement(dir.path()));
-        reports.push(solver_report(dir.path()));
+        reports.push(solver_report(dir.path(), "bar"));
     }
     let scale = answers[0].iter().fold(0.0f64, |m, u| m.max(u.abs()));
     assert!((scale - PULL).abs() < 1e-12, "{scale}");

@@ -93,3 +93,25 @@ pub fn final_displacement(dir: &Path) -> Vec<f64> {
         })
         .collect()
 }
+
+/// The rows of `dir/<name>_solver.csv` (the implicit solver report) as column name → value
+/// maps.
+pub fn solver_report(dir: &Path, name: &str) -> Vec<std::collections::HashMap<String, f64>> {
+    let text = std::fs::read_to_string(dir.join(format!("{name}_solver.csv"))).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<String> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(|s| s.trim().to_string())
+        .collect();
+    lines
+        .map(|line| {
+            header
+                .iter()
+                .cloned()
+                .zip(line.split(',').map(|v| v.trim().parse::<f64>().unwrap()))
+                .collect()
+        })
+        .collect()
+}
