@@ -131,9 +131,14 @@ pub fn step_strategy(
         let halvings = adaptive
             .max_reductions_in_one_step
             .unwrap_or(quasistatic::DEFAULT_REDUCTIONS_IN_ONE_STEP);
+        // With the relaxation, only a step Newton nearly solved is cut (quasistatic.rs).
+        let which = match relaxation {
+            Some(_) => "a step Newton nearly solves (within 100 × the criterion)",
+            None => "a step that does not converge",
+        };
         lines.push(match halvings {
-            0 => "a step that does not converge is not cut".to_string(),
-            n => format!("a step that does not converge is cut in half, up to {n} times in a step"),
+            0 => format!("{which} is not cut"),
+            n => format!("{which} is cut in half, up to {n} times in a step"),
         });
         if let Some(fraction) = adaptive.max_broken_fraction {
             lines.push(format!(
