@@ -188,11 +188,7 @@ fn write_chain(dir: &Path) {
 /// Every frame's time and the x force density on point 1 (the held end's reaction).
 fn reactions(dir: &Path) -> Vec<(f64, f64)> {
     let file = ExodusFile::open(&dir.join("chain.e")).unwrap();
-    let force = file
-        .nodal_variable_names
-        .iter()
-        .position(|n| n == "ForceX")
-        .unwrap();
+    let force = file.nodal_variable_index("ForceX").unwrap();
     (0..file.times.len())
         .map(|frame| {
             (

@@ -204,7 +204,7 @@ pub fn run<E: From<QuasiStaticError>>(
         model,
         settings,
         constrained: model.boundary.constrained_dofs(),
-        bonds: owned_bonds(model, collective),
+        break_limit: BreakLimit::of(settings, model, collective),
         // On several ranks every rank runs this loop in step; rank 0 alone writes the log.
         root: collective.rank() == 0,
     };
@@ -330,8 +330,8 @@ struct LoadStepping<'a> {
     settings: &'a QuasiStaticSettings,
     /// Prescribed dofs (`3·p + component`), sorted.
     constrained: Vec<usize>,
-    /// Directed bonds of the body, summed over the ranks.
-    bonds: usize,
+    /// `Maximum fraction of bonds broken in one step`, when the list has it.
+    break_limit: Option<BreakLimit>,
     /// This rank writes the log (rank 0).
     root: bool,
 }
@@ -442,35 +442,24 @@ impl LoadStepping<'_> {
     }
 
     /// Why a solved step broke too many bonds (`Maximum fraction of bonds broken in one
-    /// step`), if it did and is longer than a load step cut as often as one step may be: a
-    /// break that happens however short the step is accepted there (otherwise every step
-    /// after the last accepted one would be cut again, without end).
+    /// step`), if it did and is longer than the shortest step the cuts allow: a break that
+    /// happens however short the step is accepted there (otherwise every step after the last
+    /// accepted one would be cut again, without end).
     fn too_many_broken(
         &self,
         report: &Result<NewtonReport, SolveError>,
         step: &LoadStep,
     ) -> Option<String> {
-        let adaptive = self.settings.adaptive.as_ref()?;
-        let limit = adaptive.max_broken_fraction?;
-        let halvings = adaptive
-            .max_reductions_in_one_step
-            .unwrap_or(DEFAULT_REDUCTIONS_IN_ONE_STEP);
-        let shortest = self
-            .settings
-            .times
-            .windows(2)
-            .map(|w| w[1] - w[0])
-            .fold(f64::INFINITY, f64::min)
-            / 2f64.powi(halvings.min(60) as i32);
-        if step.to - step.from <= shortest * (1.0 + 1e-9) {
+        let limit = self.break_limit.as_ref()?;
+        if step.to - step.from <= limit.shortest_step * (1.0 + 1e-9) {
             return None;
         }
         let broken = report.as_ref().ok()?.broken_bonds;
-        let fraction = broken as f64 / self.bonds.max(1) as f64;
-        (fraction > limit).then(|| {
+        let fraction = broken as f64 / limit.bonds.max(1) as f64;
+        (fraction > limit.fraction).then(|| {
             format!(
-                "{broken} bonds broke in the step, {fraction:.3e} of the body's {}, above the Maximum fraction of bonds broken in one step {limit:e}",
-                self.bonds
+                "{broken} bonds broke in the step, {fraction:.3e} of the body's {}, above the Maximum fraction of bonds broken in one step {:e}",
+                limit.bonds, limit.fraction
             )
         })
     }
@@ -481,7 +470,7 @@ impl LoadStepping<'_> {
     fn relax(
         &self,
         step: &LoadStep,
-        relaxation: AdaptiveRelaxation,
+        mut relaxation: AdaptiveRelaxation,
         newton: Result<NewtonReport, String>,
         (physics, state, collective): (&mut Physics, &mut State, &mut dyn Collective),
         predict: bool,
@@ -516,7 +505,6 @@ impl LoadStepping<'_> {
             collective,
             constrained: &self.constrained,
         };
-        let mut relaxation = relaxation;
         let mut relaxed = relaxation.solve(parts, &self.newton_settings(tolerance))?;
         if let Ok(newton) = newton {
             relaxed.iterations = newton.iterations;
@@ -630,15 +618,47 @@ fn needs_relaxation(report: &Result<NewtonReport, SolveError>, tolerance: f64) -
     }
 }
 
-/// Directed bonds of the points this rank owns, summed over the ranks (collective).
-fn owned_bonds(model: &Model, collective: &mut dyn Collective) -> usize {
-    let local = (0..model.points.len())
-        .filter(|&p| !collective.is_ghost(p))
-        .map(|p| model.bonds.family_size(p))
-        .sum::<usize>();
-    let mut sum = [local as f64];
-    collective.sum(&mut sum);
-    sum[0] as usize
+/// `Maximum fraction of bonds broken in one step` of a list, with what it is measured against.
+struct BreakLimit {
+    /// The fraction.
+    fraction: f64,
+    /// Directed bonds of the body, summed over the ranks.
+    bonds: usize,
+    /// The shortest step a cut may leave: the shortest load step of the list halved
+    /// `Maximum load step reductions in one step` times.
+    shortest_step: f64,
+}
+
+impl BreakLimit {
+    /// The limit of `settings`, `None` without the key. Collective when the key is given (the
+    /// ranks' bonds are summed); every rank reads the same deck, so all of them call it.
+    fn of(
+        settings: &QuasiStaticSettings,
+        model: &Model,
+        collective: &mut dyn Collective,
+    ) -> Option<Self> {
+        let adaptive = settings.adaptive.as_ref()?;
+        let fraction = adaptive.max_broken_fraction?;
+        let halvings = adaptive
+            .max_reductions_in_one_step
+            .unwrap_or(DEFAULT_REDUCTIONS_IN_ONE_STEP);
+        let shortest_load_step = settings
+            .times
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .fold(f64::INFINITY, f64::min);
+        let owned: usize = (0..model.points.len())
+            .filter(|&p| !collective.is_ghost(p))
+            .map(|p| model.bonds.family_size(p))
+            .sum();
+        let mut bonds = [owned as f64];
+        collective.sum(&mut bonds);
+        Some(Self {
+            fraction,
+            bonds: bonds[0] as usize,
+            shortest_step: shortest_load_step / 2f64.powi(halvings.min(60) as i32),
+        })
+    }
 }
 
 /// The last convergence measure of a Newton solve (∞ without one).

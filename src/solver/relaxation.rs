@@ -113,6 +113,7 @@ pub fn relax(
     let mut velocity = vec![0.0; n];
     let mut previous = vec![0.0; n];
     let mut damping: Option<f64> = None;
+    let mut scratch = vec![0.0; n];
     let mut iterations = 0usize;
     while measure > settings.tolerance && (iterations as u64) < settings.max_iterations {
         advance(&mut u, &mut velocity, &residual, &density, damping);
@@ -120,8 +121,13 @@ pub fn relax(
         problem.residual(&u, &mut residual, Evaluation::Iterate)?;
         iterations += 1;
         measure = problem.convergence_measure(&residual);
+        let forces = [&residual[..], &previous[..]];
         damping = Some(rayleigh_damping(
-            problem, &u, &velocity, &residual, &previous, &density,
+            problem,
+            (&u, &velocity),
+            forces,
+            &density,
+            &mut scratch,
         ));
         if settings.verbose && iterations % LOG_EVERY == 0 {
             eprintln!("  relaxation iteration {iterations}: residual = {measure:e}");
@@ -191,27 +197,27 @@ fn advance(
     }
 }
 
-/// cⁿ = 2√(uᵀ¹Ku / uᵀu) clamped to [0, 2], with ¹Kᵢᵢ = −(fᵢⁿ − fᵢⁿ⁻¹)/(λᵢ vᵢ) from the forces
-/// f = −`residual` at uⁿ and f = −`previous` at uⁿ⁻¹ (collective: two sums).
+/// cⁿ = 2√(uᵀ¹Ku / uᵀu) clamped to [0, 2], with ¹Kᵢᵢ = −(fᵢⁿ − fᵢⁿ⁻¹)/(λᵢ vᵢ) from
+/// `(u, v)`, the forces f = −`residual` at uⁿ and f = −`previous` at uⁿ⁻¹ (`[residual,
+/// previous]`) and the density; `scratch` (one value per unknown) holds ¹K u (collective: two
+/// sums).
 fn rayleigh_damping(
     problem: &mut dyn NonlinearProblem,
-    u: &[f64],
-    velocity: &[f64],
-    residual: &[f64],
-    previous: &[f64],
+    (u, velocity): (&[f64], &[f64]),
+    [residual, previous]: [&[f64]; 2],
     density: &[f64],
+    scratch: &mut [f64],
 ) -> f64 {
-    let stiffness_times_u: Vec<f64> = (0..u.len())
-        .map(|i| {
-            let (v, lambda) = (velocity[i], density[i]);
-            if v == 0.0 || lambda <= 0.0 {
-                return 0.0;
-            }
-            // f = −residual, so −(fⁿ − fⁿ⁻¹) = residualⁿ − residualⁿ⁻¹.
+    for (i, k_u) in scratch.iter_mut().enumerate() {
+        let (v, lambda) = (velocity[i], density[i]);
+        // f = −residual, so −(fⁿ − fⁿ⁻¹) = residualⁿ − residualⁿ⁻¹.
+        *k_u = if v == 0.0 || lambda <= 0.0 {
+            0.0
+        } else {
             (residual[i] - previous[i]) / (lambda * v) * u[i]
-        })
-        .collect();
-    let numerator = problem.dot(u, &stiffness_times_u);
+        };
+    }
+    let numerator = problem.dot(u, scratch);
     let denominator = problem.dot(u, u);
     if numerator > 0.0 && denominator > 0.0 {
         (2.0 * (numerator / denominator).sqrt()).min(2.0)

@@ -187,31 +187,28 @@ fn damping_is_zero_without_a_positive_quotient_and_at_most_two() {
     // The force rose where the body moved: negative local stiffness, no damping.
     let c = rayleigh_damping(
         &mut chain,
-        &[1.0, 1.0],
-        &[1.0, 1.0],
-        &[-1.0, -1.0],
-        &[0.0, 0.0],
+        (&[1.0, 1.0], &[1.0, 1.0]),
+        [&[-1.0, -1.0], &[0.0, 0.0]],
         &density,
+        &mut [0.0; 2],
     );
     assert_eq!(c, 0.0);
     // A local stiffness far above λ: clamped at 2.
     let c = rayleigh_damping(
         &mut chain,
-        &[1.0, 1.0],
-        &[1.0, 1.0],
-        &[100.0, 100.0],
-        &[0.0, 0.0],
+        (&[1.0, 1.0], &[1.0, 1.0]),
+        [&[100.0, 100.0], &[0.0, 0.0]],
         &density,
+        &mut [0.0; 2],
     );
     assert_eq!(c, 2.0);
     // ¹K = 0.25 on both: c = 2·√0.25 = 1.
     let c = rayleigh_damping(
         &mut chain,
-        &[1.0, 2.0],
-        &[1.0, 1.0],
-        &[0.25, 0.25],
-        &[0.0, 0.0],
+        (&[1.0, 2.0], &[1.0, 1.0]),
+        [&[0.25, 0.25], &[0.0, 0.0]],
         &density,
+        &mut [0.0; 2],
     );
     assert!((c - 1.0).abs() < 1e-15, "{c}");
 }
